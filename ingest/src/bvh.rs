@@ -1,0 +1,1 @@
+//! BVH build (being written).

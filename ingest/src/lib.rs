@@ -1,0 +1,15 @@
+//! Ingest: a USD asset becomes one scene blob.
+//!
+//! Data flow: `usd` composes the stage through the `openusd` crate and reads it into a [`Scene`]
+//! (world-space triangulated meshes, UsdPreviewSurface materials, UsdLux lights, cameras, warnings);
+//! `pack` turns the scene into a [`blob::SceneData`] with a prebuilt BVH (`bvh`) and the emissive-triangle
+//! distribution; [`blob::write_atomic`] writes it.
+//!
+//! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`pack`] (scene → blob records), `bvh`.
+
+pub mod scene;
+pub mod usd;
+pub mod pack;
+mod bvh;
+
+pub use scene::{Camera, Light, LightKind, Material, Mesh, Scene, UpAxis, Warning};

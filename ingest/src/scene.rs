@@ -1,0 +1,189 @@
+//! The validated scene model between USD and the blob.
+//!
+//! Everything here is already composed, flattened to world space and triangulated: the USD reader
+//! (`crate::usd`) produces it, `crate::pack` turns it into blob records. Nothing in this module knows
+//! about USD or about the blob layout.
+
+use glam::{Mat4, Vec2, Vec3};
+
+/// A composed, world-space, renderable scene.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Renderable gprims (Mesh prims), one entry per instance once instancing is flattened.
+    pub meshes: Vec<Mesh>,
+    /// Materials; `Mesh::triangle_materials` index into this.
+    pub materials: Vec<Material>,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// Cameras.
+    pub cameras: Vec<Camera>,
+    /// Index into `cameras` of the camera named by RenderSettings (or the first camera).
+    pub default_camera: Option<usize>,
+    /// Resolution authored by RenderSettings, if any.
+    pub resolution: Option<[u32; 2]>,
+    /// `metersPerUnit` of the stage (fallback 0.01).
+    pub meters_per_unit: f64,
+    /// Up axis of the stage.
+    pub up_axis: UpAxis,
+    /// Number of instances (instanceable prims / point-instancer entries) expanded.
+    pub instance_count: u32,
+    /// Unsupported features and other non-fatal findings, each naming the prim and the feature.
+    pub warnings: Vec<Warning>,
+}
+
+/// Stage up axis.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UpAxis {
+    /// `upAxis = "Y"` (USD's fallback).
+    #[default]
+    Y,
+    /// `upAxis = "Z"`.
+    Z,
+}
+
+/// A non-fatal finding, printed by the `ingest` binary.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning {
+    /// Prim path the finding is about.
+    pub prim: String,
+    /// What was unsupported or odd.
+    pub message: String,
+}
+
+/// One triangulated gprim in world space.
+///
+/// Vertices are per *shading* vertex: where normals or uvs are faceVarying, the reader splits vertices
+/// per face corner so every attribute is per vertex here.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Prim path (for instances: the instance proxy path).
+    pub path: String,
+    /// World-space positions.
+    pub positions: Vec<Vec3>,
+    /// World-space unit shading normals, one per position, or empty (flat shading).
+    pub normals: Vec<Vec3>,
+    /// Texture coordinates (`primvars:st` or the first texCoord2f primvar), one per position, or empty.
+    pub uvs: Vec<Vec2>,
+    /// Counter-clockwise (right-handed, after applying `orientation`) triangles indexing `positions`.
+    pub triangles: Vec<[u32; 3]>,
+    /// Index into `Scene::materials` per triangle.
+    pub triangle_materials: Vec<u32>,
+    /// `doubleSided`.
+    pub double_sided: bool,
+}
+
+/// UsdPreviewSurface with constant inputs (fallbacks from the UsdPreviewSurface spec when unauthored).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Material prim path, or `<gprim path>.displayColor` for a gprim without a bound material.
+    pub path: String,
+    /// `diffuseColor` (fallback 0.18).
+    pub diffuse_color: Vec3,
+    /// `emissiveColor` (fallback 0).
+    pub emissive_color: Vec3,
+    /// `specularColor` (fallback 0).
+    pub specular_color: Vec3,
+    /// `useSpecularWorkflow` (fallback false).
+    pub use_specular_workflow: bool,
+    /// `roughness` (fallback 0.5).
+    pub roughness: f32,
+    /// `metallic` (fallback 0).
+    pub metallic: f32,
+    /// `ior` (fallback 1.5).
+    pub ior: f32,
+    /// `opacity` (fallback 1).
+    pub opacity: f32,
+    /// `opacityThreshold` (fallback 0).
+    pub opacity_threshold: f32,
+    /// `clearcoat` (fallback 0).
+    pub clearcoat: f32,
+    /// `clearcoatRoughness` (fallback 0.01).
+    pub clearcoat_roughness: f32,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            path: String::new(),
+            diffuse_color: Vec3::splat(0.18),
+            emissive_color: Vec3::ZERO,
+            specular_color: Vec3::ZERO,
+            use_specular_workflow: false,
+            roughness: 0.5,
+            metallic: 0.0,
+            ior: 1.5,
+            opacity: 1.0,
+            opacity_threshold: 0.0,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.01,
+        }
+    }
+}
+
+/// A UsdLux light.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    /// Light prim path.
+    pub path: String,
+    /// Kind and shape parameters.
+    pub kind: LightKind,
+    /// `color` × `intensity` × 2^`exposure` (before normalization).
+    pub radiance: Vec3,
+    /// `normalize`.
+    pub normalize: bool,
+    /// Light-to-world transform (the light's local frame: emission along −Z for distant/rect/disk).
+    pub world_from_light: Mat4,
+}
+
+/// Light kinds with their shape parameters, in the light's local space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    /// DomeLight (untextured).
+    Dome,
+    /// DistantLight with `angle` in degrees (fallback 0.53).
+    Distant { angle_degrees: f32 },
+    /// SphereLight with `radius` (fallback 0.5) and `treatAsPoint`.
+    Sphere { radius: f32, treat_as_point: bool },
+    /// RectLight `width` × `height` (fallback 1 × 1).
+    Rect { width: f32, height: f32 },
+    /// DiskLight with `radius` (fallback 0.5).
+    Disk { radius: f32 },
+}
+
+/// A UsdGeomCamera.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// Camera prim path.
+    pub path: String,
+    /// Camera-to-world transform; the camera looks down −Z with +Y up.
+    pub world_from_camera: Mat4,
+    /// `projection` is orthographic.
+    pub orthographic: bool,
+    /// `focalLength` (fallback 50).
+    pub focal_length: f32,
+    /// `horizontalAperture` (fallback 20.955).
+    pub horizontal_aperture: f32,
+    /// `verticalAperture` (fallback 15.2908).
+    pub vertical_aperture: f32,
+    /// `horizontalApertureOffset` (fallback 0).
+    pub horizontal_aperture_offset: f32,
+    /// `verticalApertureOffset` (fallback 0).
+    pub vertical_aperture_offset: f32,
+    /// `clippingRange` (fallback (1, 1000000)).
+    pub clipping_range: [f32; 2],
+}
+
+impl Scene {
+    /// Total triangle count.
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.triangles.len()).sum()
+    }
+
+    /// Records a warning once per (prim, message) pair.
+    pub fn warn(&mut self, prim: impl Into<String>, message: impl Into<String>) {
+        let warning = Warning { prim: prim.into(), message: message.into() };
+        if !self.warnings.contains(&warning) {
+            self.warnings.push(warning);
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! USD reader (being written).

@@ -1,0 +1,108 @@
+//! The container: header, section table and 64-byte-aligned sections.
+//!
+//! ```text
+//! offset 0   Header                    64 bytes
+//! offset 64  SectionEntry × count      32 bytes each
+//! ...        zero padding to 64
+//! sections   each starts on a 64-byte boundary, zero padding between
+//! ```
+//! All integers are little-endian (the writer refuses to run on a big-endian host).
+
+use bytemuck::{Pod, Zeroable};
+
+/// First eight bytes of every blob.
+pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
+
+/// Bumped whenever a record layout or a section's meaning changes.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Alignment of every section (a cache line; also enough for any SIMD load of records).
+pub const SECTION_ALIGN: usize = 64;
+
+/// File header. 64 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct Header {
+    /// [`MAGIC`].
+    pub magic: [u8; 8],
+    /// [`FORMAT_VERSION`].
+    pub version: u32,
+    /// Number of entries in the section table.
+    pub section_count: u32,
+    /// Total file size in bytes.
+    pub file_size: u64,
+    /// Checksum of the section table bytes.
+    pub table_checksum: u64,
+    /// Checksum of the first 32 bytes of this header (magic..table_checksum).
+    pub header_checksum: u64,
+    /// Reserved, zero.
+    pub reserved: [u64; 3],
+}
+const _: () = assert!(std::mem::size_of::<Header>() == 64);
+
+/// One row of the section table. 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct SectionEntry {
+    /// A [`SectionKind`] as `u32`.
+    pub kind: u32,
+    /// Size of one record in bytes (1 for byte sections).
+    pub record_size: u32,
+    /// Offset from the start of the file; a multiple of [`SECTION_ALIGN`].
+    pub offset: u64,
+    /// Length in bytes; a multiple of `record_size`.
+    pub byte_len: u64,
+    /// [`crate::checksum`] of the section's bytes.
+    pub checksum: u64,
+}
+const _: () = assert!(std::mem::size_of::<SectionEntry>() == 32);
+
+macro_rules! section_kinds {
+    ($($(#[$doc:meta])* $name:ident = $value:literal,)*) => {
+        /// What a section holds. Each kind appears at most once.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        #[repr(u32)]
+        pub enum SectionKind { $($(#[$doc])* $name = $value,)* }
+
+        impl SectionKind {
+            /// Every kind, in table order.
+            pub const ALL: &'static [SectionKind] = &[$(SectionKind::$name,)*];
+
+            /// The kind for a raw table value.
+            pub fn from_u32(value: u32) -> Option<Self> {
+                match value { $($value => Some(SectionKind::$name),)* _ => None }
+            }
+        }
+    };
+}
+
+section_kinds! {
+    /// One [`crate::SceneInfo`].
+    SceneInfo = 1,
+    /// UTF-8 bytes referenced by [`crate::StrRef`].
+    Strings = 2,
+    /// `[f32; 3]` world-space vertex positions.
+    Positions = 3,
+    /// `[f32; 3]` world-space unit shading normals (per vertex, meshes with `MESH_HAS_NORMALS`).
+    Normals = 4,
+    /// `[f32; 2]` texture coordinates (per vertex, meshes with `MESH_HAS_UVS`).
+    Uvs = 5,
+    /// [`crate::Triangle`].
+    Triangles = 6,
+    /// `u32` material index per triangle.
+    TriangleMaterials = 7,
+    /// [`crate::Mesh`].
+    Meshes = 8,
+    /// [`crate::Material`].
+    Materials = 9,
+    /// [`crate::Light`].
+    Lights = 10,
+    /// [`crate::Camera`].
+    Cameras = 11,
+    /// [`crate::EmissiveTriangle`].
+    EmissiveTriangles = 12,
+    /// [`crate::BvhNode`]; node 0 is the root.
+    BvhNodes = 13,
+    /// `u32` triangle index per BVH primitive slot.
+    BvhPrimitives = 14,
+}

@@ -1,0 +1,37 @@
+//! The scene blob: one relocatable file that ingest writes and render memory-maps.
+//!
+//! Data flow: ingest fills a [`SceneData`] (owned vectors of `#[repr(C)]` [`bytemuck::Pod`] records whose
+//! cross-references are `u32` indices), [`SceneData::encode`] lays it out as a header, a section table and
+//! 64-byte-aligned sections with checksums, and [`write_atomic`] puts it on disk (temp file, fsync,
+//! rename). Render maps the file and calls [`SceneView::parse`], which validates everything once —
+//! magic, version, checksums, bounds, record sizes, every index — and hands out typed slices that need no
+//! further checks.
+//!
+//! ```
+//! use blob::{SceneData, SceneView, AlignedBytes};
+//! let mut scene = SceneData::default();
+//! scene.info.default_camera = blob::NONE;
+//! scene.info.dome_light = blob::NONE;
+//! let bytes = AlignedBytes::copy_from(&scene.encode());
+//! let view = SceneView::parse(&bytes).unwrap();
+//! assert_eq!(view.triangles.len(), 0);
+//! ```
+//!
+//! Modules: [`records`] (the Pod records), `container` (header and section table), `scene` (encode and
+//! parse), `checksum`, `error`, `io` (atomic write, aligned buffers).
+
+#![deny(missing_docs)]
+
+mod checksum;
+mod container;
+mod error;
+mod io;
+pub mod records;
+mod scene;
+
+pub use checksum::checksum;
+pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN};
+pub use error::BlobError;
+pub use io::{write_atomic, AlignedBytes};
+pub use records::*;
+pub use scene::{SceneData, SceneView};

@@ -1,0 +1,252 @@
+//! The `#[repr(C)]`, `Pod` records stored in blob sections.
+//!
+//! Every record's size is stated in its doc comment and pinned by a `const` assertion, so a change of
+//! layout is a compile error until [`crate::FORMAT_VERSION`] and the assertion are bumped together.
+//! Cross-references are `u32` indices into other sections, never pointers, so the file is relocatable.
+
+use bytemuck::{Pod, Zeroable};
+
+/// "No index": the value of an optional `u32` index that is absent.
+pub const NONE: u32 = u32::MAX;
+
+/// A UTF-8 string stored in the [`crate::SectionKind::Strings`] section. 8 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct StrRef {
+    /// Byte offset into the strings section.
+    pub offset: u32,
+    /// Length in bytes.
+    pub len: u32,
+}
+const _: () = assert!(std::mem::size_of::<StrRef>() == 8);
+
+/// Up axis of the source stage.
+pub const UP_AXIS_Y: u32 = 1;
+/// Up axis of the source stage.
+pub const UP_AXIS_Z: u32 = 2;
+
+/// Scene-wide facts; the [`crate::SectionKind::SceneInfo`] section holds exactly one. 64 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SceneInfo {
+    /// World-space bounds of all renderable geometry (min; max). Empty scenes store min > max.
+    pub bounds_min: [f32; 3],
+    /// See `bounds_min`.
+    pub bounds_max: [f32; 3],
+    /// `metersPerUnit` of the stage.
+    pub meters_per_unit: f32,
+    /// [`UP_AXIS_Y`] or [`UP_AXIS_Z`].
+    pub up_axis: u32,
+    /// Index of the camera named by the stage's render settings (or the first camera), or [`NONE`].
+    pub default_camera: u32,
+    /// Resolution authored by a RenderSettings prim, or 0×0 when unauthored.
+    pub resolution: [u32; 2],
+    /// Number of gprims (composed Mesh prims) the triangles came from.
+    pub gprim_count: u32,
+    /// Number of instances (instanceable prims and point-instancer instances) the scene expanded.
+    pub instance_count: u32,
+    /// Index of the dome light in the lights section, or [`NONE`].
+    pub dome_light: u32,
+    /// Reserved, zero.
+    pub reserved: [u32; 2],
+}
+const _: () = assert!(std::mem::size_of::<SceneInfo>() == 64);
+
+/// One triangle: three indices into the vertex sections and the mesh it belongs to. 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct Triangle {
+    /// Indices into positions/normals/uvs.
+    pub vertices: [u32; 3],
+    /// Index into the meshes section.
+    pub mesh: u32,
+}
+const _: () = assert!(std::mem::size_of::<Triangle>() == 16);
+
+/// The mesh has per-vertex shading normals in the normals section; otherwise shade with the face normal.
+pub const MESH_HAS_NORMALS: u32 = 1;
+/// The mesh has per-vertex texture coordinates in the uvs section.
+pub const MESH_HAS_UVS: u32 = 2;
+/// Both faces of the mesh are rendered (`doubleSided = true`). Single-sided meshes are still hit from
+/// behind (USD leaves culling to the renderer; we never cull for path tracing) but are flagged for AOVs.
+pub const MESH_DOUBLE_SIDED: u32 = 4;
+
+/// One gprim after composition, triangulated and in world space. 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct Mesh {
+    /// Prim path.
+    pub name: StrRef,
+    /// First triangle in the triangles section.
+    pub first_triangle: u32,
+    /// Number of triangles.
+    pub triangle_count: u32,
+    /// First vertex in the vertex sections.
+    pub first_vertex: u32,
+    /// Number of vertices.
+    pub vertex_count: u32,
+    /// `MESH_*` bits.
+    pub flags: u32,
+    /// Reserved, zero.
+    pub reserved: u32,
+}
+const _: () = assert!(std::mem::size_of::<Mesh>() == 32);
+
+/// UsdPreviewSurface inputs as constants. 96 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Material {
+    /// Material prim path (or the gprim path for a displayColor material).
+    pub name: StrRef,
+    /// `diffuseColor`, linear.
+    pub diffuse_color: [f32; 3],
+    /// `emissiveColor`, linear radiance.
+    pub emissive_color: [f32; 3],
+    /// `specularColor` (used when `use_specular_workflow != 0`).
+    pub specular_color: [f32; 3],
+    /// `roughness` (perceptual; α = roughness²).
+    pub roughness: f32,
+    /// `metallic`.
+    pub metallic: f32,
+    /// `ior`.
+    pub ior: f32,
+    /// `opacity`.
+    pub opacity: f32,
+    /// `opacityThreshold`.
+    pub opacity_threshold: f32,
+    /// `clearcoat` weight.
+    pub clearcoat: f32,
+    /// `clearcoatRoughness`.
+    pub clearcoat_roughness: f32,
+    /// `useSpecularWorkflow` (0 or 1).
+    pub use_specular_workflow: u32,
+    /// Reserved, zero.
+    pub reserved: [u32; 5],
+}
+const _: () = assert!(std::mem::size_of::<Material>() == 96);
+
+/// Light kinds stored in [`Light::kind`].
+pub mod light_kind {
+    /// UsdLuxDomeLight (untextured: uniform radiance from every direction).
+    pub const DOME: u32 = 0;
+    /// UsdLuxDistantLight, shining along the light's −Z.
+    pub const DISTANT: u32 = 1;
+    /// UsdLuxSphereLight.
+    pub const SPHERE: u32 = 2;
+    /// UsdLuxRectLight in the light's XY plane, emitting along −Z.
+    pub const RECT: u32 = 3;
+    /// UsdLuxDiskLight in the light's XY plane, emitting along −Z.
+    pub const DISK: u32 = 4;
+}
+
+/// `inputs:normalize`: power does not depend on size.
+pub const LIGHT_NORMALIZE: u32 = 1;
+/// `treatAsPoint` on a sphere light.
+pub const LIGHT_TREAT_AS_POINT: u32 = 2;
+
+/// One UsdLux light. 96 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Light {
+    /// Light prim path.
+    pub name: StrRef,
+    /// One of [`light_kind`].
+    pub kind: u32,
+    /// `LIGHT_*` bits.
+    pub flags: u32,
+    /// color × intensity × 2^exposure, before any normalization by area.
+    pub radiance: [f32; 3],
+    /// Sphere and disk radius, in light space.
+    pub radius: f32,
+    /// Rect width, in light space.
+    pub width: f32,
+    /// Rect height, in light space.
+    pub height: f32,
+    /// Distant light angular diameter, degrees.
+    pub angle_degrees: f32,
+    /// Reserved, zero.
+    pub reserved: f32,
+    /// Row-major 3×4 affine `world_from_light` (rows 0..3 of the 4×4, column vectors convention).
+    pub world_from_light: [[f32; 4]; 3],
+}
+const _: () = assert!(std::mem::size_of::<Light>() == 96);
+
+/// Camera projections stored in [`Camera::projection`].
+pub const PROJECTION_PERSPECTIVE: u32 = 0;
+/// See [`PROJECTION_PERSPECTIVE`].
+pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
+
+/// One UsdGeomCamera. 96 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Camera {
+    /// Camera prim path.
+    pub name: StrRef,
+    /// [`PROJECTION_PERSPECTIVE`] or [`PROJECTION_ORTHOGRAPHIC`].
+    pub projection: u32,
+    /// `focalLength` (same unit as the apertures).
+    pub focal_length: f32,
+    /// `horizontalAperture`.
+    pub horizontal_aperture: f32,
+    /// `verticalAperture`.
+    pub vertical_aperture: f32,
+    /// `horizontalApertureOffset`.
+    pub horizontal_aperture_offset: f32,
+    /// `verticalApertureOffset`.
+    pub vertical_aperture_offset: f32,
+    /// `clippingRange` (near, far) in scene units.
+    pub clipping_range: [f32; 2],
+    /// Reserved, zero.
+    pub reserved: [f32; 2],
+    /// Row-major 3×4 affine `world_from_camera`; the camera looks down its −Z with +Y up.
+    pub world_from_camera: [[f32; 4]; 3],
+}
+const _: () = assert!(std::mem::size_of::<Camera>() == 96);
+
+/// A triangle with nonzero emission, for next-event estimation. 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct EmissiveTriangle {
+    /// Index into the triangles section.
+    pub triangle: u32,
+    /// World-space area.
+    pub area: f32,
+    /// Cumulative distribution up to and including this entry (last entry = 1), proportional to
+    /// emitted power (area × luminance of emission).
+    pub cdf: f32,
+    /// Probability of choosing this entry.
+    pub pmf: f32,
+}
+const _: () = assert!(std::mem::size_of::<EmissiveTriangle>() == 16);
+
+/// One node of the compressed wide BVH (CWBVH, Ylitie et al. 2017), bit-identical to
+/// `obvhs::cwbvh::CwBvhNode` 0.4 so render can traverse the mapped slice directly. 80 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BvhNode {
+    /// Min point of the node's bounds.
+    pub p: [f32; 3],
+    /// Exponents of the child-bounds quantization.
+    pub e: [u8; 3],
+    /// Bit per child: 1 = internal node.
+    pub imask: u8,
+    /// First child node index.
+    pub child_base_idx: u32,
+    /// First primitive index into the BVH primitive section.
+    pub primitive_base_idx: u32,
+    /// Per-child meta byte (see obvhs docs).
+    pub child_meta: [u8; 8],
+    /// Quantized child bounds.
+    pub child_min_x: [u8; 8],
+    /// Quantized child bounds.
+    pub child_max_x: [u8; 8],
+    /// Quantized child bounds.
+    pub child_min_y: [u8; 8],
+    /// Quantized child bounds.
+    pub child_max_y: [u8; 8],
+    /// Quantized child bounds.
+    pub child_min_z: [u8; 8],
+    /// Quantized child bounds.
+    pub child_max_z: [u8; 8],
+}
+const _: () = assert!(std::mem::size_of::<BvhNode>() == 80);
