@@ -7,9 +7,9 @@
 //!
 //! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`pack`] (scene → blob records), `bvh`.
 
+mod bvh;
+pub mod pack;
 pub mod scene;
 pub mod usd;
-pub mod pack;
-mod bvh;
 
 pub use scene::{Camera, Light, LightKind, Material, Mesh, Scene, UpAxis, Warning};

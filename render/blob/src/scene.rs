@@ -156,7 +156,11 @@ impl<'a> SceneView<'a> {
         let get = |kind: SectionKind| sections[kind as usize - 1].ok_or(BlobError::MissingSection(kind));
         let info_slice: &[SceneInfo] = typed(bytes, get(SectionKind::SceneInfo)?, SectionKind::SceneInfo)?;
         let [info] = info_slice else {
-            return Err(BlobError::BadIndex { kind: SectionKind::SceneInfo, record: 0, what: "must hold exactly one record" });
+            return Err(BlobError::BadIndex {
+                kind: SectionKind::SceneInfo,
+                record: 0,
+                what: "must hold exactly one record",
+            });
         };
         let view = SceneView {
             info,
@@ -165,12 +169,20 @@ impl<'a> SceneView<'a> {
             normals: typed(bytes, get(SectionKind::Normals)?, SectionKind::Normals)?,
             uvs: typed(bytes, get(SectionKind::Uvs)?, SectionKind::Uvs)?,
             triangles: typed(bytes, get(SectionKind::Triangles)?, SectionKind::Triangles)?,
-            triangle_materials: typed(bytes, get(SectionKind::TriangleMaterials)?, SectionKind::TriangleMaterials)?,
+            triangle_materials: typed(
+                bytes,
+                get(SectionKind::TriangleMaterials)?,
+                SectionKind::TriangleMaterials,
+            )?,
             meshes: typed(bytes, get(SectionKind::Meshes)?, SectionKind::Meshes)?,
             materials: typed(bytes, get(SectionKind::Materials)?, SectionKind::Materials)?,
             lights: typed(bytes, get(SectionKind::Lights)?, SectionKind::Lights)?,
             cameras: typed(bytes, get(SectionKind::Cameras)?, SectionKind::Cameras)?,
-            emissive_triangles: typed(bytes, get(SectionKind::EmissiveTriangles)?, SectionKind::EmissiveTriangles)?,
+            emissive_triangles: typed(
+                bytes,
+                get(SectionKind::EmissiveTriangles)?,
+                SectionKind::EmissiveTriangles,
+            )?,
             bvh_nodes: typed(bytes, get(SectionKind::BvhNodes)?, SectionKind::BvhNodes)?,
             bvh_primitives: typed(bytes, get(SectionKind::BvhPrimitives)?, SectionKind::BvhPrimitives)?,
         };
