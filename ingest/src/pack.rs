@@ -1,1 +1,313 @@
-//! Scene → blob (being written).
+//! Scene → blob records: concatenate meshes into shared vertex and triangle sections, convert materials,
+//! lights and cameras to their Pod records, build the emissive-triangle distribution and the BVH.
+//!
+//! The output depends only on the scene (no hash-map iteration order, no thread timing), so the same scene
+//! always encodes to the same bytes.
+
+use crate::scene::{LightKind, Scene, UpAxis};
+use blob::records as rec;
+use glam::{Mat4, Vec3};
+
+/// A scene that cannot be packed, naming the prim and the problem.
+#[derive(Debug, thiserror::Error)]
+#[error("{prim}: {problem}")]
+pub struct PackError {
+    /// Prim path.
+    pub prim: String,
+    /// What is wrong.
+    pub problem: String,
+}
+
+/// Packs a scene into blob records.
+pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
+    validate(scene)?;
+    let mut data = blob::SceneData::default();
+    let mut bounds_min = Vec3::splat(f32::INFINITY);
+    let mut bounds_max = Vec3::splat(f32::NEG_INFINITY);
+    let any_normals = scene.meshes.iter().any(|m| !m.normals.is_empty());
+    let any_uvs = scene.meshes.iter().any(|m| !m.uvs.is_empty());
+
+    for (mesh_index, mesh) in scene.meshes.iter().enumerate() {
+        let first_vertex = data.positions.len() as u32;
+        let first_triangle = data.triangles.len() as u32;
+        let name = data.add_string(&mesh.path);
+        for p in &mesh.positions {
+            bounds_min = bounds_min.min(*p);
+            bounds_max = bounds_max.max(*p);
+            data.positions.push(p.to_array());
+        }
+        if any_normals {
+            if mesh.normals.is_empty() {
+                data.normals.extend(std::iter::repeat_n([0.0, 0.0, 1.0], mesh.positions.len()));
+            } else {
+                data.normals.extend(mesh.normals.iter().map(|n| n.normalize_or(Vec3::Z).to_array()));
+            }
+        }
+        if any_uvs {
+            if mesh.uvs.is_empty() {
+                data.uvs.extend(std::iter::repeat_n([0.0, 0.0], mesh.positions.len()));
+            } else {
+                data.uvs.extend(mesh.uvs.iter().map(|uv| uv.to_array()));
+            }
+        }
+        for tri in &mesh.triangles {
+            data.triangles.push(rec::Triangle { vertices: tri.map(|v| v + first_vertex), mesh: mesh_index as u32 });
+        }
+        data.triangle_materials.extend_from_slice(&mesh.triangle_materials);
+        let mut flags = 0;
+        if !mesh.normals.is_empty() {
+            flags |= rec::MESH_HAS_NORMALS;
+        }
+        if !mesh.uvs.is_empty() {
+            flags |= rec::MESH_HAS_UVS;
+        }
+        if mesh.double_sided {
+            flags |= rec::MESH_DOUBLE_SIDED;
+        }
+        data.meshes.push(rec::Mesh {
+            name,
+            first_triangle,
+            triangle_count: mesh.triangles.len() as u32,
+            first_vertex,
+            vertex_count: mesh.positions.len() as u32,
+            flags,
+            reserved: 0,
+        });
+    }
+
+    for m in &scene.materials {
+        let name = data.add_string(&m.path);
+        data.materials.push(rec::Material {
+            name,
+            diffuse_color: m.diffuse_color.to_array(),
+            emissive_color: m.emissive_color.to_array(),
+            specular_color: m.specular_color.to_array(),
+            roughness: m.roughness,
+            metallic: m.metallic,
+            ior: m.ior,
+            opacity: m.opacity,
+            opacity_threshold: m.opacity_threshold,
+            clearcoat: m.clearcoat,
+            clearcoat_roughness: m.clearcoat_roughness,
+            use_specular_workflow: m.use_specular_workflow as u32,
+            reserved: [0; 5],
+        });
+    }
+
+    let mut dome_light = rec::NONE;
+    for (i, light) in scene.lights.iter().enumerate() {
+        let name = data.add_string(&light.path);
+        let mut record = rec::Light {
+            name,
+            radiance: light.radiance.to_array(),
+            world_from_light: affine_rows(&light.world_from_light),
+            flags: if light.normalize { rec::LIGHT_NORMALIZE } else { 0 },
+            ..rec::Light::default()
+        };
+        match light.kind {
+            LightKind::Dome => {
+                record.kind = rec::light_kind::DOME;
+                if dome_light == rec::NONE {
+                    dome_light = i as u32;
+                }
+            }
+            LightKind::Distant { angle_degrees } => {
+                record.kind = rec::light_kind::DISTANT;
+                record.angle_degrees = angle_degrees;
+            }
+            LightKind::Sphere { radius, treat_as_point } => {
+                record.kind = rec::light_kind::SPHERE;
+                record.radius = radius;
+                if treat_as_point {
+                    record.flags |= rec::LIGHT_TREAT_AS_POINT;
+                }
+            }
+            LightKind::Rect { width, height } => {
+                record.kind = rec::light_kind::RECT;
+                record.width = width;
+                record.height = height;
+            }
+            LightKind::Disk { radius } => {
+                record.kind = rec::light_kind::DISK;
+                record.radius = radius;
+            }
+        }
+        data.lights.push(record);
+    }
+
+    for c in &scene.cameras {
+        let name = data.add_string(&c.path);
+        data.cameras.push(rec::Camera {
+            name,
+            projection: if c.orthographic { rec::PROJECTION_ORTHOGRAPHIC } else { rec::PROJECTION_PERSPECTIVE },
+            focal_length: c.focal_length,
+            horizontal_aperture: c.horizontal_aperture,
+            vertical_aperture: c.vertical_aperture,
+            horizontal_aperture_offset: c.horizontal_aperture_offset,
+            vertical_aperture_offset: c.vertical_aperture_offset,
+            clipping_range: c.clipping_range,
+            reserved: [0.0; 2],
+            world_from_camera: affine_rows(&c.world_from_camera),
+        });
+    }
+
+    data.emissive_triangles = emissive_distribution(&data);
+
+    let corners: Vec<[Vec3; 3]> = data
+        .triangles
+        .iter()
+        .map(|t| t.vertices.map(|v| Vec3::from_array(data.positions[v as usize])))
+        .collect();
+    let bvh = crate::bvh::build(&corners);
+    data.bvh_nodes = bvh.nodes;
+    data.bvh_primitives = bvh.primitives;
+
+    data.info = rec::SceneInfo {
+        bounds_min: bounds_min.to_array(),
+        bounds_max: bounds_max.to_array(),
+        meters_per_unit: scene.meters_per_unit as f32,
+        up_axis: match scene.up_axis {
+            UpAxis::Y => rec::UP_AXIS_Y,
+            UpAxis::Z => rec::UP_AXIS_Z,
+        },
+        default_camera: scene.default_camera.map_or(rec::NONE, |c| c as u32),
+        resolution: scene.resolution.unwrap_or([0, 0]),
+        gprim_count: scene.meshes.len() as u32,
+        instance_count: scene.instance_count,
+        dome_light,
+        reserved: [0; 2],
+    };
+    Ok(data)
+}
+
+/// Rows 0..3 of a 4×4 affine matrix (column-vector convention), as stored in the blob.
+fn affine_rows(m: &Mat4) -> [[f32; 4]; 3] {
+    let rows = m.transpose().to_cols_array_2d();
+    [rows[0], rows[1], rows[2]]
+}
+
+/// Triangles with emission, with a distribution proportional to emitted power (area × luminance).
+fn emissive_distribution(data: &blob::SceneData) -> Vec<rec::EmissiveTriangle> {
+    let mut entries: Vec<rec::EmissiveTriangle> = Vec::new();
+    let mut total = 0.0f64;
+    for (i, (tri, &material)) in data.triangles.iter().zip(&data.triangle_materials).enumerate() {
+        let e = Vec3::from_array(data.materials[material as usize].emissive_color);
+        let luminance = e.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        if luminance <= 0.0 {
+            continue;
+        }
+        let [a, b, c] = tri.vertices.map(|v| Vec3::from_array(data.positions[v as usize]));
+        let area = 0.5 * (b - a).cross(c - a).length();
+        if area <= 0.0 {
+            continue;
+        }
+        total += (area * luminance) as f64;
+        entries.push(rec::EmissiveTriangle { triangle: i as u32, area, cdf: total as f32, pmf: (area * luminance) });
+    }
+    let mut running = 0.0f64;
+    for e in &mut entries {
+        running += e.pmf as f64;
+        e.pmf = (e.pmf as f64 / total) as f32;
+        e.cdf = (running / total).min(1.0) as f32;
+    }
+    if let Some(last) = entries.last_mut() {
+        last.cdf = 1.0;
+    }
+    entries
+}
+
+fn validate(scene: &Scene) -> Result<(), PackError> {
+    let fail = |prim: &str, problem: String| Err(PackError { prim: prim.to_string(), problem });
+    for mesh in &scene.meshes {
+        let n = mesh.positions.len();
+        if !mesh.normals.is_empty() && mesh.normals.len() != n {
+            return fail(&mesh.path, format!("{} normals for {n} points", mesh.normals.len()));
+        }
+        if !mesh.uvs.is_empty() && mesh.uvs.len() != n {
+            return fail(&mesh.path, format!("{} uvs for {n} points", mesh.uvs.len()));
+        }
+        if mesh.triangle_materials.len() != mesh.triangles.len() {
+            return fail(&mesh.path, "one material per triangle is required".into());
+        }
+        if let Some(t) = mesh.triangles.iter().find(|t| t.iter().any(|&v| v as usize >= n)) {
+            return fail(&mesh.path, format!("triangle {t:?} indexes past {n} points"));
+        }
+        if let Some(&m) = mesh.triangle_materials.iter().find(|&&m| m as usize >= scene.materials.len()) {
+            return fail(&mesh.path, format!("material index {m} out of range"));
+        }
+        if mesh.positions.iter().any(|p| !p.is_finite()) {
+            return fail(&mesh.path, "non-finite point".into());
+        }
+    }
+    if scene.positions_total() > u32::MAX as usize || scene.triangle_count() > u32::MAX as usize {
+        return fail("/", "more than 2^32 vertices or triangles".into());
+    }
+    if let Some(c) = scene.default_camera.filter(|&c| c >= scene.cameras.len()) {
+        return fail("/", format!("default camera {c} out of range"));
+    }
+    Ok(())
+}
+
+impl Scene {
+    fn positions_total(&self) -> usize {
+        self.meshes.iter().map(|m| m.positions.len()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Material, Mesh};
+    use glam::Vec2;
+
+    fn quad_scene() -> Scene {
+        let mesh = Mesh {
+            path: "/World/Quad".into(),
+            positions: vec![Vec3::new(0., 0., 0.), Vec3::new(1., 0., 0.), Vec3::new(1., 1., 0.), Vec3::new(0., 1., 0.)],
+            uvs: vec![Vec2::ZERO; 4],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            triangle_materials: vec![0, 1],
+            ..Mesh::default()
+        };
+        let emissive = Material { path: "/Looks/E".into(), emissive_color: Vec3::ONE, ..Material::default() };
+        Scene {
+            meshes: vec![mesh],
+            materials: vec![Material { path: "/Looks/M".into(), ..Material::default() }, emissive],
+            meters_per_unit: 1.0,
+            ..Scene::default()
+        }
+    }
+
+    #[test]
+    fn packs_bounds_emitters_and_a_parseable_blob() {
+        let data = pack(&quad_scene()).unwrap();
+        assert_eq!(data.info.bounds_min, [0.0, 0.0, 0.0]);
+        assert_eq!(data.info.bounds_max, [1.0, 1.0, 0.0]);
+        assert_eq!(data.emissive_triangles.len(), 1);
+        assert_eq!(data.emissive_triangles[0].triangle, 1);
+        assert!((data.emissive_triangles[0].area - 0.5).abs() < 1e-6);
+        assert_eq!(data.emissive_triangles[0].cdf, 1.0);
+        let bytes = blob::AlignedBytes::copy_from(&data.encode());
+        let view = blob::SceneView::parse(&bytes).unwrap();
+        assert_eq!(view.triangles.len(), 2);
+        assert_eq!(view.string(view.meshes[0].name), "/World/Quad");
+        assert_eq!(view.meshes[0].flags & blob::MESH_HAS_UVS, blob::MESH_HAS_UVS);
+        let mut slots: Vec<u32> = view.bvh_primitives.to_vec();
+        slots.sort();
+        slots.dedup();
+        assert_eq!(slots, vec![0, 1], "every triangle is reachable from the BVH");
+    }
+
+    #[test]
+    fn same_scene_same_bytes() {
+        assert_eq!(pack(&quad_scene()).unwrap().encode(), pack(&quad_scene()).unwrap().encode());
+    }
+
+    #[test]
+    fn out_of_range_triangle_names_the_mesh() {
+        let mut scene = quad_scene();
+        scene.meshes[0].triangles[1] = [0, 2, 9];
+        let err = pack(&scene).unwrap_err().to_string();
+        assert!(err.contains("/World/Quad") && err.contains("indexes past 4 points"), "{err}");
+    }
+}
