@@ -33,12 +33,24 @@ pub struct Header {
     pub file_size: u64,
     /// Checksum of the section table bytes.
     pub table_checksum: u64,
-    /// Checksum of the first 32 bytes of this header (magic..table_checksum).
+    /// Checksum of this header's 64 bytes with this field set to zero (see [`Header::seal`]).
     pub header_checksum: u64,
     /// Reserved, zero.
     pub reserved: [u64; 3],
 }
 const _: () = assert!(std::mem::size_of::<Header>() == 64);
+
+impl Header {
+    /// The checksum this header should carry: all 64 bytes with `header_checksum` zeroed.
+    pub fn expected_checksum(&self) -> u64 {
+        crate::checksum(bytemuck::bytes_of(&Header { header_checksum: 0, ..*self }))
+    }
+
+    /// Sets `header_checksum` to match the other fields.
+    pub fn seal(&mut self) {
+        self.header_checksum = self.expected_checksum();
+    }
+}
 
 /// One row of the section table. 32 bytes.
 #[repr(C)]

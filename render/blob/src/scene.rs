@@ -93,7 +93,7 @@ impl SceneData {
             table_checksum: checksum(table_bytes),
             ..Header::default()
         };
-        header.header_checksum = checksum(&bytemuck::bytes_of(&header)[..32]);
+        header.seal();
 
         let mut out = vec![0u8; file_size];
         out[..64].copy_from_slice(bytemuck::bytes_of(&header));
@@ -312,7 +312,7 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
     if header.magic != MAGIC {
         return Err(BlobError::BadMagic);
     }
-    if header.header_checksum != checksum(&bytes[..32]) {
+    if header.header_checksum != header.expected_checksum() {
         return Err(BlobError::HeaderChecksum);
     }
     if header.version != FORMAT_VERSION {

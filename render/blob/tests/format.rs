@@ -1,0 +1,167 @@
+//! The blob format: round trip, and every corruption is an error, never a panic.
+
+use blob::*;
+use proptest::prelude::*;
+
+fn sample_scene() -> SceneData {
+    let mut s = SceneData::default();
+    let name = s.add_string("/World/Tri");
+    s.positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    s.normals = vec![[0.0, 0.0, 1.0]; 3];
+    s.uvs = vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+    s.triangles = vec![Triangle { vertices: [0, 1, 2], mesh: 0 }];
+    s.triangle_materials = vec![0];
+    s.meshes = vec![Mesh {
+        name,
+        first_triangle: 0,
+        triangle_count: 1,
+        first_vertex: 0,
+        vertex_count: 3,
+        flags: MESH_HAS_NORMALS | MESH_HAS_UVS,
+        reserved: 0,
+    }];
+    let mname = s.add_string("/Looks/M");
+    s.materials = vec![Material { name: mname, diffuse_color: [0.5; 3], ..Material::default() }];
+    let lname = s.add_string("/Light");
+    s.lights = vec![Light { name: lname, kind: light_kind::DOME, radiance: [1.0; 3], ..Light::default() }];
+    let cname = s.add_string("/Cam");
+    s.cameras = vec![Camera { name: cname, focal_length: 50.0, ..Camera::default() }];
+    s.emissive_triangles = vec![];
+    s.bvh_nodes = vec![BvhNode {
+        imask: 0,
+        child_meta: [0b0010_0000, 0, 0, 0, 0, 0, 0, 0],
+        ..BvhNode::default()
+    }];
+    s.bvh_primitives = vec![0];
+    s.info = SceneInfo {
+        bounds_min: [0.0; 3],
+        bounds_max: [1.0, 1.0, 0.0],
+        default_camera: 0,
+        dome_light: 0,
+        gprim_count: 1,
+        ..SceneInfo::default()
+    };
+    s
+}
+
+fn parse(bytes: &[u8]) -> Result<(), BlobError> {
+    SceneView::parse(&AlignedBytes::copy_from(bytes)).map(|_| ())
+}
+
+#[test]
+fn round_trip_preserves_every_section() {
+    let scene = sample_scene();
+    let bytes = AlignedBytes::copy_from(&scene.encode());
+    let view = SceneView::parse(&bytes).unwrap();
+    assert_eq!(*view.info, scene.info);
+    assert_eq!(view.positions, &scene.positions[..]);
+    assert_eq!(view.normals, &scene.normals[..]);
+    assert_eq!(view.uvs, &scene.uvs[..]);
+    assert_eq!(view.triangles, &scene.triangles[..]);
+    assert_eq!(view.meshes, &scene.meshes[..]);
+    assert_eq!(view.materials, &scene.materials[..]);
+    assert_eq!(view.lights, &scene.lights[..]);
+    assert_eq!(view.cameras, &scene.cameras[..]);
+    assert_eq!(view.bvh_nodes, &scene.bvh_nodes[..]);
+    assert_eq!(view.bvh_primitives, &scene.bvh_primitives[..]);
+    assert_eq!(view.string(view.meshes[0].name), "/World/Tri");
+    assert_eq!(view.string(view.cameras[0].name), "/Cam");
+}
+
+#[test]
+fn sections_are_64_byte_aligned_and_encoding_is_deterministic() {
+    let bytes = sample_scene().encode();
+    assert_eq!(bytes, sample_scene().encode());
+    let header: Header = bytemuck::pod_read_unaligned(&bytes[..64]);
+    for i in 0..header.section_count as usize {
+        let entry: SectionEntry = bytemuck::pod_read_unaligned(&bytes[64 + 32 * i..96 + 32 * i]);
+        assert_eq!(entry.offset % 64, 0);
+    }
+}
+
+#[test]
+fn wrong_version_is_reported_as_such() {
+    let mut bytes = sample_scene().encode();
+    bytes[8..12].copy_from_slice(&(FORMAT_VERSION + 1).to_le_bytes());
+    // Re-seal the header so only the version is wrong.
+    let mut header: Header = bytemuck::pod_read_unaligned(&bytes[..64]);
+    header.seal();
+    bytes[..64].copy_from_slice(bytemuck::bytes_of(&header));
+    assert!(matches!(parse(&bytes), Err(BlobError::UnsupportedVersion { .. })));
+}
+
+#[test]
+fn bad_indices_are_rejected_even_with_valid_checksums() {
+    let mut scene = sample_scene();
+    scene.triangles[0].vertices[2] = 7;
+    assert!(matches!(parse(&scene.encode()), Err(BlobError::BadIndex { kind: SectionKind::Triangles, .. })));
+    let mut scene = sample_scene();
+    scene.triangle_materials[0] = 3;
+    assert!(matches!(parse(&scene.encode()), Err(BlobError::BadIndex { .. })));
+    let mut scene = sample_scene();
+    scene.bvh_nodes[0].child_meta[0] = 0b1110_0000 | 5;
+    assert!(matches!(parse(&scene.encode()), Err(BlobError::BadIndex { kind: SectionKind::BvhNodes, .. })));
+    let mut scene = sample_scene();
+    scene.meshes[0].name.len = 1000;
+    assert!(matches!(parse(&scene.encode()), Err(BlobError::BadIndex { .. })));
+}
+
+#[test]
+fn every_single_byte_flip_in_header_and_table_is_an_error() {
+    let bytes = sample_scene().encode();
+    let header: Header = bytemuck::pod_read_unaligned(&bytes[..64]);
+    let table_end = 64 + 32 * header.section_count as usize;
+    for i in 0..table_end {
+        for flip in [0x01u8, 0x80, 0xff] {
+            let mut corrupted = bytes.clone();
+            corrupted[i] ^= flip;
+            assert!(parse(&corrupted).is_err(), "flip {flip:#x} at byte {i} was accepted");
+        }
+    }
+}
+
+#[test]
+fn every_truncation_is_an_error() {
+    let bytes = sample_scene().encode();
+    for len in 0..bytes.len() {
+        assert!(parse(&bytes[..len]).is_err(), "truncation to {len} bytes was accepted");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// Any byte anywhere changed to any value: an error or (for bytes in padding) a valid parse; never a
+    /// panic. Padding bytes are not covered by checksums by design.
+    #[test]
+    fn arbitrary_corruption_never_panics(pos in 0usize..4096, value in any::<u8>()) {
+        let mut bytes = sample_scene().encode();
+        let pos = pos % bytes.len();
+        bytes[pos] = value;
+        let _ = parse(&bytes);
+    }
+
+    #[test]
+    fn random_bytes_never_panic(data in proptest::collection::vec(any::<u8>(), 0..2048)) {
+        let _ = parse(&data);
+    }
+
+    #[test]
+    fn random_section_tables_never_panic(table in proptest::collection::vec(any::<u8>(), 0..512), count in 0u32..20) {
+        // A header that passes its own checksum in front of arbitrary table bytes.
+        let mut bytes = vec![0u8; 64];
+        bytes.extend_from_slice(&table);
+        let mut header = Header {
+            magic: MAGIC,
+            version: FORMAT_VERSION,
+            section_count: count,
+            file_size: bytes.len() as u64,
+            ..Header::default()
+        };
+        let table_len = (32 * count as usize).min(table.len());
+        header.table_checksum = checksum(&table[..table_len]);
+        header.seal();
+        bytes[..64].copy_from_slice(bytemuck::bytes_of(&header));
+        let _ = parse(&bytes);
+    }
+}
