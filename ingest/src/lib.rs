@@ -5,10 +5,12 @@
 //! `pack` turns the scene into a [`blob::SceneData`] with a prebuilt BVH (`bvh`) and the emissive-triangle
 //! distribution; [`blob::write_atomic`] writes it.
 //!
-//! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`pack`] (scene → blob records), `bvh`.
+//! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`pack`] (scene → blob records), `bvh`,
+//! [`pipeline`] (the whole step as one call).
 
 mod bvh;
 pub mod pack;
+pub mod pipeline;
 pub mod scene;
 pub mod usd;
 

@@ -1,1 +1,0 @@
-//! USD reader (being written).

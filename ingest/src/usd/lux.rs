@@ -1,0 +1,126 @@
+//! UsdLux lights, UsdGeomCamera and UsdRenderSettings.
+
+use glam::Vec3;
+
+use super::stage::Value;
+use super::{fallback, Inherited, Reader, UsdError};
+use crate::scene::{Camera, Light, LightKind};
+
+impl Reader<'_> {
+    /// A light input: `inputs:<name>` (current UsdLux) wins over plain `<name>` (pre-2021 assets).
+    fn light_input(&self, path: &str, name: &str) -> Result<Option<Value>, UsdError> {
+        match self.stage.attr(path, &format!("inputs:{name}"))? {
+            Some(v) => Ok(Some(v)),
+            None => self.stage.attr(path, name),
+        }
+    }
+
+    fn light_f32(&self, path: &str, name: &str, fallback: f32) -> Result<f32, UsdError> {
+        Ok(self.light_input(path, name)?.and_then(|v| v.as_f64()).map_or(fallback, |v| v as f32))
+    }
+
+    fn light_bool(&self, path: &str, name: &str, fallback: bool) -> Result<bool, UsdError> {
+        Ok(self.light_input(path, name)?.and_then(|v| v.as_f64()).map_or(fallback, |v| v != 0.0))
+    }
+
+    fn light_has_texture(&self, path: &str) -> Result<bool, UsdError> {
+        let file = self.light_input(path, "texture:file")?;
+        Ok(file.as_ref().and_then(Value::as_str).is_some_and(|f| !f.is_empty()))
+    }
+
+    /// Reads a DomeLight, DistantLight, SphereLight, RectLight or DiskLight.
+    pub(super) fn read_light(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
+        let intensity = self.light_f32(path, "intensity", fallback::LIGHT_INTENSITY)?;
+        let exposure = self.light_f32(path, "exposure", fallback::LIGHT_EXPOSURE)?;
+        let color = self
+            .light_input(path, "color")?
+            .and_then(|v| v.as_tuple::<3>())
+            .map_or(Vec3::from_array(fallback::LIGHT_COLOR), |c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32));
+        let normalize = self.light_bool(path, "normalize", fallback::LIGHT_NORMALIZE)?;
+        let kind = match ty {
+            "DistantLight" => {
+                LightKind::Distant { angle_degrees: self.light_f32(path, "angle", fallback::DISTANT_ANGLE)? }
+            }
+            "SphereLight" => LightKind::Sphere {
+                radius: self.light_f32(path, "radius", fallback::SPHERE_RADIUS)?,
+                treat_as_point: self.light_bool(path, "treatAsPoint", fallback::SPHERE_TREAT_AS_POINT)?,
+            },
+            "RectLight" => {
+                if self.light_has_texture(path)? {
+                    self.warn(path, "textured rect light not supported yet; using its uniform color");
+                }
+                LightKind::Rect {
+                    width: self.light_f32(path, "width", fallback::RECT_SIZE)?,
+                    height: self.light_f32(path, "height", fallback::RECT_SIZE)?,
+                }
+            }
+            "DiskLight" => LightKind::Disk { radius: self.light_f32(path, "radius", fallback::DISK_RADIUS)? },
+            _ => {
+                if self.light_has_texture(path)? {
+                    self.warn(path, "textured dome light not supported yet; using its uniform color");
+                }
+                LightKind::Dome
+            }
+        };
+        self.scene.lights.push(Light {
+            path: path.to_string(),
+            kind,
+            radiance: color * intensity * exposure.exp2(),
+            normalize,
+            world_from_light: state.world_from_local.as_mat4(),
+        });
+        Ok(())
+    }
+
+    /// Reads a Camera (cameras are kept whatever their visibility or purpose).
+    pub(super) fn read_camera(&mut self, path: &str, state: &Inherited) -> Result<(), UsdError> {
+        let f = |r: &Self, name: &str, fallback: f32| -> Result<f32, UsdError> {
+            Ok(r.f64(path, name)?.map_or(fallback, |v| v as f32))
+        };
+        let clipping_range = self
+            .stage
+            .attr(path, "clippingRange")?
+            .and_then(|v| v.as_tuple::<2>())
+            .map_or(fallback::CLIPPING_RANGE, |r| [r[0] as f32, r[1] as f32]);
+        let camera = Camera {
+            path: path.to_string(),
+            world_from_camera: state.world_from_local.as_mat4(),
+            orthographic: self.token(path, "projection")?.as_deref() == Some("orthographic"),
+            focal_length: f(self, "focalLength", fallback::FOCAL_LENGTH)?,
+            horizontal_aperture: f(self, "horizontalAperture", fallback::HORIZONTAL_APERTURE)?,
+            vertical_aperture: f(self, "verticalAperture", fallback::VERTICAL_APERTURE)?,
+            horizontal_aperture_offset: f(self, "horizontalApertureOffset", 0.0)?,
+            vertical_aperture_offset: f(self, "verticalApertureOffset", 0.0)?,
+            clipping_range,
+        };
+        self.scene.cameras.push(camera);
+        Ok(())
+    }
+
+    /// Applies the stage's RenderSettings: the one named by the `renderSettingsPrimPath` stage
+    /// metadata, else the first RenderSettings prim in traversal order.
+    pub(super) fn read_render_settings(&mut self) -> Result<(), UsdError> {
+        let named = self.stage.metadata("renderSettingsPrimPath").and_then(|v| v.as_str().map(str::to_string));
+        let settings = match named.filter(|n| !n.is_empty()) {
+            Some(n) => n,
+            None => match self.render_settings.first() {
+                Some(s) => s.clone(),
+                None => return Ok(()),
+            },
+        };
+        if let Some(camera) = self.stage.targets(&settings, "camera").into_iter().next() {
+            match self.scene.cameras.iter().position(|c| c.path == camera) {
+                Some(i) => self.scene.default_camera = Some(i),
+                None => self.warn(&settings, format!("camera {camera} is not a camera on the stage; ignored")),
+            }
+        }
+        if let Some(res) = self.stage.attr(&settings, "resolution")?.and_then(|v| v.as_tuple::<2>()) {
+            if res[0] >= 1.0 && res[1] >= 1.0 {
+                self.scene.resolution = Some([res[0] as u32, res[1] as u32]);
+            } else {
+                self.warn(&settings, format!("resolution {res:?} is not positive; ignored"));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,525 @@
+//! UsdGeomMesh (and the implicit Sphere/Cube): topology, triangulation, primvars, world transform.
+
+use std::collections::HashSet;
+
+use glam::{DMat3, DVec2, DVec3, Vec2};
+
+use super::stage::Value;
+use super::{fallback, Inherited, Reader, UsdError};
+use crate::scene::Mesh;
+
+/// Primvar interpolation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Interpolation {
+    Constant,
+    Uniform,
+    Vertex,
+    FaceVarying,
+}
+
+impl Interpolation {
+    fn parse(token: &str) -> Option<Self> {
+        match token {
+            "constant" => Some(Interpolation::Constant),
+            "uniform" => Some(Interpolation::Uniform),
+            // `varying` is linear across the face: per point for a polygonal mesh.
+            "vertex" | "varying" => Some(Interpolation::Vertex),
+            "faceVarying" => Some(Interpolation::FaceVarying),
+            _ => None,
+        }
+    }
+
+    /// Whether vertices must be split per face corner to carry this primvar.
+    fn splits(self) -> bool {
+        matches!(self, Interpolation::Uniform | Interpolation::FaceVarying)
+    }
+}
+
+/// A validated primvar: every lookup is in range.
+struct Primvar<T> {
+    values: Vec<T>,
+    indices: Option<Vec<usize>>,
+    interpolation: Interpolation,
+}
+
+impl<T: Copy> Primvar<T> {
+    /// The value at face `face`, face-vertex `corner` (running index into faceVertexIndices),
+    /// point `point`.
+    fn get(&self, face: usize, corner: usize, point: usize) -> T {
+        let element = match self.interpolation {
+            Interpolation::Constant => 0,
+            Interpolation::Uniform => face,
+            Interpolation::Vertex => point,
+            Interpolation::FaceVarying => corner,
+        };
+        match &self.indices {
+            Some(indices) => self.values[indices[element]],
+            None => self.values[element],
+        }
+    }
+}
+
+/// Element counts a primvar must provide per interpolation.
+struct Topology {
+    faces: usize,
+    points: usize,
+    corners: usize,
+}
+
+/// A triangulated mesh in its local space, before the world transform.
+#[derive(Default)]
+pub(super) struct LocalMesh {
+    pub positions: Vec<DVec3>,
+    pub normals: Vec<DVec3>,
+    pub uvs: Vec<Vec2>,
+    pub triangles: Vec<[u32; 3]>,
+    pub triangle_materials: Vec<u32>,
+    pub double_sided: bool,
+}
+
+impl Reader<'_> {
+    /// Reads a Mesh prim into the scene.
+    pub(super) fn read_mesh(&mut self, path: &str, state: &Inherited) -> Result<(), UsdError> {
+        let points = self.vec3s(path, "points")?.unwrap_or_default();
+        let counts = self.ints(path, "faceVertexCounts")?.unwrap_or_default();
+        let indices = self.ints(path, "faceVertexIndices")?.unwrap_or_default();
+        if points.is_empty() || counts.is_empty() {
+            self.warn(path, "mesh has no points or no faces; skipped");
+            return Ok(());
+        }
+        let mut total = 0usize;
+        for &c in &counts {
+            total += usize::try_from(c).map_err(|_| {
+                self.invalid(path, "faceVertexCounts", format!("negative face vertex count {c}"))
+            })?;
+        }
+        if total != indices.len() {
+            return Err(self.invalid(
+                path,
+                "faceVertexCounts",
+                format!("counts sum to {total} but faceVertexIndices has {} entries", indices.len()),
+            ));
+        }
+        let mut corners_to_points = Vec::with_capacity(indices.len());
+        for &i in &indices {
+            match usize::try_from(i) {
+                Ok(i) if i < points.len() => corners_to_points.push(i),
+                _ => {
+                    return Err(self.invalid(
+                        path,
+                        "faceVertexIndices",
+                        format!("index {i} out of range ({} points)", points.len()),
+                    ))
+                }
+            }
+        }
+        let holes: HashSet<i64> = self.ints(path, "holeIndices")?.unwrap_or_default().into_iter().collect();
+        let left_handed = self.token(path, "orientation")?.as_deref().unwrap_or(fallback::ORIENTATION)
+            == "leftHanded";
+        let scheme =
+            self.token(path, "subdivisionScheme")?.unwrap_or_else(|| fallback::SUBDIVISION_SCHEME.to_string());
+        let subdivided = scheme != "none";
+        if subdivided {
+            self.warn(path, format!("subdivision scheme {scheme} not supported yet; rendering the cage"));
+        }
+        let topology = Topology { faces: counts.len(), points: points.len(), corners: indices.len() };
+
+        // Authored normals are ignored on subdivision surfaces (USD spec); `primvars:normals` wins.
+        let normals = if subdivided {
+            None
+        } else if self.stage.attr(path, "primvars:normals")?.is_some() {
+            self.primvar3(path, "primvars:normals", Interpolation::Constant, &topology)?
+        } else {
+            self.primvar3(path, "normals", Interpolation::Vertex, &topology)?
+        };
+        let uvs = match self.st_primvar_name(path) {
+            Some(name) => self.primvar2(path, &name, &topology)?,
+            None => None,
+        };
+        let split = normals.as_ref().is_some_and(|p| p.interpolation.splits())
+            || uvs.as_ref().is_some_and(|p| p.interpolation.splits());
+        let face_materials = self.mesh_face_materials(path, counts.len())?;
+        let double_sided = self.bool(path, "doubleSided")?.unwrap_or(fallback::DOUBLE_SIDED);
+
+        let mut out = LocalMesh { double_sided, ..LocalMesh::default() };
+        if !split {
+            out.positions = points.clone();
+            if let Some(n) = &normals {
+                out.normals = (0..points.len()).map(|p| n.get(0, 0, p)).collect();
+            }
+            if let Some(uv) = &uvs {
+                out.uvs = (0..points.len()).map(|p| uv.get(0, 0, p).as_vec2()).collect();
+            }
+        }
+        let mut degenerate = 0usize;
+        let mut start = 0usize;
+        let mut polygon = Vec::new();
+        for (face, &count) in counts.iter().enumerate() {
+            let n = count as usize;
+            let corners = start..start + n;
+            start += n;
+            if n < 3 {
+                degenerate += 1;
+                continue;
+            }
+            if holes.contains(&(face as i64)) {
+                continue;
+            }
+            polygon.clear();
+            polygon.extend(corners.clone().map(|c| points[corners_to_points[c]]));
+            let triangles = triangulate(&polygon);
+            let vertex_of = |k: usize| -> u32 { corners_to_points[corners.start + k] as u32 };
+            let base = out.positions.len() as u32;
+            if split {
+                for c in corners.clone() {
+                    let p = corners_to_points[c];
+                    out.positions.push(points[p]);
+                    if let Some(nv) = &normals {
+                        out.normals.push(nv.get(face, c, p));
+                    }
+                    if let Some(uv) = &uvs {
+                        out.uvs.push(uv.get(face, c, p).as_vec2());
+                    }
+                }
+            }
+            for [a, b, c] in triangles {
+                let tri = if split {
+                    [base + a as u32, base + b as u32, base + c as u32]
+                } else {
+                    [vertex_of(a), vertex_of(b), vertex_of(c)]
+                };
+                out.triangles.push(if left_handed { [tri[0], tri[2], tri[1]] } else { tri });
+                out.triangle_materials.push(face_materials[face]);
+            }
+        }
+        if degenerate > 0 {
+            self.warn(path, format!("{degenerate} degenerate faces (fewer than 3 vertices) skipped"));
+        }
+        self.push_mesh(path, out, state);
+        Ok(())
+    }
+
+    /// The name of the texture-coordinate primvar: `primvars:st`, else the first `texCoord2f[]`.
+    fn st_primvar_name(&self, path: &str) -> Option<String> {
+        let names = self.stage.property_names(path);
+        if names.iter().any(|n| n == "primvars:st") {
+            return Some("primvars:st".into());
+        }
+        names.into_iter().find(|n| {
+            n.starts_with("primvars:")
+                && !n.ends_with(":indices")
+                && self.stage.attr_type(path, n).as_deref() == Some("texCoord2f[]")
+        })
+    }
+
+    fn interpolation(&mut self, path: &str, name: &str, default: Interpolation) -> Option<Interpolation> {
+        match self.stage.attr_metadata(path, name, "interpolation") {
+            None => Some(default),
+            Some(v) => match v.as_str().and_then(Interpolation::parse) {
+                Some(i) => Some(i),
+                None => {
+                    self.warn(path, format!("{name} has unknown interpolation {v:?}; ignored"));
+                    None
+                }
+            },
+        }
+    }
+
+    /// Reads and validates a primvar whose elements have `N` components.
+    fn primvar<const N: usize>(
+        &mut self,
+        path: &str,
+        name: &str,
+        default: Interpolation,
+        topology: &Topology,
+    ) -> Result<Option<Primvar<[f64; N]>>, UsdError> {
+        let Some(value) = self.stage.attr(path, name)? else { return Ok(None) };
+        let Some(values) = value.as_array::<N>() else {
+            self.warn(path, format!("{name} is not an array of {N}-vectors; ignored"));
+            return Ok(None);
+        };
+        let Some(interpolation) = self.interpolation(path, name, default) else { return Ok(None) };
+        let expected = match interpolation {
+            Interpolation::Constant => 1,
+            Interpolation::Uniform => topology.faces,
+            Interpolation::Vertex => topology.points,
+            Interpolation::FaceVarying => topology.corners,
+        };
+        let indices = match self.stage.attr(path, &format!("{name}:indices"))? {
+            Some(Value::Array { data, arity: 1 }) => Some(data),
+            _ => None,
+        };
+        let indices = match indices {
+            Some(indices) => {
+                let valid = indices.len() >= expected
+                    && indices.iter().all(|&i| i >= 0.0 && (i as usize) < values.len());
+                if !valid {
+                    self.warn(
+                        path,
+                        format!(
+                            "{name}:indices has {} entries (need {expected}) or indexes past {} values; ignored",
+                            indices.len(),
+                            values.len()
+                        ),
+                    );
+                    return Ok(None);
+                }
+                Some(indices.into_iter().map(|i| i as usize).collect())
+            }
+            None => {
+                if values.len() < expected {
+                    self.warn(
+                        path,
+                        format!("{name} has {} values, {interpolation:?} needs {expected}; ignored", values.len()),
+                    );
+                    return Ok(None);
+                }
+                None
+            }
+        };
+        Ok(Some(Primvar { values, indices, interpolation }))
+    }
+
+    fn primvar3(
+        &mut self,
+        path: &str,
+        name: &str,
+        default: Interpolation,
+        topology: &Topology,
+    ) -> Result<Option<Primvar<DVec3>>, UsdError> {
+        Ok(self.primvar::<3>(path, name, default, topology)?.map(|p| Primvar {
+            values: p.values.into_iter().map(DVec3::from_array).collect(),
+            indices: p.indices,
+            interpolation: p.interpolation,
+        }))
+    }
+
+    fn primvar2(&mut self, path: &str, name: &str, topology: &Topology) -> Result<Option<Primvar<DVec2>>, UsdError> {
+        Ok(self.primvar::<2>(path, name, Interpolation::Constant, topology)?.map(|p| Primvar {
+            values: p.values.into_iter().map(DVec2::from_array).collect(),
+            indices: p.indices,
+            interpolation: p.interpolation,
+        }))
+    }
+
+    /// Tessellates an implicit Sphere or Cube.
+    pub(super) fn read_shape(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
+        let mut out = if ty == "Sphere" {
+            let radius = self.f64(path, "radius")?.unwrap_or(fallback::SPHERE_SHAPE_RADIUS);
+            sphere(radius, 32, 16)
+        } else {
+            let size = self.f64(path, "size")?.unwrap_or(fallback::CUBE_SIZE);
+            cube(size)
+        };
+        let material = self.gprim_material(path)?;
+        out.triangle_materials = vec![material; out.triangles.len()];
+        out.double_sided = self.bool(path, "doubleSided")?.unwrap_or(fallback::DOUBLE_SIDED);
+        self.push_mesh(path, out, state);
+        Ok(())
+    }
+
+    /// Transforms a local mesh to world space and adds it to the scene.
+    ///
+    /// A transform with negative determinant mirrors the surface; the winding is flipped so the
+    /// triangles stay counter-clockwise about the (inverse-transpose transformed) normals, as Hydra
+    /// does (`orientation` XOR mirrored).
+    pub(super) fn push_mesh(&mut self, path: &str, local: LocalMesh, state: &Inherited) {
+        let world_from_local = state.world_from_local;
+        let normal_from_local = DMat3::from_mat4(world_from_local).inverse().transpose();
+        let mirrored = world_from_local.determinant() < 0.0;
+        let mut triangles = local.triangles;
+        if mirrored {
+            for t in &mut triangles {
+                t.swap(1, 2);
+            }
+        }
+        self.scene.meshes.push(Mesh {
+            path: path.to_string(),
+            positions: local.positions.iter().map(|&p| world_from_local.transform_point3(p).as_vec3()).collect(),
+            normals: local.normals.iter().map(|&n| (normal_from_local * n).normalize_or_zero().as_vec3()).collect(),
+            uvs: local.uvs,
+            triangles,
+            triangle_materials: local.triangle_materials,
+            double_sided: local.double_sided,
+        });
+    }
+}
+
+/// Triangulates a simple polygon, returning corner-index triples with the polygon's winding.
+///
+/// Convex polygons (the common case) are fanned from corner 0; concave ones are ear-clipped in
+/// the polygon's plane (Newell normal). A self-intersecting polygon that ear clipping cannot finish
+/// has its remainder fanned.
+pub(super) fn triangulate(polygon: &[DVec3]) -> Vec<[usize; 3]> {
+    let n = polygon.len();
+    if n < 3 {
+        return Vec::new();
+    }
+    let fan = |ids: &[usize]| -> Vec<[usize; 3]> { (1..ids.len() - 1).map(|i| [ids[0], ids[i], ids[i + 1]]).collect() };
+    let all: Vec<usize> = (0..n).collect();
+    if n == 3 {
+        return fan(&all);
+    }
+    // Newell normal: robust for non-planar and concave polygons.
+    let mut normal = DVec3::ZERO;
+    for i in 0..n {
+        let (a, b) = (polygon[i], polygon[(i + 1) % n]);
+        normal += DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    }
+    if normal.length_squared() == 0.0 {
+        return fan(&all);
+    }
+    let normal = normal.normalize();
+    let u = normal.any_orthonormal_vector();
+    let v = normal.cross(u);
+    // (u, v, normal) is right-handed, so the polygon winds counter-clockwise in (u, v).
+    let p2: Vec<DVec2> = polygon.iter().map(|p| DVec2::new(p.dot(u), p.dot(v))).collect();
+    let cross = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
+    let convex = (0..n).all(|i| cross(p2[(i + n - 1) % n], p2[i], p2[(i + 1) % n]) >= 0.0);
+    if convex {
+        return fan(&all);
+    }
+    let mut remaining = all;
+    let mut out = Vec::with_capacity(n - 2);
+    while remaining.len() > 3 {
+        let m = remaining.len();
+        let ear = (0..m).find(|&i| {
+            let (a, b, c) = (remaining[(i + m - 1) % m], remaining[i], remaining[(i + 1) % m]);
+            if cross(p2[a], p2[b], p2[c]) <= 0.0 {
+                return false; // reflex or degenerate corner
+            }
+            // No other remaining vertex may lie inside the candidate ear.
+            !remaining.iter().any(|&o| {
+                o != a
+                    && o != b
+                    && o != c
+                    && cross(p2[a], p2[b], p2[o]) >= 0.0
+                    && cross(p2[b], p2[c], p2[o]) >= 0.0
+                    && cross(p2[c], p2[a], p2[o]) >= 0.0
+            })
+        });
+        let Some(i) = ear else { break };
+        out.push([remaining[(i + m - 1) % m], remaining[i], remaining[(i + 1) % m]]);
+        remaining.remove(i);
+    }
+    out.extend(fan(&remaining));
+    out
+}
+
+/// A UV sphere of `radius` with per-vertex normals, `segments` around and `rings` from pole to pole.
+fn sphere(radius: f64, segments: usize, rings: usize) -> LocalMesh {
+    let mut m = LocalMesh::default();
+    for r in 0..=rings {
+        let theta = std::f64::consts::PI * r as f64 / rings as f64;
+        for s in 0..=segments {
+            let phi = std::f64::consts::TAU * s as f64 / segments as f64;
+            // Y up, like USD's Sphere (axis Y is the default for the generated mesh; the sphere is symmetric).
+            let n = DVec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
+            m.positions.push(n * radius);
+            m.normals.push(n);
+            m.uvs.push(Vec2::new(s as f32 / segments as f32, 1.0 - r as f32 / rings as f32));
+        }
+    }
+    let row = segments as u32 + 1;
+    for r in 0..rings as u32 {
+        for s in 0..segments as u32 {
+            let (a, b) = (r * row + s, (r + 1) * row + s);
+            if r != 0 {
+                m.triangles.push([a, b, a + 1]);
+            }
+            if r + 1 != rings as u32 {
+                m.triangles.push([a + 1, b, b + 1]);
+            }
+        }
+    }
+    m
+}
+
+/// An axis-aligned cube of edge `size` centred at the origin, flat-shaded.
+fn cube(size: f64) -> LocalMesh {
+    let mut m = LocalMesh::default();
+    let h = size * 0.5;
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            let mut n = DVec3::ZERO;
+            n[axis] = sign;
+            // t × b = n, so the quad below winds counter-clockwise seen from outside.
+            let t = DVec3::AXES[(axis + 1) % 3];
+            let b = n.cross(t);
+            let base = m.positions.len() as u32;
+            for (i, j) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                m.positions.push((n + t * i + b * j) * h);
+                m.normals.push(n);
+            }
+            m.triangles.push([base, base + 1, base + 2]);
+            m.triangles.push([base, base + 2, base + 3]);
+        }
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn area(polygon: &[DVec3], tris: &[[usize; 3]]) -> f64 {
+        tris.iter()
+            .map(|&[a, b, c]| 0.5 * (polygon[b] - polygon[a]).cross(polygon[c] - polygon[a]).length())
+            .sum()
+    }
+
+    #[test]
+    fn triangulation_counts() {
+        let quad = [DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y];
+        assert_eq!(triangulate(&quad).len(), 2);
+        let pentagon: Vec<DVec3> = (0..5)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / 5.0;
+                DVec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        assert_eq!(triangulate(&pentagon).len(), 3);
+    }
+
+    #[test]
+    fn concave_l_shape_is_ear_clipped() {
+        // L of three unit squares, area 3, with a reflex corner at (1, 1); in the XZ plane, wound
+        // so its normal is +Y... and the plane orientation must not matter.
+        let l = [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (1.0, 1.0), (1.0, 2.0), (0.0, 2.0)];
+        for poly in [
+            l.iter().map(|&(x, y)| DVec3::new(x, y, 0.0)).collect::<Vec<_>>(),
+            l.iter().map(|&(x, y)| DVec3::new(x, 5.0, -y)).collect::<Vec<_>>(),
+            l.iter().rev().map(|&(x, y)| DVec3::new(x, y, 0.0)).collect::<Vec<_>>(),
+        ] {
+            let tris = triangulate(&poly);
+            assert_eq!(tris.len(), 4);
+            assert!((area(&poly, &tris) - 3.0).abs() < 1e-12, "area {}", area(&poly, &tris));
+            // Every triangle keeps the polygon's winding.
+            let newell: DVec3 = (0..poly.len()).map(|i| poly[i].cross(poly[(i + 1) % poly.len()])).sum();
+            for &[a, b, c] in &tris {
+                assert!((poly[b] - poly[a]).cross(poly[c] - poly[a]).dot(newell) > 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn cube_faces_point_outwards() {
+        let m = cube(2.0);
+        assert_eq!(m.triangles.len(), 12);
+        for t in &m.triangles {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            assert!(n.dot((a + b + c) / 3.0) > 0.0);
+        }
+    }
+
+    #[test]
+    fn sphere_faces_point_outwards() {
+        let m = sphere(1.0, 8, 4);
+        for t in &m.triangles {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            assert!(n.dot((a + b + c) / 3.0) > 0.0);
+        }
+    }
+}

@@ -1,0 +1,513 @@
+//! USD reader: a composed stage becomes a [`Scene`](crate::Scene).
+//!
+//! Composition (sublayers, references, payloads, variants, instancing) is done by the `openusd`
+//! crate behind the thin [`stage`] wrapper; everything USD *means* beyond composition is done here,
+//! because the crate applies no schema fallbacks and computes no transforms:
+//!
+//! - [`xform`]: the xformOp stack; local-to-world is accumulated during the walk in `f64`.
+//! - [`mesh`]: Mesh topology, n-gon triangulation, primvars (normals, st), face-corner splitting,
+//!   the implicit Sphere/Cube shapes.
+//! - [`material`]: material binding resolution and UsdPreviewSurface constant inputs, with the
+//!   displayColor fallback for unbound gprims.
+//! - [`lux`]: UsdLux lights, UsdGeomCamera, UsdRender settings.
+//!
+//! The walk itself ([`Reader::visit`]) carries the inherited state down the hierarchy: the world
+//! transform, visibility, purpose. Instances are expanded: instanceable prims are walked through
+//! their instance proxies, PointInstancer prototypes are walked once per instance.
+//!
+//! Schema fallback values live in [`fallback`], in one place.
+
+mod lux;
+mod material;
+mod mesh;
+mod stage;
+mod xform;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::{HashMap, HashSet};
+use std::fmt;
+use std::path::Path;
+
+use glam::{DMat4, DQuat, DVec3};
+
+use crate::scene::{Scene, UpAxis};
+use stage::{Stage, Value};
+
+/// USD schema fallbacks (values used when an attribute is unauthored).
+pub mod fallback {
+    /// `Mesh.subdivisionScheme`.
+    pub const SUBDIVISION_SCHEME: &str = "catmullClark";
+    /// `Mesh.orientation`.
+    pub const ORIENTATION: &str = "rightHanded";
+    /// `Gprim.doubleSided`.
+    pub const DOUBLE_SIDED: bool = false;
+    /// `LightAPI.intensity`.
+    pub const LIGHT_INTENSITY: f32 = 1.0;
+    /// `LightAPI.exposure`.
+    pub const LIGHT_EXPOSURE: f32 = 0.0;
+    /// `LightAPI.color`.
+    pub const LIGHT_COLOR: [f32; 3] = [1.0, 1.0, 1.0];
+    /// `LightAPI.normalize`.
+    pub const LIGHT_NORMALIZE: bool = false;
+    /// `DistantLight.angle` (degrees).
+    pub const DISTANT_ANGLE: f32 = 0.53;
+    /// `SphereLight.radius`.
+    pub const SPHERE_RADIUS: f32 = 0.5;
+    /// `SphereLight.treatAsPoint`.
+    pub const SPHERE_TREAT_AS_POINT: bool = false;
+    /// `RectLight.width` and `.height`.
+    pub const RECT_SIZE: f32 = 1.0;
+    /// `DiskLight.radius`.
+    pub const DISK_RADIUS: f32 = 0.5;
+    /// `Camera.focalLength`.
+    pub const FOCAL_LENGTH: f32 = 50.0;
+    /// `Camera.horizontalAperture`.
+    pub const HORIZONTAL_APERTURE: f32 = 20.955;
+    /// `Camera.verticalAperture`.
+    pub const VERTICAL_APERTURE: f32 = 15.2908;
+    /// `Camera.clippingRange`.
+    pub const CLIPPING_RANGE: [f32; 2] = [1.0, 1_000_000.0];
+    /// Stage `metersPerUnit`.
+    pub const METERS_PER_UNIT: f64 = 0.01;
+    /// `Sphere.radius`.
+    pub const SPHERE_SHAPE_RADIUS: f64 = 1.0;
+    /// `Cube.size`.
+    pub const CUBE_SIZE: f64 = 2.0;
+}
+
+/// How to read a stage.
+#[derive(Clone, Debug)]
+pub struct LoadOptions {
+    /// Load payload arcs (default `true`).
+    pub load_payloads: bool,
+    /// A missing or unreadable sublayer/reference/payload becomes a warning instead of an error.
+    pub lenient: bool,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        LoadOptions { load_payloads: true, lenient: false }
+    }
+}
+
+/// What went wrong; see [`UsdError`] for where.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum UsdErrorKind {
+    /// The root layer could not be opened or parsed.
+    #[error("cannot open stage: {0}")]
+    Open(String),
+    /// A sublayer, reference or payload names a file that does not exist.
+    #[error("{arc} @{asset}@ not found")]
+    MissingAsset {
+        /// `sublayer`, `reference` or `payload`.
+        arc: String,
+        /// The asset path as authored.
+        asset: String,
+    },
+    /// A sublayer, reference or payload file exists but could not be read.
+    #[error("{arc} @{asset}@ could not be read: {reason}")]
+    MalformedAsset {
+        /// `sublayer`, `reference` or `payload`.
+        arc: String,
+        /// The asset path as authored.
+        asset: String,
+        /// The parser's message.
+        reason: String,
+    },
+    /// Authored data is inconsistent (index out of range, wrong type, ...).
+    #[error("{0}")]
+    Invalid(String),
+    /// Any other failure reported by the composition engine.
+    #[error("{0}")]
+    Stage(String),
+}
+
+/// A USD reading error with its location: the layer file, the prim and the attribute where known.
+///
+/// Displays as `layer: /Prim/Path.attribute: message`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UsdError {
+    layer: String,
+    prim: Option<String>,
+    attribute: Option<String>,
+    kind: UsdErrorKind,
+}
+
+impl UsdError {
+    fn new(layer: &str, kind: UsdErrorKind) -> Self {
+        UsdError { layer: layer.to_string(), prim: None, attribute: None, kind }
+    }
+
+    fn at(mut self, prim: &str) -> Self {
+        self.prim = Some(prim.to_string());
+        self
+    }
+
+    fn attribute(mut self, name: &str) -> Self {
+        self.attribute = Some(name.to_string());
+        self
+    }
+
+    fn in_layer(mut self, layer: String) -> Self {
+        self.layer = layer;
+        self
+    }
+
+    /// The layer file the problem was authored in (or that asked for the missing file).
+    pub fn layer(&self) -> &str {
+        &self.layer
+    }
+
+    /// The prim path, if known.
+    pub fn prim(&self) -> Option<&str> {
+        self.prim.as_deref()
+    }
+
+    /// The attribute name, if known.
+    pub fn attribute_name(&self) -> Option<&str> {
+        self.attribute.as_deref()
+    }
+
+    /// What went wrong.
+    pub fn kind(&self) -> &UsdErrorKind {
+        &self.kind
+    }
+}
+
+impl fmt::Display for UsdError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: ", self.layer)?;
+        match (&self.prim, &self.attribute) {
+            (Some(prim), Some(attr)) => write!(f, "{prim}.{attr}: ")?,
+            (Some(prim), None) => write!(f, "{prim}: ")?,
+            _ => {}
+        }
+        write!(f, "{}", self.kind)
+    }
+}
+
+impl std::error::Error for UsdError {}
+
+/// Reads the stage rooted at `path` into a world-space [`Scene`].
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
+    let stage = Stage::open(path, options)?;
+    let prims = stage.traverse()?;
+    // Prim indices compose lazily, so composition errors are complete only after the traversal.
+    let mut scene = Scene { meters_per_unit: fallback::METERS_PER_UNIT, ..Scene::default() };
+    for issue in stage.composition_issues() {
+        if issue.missing_asset && !options.lenient {
+            let mut error = UsdError::new(&issue.layer, issue.kind);
+            if let Some(prim) = &issue.prim {
+                error = error.at(prim);
+            }
+            return Err(error);
+        }
+        let prim = issue.prim.clone().unwrap_or_else(|| "/".to_string());
+        scene.warn(prim, format!("{}: {}", issue.layer, issue.kind));
+    }
+    let mut reader = Reader::new(&stage, &prims, scene);
+    reader.read_stage_metadata();
+    reader.collect_instancer_prototypes()?;
+    reader.visit("/", &Inherited::root(), false)?;
+    reader.finish()?;
+    Ok(reader.scene)
+}
+
+/// `purpose` of a prim, inherited from the nearest ancestor that authors one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Purpose {
+    Default,
+    Render,
+    Proxy,
+    Guide,
+}
+
+/// State inherited down the namespace walk.
+#[derive(Clone, Debug)]
+struct Inherited {
+    world_from_local: DMat4,
+    invisible: bool,
+    purpose: Purpose,
+}
+
+impl Inherited {
+    fn root() -> Self {
+        Inherited { world_from_local: DMat4::IDENTITY, invisible: false, purpose: Purpose::Default }
+    }
+
+    /// Gprims and lights are drawn when visible with purpose default or render.
+    fn drawn(&self) -> bool {
+        !self.invisible && matches!(self.purpose, Purpose::Default | Purpose::Render)
+    }
+}
+
+/// Prim types we know to be renderable but do not read yet (warned once per prim).
+const UNSUPPORTED: &[&str] = &[
+    "BasisCurves",
+    "NurbsCurves",
+    "HermiteCurves",
+    "Points",
+    "NurbsPatch",
+    "TetMesh",
+    "Cylinder",
+    "Cylinder_1",
+    "Cone",
+    "Capsule",
+    "Capsule_1",
+    "Plane",
+    "Volume",
+    "OpenVDBAsset",
+    "Field3DAsset",
+    "Skeleton",
+    "SkelRoot",
+];
+
+/// Prim types whose subtrees never hold geometry we draw.
+const SHADING: &[&str] = &["Material", "Shader", "NodeGraph", "GeomSubset", "RenderSettings", "RenderProduct"];
+
+struct Reader<'a> {
+    stage: &'a Stage,
+    scene: Scene,
+    /// Child paths per parent path, restricted to the traversal region.
+    children: HashMap<String, Vec<String>>,
+    /// Root prims of PointInstancer prototypes: drawn only through their instancer.
+    instancer_prototypes: HashSet<String>,
+    /// Material index per material path (including `<gprim>.displayColor`).
+    material_index: HashMap<String, u32>,
+    /// RenderSettings prims in traversal order.
+    render_settings: Vec<String>,
+    /// Direct binding per (prim, first relationship name tried).
+    binding_cache: HashMap<(String, &'static str), Option<(String, bool)>>,
+}
+
+fn parent_of(path: &str) -> &str {
+    match path.rfind('/') {
+        Some(0) | None => "/",
+        Some(i) => &path[..i],
+    }
+}
+
+impl<'a> Reader<'a> {
+    fn new(stage: &'a Stage, prims: &[String], scene: Scene) -> Self {
+        let mut children: HashMap<String, Vec<String>> = HashMap::new();
+        for prim in prims {
+            children.entry(parent_of(prim).to_string()).or_default().push(prim.clone());
+        }
+        Reader {
+            stage,
+            scene,
+            children,
+            instancer_prototypes: HashSet::new(),
+            material_index: HashMap::new(),
+            render_settings: Vec::new(),
+            binding_cache: HashMap::new(),
+        }
+    }
+
+    fn warn(&mut self, prim: &str, message: impl Into<String>) {
+        self.scene.warn(prim, message);
+    }
+
+    fn read_stage_metadata(&mut self) {
+        if let Some(up) = self.stage.metadata("upAxis") {
+            match up.as_str() {
+                Some("Z") => self.scene.up_axis = UpAxis::Z,
+                Some("Y") => self.scene.up_axis = UpAxis::Y,
+                other => self.scene.warn("/", format!("unknown upAxis {other:?}; using Y")),
+            }
+        }
+        if let Some(mpu) = self.stage.metadata("metersPerUnit").and_then(|v| v.as_f64()) {
+            self.scene.meters_per_unit = mpu;
+        }
+    }
+
+    /// Finds every PointInstancer's prototypes so the plain walk can skip them.
+    fn collect_instancer_prototypes(&mut self) -> Result<(), UsdError> {
+        let instancers: Vec<String> = self
+            .children
+            .values()
+            .flatten()
+            .filter(|p| self.stage.type_name(p) == "PointInstancer")
+            .cloned()
+            .collect();
+        for instancer in instancers {
+            for proto in self.stage.targets(&instancer, "prototypes") {
+                self.instancer_prototypes.insert(proto);
+            }
+        }
+        Ok(())
+    }
+
+    /// Walks `path` and its subtree under the `parent` state.
+    fn visit(&mut self, path: &str, parent: &Inherited, via_instancer: bool) -> Result<(), UsdError> {
+        let mut state = parent.clone();
+        let mut ty = String::new();
+        if path != "/" {
+            if !via_instancer && self.instancer_prototypes.contains(path) {
+                return Ok(());
+            }
+            ty = self.stage.type_name(path);
+            if SHADING.contains(&ty.as_str()) {
+                if ty == "RenderSettings" {
+                    self.render_settings.push(path.to_string());
+                }
+                return Ok(());
+            }
+            if self.stage.is_instance(path) {
+                self.scene.instance_count += 1;
+            }
+            let mut warnings = Vec::new();
+            let local = xform::read_local(self.stage, path, &mut |w| warnings.push(w))?;
+            for w in warnings {
+                self.warn(path, w);
+            }
+            state.world_from_local =
+                if local.resets { local.matrix } else { parent.world_from_local * local.matrix };
+            if self.token(path, "visibility")?.as_deref() == Some("invisible") {
+                state.invisible = true;
+            }
+            match self.token(path, "purpose")?.as_deref() {
+                Some("render") => state.purpose = Purpose::Render,
+                Some("proxy") => state.purpose = Purpose::Proxy,
+                Some("guide") => state.purpose = Purpose::Guide,
+                Some("default") => state.purpose = Purpose::Default,
+                _ => {}
+            }
+            self.read_prim(path, &ty, &state)?;
+        }
+        let children = self.children.get(path).cloned().unwrap_or_default();
+        for child in children {
+            self.visit(&child, &state, false)?;
+        }
+        Ok(())
+    }
+
+    /// Reads one prim of type `ty` with its resolved state.
+    fn read_prim(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
+        match ty {
+            "Camera" => self.read_camera(path, state),
+            "Mesh" if state.drawn() => self.read_mesh(path, state),
+            "Sphere" | "Cube" if state.drawn() => self.read_shape(path, ty, state),
+            "PointInstancer" if state.drawn() => self.expand_point_instancer(path, state),
+            "DomeLight" | "DomeLight_1" | "DistantLight" | "SphereLight" | "RectLight" | "DiskLight"
+                if state.drawn() =>
+            {
+                self.read_light(path, ty, state)
+            }
+            "CylinderLight" | "GeometryLight" | "PortalLight" | "PluginLight" | "LightFilter"
+            | "PluginLightFilter" => {
+                self.warn(path, format!("{ty} not supported yet; ignored"));
+                Ok(())
+            }
+            _ if UNSUPPORTED.contains(&ty) => {
+                self.warn(path, format!("{ty} prims not supported yet; ignored"));
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Expands a PointInstancer: each visible instance walks its prototype subtree.
+    fn expand_point_instancer(&mut self, path: &str, state: &Inherited) -> Result<(), UsdError> {
+        let prototypes = self.stage.targets(path, "prototypes");
+        let proto_indices = self.ints(path, "protoIndices")?.unwrap_or_default();
+        let positions = self.vec3s(path, "positions")?.unwrap_or_default();
+        let n = proto_indices.len();
+        if positions.len() != n {
+            self.warn(
+                path,
+                format!("PointInstancer positions has {} entries for {n} protoIndices; ignored", positions.len()),
+            );
+            return Ok(());
+        }
+        let orientations = match self.stage.attr(path, "orientations")? {
+            Some(Value::QuatArray(q)) if q.len() == n => Some(q),
+            _ => match self.stage.attr(path, "orientationsf")? {
+                Some(Value::QuatArray(q)) if q.len() == n => Some(q),
+                _ => None,
+            },
+        };
+        let scales = self.vec3s(path, "scales")?.filter(|s| s.len() == n);
+        let ids = self.ints(path, "ids")?.filter(|ids| ids.len() == n);
+        let invisible: HashSet<i64> = self.ints(path, "invisibleIds")?.unwrap_or_default().into_iter().collect();
+        let mut expanded = 0;
+        for i in 0..n {
+            let id = ids.as_ref().map_or(i as i64, |ids| ids[i]);
+            if invisible.contains(&id) {
+                continue;
+            }
+            let Some(proto) = usize::try_from(proto_indices[i]).ok().and_then(|p| prototypes.get(p)) else {
+                self.warn(path, format!("protoIndices[{i}] = {} names no prototype; skipped", proto_indices[i]));
+                continue;
+            };
+            let rotation = orientations.as_ref().map_or(DQuat::IDENTITY, |q| {
+                let [x, y, z, w] = q[i];
+                DQuat::from_xyzw(x, y, z, w).normalize()
+            });
+            let scale = scales.as_ref().map_or(DVec3::ONE, |s| s[i]);
+            let instancer_from_instance =
+                DMat4::from_scale_rotation_translation(scale, rotation, positions[i]);
+            let instance = Inherited {
+                world_from_local: state.world_from_local * instancer_from_instance,
+                ..state.clone()
+            };
+            let proto = proto.clone();
+            self.visit(&proto, &instance, true)?;
+            expanded += 1;
+        }
+        self.scene.instance_count += expanded;
+        Ok(())
+    }
+
+    /// Resolves the default camera and resolution once every prim has been read.
+    fn finish(&mut self) -> Result<(), UsdError> {
+        self.read_render_settings()?;
+        if self.scene.default_camera.is_none() && !self.scene.cameras.is_empty() {
+            self.scene.default_camera = Some(0);
+        }
+        Ok(())
+    }
+
+    // --- typed attribute helpers -------------------------------------------------------------
+
+    fn invalid(&self, prim: &str, attr: &str, message: String) -> UsdError {
+        UsdError::new(&self.stage.authoring_layer(prim, attr), UsdErrorKind::Invalid(message))
+            .at(prim)
+            .attribute(attr)
+    }
+
+    fn token(&self, prim: &str, attr: &str) -> Result<Option<String>, UsdError> {
+        Ok(self.stage.attr(prim, attr)?.and_then(|v| v.as_str().map(str::to_string)))
+    }
+
+    fn f64(&self, prim: &str, attr: &str) -> Result<Option<f64>, UsdError> {
+        Ok(self.stage.attr(prim, attr)?.and_then(|v| v.as_f64()))
+    }
+
+    fn bool(&self, prim: &str, attr: &str) -> Result<Option<bool>, UsdError> {
+        Ok(self.f64(prim, attr)?.map(|v| v != 0.0))
+    }
+
+    fn ints(&self, prim: &str, attr: &str) -> Result<Option<Vec<i64>>, UsdError> {
+        match self.stage.attr(prim, attr)? {
+            None => Ok(None),
+            Some(v) => match v.as_ints() {
+                Some(ints) => Ok(Some(ints)),
+                None => Err(self.invalid(prim, attr, "expected an integer array".into())),
+            },
+        }
+    }
+
+    fn vec3s(&self, prim: &str, attr: &str) -> Result<Option<Vec<DVec3>>, UsdError> {
+        match self.stage.attr(prim, attr)? {
+            None => Ok(None),
+            Some(v) => match v.as_array::<3>() {
+                Some(a) => Ok(Some(a.into_iter().map(DVec3::from_array).collect())),
+                None => Err(self.invalid(prim, attr, "expected a 3-vector array".into())),
+            },
+        }
+    }
+}

@@ -1,0 +1,376 @@
+//! The reader's view of a composed stage: the only module that touches the `openusd` crate.
+//!
+//! Everything the reader needs is a handful of queries (children, type name, attribute value and
+//! metadata, connections, relationship targets, stage metadata, composition errors) over plain
+//! `&str` prim paths, with values converted once into the small [`Value`] enum. Swapping the
+//! composition backend means rewriting this file only.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use openusd::{pcp, sdf, usd};
+
+use super::{LoadOptions, UsdError, UsdErrorKind};
+
+/// A resolved attribute value, reduced to what the reader consumes.
+///
+/// Precision is widened to `f64`; `token`, `string` and `asset` all become [`Value::Str`].
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Value {
+    /// `bool`, any integer or floating-point scalar.
+    Scalar(f64),
+    /// `token`, `string`, `asset` (the authored path).
+    Str(String),
+    /// A fixed-size tuple: `vec2/3/4` of any precision (quaternions are [`Value::Quat`]).
+    Tuple(Vec<f64>),
+    /// A quaternion as `[x, y, z, w]` (USD authors `(w, x, y, z)`; reordered here).
+    Quat([f64; 4]),
+    /// A `matrix4d` in USD's row-major, row-vector layout (translation in elements 12..15).
+    Matrix([f64; 16]),
+    /// A numeric array; `arity` numbers per element (1 for `float[]`, 3 for `point3f[]`, ...).
+    Array { data: Vec<f64>, arity: usize },
+    /// A quaternion array, each `[x, y, z, w]`.
+    QuatArray(Vec<[f64; 4]>),
+    /// `token[]` / `string[]` / `asset[]`.
+    StrArray(Vec<String>),
+    /// Anything else (dictionaries, list ops, matrix arrays, ...).
+    Other,
+}
+
+impl Value {
+    /// The scalar, if this is one.
+    pub(crate) fn as_f64(&self) -> Option<f64> {
+        match self {
+            Value::Scalar(v) => Some(*v),
+            _ => None,
+        }
+    }
+
+    /// The string, if this is a token/string/asset.
+    pub(crate) fn as_str(&self) -> Option<&str> {
+        match self {
+            Value::Str(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// A tuple of exactly `N` components.
+    pub(crate) fn as_tuple<const N: usize>(&self) -> Option<[f64; N]> {
+        match self {
+            Value::Tuple(t) if t.len() == N => t.as_slice().try_into().ok(),
+            _ => None,
+        }
+    }
+
+    /// Number of elements of an array value (`None` for non-arrays).
+    pub(crate) fn array_len(&self) -> Option<usize> {
+        match self {
+            Value::Array { data, arity } => Some(data.len() / arity.max(&1)),
+            Value::QuatArray(q) => Some(q.len()),
+            Value::StrArray(s) => Some(s.len()),
+            _ => None,
+        }
+    }
+
+    /// An array with `N` numbers per element as fixed-size elements.
+    pub(crate) fn as_array<const N: usize>(&self) -> Option<Vec<[f64; N]>> {
+        match self {
+            Value::Array { data, arity } if *arity == N => {
+                Some(data.chunks_exact(N).map(|c| c.try_into().expect("chunk of N")).collect())
+            }
+            _ => None,
+        }
+    }
+
+    /// A scalar array as integers (`int[]`, `uint[]`, ...).
+    pub(crate) fn as_ints(&self) -> Option<Vec<i64>> {
+        match self {
+            Value::Array { data, arity: 1 } => Some(data.iter().map(|&v| v as i64).collect()),
+            _ => None,
+        }
+    }
+}
+
+fn tuple<T: Copy + Into<f64>>(v: &[T]) -> Value {
+    Value::Tuple(v.iter().map(|&x| x.into()).collect())
+}
+
+fn array<T: Copy + Into<f64>>(v: &[T], arity: usize) -> Value {
+    Value::Array { data: v.iter().map(|&x| x.into()).collect(), arity }
+}
+
+fn h(x: openusd::gf::f16) -> f64 {
+    x.to_f64()
+}
+
+impl From<sdf::Value> for Value {
+    fn from(value: sdf::Value) -> Self {
+        use sdf::Value as V;
+        match value {
+            V::Bool(b) => Value::Scalar(if b { 1.0 } else { 0.0 }),
+            V::Uchar(v) => Value::Scalar(v.into()),
+            V::Int(v) => Value::Scalar(v.into()),
+            V::Uint(v) => Value::Scalar(v.into()),
+            V::Int64(v) => Value::Scalar(v as f64),
+            V::Uint64(v) => Value::Scalar(v as f64),
+            V::Half(v) => Value::Scalar(h(v)),
+            V::Float(v) => Value::Scalar(v.into()),
+            V::Double(v) => Value::Scalar(v),
+            V::String(s) => Value::Str(s),
+            V::Token(t) => Value::Str(t.as_str().to_string()),
+            V::AssetPath(a) => Value::Str(a.authored_path),
+            V::StringVec(v) => Value::StrArray(v),
+            V::TokenVec(v) => Value::StrArray(v.iter().map(|t| t.as_str().to_string()).collect()),
+            V::AssetPathVec(v) => Value::StrArray(v.into_iter().map(|a| a.authored_path).collect()),
+            V::BoolVec(v) => Value::Array { data: v.iter().map(|&b| f64::from(u8::from(b))).collect(), arity: 1 },
+            V::UcharVec(v) => array(&v, 1),
+            V::IntVec(v) => array(&v, 1),
+            V::UintVec(v) => array(&v, 1),
+            V::Int64Vec(v) => Value::Array { data: v.iter().map(|&x| x as f64).collect(), arity: 1 },
+            V::Uint64Vec(v) => Value::Array { data: v.iter().map(|&x| x as f64).collect(), arity: 1 },
+            V::HalfVec(v) => Value::Array { data: v.iter().map(|&x| h(x)).collect(), arity: 1 },
+            V::FloatVec(v) => array(&v, 1),
+            V::DoubleVec(v) => array(&v, 1),
+            V::Quath(q) => Value::Quat([h(q.x), h(q.y), h(q.z), h(q.w)]),
+            V::Quatf(q) => Value::Quat([q.x.into(), q.y.into(), q.z.into(), q.w.into()]),
+            V::Quatd(q) => Value::Quat([q.x, q.y, q.z, q.w]),
+            V::QuathVec(v) => Value::QuatArray(v.iter().map(|q| [h(q.x), h(q.y), h(q.z), h(q.w)]).collect()),
+            V::QuatfVec(v) => {
+                Value::QuatArray(v.iter().map(|q| [q.x.into(), q.y.into(), q.z.into(), q.w.into()]).collect())
+            }
+            V::QuatdVec(v) => Value::QuatArray(v.iter().map(|q| [q.x, q.y, q.z, q.w]).collect()),
+            V::Vec2h(v) => Value::Tuple(vec![h(v.x), h(v.y)]),
+            V::Vec2f(v) => tuple(&[v.x, v.y]),
+            V::Vec2d(v) => tuple(&[v.x, v.y]),
+            V::Vec2i(v) => tuple(&[v.x, v.y]),
+            V::Vec3h(v) => Value::Tuple(vec![h(v.x), h(v.y), h(v.z)]),
+            V::Vec3f(v) => tuple(&[v.x, v.y, v.z]),
+            V::Vec3d(v) => tuple(&[v.x, v.y, v.z]),
+            V::Vec3i(v) => tuple(&[v.x, v.y, v.z]),
+            V::Vec4h(v) => Value::Tuple(vec![h(v.x), h(v.y), h(v.z), h(v.w)]),
+            V::Vec4f(v) => tuple(&[v.x, v.y, v.z, v.w]),
+            V::Vec4d(v) => tuple(&[v.x, v.y, v.z, v.w]),
+            V::Vec4i(v) => tuple(&[v.x, v.y, v.z, v.w]),
+            V::Vec2hVec(v) => Value::Array { data: v.iter().flat_map(|e| [h(e.x), h(e.y)]).collect(), arity: 2 },
+            V::Vec2fVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into()]).collect(), arity: 2 },
+            V::Vec2dVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x, e.y]).collect(), arity: 2 },
+            V::Vec2iVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into()]).collect(), arity: 2 },
+            V::Vec3hVec(v) => {
+                Value::Array { data: v.iter().flat_map(|e| [h(e.x), h(e.y), h(e.z)]).collect(), arity: 3 }
+            }
+            V::Vec3fVec(v) => {
+                Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into(), e.z.into()]).collect(), arity: 3 }
+            }
+            V::Vec3dVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x, e.y, e.z]).collect(), arity: 3 },
+            V::Vec3iVec(v) => {
+                Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into(), e.z.into()]).collect(), arity: 3 }
+            }
+            V::Vec4hVec(v) => {
+                Value::Array { data: v.iter().flat_map(|e| [h(e.x), h(e.y), h(e.z), h(e.w)]).collect(), arity: 4 }
+            }
+            V::Vec4fVec(v) => Value::Array {
+                data: v.iter().flat_map(|e| [e.x.into(), e.y.into(), e.z.into(), e.w.into()]).collect(),
+                arity: 4,
+            },
+            V::Vec4dVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x, e.y, e.z, e.w]).collect(), arity: 4 },
+            V::Matrix4d(m) => Value::Matrix(m.0),
+            _ => Value::Other,
+        }
+    }
+}
+
+/// A composition problem found while opening or traversing, already mapped out of the crate's types.
+#[derive(Clone, Debug)]
+pub(crate) struct CompositionIssue {
+    /// Layer that authored the failing arc (or the root layer).
+    pub layer: String,
+    /// Prim the arc is authored on, when known.
+    pub prim: Option<String>,
+    /// What went wrong.
+    pub kind: UsdErrorKind,
+    /// `true` for a missing or unreadable sublayer/reference/payload (an error unless lenient).
+    pub missing_asset: bool,
+}
+
+/// A composed stage opened through `openusd`.
+pub(crate) struct Stage {
+    inner: usd::Stage,
+    root_layer: String,
+    /// Time at which attributes are evaluated: the stage's `startTimeCode` (0 when unauthored).
+    time: f64,
+}
+
+/// Parses `s` into an `sdf::Path`.
+fn path(s: &str) -> sdf::Path {
+    sdf::Path::from(s)
+}
+
+impl Stage {
+    /// Opens and composes the stage rooted at `file`.
+    pub(crate) fn open(file: &Path, options: &LoadOptions) -> Result<Stage, UsdError> {
+        let root_layer = file.display().to_string();
+        let load = if options.load_payloads { usd::InitialLoadSet::LoadAll } else { usd::InitialLoadSet::LoadNone };
+        let inner = usd::Stage::builder().load(load).open(&root_layer).map_err(|e| {
+            UsdError::new(&root_layer, UsdErrorKind::Open(format!("{e:#}")))
+        })?;
+        let time = inner.start_time_code();
+        Ok(Stage { inner, root_layer, time })
+    }
+
+    /// The root layer file as given to [`Stage::open`].
+    pub(crate) fn root_layer(&self) -> &str {
+        &self.root_layer
+    }
+
+    fn err(&self, e: anyhow::Error) -> UsdError {
+        UsdError::new(&self.root_layer, UsdErrorKind::Stage(format!("{e:#}")))
+    }
+
+    /// Every prim of the default traversal region (active, loaded, defined, non-abstract), in
+    /// depth-first pre-order, descending into instances (instance proxies).
+    pub(crate) fn traverse(&self) -> Result<Vec<String>, UsdError> {
+        let mut out = Vec::new();
+        self.inner
+            .traverse(usd::PrimPredicate::DEFAULT_PROXIES, |p| out.push(p.as_str().to_string()))
+            .map_err(|e| self.err(e))?;
+        Ok(out)
+    }
+
+    /// The prim's schema type name (`""` when untyped).
+    pub(crate) fn type_name(&self, prim: &str) -> String {
+        self.inner.prim(path(prim)).type_name().ok().flatten().map(|t| t.as_str().to_string()).unwrap_or_default()
+    }
+
+    /// Whether the prim is an instance (instanceable with a composition arc).
+    pub(crate) fn is_instance(&self, prim: &str) -> bool {
+        self.inner.prim(path(prim)).is_instance().unwrap_or(false)
+    }
+
+    /// Composed property names of the prim.
+    pub(crate) fn property_names(&self, prim: &str) -> Vec<String> {
+        self.inner
+            .prim(path(prim))
+            .property_names()
+            .map(|v| v.iter().map(|t| t.as_str().to_string()).collect())
+            .unwrap_or_default()
+    }
+
+    fn attr_handle(&self, prim: &str, name: &str) -> Result<usd::Attribute, UsdError> {
+        let p = path(prim).append_property(name).map_err(|e| self.attr_err(prim, name, format!("{e:#}")))?;
+        Ok(self.inner.attribute(p))
+    }
+
+    fn attr_err(&self, prim: &str, name: &str, message: String) -> UsdError {
+        UsdError::new(&self.root_layer, UsdErrorKind::Invalid(message)).at(prim).attribute(name)
+    }
+
+    /// The attribute's value at the stage's start time (time samples win, else the default),
+    /// `None` when unauthored or blocked.
+    pub(crate) fn attr(&self, prim: &str, name: &str) -> Result<Option<Value>, UsdError> {
+        let handle = self.attr_handle(prim, name)?;
+        let value = handle
+            .get_at::<sdf::Value>(usd::TimeCode::new(self.time))
+            .map_err(|e| self.attr_err(prim, name, format!("{e:#}")).in_layer(self.authoring_layer(prim, name)))?;
+        Ok(value.map(Value::from))
+    }
+
+    /// The attribute's declared type name (`point3f[]`, `texCoord2f[]`, ...).
+    pub(crate) fn attr_type(&self, prim: &str, name: &str) -> Option<String> {
+        let handle = self.attr_handle(prim, name).ok()?;
+        handle.type_name().ok().flatten().map(|t| t.as_str().to_string())
+    }
+
+    /// A metadata field on an attribute (`interpolation`, `elementSize`, ...).
+    pub(crate) fn attr_metadata(&self, prim: &str, name: &str, key: &str) -> Option<Value> {
+        let handle = self.attr_handle(prim, name).ok()?;
+        handle.get_metadata::<sdf::Value>(key).ok().flatten().map(Value::from)
+    }
+
+    /// Connection sources of an attribute, as property paths (`/Mat/Shader.outputs:surface`).
+    pub(crate) fn connections(&self, prim: &str, name: &str) -> Vec<String> {
+        let Ok(handle) = self.attr_handle(prim, name) else { return Vec::new() };
+        handle.connections().map(|v| v.iter().map(|p| p.as_str().to_string()).collect()).unwrap_or_default()
+    }
+
+    /// Targets of a relationship.
+    pub(crate) fn targets(&self, prim: &str, name: &str) -> Vec<String> {
+        let Ok(p) = path(prim).append_property(name) else { return Vec::new() };
+        self.inner.relationship(p).targets().map(|v| v.iter().map(|p| p.as_str().to_string()).collect()).unwrap_or_default()
+    }
+
+    /// A metadata field on a relationship (`bindMaterialAs`), from the strongest spec authoring it.
+    pub(crate) fn rel_metadata(&self, prim: &str, name: &str, key: &str) -> Option<Value> {
+        let p = path(prim).append_property(name).ok()?;
+        let stack = self.inner.relationship(p).property_stack().ok()?;
+        stack.iter().find_map(|(layer_id, spec_path)| {
+            let layer = self.inner.layer(layer_id)?;
+            let spec = layer.relationship(spec_path.clone())?;
+            spec.field(key).ok().flatten().map(Value::from)
+        })
+    }
+
+    /// The layer holding the strongest opinion for an attribute (the root layer when unknown).
+    pub(crate) fn authoring_layer(&self, prim: &str, name: &str) -> String {
+        self.attr_handle(prim, name)
+            .ok()
+            .and_then(|h| h.property_stack().ok())
+            .and_then(|s| s.into_iter().next())
+            .map(|(layer, _)| layer)
+            .unwrap_or_else(|| self.root_layer.clone())
+    }
+
+    /// Composed stage metadata (`upAxis`, `metersPerUnit`, ...).
+    pub(crate) fn metadata(&self, key: &str) -> Option<Value> {
+        self.inner.stage_metadata(key).ok().flatten().map(Value::from)
+    }
+
+    /// Composition errors found so far (call after traversal: prim indices compose lazily).
+    pub(crate) fn composition_issues(&self) -> Vec<CompositionIssue> {
+        let mut seen = HashMap::new();
+        let mut out = Vec::new();
+        for error in self.inner.composition_errors() {
+            let text = error.to_string();
+            if seen.insert(text.clone(), ()).is_some() {
+                continue;
+            }
+            out.push(self.map_issue(error, text));
+        }
+        out
+    }
+
+    fn map_issue(&self, error: pcp::Error, text: String) -> CompositionIssue {
+        let arc_name = |arc: pcp::ArcType| format!("{arc:?}").to_lowercase();
+        match error {
+            pcp::Error::UnresolvedLayer { asset_path, arc, introduced_by, site_path } => CompositionIssue {
+                layer: introduced_by,
+                prim: Some(site_path.as_str().to_string()),
+                kind: UsdErrorKind::MissingAsset { arc: arc_name(arc), asset: asset_path },
+                missing_asset: true,
+            },
+            pcp::Error::MalformedLayer { asset_path, arc, introduced_by, site_path, reason } => CompositionIssue {
+                layer: introduced_by,
+                prim: Some(site_path.as_str().to_string()),
+                kind: UsdErrorKind::MalformedAsset { arc: arc_name(arc), asset: asset_path, reason },
+                missing_asset: true,
+            },
+            pcp::Error::UnresolvedSublayer { asset_path, introduced_by } => CompositionIssue {
+                layer: introduced_by,
+                prim: None,
+                kind: UsdErrorKind::MissingAsset { arc: "sublayer".into(), asset: asset_path },
+                missing_asset: true,
+            },
+            pcp::Error::MalformedSublayer { asset_path, introduced_by, reason } => CompositionIssue {
+                layer: introduced_by,
+                prim: None,
+                kind: UsdErrorKind::MalformedAsset { arc: "sublayer".into(), asset: asset_path, reason },
+                missing_asset: true,
+            },
+            _ => CompositionIssue {
+                layer: self.root_layer.clone(),
+                prim: None,
+                kind: UsdErrorKind::Stage(text),
+                missing_asset: false,
+            },
+        }
+    }
+}
