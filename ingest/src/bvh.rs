@@ -16,7 +16,8 @@ pub struct BuiltBvh {
     pub primitives: Vec<u32>,
 }
 
-const _: () = assert!(std::mem::size_of::<blob::BvhNode>() == std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>());
+const _: () =
+    assert!(std::mem::size_of::<blob::BvhNode>() == std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>());
 
 /// Builds a BVH over world-space triangles given as vertex triples.
 pub fn build(triangles: &[[glam::Vec3; 3]]) -> BuiltBvh {

@@ -51,7 +51,8 @@ pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
             }
         }
         for tri in &mesh.triangles {
-            data.triangles.push(rec::Triangle { vertices: tri.map(|v| v + first_vertex), mesh: mesh_index as u32 });
+            data.triangles
+                .push(rec::Triangle { vertices: tri.map(|v| v + first_vertex), mesh: mesh_index as u32 });
         }
         data.triangle_materials.extend_from_slice(&mesh.triangle_materials);
         let mut flags = 0;
@@ -139,7 +140,11 @@ pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
         let name = data.add_string(&c.path);
         data.cameras.push(rec::Camera {
             name,
-            projection: if c.orthographic { rec::PROJECTION_ORTHOGRAPHIC } else { rec::PROJECTION_PERSPECTIVE },
+            projection: if c.orthographic {
+                rec::PROJECTION_ORTHOGRAPHIC
+            } else {
+                rec::PROJECTION_PERSPECTIVE
+            },
             focal_length: c.focal_length,
             horizontal_aperture: c.horizontal_aperture,
             vertical_aperture: c.vertical_aperture,
@@ -202,7 +207,12 @@ fn emissive_distribution(data: &blob::SceneData) -> Vec<rec::EmissiveTriangle> {
             continue;
         }
         total += (area * luminance) as f64;
-        entries.push(rec::EmissiveTriangle { triangle: i as u32, area, cdf: total as f32, pmf: (area * luminance) });
+        entries.push(rec::EmissiveTriangle {
+            triangle: i as u32,
+            area,
+            cdf: total as f32,
+            pmf: (area * luminance),
+        });
     }
     let mut running = 0.0f64;
     for e in &mut entries {
@@ -263,7 +273,12 @@ mod tests {
     fn quad_scene() -> Scene {
         let mesh = Mesh {
             path: "/World/Quad".into(),
-            positions: vec![Vec3::new(0., 0., 0.), Vec3::new(1., 0., 0.), Vec3::new(1., 1., 0.), Vec3::new(0., 1., 0.)],
+            positions: vec![
+                Vec3::new(0., 0., 0.),
+                Vec3::new(1., 0., 0.),
+                Vec3::new(1., 1., 0.),
+                Vec3::new(0., 1., 0.),
+            ],
             uvs: vec![Vec2::ZERO; 4],
             triangles: vec![[0, 1, 2], [0, 2, 3]],
             triangle_materials: vec![0, 1],

@@ -30,7 +30,11 @@ pub struct IngestReport {
 }
 
 /// Composes `input`, packs it and writes the blob to `output` atomically.
-pub fn ingest_file(input: &Path, output: &Path, options: &LoadOptions) -> anyhow::Result<(Scene, IngestReport)> {
+pub fn ingest_file(
+    input: &Path,
+    output: &Path,
+    options: &LoadOptions,
+) -> anyhow::Result<(Scene, IngestReport)> {
     let start = Instant::now();
     let scene = usd::load(input, options).with_context(|| format!("cannot ingest {}", input.display()))?;
     let load_seconds = start.elapsed().as_secs_f64();

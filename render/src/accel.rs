@@ -4,6 +4,10 @@
 //! construction, see the blob docs) and walked with `obvhs::traverse!`; node tests use obvhs' SIMD
 //! child test, primitives use the watertight ray/triangle test of Woop, Benthin and Wald (JCGT 2013),
 //! so rays through shared edges and vertices never slip between triangles.
+//!
+//! Limitation inherited from obvhs' node test: child boxes are entered only for t ≥ 1e-4 (its
+//! `EPSILON`), so a hit closer than 1e-4 scene units to the ray origin can be missed. Ray origins are
+//! offset by [`offset_ray_origin`], far less than that, so contact shadows finer than 1e-4 units are lost.
 
 use glam::{UVec2, Vec3, Vec3A};
 use obvhs::cwbvh::node::CwBvhNode;
@@ -87,7 +91,13 @@ impl<'a> Accel<'a> {
     /// True if any triangle for which `blocks(triangle)` holds is hit with `t` in (0, `tmax`).
     /// `blocks` lets the caller make partially transparent triangles stochastically transparent; it must
     /// be a pure function of the triangle, as a triangle may be visited more than once.
-    pub fn any_hit(&self, origin: Vec3, direction: Vec3, tmax: f32, mut blocks: impl FnMut(u32) -> bool) -> bool {
+    pub fn any_hit(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        tmax: f32,
+        mut blocks: impl FnMut(u32) -> bool,
+    ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -254,7 +264,12 @@ mod tests {
     #[test]
     fn shared_edge_is_watertight() {
         // Two triangles sharing the diagonal of a quad; rays aimed exactly at the diagonal must hit one.
-        let q = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+        let q = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
         for i in 0..=100 {
             let s = i as f32 / 100.0;
             let ray = WatertightRay::new(Vec3::new(s, s, 1.0), Vec3::new(0.0, 0.0, -1.0));

@@ -59,7 +59,47 @@ const SOBOL_DIRECTIONS: [[u32; 32]; 2] = {
     dirs
 };
 
+/// Dimension 1 of Sobol as four byte-indexed tables: entry `[k][b]` is the XOR of the direction
+/// numbers selected by byte `b` at byte position `k` of the index. The scrambled index is a full 32-bit
+/// value, so the bit-serial loop ran 32 iterations per sample and the sampler was half of the render
+/// time (perf, tractor example); four lookups replace it.
+static SOBOL1_BYTE_TABLES: [[u32; 256]; 4] = {
+    let mut tables = [[0u32; 256]; 4];
+    let mut k = 0;
+    while k < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let mut x = 0u32;
+            let mut bit = 0;
+            while bit < 8 {
+                if b & (1 << bit) != 0 {
+                    x ^= SOBOL_DIRECTIONS[1][k * 8 + bit];
+                }
+                bit += 1;
+            }
+            tables[k][b] = x;
+            b += 1;
+        }
+        k += 1;
+    }
+    tables
+};
+
+#[inline]
 fn sobol(index: u32, dimension: usize) -> u32 {
+    if dimension == 0 {
+        return index.reverse_bits();
+    }
+    let t = &SOBOL1_BYTE_TABLES;
+    t[0][(index & 0xff) as usize]
+        ^ t[1][((index >> 8) & 0xff) as usize]
+        ^ t[2][((index >> 16) & 0xff) as usize]
+        ^ t[3][(index >> 24) as usize]
+}
+
+/// Bit-serial reference for [`sobol`] (tests).
+#[cfg(test)]
+fn sobol_reference(index: u32, dimension: usize) -> u32 {
     let mut x = 0u32;
     let mut i = index;
     let mut bit = 0;
@@ -125,7 +165,7 @@ pub fn sample_1d(key: SampleKey, vertex: u32, dimension: u32) -> f32 {
 /// Two sample values for dimensions `dimension` and `dimension + 1` (`dimension` must be even).
 #[inline]
 pub fn sample_2d(key: SampleKey, vertex: u32, dimension: u32) -> [f32; 2] {
-    debug_assert!(dimension % 2 == 0, "2D samples start on an even dimension");
+    debug_assert!(dimension.is_multiple_of(2), "2D samples start on an even dimension");
     let pair_seed = pair_seed(key, vertex, dimension / 2);
     let index = nested_uniform_scramble(key.sample, pair_seed);
     [
@@ -145,6 +185,17 @@ mod tests {
 
     fn key(pixel: u32, sample: u32) -> SampleKey {
         SampleKey { pixel, sample, seed: 7 }
+    }
+
+    #[test]
+    fn table_sobol_matches_the_bit_serial_reference() {
+        let mut x = 1u32;
+        for _ in 0..10_000 {
+            x = hash_u32(x);
+            for d in 0..2 {
+                assert_eq!(sobol(x, d), sobol_reference(x, d));
+            }
+        }
     }
 
     #[test]

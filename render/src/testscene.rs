@@ -1,7 +1,6 @@
 //! Test scenes built in code as `ingest::Scene` values and packed into blob bytes.
 //!
-//! `pack` is a stand-in for `ingest::pack::pack` while that lands: it writes the same records (world
-//! space vertices, materials, lights, cameras, the emissive distribution and an obvhs CWBVH).
+//! Packing goes through `ingest::pack::pack`, so these tests also cover the blob ingest writes.
 
 use blob::{AlignedBytes, SceneData};
 use glam::{Mat4, Vec2, Vec3};
@@ -126,7 +125,8 @@ pub fn random_triangles(count: usize, seed: u64) -> SceneData {
     for i in 0..count {
         let c = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
         for _ in 0..3 {
-            mesh.positions.push(c + 0.3 * Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)));
+            mesh.positions
+                .push(c + 0.3 * Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)));
         }
         let b = 3 * i as u32;
         mesh.triangles.push([b, b + 1, b + 2]);
@@ -136,174 +136,7 @@ pub fn random_triangles(count: usize, seed: u64) -> SceneData {
     pack(&scene)
 }
 
-fn rows(m: Mat4) -> [[f32; 4]; 3] {
-    let r = m.transpose();
-    [r.x_axis.to_array(), r.y_axis.to_array(), r.z_axis.to_array()]
-}
-
-/// Scene → blob records (stand-in for `ingest::pack::pack`).
+/// Scene → blob records through ingest's packer (the same path as the `ingest` binary).
 pub fn pack(scene: &Scene) -> SceneData {
-    let mut data = SceneData::default();
-    let any_normals = scene.meshes.iter().any(|m| !m.normals.is_empty());
-    let any_uvs = scene.meshes.iter().any(|m| !m.uvs.is_empty());
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    for mesh in &scene.meshes {
-        let first_vertex = data.positions.len() as u32;
-        let first_triangle = data.triangles.len() as u32;
-        let mesh_index = data.meshes.len() as u32;
-        for (i, p) in mesh.positions.iter().enumerate() {
-            data.positions.push(p.to_array());
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-            if any_normals {
-                data.normals.push(mesh.normals.get(i).map_or([0.0; 3], |n| n.to_array()));
-            }
-            if any_uvs {
-                data.uvs.push(mesh.uvs.get(i).map_or([0.0; 2], |u| u.to_array()));
-            }
-        }
-        for (t, m) in mesh.triangles.iter().zip(&mesh.triangle_materials) {
-            data.triangles.push(blob::Triangle { vertices: t.map(|v| v + first_vertex), mesh: mesh_index });
-            data.triangle_materials.push(*m);
-        }
-        let mut flags = 0;
-        if !mesh.normals.is_empty() {
-            flags |= blob::MESH_HAS_NORMALS;
-        }
-        if !mesh.uvs.is_empty() {
-            flags |= blob::MESH_HAS_UVS;
-        }
-        if mesh.double_sided {
-            flags |= blob::MESH_DOUBLE_SIDED;
-        }
-        let name = data.add_string(&mesh.path);
-        data.meshes.push(blob::Mesh {
-            name,
-            first_triangle,
-            triangle_count: mesh.triangles.len() as u32,
-            first_vertex,
-            vertex_count: mesh.positions.len() as u32,
-            flags,
-            reserved: 0,
-        });
-    }
-    for m in &scene.materials {
-        let name = data.add_string(&m.path);
-        data.materials.push(blob::Material {
-            name,
-            diffuse_color: m.diffuse_color.to_array(),
-            emissive_color: m.emissive_color.to_array(),
-            specular_color: m.specular_color.to_array(),
-            roughness: m.roughness,
-            metallic: m.metallic,
-            ior: m.ior,
-            opacity: m.opacity,
-            opacity_threshold: m.opacity_threshold,
-            clearcoat: m.clearcoat,
-            clearcoat_roughness: m.clearcoat_roughness,
-            use_specular_workflow: m.use_specular_workflow as u32,
-            reserved: [0; 5],
-        });
-    }
-    data.info.dome_light = blob::NONE;
-    for l in &scene.lights {
-        let name = data.add_string(&l.path);
-        let mut rec = blob::Light {
-            name,
-            radiance: l.radiance.to_array(),
-            flags: if l.normalize { blob::LIGHT_NORMALIZE } else { 0 },
-            world_from_light: rows(l.world_from_light),
-            ..blob::Light::default()
-        };
-        match l.kind {
-            LightKind::Dome => {
-                rec.kind = blob::light_kind::DOME;
-                if data.info.dome_light == blob::NONE {
-                    data.info.dome_light = data.lights.len() as u32;
-                }
-            }
-            LightKind::Distant { angle_degrees } => {
-                rec.kind = blob::light_kind::DISTANT;
-                rec.angle_degrees = angle_degrees;
-            }
-            LightKind::Sphere { radius, treat_as_point } => {
-                rec.kind = blob::light_kind::SPHERE;
-                rec.radius = radius;
-                if treat_as_point {
-                    rec.flags |= blob::LIGHT_TREAT_AS_POINT;
-                }
-            }
-            LightKind::Rect { width, height } => {
-                rec.kind = blob::light_kind::RECT;
-                rec.width = width;
-                rec.height = height;
-            }
-            LightKind::Disk { radius } => {
-                rec.kind = blob::light_kind::DISK;
-                rec.radius = radius;
-            }
-        }
-        data.lights.push(rec);
-    }
-    for c in &scene.cameras {
-        let name = data.add_string(&c.path);
-        data.cameras.push(blob::Camera {
-            name,
-            projection: if c.orthographic { blob::PROJECTION_ORTHOGRAPHIC } else { blob::PROJECTION_PERSPECTIVE },
-            focal_length: c.focal_length,
-            horizontal_aperture: c.horizontal_aperture,
-            vertical_aperture: c.vertical_aperture,
-            horizontal_aperture_offset: c.horizontal_aperture_offset,
-            vertical_aperture_offset: c.vertical_aperture_offset,
-            clipping_range: c.clipping_range,
-            reserved: [0.0; 2],
-            world_from_camera: rows(c.world_from_camera),
-        });
-    }
-    data.info.default_camera = scene.default_camera.map_or(blob::NONE, |c| c as u32);
-    data.info.resolution = scene.resolution.unwrap_or([0, 0]);
-    data.info.bounds_min = lo.to_array();
-    data.info.bounds_max = hi.to_array();
-    data.info.gprim_count = scene.meshes.len() as u32;
-    data.info.up_axis = blob::UP_AXIS_Y;
-    data.info.meters_per_unit = 0.01;
-
-    // Emissive distribution proportional to area × luminance.
-    let mut weights = Vec::new();
-    for (i, t) in data.triangles.iter().enumerate() {
-        let e = Vec3::from(data.materials[data.triangle_materials[i] as usize].emissive_color);
-        let lum = 0.2126 * e.x + 0.7152 * e.y + 0.0722 * e.z;
-        if lum > 0.0 {
-            let [a, b, c] = t.vertices.map(|v| Vec3::from(data.positions[v as usize]));
-            let area = 0.5 * (b - a).cross(c - a).length();
-            weights.push((i as u32, area, area * lum));
-        }
-    }
-    let total: f32 = weights.iter().map(|w| w.2).sum();
-    let mut acc = 0.0;
-    for (n, (triangle, area, w)) in weights.iter().enumerate() {
-        acc += w / total;
-        let cdf = if n + 1 == weights.len() { 1.0 } else { acc.min(1.0) };
-        data.emissive_triangles.push(blob::EmissiveTriangle { triangle: *triangle, area: *area, cdf, pmf: w / total });
-    }
-
-    if !data.triangles.is_empty() {
-        let tris: Vec<obvhs::triangle::Triangle> = data
-            .triangles
-            .iter()
-            .map(|t| {
-                let [v0, v1, v2] = t.vertices.map(|v| glam::Vec3A::from(data.positions[v as usize]));
-                obvhs::triangle::Triangle { v0, v1, v2 }
-            })
-            .collect();
-        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
-            &tris,
-            obvhs::BvhBuildParams::medium_build(),
-            &mut std::time::Duration::default(),
-        );
-        data.bvh_nodes = bytemuck::cast_slice(&bvh.nodes).to_vec();
-        data.bvh_primitives = bvh.primitive_indices.clone();
-    }
-    data
+    ingest::pack::pack(scene).expect("test scenes are valid")
 }

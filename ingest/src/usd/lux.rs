@@ -35,7 +35,9 @@ impl Reader<'_> {
         let color = self
             .light_input(path, "color")?
             .and_then(|v| v.as_tuple::<3>())
-            .map_or(Vec3::from_array(fallback::LIGHT_COLOR), |c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32));
+            .map_or(Vec3::from_array(fallback::LIGHT_COLOR), |c| {
+                Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32)
+            });
         let normalize = self.light_bool(path, "normalize", fallback::LIGHT_NORMALIZE)?;
         let kind = match ty {
             "DistantLight" => {
@@ -100,7 +102,8 @@ impl Reader<'_> {
     /// Applies the stage's RenderSettings: the one named by the `renderSettingsPrimPath` stage
     /// metadata, else the first RenderSettings prim in traversal order.
     pub(super) fn read_render_settings(&mut self) -> Result<(), UsdError> {
-        let named = self.stage.metadata("renderSettingsPrimPath").and_then(|v| v.as_str().map(str::to_string));
+        let named =
+            self.stage.metadata("renderSettingsPrimPath").and_then(|v| v.as_str().map(str::to_string));
         let settings = match named.filter(|n| !n.is_empty()) {
             Some(n) => n,
             None => match self.render_settings.first() {
@@ -111,7 +114,9 @@ impl Reader<'_> {
         if let Some(camera) = self.stage.targets(&settings, "camera").into_iter().next() {
             match self.scene.cameras.iter().position(|c| c.path == camera) {
                 Some(i) => self.scene.default_camera = Some(i),
-                None => self.warn(&settings, format!("camera {camera} is not a camera on the stage; ignored")),
+                None => {
+                    self.warn(&settings, format!("camera {camera} is not a camera on the stage; ignored"))
+                }
             }
         }
         if let Some(res) = self.stage.attr(&settings, "resolution")?.and_then(|v| v.as_tuple::<2>()) {

@@ -37,7 +37,9 @@ fn channel(output: &str) -> usize {
 fn as_color(value: &Value, output: &str) -> Option<Vec3> {
     match value {
         Value::Scalar(s) => Some(Vec3::splat(*s as f32)),
-        Value::Tuple(t) if t.len() >= 3 && !matches!(output, "r" | "g" | "b" | "a" | "x" | "y" | "z" | "w") => {
+        Value::Tuple(t)
+            if t.len() >= 3 && !matches!(output, "r" | "g" | "b" | "a" | "x" | "y" | "z" | "w") =>
+        {
             Some(Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32))
         }
         Value::Tuple(t) => t.get(channel(output)).map(|&c| Vec3::splat(c as f32)),
@@ -69,7 +71,7 @@ impl Reader<'_> {
     pub(super) fn mesh_face_materials(&mut self, mesh: &str, faces: usize) -> Result<Vec<u32>, UsdError> {
         let whole = self.gprim_material(mesh)?;
         let mut per_face = vec![whole; faces];
-        let children = self.children.get(mesh).cloned().unwrap_or_default();
+        let children = self.children_of(mesh);
         for subset in children {
             if self.stage.type_name(&subset) != "GeomSubset" {
                 continue;
@@ -78,7 +80,8 @@ impl Reader<'_> {
             if element.as_deref().is_some_and(|e| e != "face") {
                 continue;
             }
-            let Some((material, _)) = self.direct_binding(&subset, &["material:binding:full", "material:binding"])
+            let Some((material, _)) =
+                self.direct_binding(&subset, &["material:binding:full", "material:binding"])
             else {
                 continue;
             };
@@ -92,7 +95,10 @@ impl Reader<'_> {
                 }
             }
             if out_of_range > 0 {
-                self.warn(&subset, format!("{out_of_range} subset indices out of range ({faces} faces); ignored"));
+                self.warn(
+                    &subset,
+                    format!("{out_of_range} subset indices out of range ({faces} faces); ignored"),
+                );
             }
         }
         Ok(per_face)
@@ -102,8 +108,9 @@ impl Reader<'_> {
     fn direct_binding(&mut self, prim: &str, relationships: &[&str]) -> DirectBinding {
         for rel in relationships {
             if let Some(target) = self.stage.targets(prim, rel).into_iter().next() {
-                let stronger = self.stage.rel_metadata(prim, rel, "bindMaterialAs").as_ref().and_then(Value::as_str)
-                    == Some("strongerThanDescendants");
+                let stronger =
+                    self.stage.rel_metadata(prim, rel, "bindMaterialAs").as_ref().and_then(Value::as_str)
+                        == Some("strongerThanDescendants");
                 return Some((target, stronger));
             }
         }
@@ -117,7 +124,12 @@ impl Reader<'_> {
             let binding = match self.binding_cache.get(&(prim.clone(), relationships[0])) {
                 Some(b) => b.clone(),
                 None => {
-                    if self.stage.property_names(&prim).iter().any(|p| p.starts_with("material:binding:collection")) {
+                    if self
+                        .stage
+                        .property_names(&prim)
+                        .iter()
+                        .any(|p| p.starts_with("material:binding:collection"))
+                    {
                         self.warn(&prim, "collection-based material bindings not supported yet; ignored");
                     }
                     let b = self.direct_binding(&prim, relationships);
@@ -199,7 +211,9 @@ impl Reader<'_> {
                 .into_iter()
                 .find(|p| p.starts_with("outputs:") && p.ends_with(":surface") && p != "outputs:surface");
             let message = match other {
-                Some(output) => format!("surface is only authored as {output} (not UsdPreviewSurface); using displayColor"),
+                Some(output) => format!(
+                    "surface is only authored as {output} (not UsdPreviewSurface); using displayColor"
+                ),
                 None => "material has no outputs:surface connection; using displayColor".to_string(),
             };
             self.warn(path, message);
@@ -209,12 +223,15 @@ impl Reader<'_> {
         if id.as_deref() != Some("UsdPreviewSurface") {
             self.warn(
                 path,
-                format!("surface shader {shader} is {:?}, not UsdPreviewSurface; using displayColor", id.unwrap_or_default()),
+                format!(
+                    "surface shader {shader} is {:?}, not UsdPreviewSurface; using displayColor",
+                    id.unwrap_or_default()
+                ),
             );
             return Ok(None);
         }
         let mut m = Material::default();
-        let mut color = |r: &mut Self, name: &str, slot: &mut Vec3| -> Result<(), UsdError> {
+        let color = |r: &mut Self, name: &str, slot: &mut Vec3| -> Result<(), UsdError> {
             if let Some((v, out)) = r.input(path, &shader, name)? {
                 if let Some(c) = as_color(&v, &out) {
                     *slot = c;
@@ -225,7 +242,7 @@ impl Reader<'_> {
         color(self, "diffuseColor", &mut m.diffuse_color)?;
         color(self, "emissiveColor", &mut m.emissive_color)?;
         color(self, "specularColor", &mut m.specular_color)?;
-        let mut float = |r: &mut Self, name: &str, slot: &mut f32| -> Result<(), UsdError> {
+        let float = |r: &mut Self, name: &str, slot: &mut f32| -> Result<(), UsdError> {
             if let Some((v, out)) = r.input(path, &shader, name)? {
                 if let Some(f) = as_float(&v, &out) {
                     *slot = f;
@@ -248,12 +265,20 @@ impl Reader<'_> {
 
     /// The constant value of a shader input and the output channel it reads (`""` for a direct
     /// value), or `None` to keep the PreviewSurface fallback.
-    fn input(&mut self, material: &str, shader: &str, name: &str) -> Result<Option<(Value, String)>, UsdError> {
+    fn input(
+        &mut self,
+        material: &str,
+        shader: &str,
+        name: &str,
+    ) -> Result<Option<(Value, String)>, UsdError> {
         match self.trace_input(shader, &format!("inputs:{name}"))? {
             Input::Unauthored => Ok(None),
             Input::Constant(v) => Ok(Some((v, String::new()))),
             Input::Network { fallback, output } => {
-                self.warn(material, format!("input {name} is connected to a texture network; textures not supported yet"));
+                self.warn(
+                    material,
+                    format!("input {name} is connected to a texture network; textures not supported yet"),
+                );
                 Ok(fallback.map(|f| (f, output)))
             }
         }
@@ -298,7 +323,11 @@ impl Reader<'_> {
     }
 
     /// A display primvar reduced to one value: its only element, or the average with a warning.
-    fn display_primvar<const N: usize>(&mut self, gprim: &str, name: &str) -> Result<Option<[f64; N]>, UsdError> {
+    fn display_primvar<const N: usize>(
+        &mut self,
+        gprim: &str,
+        name: &str,
+    ) -> Result<Option<[f64; N]>, UsdError> {
         let values = match self.stage.attr(gprim, name)? {
             None => return Ok(None),
             Some(Value::Scalar(s)) if N == 1 => vec![[s; N]],
@@ -312,7 +341,11 @@ impl Reader<'_> {
             },
         };
         let values = match self.ints(gprim, &format!("{name}:indices")).ok().flatten() {
-            Some(indices) => indices.into_iter().filter_map(|i| usize::try_from(i).ok().and_then(|i| values.get(i))).copied().collect(),
+            Some(indices) => indices
+                .into_iter()
+                .filter_map(|i| usize::try_from(i).ok().and_then(|i| values.get(i)))
+                .copied()
+                .collect(),
             None => values,
         };
         if values.is_empty() {

@@ -80,9 +80,21 @@ pub(super) struct LocalMesh {
 impl Reader<'_> {
     /// Reads a Mesh prim into the scene.
     pub(super) fn read_mesh(&mut self, path: &str, state: &Inherited) -> Result<(), UsdError> {
-        let points = self.vec3s(path, "points")?.unwrap_or_default();
-        let counts = self.ints(path, "faceVertexCounts")?.unwrap_or_default();
-        let indices = self.ints(path, "faceVertexIndices")?.unwrap_or_default();
+        // A topology attribute of the wrong type makes the mesh unreadable, not the stage.
+        let (points, counts, indices) = match (
+            self.vec3s(path, "points"),
+            self.ints(path, "faceVertexCounts"),
+            self.ints(path, "faceVertexIndices"),
+        ) {
+            (Ok(p), Ok(c), Ok(i)) => (p.unwrap_or_default(), c.unwrap_or_default(), i.unwrap_or_default()),
+            (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => {
+                let message = e.to_string();
+                let message = message.rsplit(": ").next().unwrap_or(&message);
+                let attr = e.attribute_name().unwrap_or("topology").to_string();
+                self.warn(path, format!("{attr}: {message}; mesh skipped"));
+                return Ok(());
+            }
+        };
         if points.is_empty() || counts.is_empty() {
             self.warn(path, "mesh has no points or no faces; skipped");
             return Ok(());
@@ -114,10 +126,11 @@ impl Reader<'_> {
             }
         }
         let holes: HashSet<i64> = self.ints(path, "holeIndices")?.unwrap_or_default().into_iter().collect();
-        let left_handed = self.token(path, "orientation")?.as_deref().unwrap_or(fallback::ORIENTATION)
-            == "leftHanded";
-        let scheme =
-            self.token(path, "subdivisionScheme")?.unwrap_or_else(|| fallback::SUBDIVISION_SCHEME.to_string());
+        let left_handed =
+            self.token(path, "orientation")?.as_deref().unwrap_or(fallback::ORIENTATION) == "leftHanded";
+        let scheme = self
+            .token(path, "subdivisionScheme")?
+            .unwrap_or_else(|| fallback::SUBDIVISION_SCHEME.to_string());
         let subdivided = scheme != "none";
         if subdivided {
             self.warn(path, format!("subdivision scheme {scheme} not supported yet; rendering the cage"));
@@ -270,7 +283,10 @@ impl Reader<'_> {
                 if values.len() < expected {
                     self.warn(
                         path,
-                        format!("{name} has {} values, {interpolation:?} needs {expected}; ignored", values.len()),
+                        format!(
+                            "{name} has {} values, {interpolation:?} needs {expected}; ignored",
+                            values.len()
+                        ),
                     );
                     return Ok(None);
                 }
@@ -294,7 +310,12 @@ impl Reader<'_> {
         }))
     }
 
-    fn primvar2(&mut self, path: &str, name: &str, topology: &Topology) -> Result<Option<Primvar<DVec2>>, UsdError> {
+    fn primvar2(
+        &mut self,
+        path: &str,
+        name: &str,
+        topology: &Topology,
+    ) -> Result<Option<Primvar<DVec2>>, UsdError> {
         Ok(self.primvar::<2>(path, name, Interpolation::Constant, topology)?.map(|p| Primvar {
             values: p.values.into_iter().map(DVec2::from_array).collect(),
             indices: p.indices,
@@ -335,8 +356,16 @@ impl Reader<'_> {
         }
         self.scene.meshes.push(Mesh {
             path: path.to_string(),
-            positions: local.positions.iter().map(|&p| world_from_local.transform_point3(p).as_vec3()).collect(),
-            normals: local.normals.iter().map(|&n| (normal_from_local * n).normalize_or_zero().as_vec3()).collect(),
+            positions: local
+                .positions
+                .iter()
+                .map(|&p| world_from_local.transform_point3(p).as_vec3())
+                .collect(),
+            normals: local
+                .normals
+                .iter()
+                .map(|&n| (normal_from_local * n).normalize_or_zero().as_vec3())
+                .collect(),
             uvs: local.uvs,
             triangles,
             triangle_materials: local.triangle_materials,
@@ -355,7 +384,9 @@ pub(super) fn triangulate(polygon: &[DVec3]) -> Vec<[usize; 3]> {
     if n < 3 {
         return Vec::new();
     }
-    let fan = |ids: &[usize]| -> Vec<[usize; 3]> { (1..ids.len() - 1).map(|i| [ids[0], ids[i], ids[i + 1]]).collect() };
+    let fan = |ids: &[usize]| -> Vec<[usize; 3]> {
+        (1..ids.len() - 1).map(|i| [ids[0], ids[i], ids[i + 1]]).collect()
+    };
     let all: Vec<usize> = (0..n).collect();
     if n == 3 {
         return fan(&all);

@@ -127,9 +127,13 @@ pub enum UsdErrorKind {
 
 /// A USD reading error with its location: the layer file, the prim and the attribute where known.
 ///
-/// Displays as `layer: /Prim/Path.attribute: message`.
+/// Displays as `layer: /Prim/Path.attribute: message`. Boxed: it travels through every `Result`
+/// of the reader, whose `Ok` side is small.
 #[derive(Clone, Debug, PartialEq)]
-pub struct UsdError {
+pub struct UsdError(Box<ErrorData>);
+
+#[derive(Clone, Debug, PartialEq)]
+struct ErrorData {
     layer: String,
     prim: Option<String>,
     attribute: Option<String>,
@@ -138,54 +142,54 @@ pub struct UsdError {
 
 impl UsdError {
     fn new(layer: &str, kind: UsdErrorKind) -> Self {
-        UsdError { layer: layer.to_string(), prim: None, attribute: None, kind }
+        UsdError(Box::new(ErrorData { layer: layer.to_string(), prim: None, attribute: None, kind }))
     }
 
     fn at(mut self, prim: &str) -> Self {
-        self.prim = Some(prim.to_string());
+        self.0.prim = Some(prim.to_string());
         self
     }
 
     fn attribute(mut self, name: &str) -> Self {
-        self.attribute = Some(name.to_string());
+        self.0.attribute = Some(name.to_string());
         self
     }
 
     fn in_layer(mut self, layer: String) -> Self {
-        self.layer = layer;
+        self.0.layer = layer;
         self
     }
 
     /// The layer file the problem was authored in (or that asked for the missing file).
     pub fn layer(&self) -> &str {
-        &self.layer
+        &self.0.layer
     }
 
     /// The prim path, if known.
     pub fn prim(&self) -> Option<&str> {
-        self.prim.as_deref()
+        self.0.prim.as_deref()
     }
 
     /// The attribute name, if known.
     pub fn attribute_name(&self) -> Option<&str> {
-        self.attribute.as_deref()
+        self.0.attribute.as_deref()
     }
 
     /// What went wrong.
     pub fn kind(&self) -> &UsdErrorKind {
-        &self.kind
+        &self.0.kind
     }
 }
 
 impl fmt::Display for UsdError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: ", self.layer)?;
-        match (&self.prim, &self.attribute) {
+        write!(f, "{}: ", self.0.layer)?;
+        match (&self.0.prim, &self.0.attribute) {
             (Some(prim), Some(attr)) => write!(f, "{prim}.{attr}: ")?,
             (Some(prim), None) => write!(f, "{prim}: ")?,
             _ => {}
         }
-        write!(f, "{}", self.kind)
+        write!(f, "{}", self.0.kind)
     }
 }
 
@@ -213,6 +217,9 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     reader.collect_instancer_prototypes()?;
     reader.visit("/", &Inherited::root(), false)?;
     reader.finish()?;
+    for (prim, message) in stage.take_notes() {
+        reader.scene.warn(prim, message);
+    }
     Ok(reader.scene)
 }
 
@@ -266,12 +273,15 @@ const UNSUPPORTED: &[&str] = &[
 ];
 
 /// Prim types whose subtrees never hold geometry we draw.
-const SHADING: &[&str] = &["Material", "Shader", "NodeGraph", "GeomSubset", "RenderSettings", "RenderProduct"];
+const SHADING: &[&str] =
+    &["Material", "Shader", "NodeGraph", "GeomSubset", "RenderSettings", "RenderProduct"];
 
 struct Reader<'a> {
     stage: &'a Stage,
     scene: Scene,
-    /// Child paths per parent path, restricted to the traversal region.
+    /// Every prim of the traversal region, in pre-order.
+    prims: Vec<String>,
+    /// Child paths per parent path, restricted to the traversal region (filled lazily).
     children: HashMap<String, Vec<String>>,
     /// Root prims of PointInstancer prototypes: drawn only through their instancer.
     instancer_prototypes: HashSet<String>,
@@ -292,19 +302,27 @@ fn parent_of(path: &str) -> &str {
 
 impl<'a> Reader<'a> {
     fn new(stage: &'a Stage, prims: &[String], scene: Scene) -> Self {
-        let mut children: HashMap<String, Vec<String>> = HashMap::new();
-        for prim in prims {
-            children.entry(parent_of(prim).to_string()).or_default().push(prim.clone());
-        }
+        let prims = prims.to_vec();
         Reader {
             stage,
             scene,
-            children,
+            children: HashMap::new(),
+            prims,
             instancer_prototypes: HashSet::new(),
             material_index: HashMap::new(),
             render_settings: Vec::new(),
             binding_cache: HashMap::new(),
         }
+    }
+
+    /// Children of `path` in the traversal region, cached.
+    fn children_of(&mut self, path: &str) -> Vec<String> {
+        if let Some(children) = self.children.get(path) {
+            return children.clone();
+        }
+        let children = self.stage.children(path);
+        self.children.insert(path.to_string(), children.clone());
+        children
     }
 
     fn warn(&mut self, prim: &str, message: impl Into<String>) {
@@ -327,9 +345,8 @@ impl<'a> Reader<'a> {
     /// Finds every PointInstancer's prototypes so the plain walk can skip them.
     fn collect_instancer_prototypes(&mut self) -> Result<(), UsdError> {
         let instancers: Vec<String> = self
-            .children
-            .values()
-            .flatten()
+            .prims
+            .iter()
             .filter(|p| self.stage.type_name(p) == "PointInstancer")
             .cloned()
             .collect();
@@ -344,12 +361,11 @@ impl<'a> Reader<'a> {
     /// Walks `path` and its subtree under the `parent` state.
     fn visit(&mut self, path: &str, parent: &Inherited, via_instancer: bool) -> Result<(), UsdError> {
         let mut state = parent.clone();
-        let mut ty = String::new();
         if path != "/" {
             if !via_instancer && self.instancer_prototypes.contains(path) {
                 return Ok(());
             }
-            ty = self.stage.type_name(path);
+            let ty = self.stage.type_name(path);
             if SHADING.contains(&ty.as_str()) {
                 if ty == "RenderSettings" {
                     self.render_settings.push(path.to_string());
@@ -378,8 +394,7 @@ impl<'a> Reader<'a> {
             }
             self.read_prim(path, &ty, &state)?;
         }
-        let children = self.children.get(path).cloned().unwrap_or_default();
-        for child in children {
+        for child in self.children_of(path) {
             self.visit(&child, &state, false)?;
         }
         Ok(())
@@ -419,7 +434,10 @@ impl<'a> Reader<'a> {
         if positions.len() != n {
             self.warn(
                 path,
-                format!("PointInstancer positions has {} entries for {n} protoIndices; ignored", positions.len()),
+                format!(
+                    "PointInstancer positions has {} entries for {n} protoIndices; ignored",
+                    positions.len()
+                ),
             );
             return Ok(());
         }
@@ -432,7 +450,8 @@ impl<'a> Reader<'a> {
         };
         let scales = self.vec3s(path, "scales")?.filter(|s| s.len() == n);
         let ids = self.ints(path, "ids")?.filter(|ids| ids.len() == n);
-        let invisible: HashSet<i64> = self.ints(path, "invisibleIds")?.unwrap_or_default().into_iter().collect();
+        let invisible: HashSet<i64> =
+            self.ints(path, "invisibleIds")?.unwrap_or_default().into_iter().collect();
         let mut expanded = 0;
         for i in 0..n {
             let id = ids.as_ref().map_or(i as i64, |ids| ids[i]);
@@ -440,7 +459,10 @@ impl<'a> Reader<'a> {
                 continue;
             }
             let Some(proto) = usize::try_from(proto_indices[i]).ok().and_then(|p| prototypes.get(p)) else {
-                self.warn(path, format!("protoIndices[{i}] = {} names no prototype; skipped", proto_indices[i]));
+                self.warn(
+                    path,
+                    format!("protoIndices[{i}] = {} names no prototype; skipped", proto_indices[i]),
+                );
                 continue;
             };
             let rotation = orientations.as_ref().map_or(DQuat::IDENTITY, |q| {

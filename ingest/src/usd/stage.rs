@@ -5,6 +5,7 @@
 //! `&str` prim paths, with values converted once into the small [`Value`] enum. Swapping the
 //! composition backend means rewriting this file only.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -62,16 +63,6 @@ impl Value {
         }
     }
 
-    /// Number of elements of an array value (`None` for non-arrays).
-    pub(crate) fn array_len(&self) -> Option<usize> {
-        match self {
-            Value::Array { data, arity } => Some(data.len() / arity.max(&1)),
-            Value::QuatArray(q) => Some(q.len()),
-            Value::StrArray(s) => Some(s.len()),
-            _ => None,
-        }
-    }
-
     /// An array with `N` numbers per element as fixed-size elements.
     pub(crate) fn as_array<const N: usize>(&self) -> Option<Vec<[f64; N]>> {
         match self {
@@ -122,7 +113,9 @@ impl From<sdf::Value> for Value {
             V::StringVec(v) => Value::StrArray(v),
             V::TokenVec(v) => Value::StrArray(v.iter().map(|t| t.as_str().to_string()).collect()),
             V::AssetPathVec(v) => Value::StrArray(v.into_iter().map(|a| a.authored_path).collect()),
-            V::BoolVec(v) => Value::Array { data: v.iter().map(|&b| f64::from(u8::from(b))).collect(), arity: 1 },
+            V::BoolVec(v) => {
+                Value::Array { data: v.iter().map(|&b| f64::from(u8::from(b))).collect(), arity: 1 }
+            }
             V::UcharVec(v) => array(&v, 1),
             V::IntVec(v) => array(&v, 1),
             V::UintVec(v) => array(&v, 1),
@@ -151,28 +144,41 @@ impl From<sdf::Value> for Value {
             V::Vec4f(v) => tuple(&[v.x, v.y, v.z, v.w]),
             V::Vec4d(v) => tuple(&[v.x, v.y, v.z, v.w]),
             V::Vec4i(v) => tuple(&[v.x, v.y, v.z, v.w]),
-            V::Vec2hVec(v) => Value::Array { data: v.iter().flat_map(|e| [h(e.x), h(e.y)]).collect(), arity: 2 },
-            V::Vec2fVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into()]).collect(), arity: 2 },
+            V::Vec2hVec(v) => {
+                Value::Array { data: v.iter().flat_map(|e| [h(e.x), h(e.y)]).collect(), arity: 2 }
+            }
+            V::Vec2fVec(v) => {
+                Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into()]).collect(), arity: 2 }
+            }
             V::Vec2dVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x, e.y]).collect(), arity: 2 },
-            V::Vec2iVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into()]).collect(), arity: 2 },
+            V::Vec2iVec(v) => {
+                Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into()]).collect(), arity: 2 }
+            }
             V::Vec3hVec(v) => {
                 Value::Array { data: v.iter().flat_map(|e| [h(e.x), h(e.y), h(e.z)]).collect(), arity: 3 }
             }
-            V::Vec3fVec(v) => {
-                Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into(), e.z.into()]).collect(), arity: 3 }
+            V::Vec3fVec(v) => Value::Array {
+                data: v.iter().flat_map(|e| [e.x.into(), e.y.into(), e.z.into()]).collect(),
+                arity: 3,
+            },
+            V::Vec3dVec(v) => {
+                Value::Array { data: v.iter().flat_map(|e| [e.x, e.y, e.z]).collect(), arity: 3 }
             }
-            V::Vec3dVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x, e.y, e.z]).collect(), arity: 3 },
-            V::Vec3iVec(v) => {
-                Value::Array { data: v.iter().flat_map(|e| [e.x.into(), e.y.into(), e.z.into()]).collect(), arity: 3 }
-            }
-            V::Vec4hVec(v) => {
-                Value::Array { data: v.iter().flat_map(|e| [h(e.x), h(e.y), h(e.z), h(e.w)]).collect(), arity: 4 }
-            }
+            V::Vec3iVec(v) => Value::Array {
+                data: v.iter().flat_map(|e| [e.x.into(), e.y.into(), e.z.into()]).collect(),
+                arity: 3,
+            },
+            V::Vec4hVec(v) => Value::Array {
+                data: v.iter().flat_map(|e| [h(e.x), h(e.y), h(e.z), h(e.w)]).collect(),
+                arity: 4,
+            },
             V::Vec4fVec(v) => Value::Array {
                 data: v.iter().flat_map(|e| [e.x.into(), e.y.into(), e.z.into(), e.w.into()]).collect(),
                 arity: 4,
             },
-            V::Vec4dVec(v) => Value::Array { data: v.iter().flat_map(|e| [e.x, e.y, e.z, e.w]).collect(), arity: 4 },
+            V::Vec4dVec(v) => {
+                Value::Array { data: v.iter().flat_map(|e| [e.x, e.y, e.z, e.w]).collect(), arity: 4 }
+            }
             V::Matrix4d(m) => Value::Matrix(m.0),
             _ => Value::Other,
         }
@@ -198,6 +204,8 @@ pub(crate) struct Stage {
     root_layer: String,
     /// Time at which attributes are evaluated: the stage's `startTimeCode` (0 when unauthored).
     time: f64,
+    /// Non-fatal problems met while reading values, as (prim, message); see [`Stage::take_notes`].
+    notes: RefCell<Vec<(String, String)>>,
 }
 
 /// Parses `s` into an `sdf::Path`.
@@ -209,17 +217,14 @@ impl Stage {
     /// Opens and composes the stage rooted at `file`.
     pub(crate) fn open(file: &Path, options: &LoadOptions) -> Result<Stage, UsdError> {
         let root_layer = file.display().to_string();
-        let load = if options.load_payloads { usd::InitialLoadSet::LoadAll } else { usd::InitialLoadSet::LoadNone };
-        let inner = usd::Stage::builder().load(load).open(&root_layer).map_err(|e| {
-            UsdError::new(&root_layer, UsdErrorKind::Open(format!("{e:#}")))
-        })?;
+        let load =
+            if options.load_payloads { usd::InitialLoadSet::LoadAll } else { usd::InitialLoadSet::LoadNone };
+        let inner = usd::Stage::builder()
+            .load(load)
+            .open(&root_layer)
+            .map_err(|e| UsdError::new(&root_layer, UsdErrorKind::Open(format!("{e:#}"))))?;
         let time = inner.start_time_code();
-        Ok(Stage { inner, root_layer, time })
-    }
-
-    /// The root layer file as given to [`Stage::open`].
-    pub(crate) fn root_layer(&self) -> &str {
-        &self.root_layer
+        Ok(Stage { inner, root_layer, time, notes: RefCell::new(Vec::new()) })
     }
 
     fn err(&self, e: anyhow::Error) -> UsdError {
@@ -236,9 +241,32 @@ impl Stage {
         Ok(out)
     }
 
+    /// Children of `prim` in the default traversal region (active, loaded, defined, non-abstract),
+    /// in namespace order. Unlike [`Stage::traverse`], this also reaches instances nested inside
+    /// instance proxies, which openusd 0.6's proxy traversal skips.
+    pub(crate) fn children(&self, prim: &str) -> Vec<String> {
+        let wanted = usd::PrimStatus::ACTIVE | usd::PrimStatus::LOADED | usd::PrimStatus::DEFINED;
+        let Ok(children) = self.inner.prim(path(prim)).children() else { return Vec::new() };
+        children
+            .into_iter()
+            .filter(|c| {
+                self.inner
+                    .prim_status(c.path().clone())
+                    .is_ok_and(|s| s.contains(wanted) && !s.contains(usd::PrimStatus::ABSTRACT))
+            })
+            .map(|c| c.path().as_str().to_string())
+            .collect()
+    }
+
     /// The prim's schema type name (`""` when untyped).
     pub(crate) fn type_name(&self, prim: &str) -> String {
-        self.inner.prim(path(prim)).type_name().ok().flatten().map(|t| t.as_str().to_string()).unwrap_or_default()
+        self.inner
+            .prim(path(prim))
+            .type_name()
+            .ok()
+            .flatten()
+            .map(|t| t.as_str().to_string())
+            .unwrap_or_default()
     }
 
     /// Whether the prim is an instance (instanceable with a composition arc).
@@ -268,10 +296,27 @@ impl Stage {
     /// `None` when unauthored or blocked.
     pub(crate) fn attr(&self, prim: &str, name: &str) -> Result<Option<Value>, UsdError> {
         let handle = self.attr_handle(prim, name)?;
-        let value = handle
-            .get_at::<sdf::Value>(usd::TimeCode::new(self.time))
-            .map_err(|e| self.attr_err(prim, name, format!("{e:#}")).in_layer(self.authoring_layer(prim, name)))?;
+        let value = match handle.get_at::<sdf::Value>(usd::TimeCode::new(self.time)) {
+            Ok(value) => value,
+            Err(timed) => {
+                // openusd cannot decode some time-sample encodings; the default value may still be
+                // readable, which beats failing the whole stage.
+                let value = handle.get::<sdf::Value>().map_err(|_| {
+                    self.attr_err(prim, name, format!("{timed:#}")).in_layer(self.authoring_layer(prim, name))
+                })?;
+                self.notes.borrow_mut().push((
+                    prim.to_string(),
+                    format!("{name}: time samples unreadable ({timed:#}); using the default value"),
+                ));
+                value
+            }
+        };
         Ok(value.map(Value::from))
+    }
+
+    /// Drains the non-fatal problems recorded while reading values, as (prim, message).
+    pub(crate) fn take_notes(&self) -> Vec<(String, String)> {
+        std::mem::take(&mut self.notes.borrow_mut())
     }
 
     /// The attribute's declared type name (`point3f[]`, `texCoord2f[]`, ...).
@@ -295,7 +340,11 @@ impl Stage {
     /// Targets of a relationship.
     pub(crate) fn targets(&self, prim: &str, name: &str) -> Vec<String> {
         let Ok(p) = path(prim).append_property(name) else { return Vec::new() };
-        self.inner.relationship(p).targets().map(|v| v.iter().map(|p| p.as_str().to_string()).collect()).unwrap_or_default()
+        self.inner
+            .relationship(p)
+            .targets()
+            .map(|v| v.iter().map(|p| p.as_str().to_string()).collect())
+            .unwrap_or_default()
     }
 
     /// A metadata field on a relationship (`bindMaterialAs`), from the strongest spec authoring it.
@@ -347,12 +396,16 @@ impl Stage {
                 kind: UsdErrorKind::MissingAsset { arc: arc_name(arc), asset: asset_path },
                 missing_asset: true,
             },
-            pcp::Error::MalformedLayer { asset_path, arc, introduced_by, site_path, reason } => CompositionIssue {
-                layer: introduced_by,
-                prim: Some(site_path.as_str().to_string()),
-                kind: UsdErrorKind::MalformedAsset { arc: arc_name(arc), asset: asset_path, reason },
-                missing_asset: true,
-            },
+            pcp::Error::MalformedLayer { asset_path, arc, introduced_by, site_path, reason } => {
+                CompositionIssue {
+                    layer: introduced_by,
+                    prim: Some(site_path.as_str().to_string()),
+                    // A file that exists in a format openusd cannot read (`.mtlx` references in
+                    // MaterialX-only looks) is not a missing asset: usd-core skips it with a warning too.
+                    missing_asset: !reason.contains("no file format registered"),
+                    kind: UsdErrorKind::MalformedAsset { arc: arc_name(arc), asset: asset_path, reason },
+                }
+            }
             pcp::Error::UnresolvedSublayer { asset_path, introduced_by } => CompositionIssue {
                 layer: introduced_by,
                 prim: None,

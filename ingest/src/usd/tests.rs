@@ -1,1 +1,741 @@
-//! Reader tests on generated .usda stages.
+//! Reader tests on generated .usda stages (hand-computed expectations, cross-checked with usd-core).
+
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Vec3};
+
+use super::*;
+use crate::scene::{LightKind, Scene};
+
+/// Writes `files` (name, text) into a fresh temporary directory; returns it and the first file.
+fn write(files: &[(&str, &str)]) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let root = dir.path().join(files[0].0);
+    (dir, root)
+}
+
+fn load_text(text: &str) -> Scene {
+    let (_dir, root) = write(&[("scene.usda", text)]);
+    load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn usda(body: &str) -> String {
+    format!("#usda 1.0\n\n{body}\n")
+}
+
+fn mesh<'a>(scene: &'a Scene, path: &str) -> &'a crate::Mesh {
+    scene.meshes.iter().find(|m| m.path == path).unwrap_or_else(|| {
+        panic!("no mesh {path}; have {:?}", scene.meshes.iter().map(|m| &m.path).collect::<Vec<_>>())
+    })
+}
+
+fn assert_mat(actual: Mat4, expected: Mat4) {
+    assert!(actual.abs_diff_eq(expected, 1e-5), "\nactual   {actual}\nexpected {expected}");
+}
+
+fn has_warning(scene: &Scene, prim: &str, needle: &str) -> bool {
+    scene.warnings.iter().any(|w| w.prim == prim && w.message.contains(needle))
+}
+
+/// A triangle mesh with scheme none, for transform and binding tests.
+const TRI: &str = r#"
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+        uniform token subdivisionScheme = "none""#;
+
+#[test]
+fn xform_stack_translate_rotate_xyz_scale() {
+    let scene = load_text(&usda(
+        r#"def Xform "A" {
+    double3 xformOp:translate = (1, 2, 3)
+    float3 xformOp:rotateXYZ = (30, 45, 60)
+    float3 xformOp:scale = (2, 2, 2)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ", "xformOp:scale"]
+    def Camera "Cam" {}
+}"#,
+    ));
+    let (x, y, z) = (30f32.to_radians(), 45f32.to_radians(), 60f32.to_radians());
+    let expected = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0))
+        * Mat4::from_rotation_z(z)
+        * Mat4::from_rotation_y(y)
+        * Mat4::from_rotation_x(x)
+        * Mat4::from_scale(Vec3::splat(2.0));
+    assert_mat(scene.cameras[0].world_from_camera, expected);
+    // usd-core: UsdGeom.Xformable(A).ComputeLocalToWorldTransform(0) row 0 (GfMatrix4d is row-vector).
+    // (0.7071067811865476, 1.224744871391589, -1.4142135623730951)
+    let usd_row0 = [std::f32::consts::FRAC_1_SQRT_2, 1.5f32.sqrt(), -std::f32::consts::SQRT_2];
+    let m = scene.cameras[0].world_from_camera;
+    for (i, v) in usd_row0.iter().enumerate() {
+        assert!((m.col(0)[i] - v).abs() < 1e-5, "{m}");
+    }
+}
+
+#[test]
+fn xform_orient_invert_pivot_and_matrix() {
+    let scene = load_text(&usda(
+        r#"def Xform "Parent" {
+    float3 xformOp:scale = (2, 2, 2)
+    uniform token[] xformOpOrder = ["xformOp:scale"]
+    def Camera "Orient" {
+        quatf xformOp:orient = (0.70710678, 0, 0.70710678, 0)
+        uniform token[] xformOpOrder = ["xformOp:orient"]
+    }
+    def Camera "Pivot" {
+        double3 xformOp:translate = (10, 0, 0)
+        double3 xformOp:translate:pivot = (1, 0, 0)
+        double xformOp:rotateZ = 90
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:translate:pivot", "xformOp:rotateZ", "!invert!xformOp:translate:pivot"]
+    }
+    def Camera "Matrix" {
+        matrix4d xformOp:transform = ( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (5, 6, 7, 1) )
+        uniform token[] xformOpOrder = ["xformOp:transform"]
+    }
+    def Camera "Reset" {
+        double3 xformOp:translate = (0, 1, 0)
+        uniform token[] xformOpOrder = ["!resetXformStack!", "xformOp:translate"]
+    }
+}"#,
+    ));
+    let cam = |name: &str| scene.cameras.iter().find(|c| c.path == format!("/Parent/{name}")).unwrap();
+    let s = Mat4::from_scale(Vec3::splat(2.0));
+    assert_mat(cam("Orient").world_from_camera, s * Mat4::from_rotation_y(90f32.to_radians()));
+    let pivot = Mat4::from_translation(Vec3::X);
+    let expected = s
+        * Mat4::from_translation(Vec3::new(10.0, 0.0, 0.0))
+        * pivot
+        * Mat4::from_rotation_z(90f32.to_radians())
+        * pivot.inverse();
+    assert_mat(cam("Pivot").world_from_camera, expected);
+    // The pivot point itself stays put under the rotation: (1,0,0) local → 2 * (11, 0, 0).
+    let p = cam("Pivot").world_from_camera.transform_point3(Vec3::X);
+    assert!((p - Vec3::new(22.0, 0.0, 0.0)).length() < 1e-4, "{p}");
+    assert_mat(cam("Matrix").world_from_camera, s * Mat4::from_translation(Vec3::new(5.0, 6.0, 7.0)));
+    assert_mat(cam("Reset").world_from_camera, Mat4::from_translation(Vec3::Y));
+}
+
+#[test]
+fn ngon_triangulation_counts_and_holes() {
+    let scene = load_text(&usda(
+        r#"def Mesh "M" {
+    int[] faceVertexCounts = [3, 4, 5, 4]
+    int[] faceVertexIndices = [0, 1, 2,  0, 1, 2, 3,  0, 1, 2, 3, 4,  4, 3, 2, 1]
+    int[] holeIndices = [3]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (1.5, 1, 0), (0.5, 1.5, 0), (-0.5, 1, 0)]
+    uniform token subdivisionScheme = "none"
+}"#,
+    ));
+    let m = mesh(&scene, "/M");
+    assert_eq!(m.triangles.len(), 1 + 2 + 3, "hole face skipped");
+    assert_eq!(m.triangle_materials.len(), m.triangles.len());
+    assert!(scene.warnings.iter().all(|w| !w.message.contains("subdivision")));
+}
+
+#[test]
+fn concave_face_area_is_preserved() {
+    let scene = load_text(&usda(
+        r#"def Mesh "L" {
+    int[] faceVertexCounts = [6]
+    int[] faceVertexIndices = [0, 1, 2, 3, 4, 5]
+    point3f[] points = [(0, 0, 0), (2, 0, 0), (2, 1, 0), (1, 1, 0), (1, 2, 0), (0, 2, 0)]
+    uniform token subdivisionScheme = "none"
+}"#,
+    ));
+    let m = mesh(&scene, "/L");
+    assert_eq!(m.triangles.len(), 4);
+    let area: f32 = m
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            0.5 * (b - a).cross(c - a).z
+        })
+        .sum();
+    assert!((area - 3.0).abs() < 1e-5, "signed area {area}: all triangles CCW about +Z");
+}
+
+#[test]
+fn left_handed_and_mirrored_winding() {
+    let scene = load_text(&usda(&format!(
+        r#"def Mesh "Right" {{{TRI}
+}}
+def Mesh "Left" {{{TRI}
+    uniform token orientation = "leftHanded"
+}}
+def Mesh "Mirrored" {{{TRI}
+    float3 xformOp:scale = (-1, 1, 1)
+    uniform token[] xformOpOrder = ["xformOp:scale"]
+}}"#
+    )));
+    let normal = |path: &str| {
+        let m = mesh(&scene, path);
+        let [a, b, c] = m.triangles[0].map(|i| m.positions[i as usize]);
+        (b - a).cross(c - a).normalize()
+    };
+    assert!((normal("/Right") - Vec3::Z).length() < 1e-6);
+    assert!((normal("/Left") + Vec3::Z).length() < 1e-6, "leftHanded flips the winding");
+    // A mirroring transform keeps the surface facing +Z (the authored front side).
+    assert!((normal("/Mirrored") - Vec3::Z).length() < 1e-6);
+}
+
+#[test]
+fn face_varying_indexed_uvs_split_vertices() {
+    let scene = load_text(&usda(
+        r#"def Mesh "M" {
+    int[] faceVertexCounts = [4, 4]
+    int[] faceVertexIndices = [0, 1, 4, 3, 1, 2, 5, 4]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0), (1, 1, 0), (2, 1, 0)]
+    normal3f[] normals = [(0, 0, 1), (0, 0, 1), (0, 0, 1), (0, 0, 1), (0, 0, 1), (0, 0, 1)] (
+        interpolation = "vertex"
+    )
+    texCoord2f[] primvars:st = [(0, 0), (1, 0), (1, 1), (0, 1)] (
+        interpolation = "faceVarying"
+    )
+    int[] primvars:st:indices = [0, 1, 2, 3, 3, 2, 1, 0]
+    uniform token subdivisionScheme = "none"
+}
+def Mesh "Shared" {
+    int[] faceVertexCounts = [4, 4]
+    int[] faceVertexIndices = [0, 1, 4, 3, 1, 2, 5, 4]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0), (1, 1, 0), (2, 1, 0)]
+    float3[] primvars:normals = [(0, 0, 1)] (
+        interpolation = "constant"
+    )
+    texCoord2f[] primvars:uv = [(0, 0), (1, 0), (2, 0), (0, 1), (1, 1), (2, 1)] (
+        interpolation = "vertex"
+    )
+    uniform token subdivisionScheme = "none"
+}"#,
+    ));
+    let m = mesh(&scene, "/M");
+    assert_eq!(m.positions.len(), 8, "faceVarying st splits per face corner");
+    assert_eq!(m.uvs.len(), 8);
+    assert_eq!(m.normals.len(), 8);
+    // Second face's corners read st indices [3, 2, 1, 0].
+    assert_eq!(m.uvs[4], glam::Vec2::new(0.0, 1.0));
+    assert_eq!(m.uvs[7], glam::Vec2::new(0.0, 0.0));
+    assert_eq!(m.positions[4], Vec3::new(1.0, 0.0, 0.0));
+    let s = mesh(&scene, "/Shared");
+    assert_eq!(s.positions.len(), 6, "vertex/constant primvars keep shared vertices");
+    assert_eq!(s.uvs[5], glam::Vec2::new(2.0, 1.0), "first texCoord2f[] primvar used when st is absent");
+    assert!(s.normals.iter().all(|&n| n == Vec3::Z));
+    assert_eq!(s.triangles.len(), 4);
+}
+
+#[test]
+fn normals_transform_by_inverse_transpose() {
+    let scene = load_text(&usda(
+        r#"def Mesh "M" {
+    float3 xformOp:scale = (1, 4, 1)
+    uniform token[] xformOpOrder = ["xformOp:scale"]
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    normal3f[] normals = [(0.7071, 0.7071, 0), (0.7071, 0.7071, 0), (0.7071, 0.7071, 0)]
+    uniform token subdivisionScheme = "none"
+}"#,
+    ));
+    let n = mesh(&scene, "/M").normals[0];
+    let expected = Vec3::new(1.0, 0.25, 0.0).normalize();
+    assert!((n - expected).length() < 1e-4, "{n}");
+}
+
+#[test]
+fn subdivision_mesh_warns_and_drops_normals() {
+    let scene = load_text(&usda(
+        r#"def Mesh "S" {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    normal3f[] normals = [(0, 0, 1), (0, 0, 1), (0, 0, 1)]
+}"#,
+    ));
+    let m = mesh(&scene, "/S");
+    assert!(m.normals.is_empty());
+    let w: Vec<_> = scene.warnings.iter().filter(|w| w.prim == "/S").collect();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert_eq!(w[0].message, "subdivision scheme catmullClark not supported yet; rendering the cage");
+}
+
+#[test]
+fn bad_index_and_degenerate_faces() {
+    let (_dir, root) = write(&[(
+        "scene.usda",
+        &usda(
+            r#"def Xform "World" {
+    def Mesh "Mesh" {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 12]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 0), (0, 0, 0), (0, 0, 0), (0, 0, 0), (0, 0, 0)]
+    }
+}"#,
+        ),
+    )]);
+    let err = load(&root, &LoadOptions::default()).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.ends_with("scene.usda: /World/Mesh.faceVertexIndices: index 12 out of range (8 points)"),
+        "{text}"
+    );
+    assert_eq!(err.prim(), Some("/World/Mesh"));
+    assert_eq!(err.attribute_name(), Some("faceVertexIndices"));
+
+    let scene = load_text(&usda(
+        r#"def Mesh "D" {
+    int[] faceVertexCounts = [2, 3, 1]
+    int[] faceVertexIndices = [0, 1, 0, 1, 2, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+}"#,
+    ));
+    assert_eq!(mesh(&scene, "/D").triangles.len(), 1);
+    assert!(has_warning(&scene, "/D", "2 degenerate faces"));
+}
+
+const MATERIALS: &str = r#"
+def Scope "Looks" {
+    def Material "Red" {
+        token outputs:surface.connect = </Looks/Red/Surface.outputs:surface>
+        def Shader "Surface" {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (1, 0, 0)
+            float inputs:roughness = 0.25
+            float inputs:metallic = 1
+            int inputs:useSpecularWorkflow = 1
+            float inputs:ior = 1.33
+            float inputs:opacity = 0.5
+            token outputs:surface
+        }
+    }
+    def Material "Blue" {
+        color3f inputs:tint = (0, 0, 1)
+        token outputs:surface.connect = </Looks/Blue/Surface.outputs:surface>
+        def Shader "Surface" {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor.connect = </Looks/Blue.inputs:tint>
+            color3f inputs:emissiveColor.connect = </Looks/Blue/Tex.outputs:rgb>
+            token outputs:surface
+        }
+        def Shader "Tex" {
+            uniform token info:id = "UsdUVTexture"
+            asset inputs:file = @tex.png@
+            float4 inputs:fallback = (0.1, 0.2, 0.3, 1)
+            float3 outputs:rgb
+        }
+    }
+    def Material "X" {
+        token outputs:mtlx:surface.connect = </Looks/X/S.outputs:out>
+        def Shader "S" {
+            uniform token info:id = "ND_standard_surface_surfaceshader"
+            token outputs:out
+        }
+    }
+}"#;
+
+#[test]
+fn material_binding_direct_inherited_and_subsets() {
+    let scene = load_text(&usda(&format!(
+        r#"{MATERIALS}
+def Xform "Group" (prepend apiSchemas = ["MaterialBindingAPI"]) {{
+    rel material:binding = </Looks/Red>
+    def Mesh "Inherits" {{{TRI}
+    }}
+    def Mesh "Direct" (prepend apiSchemas = ["MaterialBindingAPI"]) {{{TRI}
+        rel material:binding = </Looks/Blue>
+    }}
+}}
+def Mesh "Subsets" (prepend apiSchemas = ["MaterialBindingAPI"]) {{
+    int[] faceVertexCounts = [3, 3]
+    int[] faceVertexIndices = [0, 1, 2, 0, 2, 3]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+    rel material:binding = </Looks/Red>
+    def GeomSubset "Second" (prepend apiSchemas = ["MaterialBindingAPI"]) {{
+        uniform token elementType = "face"
+        uniform token familyName = "materialBind"
+        int[] indices = [1]
+        rel material:binding = </Looks/Blue>
+    }}
+}}
+def Mesh "Mtlx" (prepend apiSchemas = ["MaterialBindingAPI"]) {{{TRI}
+    rel material:binding = </Looks/X>
+    color3f[] primvars:displayColor = [(0, 1, 0)]
+}}"#
+    )));
+    let mat = |mesh_path: &str, tri: usize| {
+        &scene.materials[mesh(&scene, mesh_path).triangle_materials[tri] as usize]
+    };
+    let red = mat("/Group/Inherits", 0);
+    assert_eq!(red.path, "/Looks/Red");
+    assert_eq!(red.diffuse_color, Vec3::new(1.0, 0.0, 0.0));
+    assert_eq!((red.roughness, red.metallic, red.ior, red.opacity), (0.25, 1.0, 1.33, 0.5));
+    assert!(red.use_specular_workflow);
+    assert_eq!(red.clearcoat_roughness, 0.01, "unauthored inputs keep the spec fallback");
+
+    let blue = mat("/Group/Direct", 0);
+    assert_eq!(blue.path, "/Looks/Blue");
+    assert_eq!(blue.diffuse_color, Vec3::new(0.0, 0.0, 1.0), "interface input followed");
+    assert_eq!(blue.emissive_color, Vec3::new(0.1, 0.2, 0.3), "texture fallback used");
+    assert!(has_warning(
+        &scene,
+        "/Looks/Blue",
+        "input emissiveColor is connected to a texture network; textures not supported yet"
+    ));
+
+    assert_eq!(mat("/Subsets", 0).path, "/Looks/Red");
+    assert_eq!(mat("/Subsets", 1).path, "/Looks/Blue");
+
+    let x = mat("/Mtlx", 0);
+    assert_eq!(x.path, "/Mtlx.displayColor");
+    assert_eq!(x.diffuse_color, Vec3::new(0.0, 1.0, 0.0));
+    assert!(has_warning(&scene, "/Looks/X", "outputs:mtlx:surface"));
+
+    let paths: Vec<&str> = scene.materials.iter().map(|m| m.path.as_str()).collect();
+    assert_eq!(paths.len(), 3, "materials deduplicated: {paths:?}");
+}
+
+#[test]
+fn stronger_than_descendants_binding_wins() {
+    let scene = load_text(&usda(&format!(
+        r#"{MATERIALS}
+def Xform "Group" {{
+    rel material:binding = </Looks/Red> (
+        bindMaterialAs = "strongerThanDescendants"
+    )
+    def Mesh "M" {{{TRI}
+        rel material:binding = </Looks/Blue>
+    }}
+}}
+def Mesh "Preview" {{{TRI}
+    rel material:binding:preview = </Looks/Blue>
+}}"#
+    )));
+    let m = mesh(&scene, "/Group/M");
+    assert_eq!(scene.materials[m.triangle_materials[0] as usize].path, "/Looks/Red");
+    let p = mesh(&scene, "/Preview");
+    assert_eq!(scene.materials[p.triangle_materials[0] as usize].path, "/Looks/Blue");
+    assert!(has_warning(&scene, "/Preview", "preview-purpose"));
+}
+
+#[test]
+fn display_color_fallbacks() {
+    let scene = load_text(&usda(&format!(
+        r#"def Mesh "Constant" {{{TRI}
+    color3f[] primvars:displayColor = [(0.5, 0.25, 1)] (interpolation = "constant")
+    float[] primvars:displayOpacity = [0.5]
+}}
+def Mesh "Varying" {{{TRI}
+    color3f[] primvars:displayColor = [(1, 0, 0), (0, 1, 0), (0, 0, 1)] (interpolation = "vertex")
+}}
+def Mesh "None" {{{TRI}
+}}"#
+    )));
+    let mat = |p: &str| &scene.materials[mesh(&scene, p).triangle_materials[0] as usize];
+    assert_eq!(mat("/Constant").path, "/Constant.displayColor");
+    assert_eq!(mat("/Constant").diffuse_color, Vec3::new(0.5, 0.25, 1.0));
+    assert_eq!(mat("/Constant").opacity, 0.5);
+    assert!((mat("/Varying").diffuse_color - Vec3::splat(1.0 / 3.0)).length() < 1e-6);
+    assert!(has_warning(&scene, "/Varying", "not constant"));
+    assert_eq!(mat("/None").diffuse_color, Vec3::splat(0.18));
+}
+
+#[test]
+fn visibility_purpose_and_active() {
+    let scene = load_text(&usda(&format!(
+        r#"def Xform "Hidden" {{
+    token visibility = "invisible"
+    def Mesh "M" {{{TRI}
+    }}
+}}
+def Xform "Guides" {{
+    uniform token purpose = "guide"
+    def Mesh "G" {{{TRI}
+    }}
+    def Mesh "R" {{{TRI}
+        uniform token purpose = "render"
+    }}
+}}
+def Mesh "Proxy" {{{TRI}
+    uniform token purpose = "proxy"
+}}
+def Mesh "Inactive" (active = false) {{{TRI}
+}}
+def Mesh "Visible" {{{TRI}
+    token visibility = "inherited"
+}}"#
+    )));
+    let paths: Vec<&str> = scene.meshes.iter().map(|m| m.path.as_str()).collect();
+    assert_eq!(paths, ["/Guides/R", "/Visible"]);
+}
+
+#[test]
+fn light_fallbacks_and_radiance() {
+    let scene = load_text(&usda(
+        r#"def SphereLight "Sphere" {}
+def DistantLight "Sun" {
+    float inputs:intensity = 2
+    float inputs:exposure = 1
+    color3f inputs:color = (1, 0.5, 0.25)
+    float inputs:angle = 1
+}
+def RectLight "Old" {
+    float intensity = 3
+    float width = 2
+}
+def DiskLight "Both" {
+    float intensity = 5
+    float inputs:intensity = 7
+    bool inputs:normalize = 1
+}
+def DomeLight "Dome" {
+    asset inputs:texture:file = @sky.exr@
+}
+def CylinderLight "Cyl" {}"#,
+    ));
+    let light = |p: &str| scene.lights.iter().find(|l| l.path == p).unwrap();
+    assert_eq!(light("/Sphere").kind, LightKind::Sphere { radius: 0.5, treat_as_point: false });
+    assert_eq!(light("/Sphere").radiance, Vec3::ONE);
+    assert!(!light("/Sphere").normalize);
+    assert_eq!(light("/Sun").kind, LightKind::Distant { angle_degrees: 1.0 });
+    assert_eq!(light("/Sun").radiance, Vec3::new(4.0, 2.0, 1.0));
+    assert_eq!(light("/Old").kind, LightKind::Rect { width: 2.0, height: 1.0 });
+    assert_eq!(light("/Old").radiance, Vec3::splat(3.0));
+    assert_eq!(light("/Both").radiance, Vec3::splat(7.0), "inputs: wins");
+    assert!(light("/Both").normalize);
+    assert_eq!(light("/Both").kind, LightKind::Disk { radius: 0.5 });
+    assert_eq!(light("/Dome").kind, LightKind::Dome);
+    assert!(has_warning(&scene, "/Dome", "textured dome light not supported yet; using its uniform color"));
+    assert!(has_warning(&scene, "/Cyl", "CylinderLight"));
+    assert_eq!(scene.lights.len(), 5);
+    assert_eq!(
+        scene.lights.iter().find(|l| l.path == "/Sun").unwrap().kind,
+        LightKind::Distant { angle_degrees: 1.0 }
+    );
+}
+
+#[test]
+fn camera_fallbacks_and_render_settings() {
+    let scene = load_text(&usda(
+        r#"def Camera "First" {}
+def Camera "Second" {
+    float focalLength = 35
+    token projection = "orthographic"
+    float2 clippingRange = (0.1, 100)
+    float horizontalApertureOffset = 1
+}
+def Scope "Render" {
+    def RenderSettings "Settings" {
+        rel camera = </Second>
+        uniform int2 resolution = (640, 360)
+    }
+}"#,
+    ));
+    let first = &scene.cameras[0];
+    assert_eq!(first.path, "/First");
+    assert_eq!(
+        (first.focal_length, first.horizontal_aperture, first.vertical_aperture),
+        (50.0, 20.955, 15.2908)
+    );
+    assert_eq!((first.horizontal_aperture_offset, first.vertical_aperture_offset), (0.0, 0.0));
+    assert_eq!(first.clipping_range, [1.0, 1_000_000.0]);
+    assert!(!first.orthographic);
+    assert_eq!(first.world_from_camera, Mat4::IDENTITY);
+    let second = &scene.cameras[1];
+    assert_eq!((second.focal_length, second.orthographic, second.clipping_range), (35.0, true, [0.1, 100.0]));
+    assert_eq!(second.horizontal_aperture_offset, 1.0);
+    assert_eq!(scene.default_camera, Some(1));
+    assert_eq!(scene.resolution, Some([640, 360]));
+
+    let scene = load_text(&usda(r#"def Camera "Only" {}"#));
+    assert_eq!(scene.default_camera, Some(0));
+    assert_eq!(scene.resolution, None);
+}
+
+#[test]
+fn stage_metadata() {
+    let scene = load_text("#usda 1.0\n(\n    upAxis = \"Z\"\n    metersPerUnit = 1\n)\n");
+    assert_eq!(scene.up_axis, UpAxis::Z);
+    assert_eq!(scene.meters_per_unit, 1.0);
+    let scene = load_text("#usda 1.0\n");
+    assert_eq!(scene.up_axis, UpAxis::Y);
+    assert_eq!(scene.meters_per_unit, 0.01);
+}
+
+#[test]
+fn missing_reference_names_referencing_layer() {
+    let files = [
+        (
+            "scene.usda",
+            "#usda 1.0\n\ndef Xform \"World\" {\n    def \"Ref\" (references = @middle.usda@) {}\n}\n",
+        ),
+        (
+            "middle.usda",
+            "#usda 1.0\n(defaultPrim = \"M\")\n\ndef Xform \"M\" (references = @missing.usda@) {}\n",
+        ),
+    ];
+    let (_dir, root) = write(&files);
+    let err = load(&root, &LoadOptions::default()).unwrap_err();
+    assert!(err.layer().ends_with("middle.usda"), "{err}");
+    assert!(
+        matches!(err.kind(), UsdErrorKind::MissingAsset { asset, .. } if asset.contains("missing.usda")),
+        "{err}"
+    );
+    let scene = load(&root, &LoadOptions { lenient: true, ..LoadOptions::default() }).unwrap();
+    assert!(scene.warnings.iter().any(|w| w.message.contains("missing.usda")), "{:?}", scene.warnings);
+
+    let (_dir, root) = write(&[("scene.usda", "#usda 1.0\n(\n    subLayers = [@gone.usda@]\n)\n")]);
+    let err = load(&root, &LoadOptions::default()).unwrap_err();
+    assert!(err.layer().ends_with("scene.usda") && err.to_string().contains("gone.usda"), "{err}");
+}
+
+#[test]
+fn malformed_file_names_the_file() {
+    let (_dir, root) = write(&[("broken.usda", "#usda 1.0\n\ndef Mesh \"M\" {\n    int[] x = [1, \n")]);
+    let err = load(&root, &LoadOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("broken.usda"), "{err}");
+}
+
+#[test]
+fn instances_and_point_instancers_are_expanded() {
+    let scene = load_text(&usda(&format!(
+        r#"class "Proto" {{
+    def Mesh "Tri" {{{TRI}
+    }}
+}}
+def Xform "A" (instanceable = true inherits = </Proto>) {{
+    double3 xformOp:translate = (10, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+def Xform "B" (instanceable = true inherits = </Proto>) {{}}
+def PointInstancer "PI" {{
+    rel prototypes = [</PI/Protos/Tri>]
+    int[] protoIndices = [0, 0, 0]
+    point3f[] positions = [(0, 0, 5), (0, 0, 6), (0, 0, 7)]
+    float3[] scales = [(1, 1, 1), (2, 2, 2), (1, 1, 1)]
+    int64[] invisibleIds = [2]
+    def Scope "Protos" {{
+        def Mesh "Tri" {{{TRI}
+        }}
+    }}
+}}"#
+    )));
+    let paths: Vec<&str> = scene.meshes.iter().map(|m| m.path.as_str()).collect();
+    assert_eq!(paths, ["/A/Tri", "/B/Tri", "/PI/Protos/Tri", "/PI/Protos/Tri"]);
+    assert_eq!(scene.instance_count, 4);
+    assert_eq!(mesh(&scene, "/A/Tri").positions[1], Vec3::new(11.0, 0.0, 0.0));
+    assert_eq!(scene.meshes[3].positions[1], Vec3::new(2.0, 0.0, 6.0));
+}
+
+#[test]
+fn shapes_and_unsupported_prims() {
+    let scene = load_text(&usda(
+        r#"def Cube "C" { double size = 4 }
+def Sphere "S" {}
+def BasisCurves "Hair" {}
+def Points "P" {}"#,
+    ));
+    let c = mesh(&scene, "/C");
+    assert_eq!(c.triangles.len(), 12);
+    assert!(c.positions.iter().all(|p| p.abs().max_element() == 2.0));
+    let s = mesh(&scene, "/S");
+    assert!(s.positions.iter().all(|p| (p.length() - 1.0).abs() < 1e-5));
+    assert!(has_warning(&scene, "/Hair", "BasisCurves"));
+    assert!(has_warning(&scene, "/P", "Points"));
+}
+
+/// The shared asset folder beside the checkout (`../shared/assets`), if present.
+fn shared_assets() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets");
+    dir.is_dir().then_some(dir)
+}
+
+#[test]
+fn real_assets_load_with_triangles() {
+    let Some(assets) = shared_assets() else {
+        eprintln!("skipping: ../shared/assets not found");
+        return;
+    };
+    for (file, min_triangles) in [
+        ("mini_car_kit/full_assets/Vehicles/USD_Mini_Car_Kit/assets/vehicles/vehicleVariants.usda", 1000),
+        ("teapot/full_assets/Teapot/Teapot.usd", 100),
+    ] {
+        let scene = load(&assets.join(file), &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert!(scene.triangle_count() >= min_triangles, "{file}: {} triangles", scene.triangle_count());
+        for m in &scene.meshes {
+            assert_eq!(m.triangles.len(), m.triangle_materials.len());
+            assert!(m.triangle_materials.iter().all(|&i| (i as usize) < scene.materials.len()));
+            assert!(m.triangles.iter().flatten().all(|&i| (i as usize) < m.positions.len()));
+            assert!(m.normals.is_empty() || m.normals.len() == m.positions.len());
+            assert!(m.uvs.is_empty() || m.uvs.len() == m.positions.len());
+        }
+    }
+}
+
+/// `USD_DUMP=path cargo test -p ingest usd::tests::dump -- --ignored --nocapture` prints a summary
+/// (for cross-checks against usd-core).
+#[test]
+#[ignore]
+fn dump() {
+    let Ok(path) = std::env::var("USD_DUMP") else { return };
+    let t = std::time::Instant::now();
+    let scene = load(Path::new(&path), &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for p in scene.meshes.iter().flat_map(|m| &m.positions) {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    println!("loaded in {:?}", t.elapsed());
+    println!(
+        "meshes {} triangles {} materials {} lights {} cameras {} instances {} up {:?} mpu {}",
+        scene.meshes.len(),
+        scene.triangle_count(),
+        scene.materials.len(),
+        scene.lights.len(),
+        scene.cameras.len(),
+        scene.instance_count,
+        scene.up_axis,
+        scene.meters_per_unit
+    );
+    println!("bounds {lo} {hi}");
+    if std::env::var("USD_DUMP_PATHS").is_ok() {
+        for m in &scene.meshes {
+            println!("mesh {} {}", m.path, m.triangles.len());
+        }
+    }
+    for w in &scene.warnings {
+        println!("warning {}: {}", w.prim, w.message);
+    }
+}
+
+/// `USD_DUMP_LIST=file` (one .usd path a line): prints `path triangles xmin ymin zmin xmax ymax zmax`
+/// or `path ERROR message` per file.
+#[test]
+#[ignore]
+fn dump_list() {
+    let Ok(list) = std::env::var("USD_DUMP_LIST") else { return };
+    for path in std::fs::read_to_string(list).unwrap().lines() {
+        match load(Path::new(path), &LoadOptions { lenient: true, ..LoadOptions::default() }) {
+            Ok(scene) => {
+                let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+                for p in scene.meshes.iter().filter(|m| !m.path.ends_with("]")).flat_map(|m| &m.positions) {
+                    lo = lo.min(*p);
+                    hi = hi.max(*p);
+                }
+                println!(
+                    "{path} {} {} {} {} {} {} {}",
+                    scene.triangle_count(),
+                    lo.x,
+                    lo.y,
+                    lo.z,
+                    hi.x,
+                    hi.y,
+                    hi.z
+                );
+            }
+            Err(e) => println!("{path} ERROR {e}"),
+        }
+    }
+}

@@ -40,7 +40,8 @@ pub(crate) fn read_local(
             Some(name) => (true, name),
             None => (false, entry.as_str()),
         };
-        let Some(kind) = name.strip_prefix("xformOp:").map(|rest| rest.split(':').next().unwrap_or(rest)) else {
+        let Some(kind) = name.strip_prefix("xformOp:").map(|rest| rest.split(':').next().unwrap_or(rest))
+        else {
             warn(format!("xformOpOrder entry {entry} is not an xformOp; ignored"));
             continue;
         };

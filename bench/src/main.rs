@@ -1,0 +1,136 @@
+//! The bench harness. Speed is measured here, side by side in one run, never asserted in a test.
+//!
+//! - `bench rays BLOB`: primary and incoherent closest-hit rays through our BVH and through Embree
+//!   (embreex) on the same triangles, 1 and 2 threads, with the ratio and how often the two agree.
+//! - `bench convergence BLOB`: RMSE against a high-spp reference versus render seconds for spp = 1…256,
+//!   charted as SVG.
+//!
+//! Figures go to stdout and to a JSON file.
+
+mod convergence;
+mod rays;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::Command;
+
+#[derive(Parser)]
+#[command(about)]
+struct Args {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Ray throughput: ours against Embree on the same rays.
+    Rays {
+        /// Scene blob.
+        blob: PathBuf,
+        /// Primary rays: res × res.
+        #[arg(long, default_value_t = 512)]
+        res: u32,
+        /// Incoherent (cosine-bounce) rays.
+        #[arg(long, default_value_t = 1_000_000)]
+        rays: usize,
+        /// Best of this many timings.
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+        /// Python with embreex and numpy (skip Embree when absent).
+        #[arg(long, default_value = ".venv/bin/python")]
+        python: PathBuf,
+        /// Work folder for the ray files and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+    /// Error against time: RMSE versus render seconds for spp = 1…256.
+    Convergence {
+        /// Scene blob.
+        blob: PathBuf,
+        /// Reference samples per pixel.
+        #[arg(long, default_value_t = 1024)]
+        reference_spp: u32,
+        /// Largest spp of the sweep (powers of two from 1).
+        #[arg(long, default_value_t = 256)]
+        max_spp: u32,
+        /// Image width (height from the camera).
+        #[arg(long, default_value_t = 192)]
+        width: u32,
+        /// Work folder for the chart and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+}
+
+fn load(path: &PathBuf) -> anyhow::Result<blob::AlignedBytes> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(blob::AlignedBytes::copy_from(&bytes))
+}
+
+fn main() -> anyhow::Result<()> {
+    match Args::parse().command {
+        Cmd::Rays { blob: path, res, rays: count, repeat, python, out } => {
+            let bytes = load(&path)?;
+            let view = blob::SceneView::parse(&bytes).with_context(|| format!("{}", path.display()))?;
+            let accel = render::accel::Accel::new(&view);
+            std::fs::create_dir_all(&out)?;
+            rays::write_triangles(&view, &out)?;
+            let sets = [rays::primary_rays(&view, res), rays::incoherent_rays(&view, count, 1)];
+            let mut ours = serde_json::Map::new();
+            for set in &sets {
+                let (prims, dists) = rays::trace(&accel, set);
+                rays::write_set(&out, set, &prims, &dists)?;
+                let one = rays::measure(&accel, set, 1, repeat)?;
+                let two = rays::measure(&accel, set, 2, repeat)?;
+                let hit_fraction = prims.iter().filter(|&&p| p >= 0).count() as f64 / prims.len().max(1) as f64;
+                ours.insert(
+                    set.name.into(),
+                    serde_json::json!({"rays": set.origins.len(), "ours_mrays_1thr": one, "ours_mrays_2thr": two, "hit_fraction": hit_fraction}),
+                );
+            }
+            let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("embree_rays.py");
+            let embree = Command::new(&python).arg(&script).arg(&out).arg("--repeat").arg(repeat.to_string()).output();
+            let embree: serde_json::Value = match embree {
+                Ok(o) if o.status.success() => serde_json::from_slice(&o.stdout)?,
+                Ok(o) => {
+                    eprintln!("embree run failed: {}", String::from_utf8_lossy(&o.stderr));
+                    serde_json::Value::Null
+                }
+                Err(e) => {
+                    eprintln!("cannot run {}: {e} (run scripts/bench.sh to install embreex)", python.display());
+                    serde_json::Value::Null
+                }
+            };
+            println!("triangles: {}", view.triangles.len());
+            println!("{:<11} {:>8} {:>12} {:>12} {:>12} {:>12} {:>8} {:>8} {:>9}", "rays", "count", "ours 1thr", "embree 1thr", "ours 2thr", "embree 2thr", "ratio1", "ratio2", "agree");
+            for (name, o) in &ours {
+                let e = &embree["sets"][name];
+                let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+                println!(
+                    "{:<11} {:>8} {:>12.3} {:>12.3} {:>12.3} {:>12.3} {:>8.3} {:>8.3} {:>9.5}",
+                    name,
+                    o["rays"],
+                    f(&o["ours_mrays_1thr"]),
+                    f(&e["embree_mrays_1thr"]),
+                    f(&o["ours_mrays_2thr"]),
+                    f(&e["embree_mrays_2thr"]),
+                    f(&o["ours_mrays_1thr"]) / f(&e["embree_mrays_1thr"]),
+                    f(&o["ours_mrays_2thr"]) / f(&e["embree_mrays_2thr"]),
+                    f(&e["agree_hit_or_miss"]),
+                );
+            }
+            let result = serde_json::json!({"blob": path, "triangles": view.triangles.len(), "ours": ours, "embree": embree});
+            let file = out.join("rays.json");
+            std::fs::write(&file, serde_json::to_string_pretty(&result)?)?;
+            println!("figures written to {}", file.display());
+        }
+        Cmd::Convergence { blob: path, reference_spp, max_spp, width, out } => {
+            let bytes = load(&path)?;
+            let view = blob::SceneView::parse(&bytes).with_context(|| format!("{}", path.display()))?;
+            std::fs::create_dir_all(&out)?;
+            convergence::run(&view, reference_spp, max_spp, width, &out)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,141 @@
+//! Command-line arguments (clap) and their validation into [`Command`].
+
+use crate::error::RenderError;
+use crate::film::RenderOptions;
+use clap::Parser;
+use std::path::PathBuf;
+
+/// Raw arguments of the `render` binary.
+#[derive(Debug, Parser)]
+#[command(name = "render", version, about = "Path-traces a scene blob written by ingest.")]
+pub struct Args {
+    /// The scene blob.
+    pub blob: PathBuf,
+    /// Output OpenEXR file (beauty RGBA + albedo, normal, depth layers).
+    #[arg(short = 'o', long = "output", required_unless_present = "info")]
+    pub output: Option<PathBuf>,
+    /// Print scene counts and bounds as one JSON object and exit.
+    #[arg(long)]
+    pub info: bool,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 16)]
+    pub spp: u32,
+    /// Resolution as WIDTHxHEIGHT (default: RenderSettings, else 512 wide with the camera aspect).
+    #[arg(long, value_parser = parse_resolution)]
+    pub res: Option<[u32; 2]>,
+    /// Camera prim path (default: the scene's default camera).
+    #[arg(long)]
+    pub camera: Option<String>,
+    /// Worker threads (default: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Sampler seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Maximum bounces.
+    #[arg(long, default_value_t = 8)]
+    pub max_depth: u32,
+    /// Also write an 8-bit sRGB PNG preview of the beauty.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Write the run's statistics as JSON.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+}
+
+fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got {s:?}"))?;
+    let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("bad resolution {s:?}: {e}"));
+    let res = [parse(w)?, parse(h)?];
+    if res[0] == 0 || res[1] == 0 || res[0] > 65536 || res[1] > 65536 {
+        return Err(format!("resolution {s:?} out of range (1..=65536 per axis)"));
+    }
+    Ok(res)
+}
+
+/// What to do, validated.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Print the scene summary.
+    Info {
+        /// The blob.
+        blob: PathBuf,
+    },
+    /// Render.
+    Render {
+        /// The blob.
+        blob: PathBuf,
+        /// EXR output.
+        output: PathBuf,
+        /// PNG preview.
+        png: Option<PathBuf>,
+        /// Statistics JSON.
+        stats: Option<PathBuf>,
+        /// Render options.
+        options: RenderOptions,
+    },
+}
+
+impl Args {
+    /// Validates the arguments.
+    pub fn into_command(self) -> Result<Command, RenderError> {
+        if self.info {
+            return Ok(Command::Info { blob: self.blob });
+        }
+        if self.spp == 0 {
+            return Err(RenderError::InvalidOption("--spp must be at least 1".into()));
+        }
+        let output =
+            self.output.ok_or_else(|| RenderError::InvalidOption("-o OUT.exr is required".into()))?;
+        Ok(Command::Render {
+            blob: self.blob,
+            output,
+            png: self.png,
+            stats: self.stats,
+            options: RenderOptions {
+                spp: self.spp,
+                resolution: self.res,
+                camera: self.camera,
+                threads: self.threads,
+                seed: self.seed,
+                max_depth: self.max_depth,
+                ..RenderOptions::default()
+            },
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arguments_become_a_validated_command() {
+        let args = Args::try_parse_from([
+            "render",
+            "s.blob",
+            "-o",
+            "o.exr",
+            "--spp",
+            "4",
+            "--res",
+            "64x32",
+            "--threads",
+            "2",
+        ])
+        .unwrap();
+        let Command::Render { options, output, .. } = args.into_command().unwrap() else { panic!() };
+        assert_eq!(output, PathBuf::from("o.exr"));
+        assert_eq!((options.spp, options.resolution, options.threads), (4, Some([64, 32]), 2));
+        assert!(Args::try_parse_from(["render", "s.blob"]).is_err(), "-o is required without --info");
+        assert!(matches!(
+            Args::try_parse_from(["render", "s.blob", "--info"]).unwrap().into_command().unwrap(),
+            Command::Info { .. }
+        ));
+        assert!(Args::try_parse_from(["render", "s.blob", "-o", "x", "--res", "0x5"]).is_err());
+        assert!(Args::try_parse_from(["render", "s.blob", "-o", "x", "--spp", "0"])
+            .unwrap()
+            .into_command()
+            .is_err());
+    }
+}

@@ -1,0 +1,226 @@
+//! The image loop: tiles rendered in parallel on a local rayon pool, samples accumulated per pixel in
+//! sample order, so the image depends only on the sample keys — never on the thread count or the
+//! scheduling order.
+
+use crate::error::RenderError;
+use crate::integrator::RayCounts;
+use crate::sampler::{dim, sample_2d, SampleKey};
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Options of one render. [`RenderOptions::default`] gives 16 spp, depth 8, automatic resolution.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Samples per pixel (≥ 1).
+    pub spp: u32,
+    /// `[width, height]`, or `None` for the scene's RenderSettings resolution, else 512 wide with the
+    /// camera's aspect.
+    pub resolution: Option<[u32; 2]>,
+    /// Camera prim path, or `None` for the scene's default camera (or a framing camera if none).
+    pub camera: Option<String>,
+    /// Worker threads; 0 = one per core.
+    pub threads: usize,
+    /// Sampler seed.
+    pub seed: u32,
+    /// Maximum number of bounces (1 = direct lighting only).
+    pub max_depth: u32,
+    /// Tile edge in pixels.
+    pub tile_size: u32,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            spp: 16,
+            resolution: None,
+            camera: None,
+            threads: 0,
+            seed: 0,
+            max_depth: 8,
+            tile_size: 16,
+        }
+    }
+}
+
+/// Render statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    /// Rays by kind.
+    pub rays: RayCounts,
+    /// Camera samples taken.
+    pub samples: u64,
+    /// Samples discarded because their radiance was NaN or infinite.
+    pub nonfinite_samples: u64,
+    /// Wall-clock seconds of the render loop.
+    pub seconds: f64,
+    /// Worker threads used.
+    pub threads: usize,
+}
+
+/// A rendered image with its AOVs, row-major from the top-left pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Linear RGB radiance and alpha (fraction of camera samples that hit geometry).
+    pub beauty: Vec<[f32; 4]>,
+    /// First-hit diffuse albedo, averaged over samples (0 where a sample missed).
+    pub albedo: Vec<[f32; 3]>,
+    /// First-hit world-space shading normal, averaged over samples and renormalized.
+    pub normal: Vec<[f32; 3]>,
+    /// First-hit distance averaged over the samples that hit; +∞ where none did.
+    pub depth: Vec<f32>,
+    /// Counters and timing.
+    pub stats: RenderStats,
+}
+
+impl Image {
+    /// Beauty RGB of pixel (`x`, `y`).
+    pub fn rgb(&self, x: u32, y: u32) -> [f32; 3] {
+        let p = self.beauty[(y * self.width + x) as usize];
+        [p[0], p[1], p[2]]
+    }
+}
+
+struct Tile {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+struct TileResult {
+    beauty: Vec<[f32; 4]>,
+    albedo: Vec<[f32; 3]>,
+    normal: Vec<[f32; 3]>,
+    depth: Vec<f32>,
+    rays: RayCounts,
+    nonfinite: u64,
+}
+
+/// Renders a prepared `scene` with `options`.
+pub fn render_scene(scene: &Scene, options: &RenderOptions) -> Result<Image, RenderError> {
+    render_scene_with_progress(scene, options, &|_, _| {})
+}
+
+/// [`render_scene`] calling `progress(tiles_done, tiles_total)` as tiles finish (from worker threads).
+pub fn render_scene_with_progress(
+    scene: &Scene,
+    options: &RenderOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    if options.spp == 0 {
+        return Err(RenderError::InvalidOption("spp must be at least 1".into()));
+    }
+    if options.tile_size == 0 {
+        return Err(RenderError::InvalidOption("tile size must be at least 1".into()));
+    }
+    let camera_index = scene.camera_index(options.camera.as_deref())?;
+    let [width, height] = scene.resolution(options.resolution, camera_index);
+    if width == 0 || height == 0 || width as u64 * height as u64 > u32::MAX as u64 {
+        return Err(RenderError::InvalidOption(format!("resolution {width}x{height} is out of range")));
+    }
+    let camera = scene.camera(camera_index, width, height);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads)
+        .build()
+        .map_err(|e| RenderError::ThreadPool(e.to_string()))?;
+
+    let ts = options.tile_size;
+    let tiles: Vec<Tile> = (0..height.div_ceil(ts))
+        .flat_map(|ty| {
+            (0..width.div_ceil(ts)).map(move |tx| Tile {
+                x0: tx * ts,
+                y0: ty * ts,
+                x1: ((tx + 1) * ts).min(width),
+                y1: ((ty + 1) * ts).min(height),
+            })
+        })
+        .collect();
+    let total = tiles.len();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let start = Instant::now();
+    let spp = options.spp;
+
+    let render_tile = |tile: &Tile| -> TileResult {
+        let n = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
+        let mut out = TileResult {
+            beauty: Vec::with_capacity(n),
+            albedo: Vec::with_capacity(n),
+            normal: Vec::with_capacity(n),
+            depth: Vec::with_capacity(n),
+            rays: RayCounts::default(),
+            nonfinite: 0,
+        };
+        for y in tile.y0..tile.y1 {
+            for x in tile.x0..tile.x1 {
+                let pixel = y * width + x;
+                let mut sum = Vec3::ZERO;
+                let (mut albedo, mut normal, mut depth, mut hits) = (Vec3::ZERO, Vec3::ZERO, 0.0f64, 0u32);
+                for sample in 0..spp {
+                    let key = SampleKey { pixel, sample, seed: options.seed };
+                    let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
+                    let (o, d) =
+                        camera.generate_ray((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
+                    let r = scene.trace_path(o, d, key, options.max_depth, &mut out.rays);
+                    if r.radiance.is_finite() {
+                        sum += r.radiance;
+                    } else {
+                        out.nonfinite += 1;
+                    }
+                    if let Some(h) = r.first_hit {
+                        albedo += h.albedo;
+                        normal += h.normal;
+                        depth += h.depth as f64;
+                        hits += 1;
+                    }
+                }
+                let inv = 1.0 / spp as f32;
+                let c = sum * inv;
+                out.beauty.push([c.x, c.y, c.z, hits as f32 * inv]);
+                out.albedo.push((albedo * inv).to_array());
+                out.normal.push(normal.normalize_or_zero().to_array());
+                out.depth.push(if hits > 0 { (depth / hits as f64) as f32 } else { f32::INFINITY });
+            }
+        }
+        let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        progress(finished, total);
+        out
+    };
+    let results: Vec<TileResult> = pool.install(|| tiles.par_iter().map(render_tile).collect());
+    let seconds = start.elapsed().as_secs_f64();
+
+    let n = (width * height) as usize;
+    let mut image = Image {
+        width,
+        height,
+        beauty: vec![[0.0; 4]; n],
+        albedo: vec![[0.0; 3]; n],
+        normal: vec![[0.0; 3]; n],
+        depth: vec![0.0; n],
+        stats: RenderStats {
+            samples: n as u64 * spp as u64,
+            seconds,
+            threads: pool.current_num_threads(),
+            ..RenderStats::default()
+        },
+    };
+    for (tile, r) in tiles.iter().zip(&results) {
+        let tw = (tile.x1 - tile.x0) as usize;
+        for (row, y) in (tile.y0..tile.y1).enumerate() {
+            let dst = (y * width + tile.x0) as usize;
+            let src = row * tw;
+            image.beauty[dst..dst + tw].copy_from_slice(&r.beauty[src..src + tw]);
+            image.albedo[dst..dst + tw].copy_from_slice(&r.albedo[src..src + tw]);
+            image.normal[dst..dst + tw].copy_from_slice(&r.normal[src..src + tw]);
+            image.depth[dst..dst + tw].copy_from_slice(&r.depth[src..src + tw]);
+        }
+        image.stats.rays.add(&r.rays);
+        image.stats.nonfinite_samples += r.nonfinite;
+    }
+    Ok(image)
+}

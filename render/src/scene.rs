@@ -1,0 +1,81 @@
+//! A validated blob view plus what rendering derives from it once: the BVH wrapper, the light list,
+//! the camera choice and the resolution.
+
+use crate::accel::Accel;
+use crate::camera::{default_height, Camera};
+use crate::error::RenderError;
+use crate::lights::Lights;
+use blob::SceneView;
+use glam::Vec3;
+
+/// Everything the integrator reads, borrowed from the mapped blob (no copies of scene data).
+#[derive(Clone, Debug)]
+pub struct Scene<'a> {
+    /// The validated blob.
+    pub view: SceneView<'a>,
+    /// BVH queries.
+    pub accel: Accel<'a>,
+    /// Lights for sampling and MIS.
+    pub lights: Lights<'a>,
+}
+
+impl<'a> Scene<'a> {
+    /// Prepares a validated view for rendering.
+    pub fn new(view: SceneView<'a>) -> Self {
+        Scene { accel: Accel::new(&view), lights: Lights::new(&view), view }
+    }
+
+    /// Index of the camera with prim path `path`, or the default camera when `path` is `None`
+    /// (`Ok(None)`: the scene has no camera).
+    pub fn camera_index(&self, path: Option<&str>) -> Result<Option<usize>, RenderError> {
+        match path {
+            Some(path) => {
+                self.view.cameras.iter().position(|c| self.view.string(c.name) == path).map(Some).ok_or_else(
+                    || RenderError::UnknownCamera {
+                        path: path.to_string(),
+                        available: self
+                            .view
+                            .cameras
+                            .iter()
+                            .map(|c| self.view.string(c.name).to_string())
+                            .collect(),
+                    },
+                )
+            }
+            None => Ok(if self.view.info.default_camera != blob::NONE {
+                Some(self.view.info.default_camera as usize)
+            } else if !self.view.cameras.is_empty() {
+                Some(0)
+            } else {
+                None
+            }),
+        }
+    }
+
+    /// Image size: `requested`, else the authored RenderSettings resolution, else 512 wide with the
+    /// camera's aperture aspect.
+    pub fn resolution(&self, requested: Option<[u32; 2]>, camera: Option<usize>) -> [u32; 2] {
+        if let Some(r) = requested {
+            return r;
+        }
+        let authored = self.view.info.resolution;
+        if authored[0] > 0 && authored[1] > 0 {
+            return authored;
+        }
+        [512, default_height(camera.map(|i| &self.view.cameras[i]), 512)]
+    }
+
+    /// The camera for an image of `width × height`: the blob camera `index`, or one framing the bounds.
+    pub fn camera(&self, index: Option<usize>, width: u32, height: u32) -> Camera {
+        match index {
+            Some(i) => Camera::from_blob(&self.view.cameras[i], width, height),
+            None => Camera::framing(
+                Vec3::from(self.view.info.bounds_min),
+                Vec3::from(self.view.info.bounds_max),
+                self.view.info.up_axis == blob::UP_AXIS_Z,
+                width,
+                height,
+            ),
+        }
+    }
+}

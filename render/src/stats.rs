@@ -1,0 +1,87 @@
+//! The end-of-run summary: rays, throughput and seconds per phase, printed on stderr and optionally
+//! written as JSON.
+
+use crate::film::RenderStats;
+use serde::Serialize;
+
+/// Figures of one `render` run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Summary {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Worker threads.
+    pub threads: usize,
+    /// Camera rays.
+    pub camera_rays: u64,
+    /// Continuation rays (BSDF bounces and transparency pass-throughs).
+    pub bounce_rays: u64,
+    /// Shadow rays.
+    pub shadow_rays: u64,
+    /// All rays.
+    pub rays: u64,
+    /// Million rays per second of render time.
+    pub mrays_per_second: f64,
+    /// Million camera samples per second of render time.
+    pub msamples_per_second: f64,
+    /// Samples discarded as NaN/∞.
+    pub nonfinite_samples: u64,
+    /// Seconds mapping and validating the blob.
+    pub load_seconds: f64,
+    /// Seconds rendering.
+    pub render_seconds: f64,
+    /// Seconds writing outputs.
+    pub write_seconds: f64,
+}
+
+impl Summary {
+    /// Fills the render figures from `stats`; timings of the other phases are set by the caller.
+    pub fn from_render(stats: &RenderStats, width: u32, height: u32, spp: u32) -> Self {
+        let secs = stats.seconds.max(1e-9);
+        Summary {
+            width,
+            height,
+            spp,
+            threads: stats.threads,
+            camera_rays: stats.rays.camera,
+            bounce_rays: stats.rays.bounce,
+            shadow_rays: stats.rays.shadow,
+            rays: stats.rays.total(),
+            mrays_per_second: stats.rays.total() as f64 / secs / 1e6,
+            msamples_per_second: stats.samples as f64 / secs / 1e6,
+            nonfinite_samples: stats.nonfinite_samples,
+            render_seconds: stats.seconds,
+            ..Summary::default()
+        }
+    }
+
+    /// A few human-readable lines.
+    pub fn to_text(&self) -> String {
+        format!(
+            "{}x{} @ {} spp on {} threads\n\
+             rays: {} ({} camera, {} bounce, {} shadow), {:.2} Mrays/s, {:.3} Msamples/s\n\
+             time: load {:.3} s, render {:.3} s, write {:.3} s{}",
+            self.width,
+            self.height,
+            self.spp,
+            self.threads,
+            self.rays,
+            self.camera_rays,
+            self.bounce_rays,
+            self.shadow_rays,
+            self.mrays_per_second,
+            self.msamples_per_second,
+            self.load_seconds,
+            self.render_seconds,
+            self.write_seconds,
+            if self.nonfinite_samples > 0 {
+                format!("\nwarning: {} NaN/inf samples discarded", self.nonfinite_samples)
+            } else {
+                String::new()
+            }
+        )
+    }
+}

@@ -1,0 +1,335 @@
+//! End-to-end analytic tests of the integrator: scenes built in code, rendered at small resolutions,
+//! compared against closed-form readings.
+
+use crate::testscene::{self, camera_looking_down_z, card, dome, lambert, sphere};
+use crate::{render_image, Image, RenderOptions};
+use glam::{Mat4, Vec3};
+use ingest::{Light, LightKind, Scene};
+use std::f32::consts::PI;
+
+fn render(scene: &Scene, options: &RenderOptions) -> Image {
+    let bytes = testscene::bytes(scene);
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    render_image(&view, options).unwrap()
+}
+
+fn options(res: u32, spp: u32) -> RenderOptions {
+    RenderOptions { spp, resolution: Some([res, res]), threads: 2, ..RenderOptions::default() }
+}
+
+/// Mean of channel-averaged beauty over pixels selected by `keep(x, y)`.
+fn mean_where(image: &Image, keep: impl Fn(f32, f32) -> bool) -> (f32, usize) {
+    let mut sum = 0.0f64;
+    let mut n = 0;
+    for y in 0..image.height {
+        for x in 0..image.width {
+            // Pixel centre in [−1, 1]², y up.
+            let fx = (x as f32 + 0.5) / image.width as f32 * 2.0 - 1.0;
+            let fy = 1.0 - (y as f32 + 0.5) / image.height as f32 * 2.0;
+            if keep(fx, fy) {
+                let [r, g, b] = image.rgb(x, y);
+                sum += ((r + g + b) / 3.0) as f64;
+                n += 1;
+            }
+        }
+    }
+    ((sum / n as f64) as f32, n)
+}
+
+fn assert_close(name: &str, value: f32, expected: f32, rel: f32) {
+    eprintln!("{name}: {value:.5} (expected {expected:.5}, {:+.3}%)", (value / expected - 1.0) * 100.0);
+    assert!((value / expected - 1.0).abs() < rel, "{name}: {value} vs expected {expected}");
+}
+
+/// A grey (albedo 0.5) sphere of radius 1 at the origin seen from z = 4 with a 2×-wide field of view.
+fn sphere_under_dome(albedo: f32) -> Scene {
+    Scene {
+        meshes: vec![sphere(Vec3::ZERO, 1.0, 48, 96, 0, false)],
+        materials: vec![lambert(albedo)],
+        lights: vec![dome(1.0)],
+        cameras: vec![camera_looking_down_z(Vec3::new(0.0, 0.0, 4.0), 20.0)],
+        default_camera: Some(0),
+        ..Scene::default()
+    }
+}
+
+// The sphere's silhouette is at tan = 1/√15 ≈ 0.258 of the 0.5 half-width: |f| < 0.4 is sphere,
+// |f| > 0.62 dome.
+fn on_sphere(fx: f32, fy: f32) -> bool {
+    fx * fx + fy * fy < 0.4 * 0.4
+}
+fn on_dome(fx: f32, fy: f32) -> bool {
+    fx * fx + fy * fy > 0.65 * 0.65
+}
+
+#[test]
+fn lambert_sphere_under_uniform_dome_reads_its_albedo() {
+    let image = render(&sphere_under_dome(0.5), &options(32, 256));
+    let (sphere_mean, n) = mean_where(&image, on_sphere);
+    assert!(n > 100);
+    assert_close("sphere under dome", sphere_mean, 0.5, 0.02);
+    let (dome_mean, _) = mean_where(&image, on_dome);
+    assert_close("dome pixels", dome_mean, 1.0, 1e-5);
+    // Every sphere pixel individually, too (noise at 256 spp is well under 10%).
+    for y in 0..32 {
+        for x in 0..32 {
+            let fx = (x as f32 + 0.5) / 16.0 - 1.0;
+            let fy = 1.0 - (y as f32 + 0.5) / 16.0;
+            if on_sphere(fx, fy) {
+                let v = image.rgb(x, y)[0];
+                assert!((v - 0.5).abs() < 0.05, "pixel {x},{y}: {v}");
+            }
+        }
+    }
+    // AOVs: albedo 0.5 on the sphere, the centre normal faces the camera, depth 3.
+    let centre = (16 * 32 + 16) as usize;
+    assert!((image.albedo[centre][0] - 0.5).abs() < 1e-6);
+    assert!(image.normal[centre][2] > 0.99);
+    assert!((image.depth[centre] - 3.0).abs() < 0.01, "depth {}", image.depth[centre]);
+    assert!(image.depth[0].is_infinite() && image.beauty[0][3] == 0.0 && image.beauty[centre][3] == 1.0);
+}
+
+#[test]
+fn white_sphere_under_white_dome_is_a_furnace() {
+    let mut o = options(32, 256);
+    o.max_depth = 64;
+    let image = render(&sphere_under_dome(1.0), &o);
+    let (mean, _) = mean_where(&image, on_sphere);
+    assert_close("white furnace (sphere under dome)", mean, 1.0, 0.02);
+}
+
+#[test]
+fn closed_emissive_sphere_seen_from_inside_converges_to_le_over_one_minus_albedo() {
+    // Inside a closed sphere of albedo a and emission Le every point reads Le / (1 − a): this exercises
+    // every bounce, Russian roulette, emissive-triangle NEE and its MIS with BSDF hits.
+    let mut material = lambert(0.5);
+    material.emissive_color = Vec3::splat(0.5);
+    let scene = Scene {
+        meshes: vec![sphere(Vec3::ZERO, 1.0, 24, 48, 0, true)],
+        materials: vec![material],
+        cameras: vec![camera_looking_down_z(Vec3::new(0.0, 0.0, 0.2), 20.0)],
+        default_camera: Some(0),
+        ..Scene::default()
+    };
+    let mut o = options(16, 256);
+    o.max_depth = 64;
+    let image = render(&scene, &o);
+    let (mean, _) = mean_where(&image, |_, _| true);
+    assert_close("closed furnace Le/(1-a)", mean, 1.0, 0.02);
+}
+
+fn card_scene(light: Light, camera_height: f32, focal: f32) -> Scene {
+    Scene {
+        meshes: vec![card(0.0, 3.0, 0)],
+        materials: vec![lambert(0.5)],
+        lights: vec![light],
+        cameras: vec![camera_looking_down_z(Vec3::new(0.0, 0.0, camera_height), focal)],
+        default_camera: Some(0),
+        ..Scene::default()
+    }
+}
+
+fn distant(intensity: f32, angle_degrees: f32, normalize: bool) -> Light {
+    Light {
+        path: "/sun".into(),
+        kind: LightKind::Distant { angle_degrees },
+        radiance: Vec3::splat(intensity),
+        normalize,
+        world_from_light: Mat4::IDENTITY,
+    }
+}
+
+#[test]
+fn lambert_card_under_normalized_distant_light_reads_albedo_e_over_pi() {
+    let expected = 0.5 * 3.0 / PI; // 0.477
+    let image = render(&card_scene(distant(3.0, 0.53, true), 3.0, 50.0), &options(16, 256));
+    assert_close("card under normalized distant (0.53°)", mean_where(&image, |_, _| true).0, expected, 0.02);
+    // A delta sun (angle 0, not normalized) of intensity 3 gives the same reading.
+    let image = render(&card_scene(distant(3.0, 0.0, false), 3.0, 50.0), &options(16, 64));
+    assert_close("card under delta distant", mean_where(&image, |_, _| true).0, expected, 1e-4);
+    // A wide normalized sun (30°) tilted 0° still gives E = 3.
+    let image = render(&card_scene(distant(3.0, 30.0, true), 3.0, 50.0), &options(16, 256));
+    assert_close("card under normalized 30° distant", mean_where(&image, |_, _| true).0, expected, 0.02);
+}
+
+fn light_at(kind: LightKind, height: f32, radiance: f32) -> Light {
+    Light {
+        path: "/area".into(),
+        kind,
+        radiance: Vec3::splat(radiance),
+        normalize: false,
+        world_from_light: Mat4::from_translation(Vec3::new(0.0, 0.0, height)),
+    }
+}
+
+#[test]
+fn lambert_card_under_area_lights_matches_analytic_irradiance() {
+    // A narrow camera (focal 1000 → ±0.01 at the card) sees the point right below each light.
+    let h = 2.0;
+    let reading = |light: Light| {
+        let image = render(&card_scene(light, 1.0, 1000.0), &options(8, 256));
+        mean_where(&image, |_, _| true).0
+    };
+    // Disk radius r facing the point: E = L π r² / (h² + r²).
+    let r = 0.5f32;
+    let e_disk = 10.0 * PI * r * r / (h * h + r * r);
+    assert_close(
+        "disk light",
+        reading(light_at(LightKind::Disk { radius: r }, h, 10.0)),
+        0.5 * e_disk / PI,
+        0.02,
+    );
+    // Sphere radius r at distance h: E = L π (r/h)².
+    let e_sphere = 10.0 * PI * (r / h).powi(2);
+    assert_close(
+        "sphere light",
+        reading(light_at(LightKind::Sphere { radius: r, treat_as_point: false }, h, 10.0)),
+        0.5 * e_sphere / PI,
+        0.02,
+    );
+    // Rect w×h: numerical integral of cos·cos/d².
+    let (w, hh) = (2.0f64, 1.0f64);
+    let n = 400;
+    let mut ff = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            let x = -w / 2.0 + w * (i as f64 + 0.5) / n as f64;
+            let y = -hh / 2.0 + hh * (j as f64 + 0.5) / n as f64;
+            let d2 = x * x + y * y + (h as f64).powi(2);
+            ff += (h as f64).powi(2) / (d2 * d2) * (w / n as f64) * (hh / n as f64);
+        }
+    }
+    let e_rect = 10.0 * ff as f32;
+    assert_close(
+        "rect light",
+        reading(light_at(LightKind::Rect { width: 2.0, height: 1.0 }, h, 10.0)),
+        0.5 * e_rect / PI,
+        0.02,
+    );
+    // Normalized rect: radiance divided by its area (2).
+    let mut normalized = light_at(LightKind::Rect { width: 2.0, height: 1.0 }, h, 10.0);
+    normalized.normalize = true;
+    assert_close("normalized rect light", reading(normalized), 0.5 * e_rect / 2.0 / PI, 0.02);
+}
+
+#[test]
+fn emissive_quad_lights_a_card() {
+    // An emissive 0.2×0.2 card (emission 50, facing down) 2 units above: E ≈ L·A·cos²/d² at the centre.
+    let mut emitter = card(2.0, 0.1, 1);
+    emitter.triangles = vec![[0, 2, 1], [0, 3, 2]]; // facing −Z
+    let mut m = lambert(0.0);
+    m.emissive_color = Vec3::splat(50.0);
+    let scene = Scene {
+        meshes: vec![card(0.0, 3.0, 0), emitter],
+        materials: vec![lambert(0.5), m],
+        cameras: vec![camera_looking_down_z(Vec3::new(0.0, 0.0, 1.0), 1000.0)],
+        default_camera: Some(0),
+        ..Scene::default()
+    };
+    let image = render(&scene, &options(8, 256));
+    // Exact: the disk-like integral over the square, numerically.
+    let n = 200;
+    let mut e = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            let x = -0.1 + 0.2 * (i as f64 + 0.5) / n as f64;
+            let y = -0.1 + 0.2 * (j as f64 + 0.5) / n as f64;
+            let d2 = x * x + y * y + 4.0;
+            e += 4.0 / (d2 * d2) * (0.2 / n as f64).powi(2);
+        }
+    }
+    let expected = 0.5 * 50.0 * e as f32 / PI;
+    assert_close("emissive quad", mean_where(&image, |_, _| true).0, expected, 0.02);
+}
+
+#[test]
+fn one_and_two_threads_give_bit_identical_images() {
+    let mut scene = sphere_under_dome(0.5);
+    scene.materials[0].roughness = 0.3;
+    scene.materials[0].ior = 1.5;
+    scene.lights.push(distant(2.0, 5.0, true));
+    let mut o = options(24, 8);
+    o.threads = 1;
+    let one = render(&scene, &o);
+    o.threads = 2;
+    let two = render(&scene, &o);
+    o.tile_size = 7;
+    let odd_tiles = render(&scene, &o);
+    let bits = |i: &Image| i.beauty.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<u32>>();
+    assert_eq!(bits(&one), bits(&two));
+    assert_eq!(bits(&one), bits(&odd_tiles));
+    o.seed = 1;
+    assert_ne!(bits(&one), bits(&render(&scene, &o)), "the seed changes the noise");
+}
+
+#[test]
+fn stochastic_opacity_lets_the_dome_through() {
+    // A card of opacity 0.25 (albedo 0) in front of a white dome: reads 1 − 0.25 = 0.75.
+    let mut m = lambert(0.0);
+    m.opacity = 0.25;
+    let scene = Scene {
+        meshes: vec![card(0.0, 3.0, 0)],
+        materials: vec![m],
+        lights: vec![dome(1.0)],
+        cameras: vec![camera_looking_down_z(Vec3::new(0.0, 0.0, 3.0), 50.0)],
+        default_camera: Some(0),
+        ..Scene::default()
+    };
+    let image = render(&scene, &options(16, 256));
+    assert_close("opacity 0.25 card", mean_where(&image, |_, _| true).0, 0.75, 0.02);
+}
+
+#[test]
+fn no_camera_frames_the_bounds_and_bad_camera_paths_are_errors() {
+    let mut scene = sphere_under_dome(0.5);
+    scene.cameras.clear();
+    scene.default_camera = None;
+    let image = render(&scene, &options(16, 4));
+    // The framing camera looks at the sphere: the centre pixel hits it.
+    assert_eq!(image.beauty[(8 * 16 + 8) as usize][3], 1.0);
+    let bytes = testscene::bytes(&scene);
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    let o = RenderOptions { camera: Some("/nope".into()), ..options(4, 1) };
+    assert!(matches!(render_image(&view, &o), Err(crate::RenderError::UnknownCamera { .. })));
+}
+
+#[test]
+fn binary_entry_point_renders_writes_and_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob_path = dir.path().join("scene.blob");
+    blob::write_atomic(&blob_path, &testscene::pack(&sphere_under_dome(0.5)).encode()).unwrap();
+    let exr = dir.path().join("out.exr");
+    let png = dir.path().join("out.png");
+    let stats = dir.path().join("stats.json");
+    let arg = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let code = crate::run([
+        "render".to_string(),
+        arg(&blob_path),
+        "-o".into(),
+        arg(&exr),
+        "--spp".into(),
+        "2".into(),
+        "--res".into(),
+        "16x8".into(),
+        "--png".into(),
+        arg(&png),
+        "--stats".into(),
+        arg(&stats),
+        "--threads".into(),
+        "1".into(),
+    ])
+    .unwrap();
+    assert_eq!(code, std::process::ExitCode::SUCCESS);
+    assert_eq!(image::open(&png).unwrap().width(), 16);
+    assert!(std::fs::metadata(&exr).unwrap().len() > 0);
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(json["camera_rays"], 16 * 8 * 2);
+    assert!(json["rays"].as_u64().unwrap() > json["camera_rays"].as_u64().unwrap());
+
+    // A truncated blob is an error naming the file, not a panic.
+    let bad = dir.path().join("bad.blob");
+    let bytes = std::fs::read(&blob_path).unwrap();
+    std::fs::write(&bad, &bytes[..bytes.len() / 2]).unwrap();
+    let err = crate::run(["render".to_string(), arg(&bad), "--info".into()]).unwrap_err();
+    assert!(format!("{err:#}").contains("bad.blob"), "{err:#}");
+}

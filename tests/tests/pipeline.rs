@@ -1,0 +1,173 @@
+//! End to end: USD text → ingest → blob → render, checked against physics.
+//!
+//! Each analytic test states its stage in full; the expected radiance follows from the setup:
+//! - a convex Lambertian under a uniform dome of radiance 1 reflects exactly its albedo (it sees the
+//!   whole dome over its hemisphere and never itself);
+//! - a Lambertian card facing a normalized distant light of illuminance E reads albedo·E/π;
+//! - in a white furnace (albedo 1 everywhere, dome radiance 1) every path carries radiance 1, however many
+//!   bounces the concave geometry forces.
+
+use render::{render_image, RenderOptions};
+use scene_tests::*;
+
+fn render_rgb(bytes: &[u8], options: &RenderOptions) -> (Vec<[f32; 3]>, usize) {
+    let view = blob::SceneView::parse(bytes).expect("valid blob");
+    let image = render_image(&view, options).expect("render");
+    let rgb = image.beauty.iter().map(|p| [p[0], p[1], p[2]]).collect();
+    (rgb, image.width as usize)
+}
+
+fn assert_close(value: [f32; 3], expected: f32, tolerance: f32, what: &str) {
+    eprintln!("{what}: reads {value:?}, expected {expected}");
+    for (c, v) in value.iter().enumerate() {
+        assert!(
+            (v - expected).abs() <= tolerance * expected,
+            "{what}: channel {c} reads {v}, expected {expected} ± {:.1}%",
+            tolerance * 100.0
+        );
+    }
+}
+
+const DOME: &str = "def DomeLight \"Dome\"\n{\n    float inputs:intensity = 1\n}\n";
+
+mod analytic {
+    use super::*;
+
+    #[test]
+    fn lambertian_sphere_under_white_dome_reads_its_albedo() {
+        let dir = tempfile::tempdir().unwrap();
+        let body = [
+            lambert_material("/World/Grey", 0.5),
+            sphere_mesh("Ball", [0.0, 0.0, 0.0], 1.0, 48, 96, "/World/Grey"),
+            camera_prim("Cam", [0.0, 0.0, 5.0], 50.0, 30.0),
+            DOME.to_string(),
+        ]
+        .join("\n");
+        let bytes = ingest_text(dir.path(), &stage(&body));
+        let options = RenderOptions { spp: 256, resolution: Some([32, 32]), ..RenderOptions::default() };
+        let (rgb, width) = render_rgb(&bytes, &options);
+        // The sphere projects to a disc of radius ~10.9 px around the centre (16, 16).
+        let r = |x: usize, y: usize| ((x as f32 + 0.5 - 16.0).powi(2) + (y as f32 + 0.5 - 16.0).powi(2)).sqrt();
+        let sphere = mean_where(&rgb, width, |x, y| r(x, y) < 8.0);
+        let dome = mean_where(&rgb, width, |x, y| r(x, y) > 13.5);
+        assert_close(sphere, 0.5, 0.02, "sphere");
+        assert_close(dome, 1.0, 0.02, "dome seen directly");
+    }
+
+    #[test]
+    fn lambertian_card_under_normalized_distant_light_reads_albedo_e_over_pi() {
+        let dir = tempfile::tempdir().unwrap();
+        let card = mesh_prim(
+            "Card",
+            &[[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]],
+            &[4],
+            &[0, 1, 2, 3],
+            None,
+            "/World/Grey",
+        );
+        // A DistantLight shines along its −Z: straight onto the card's +Z face.
+        let sun = "def DistantLight \"Sun\"\n{\n    float inputs:intensity = 3\n    bool inputs:normalize = true\n}\n";
+        let body = [lambert_material("/World/Grey", 0.5), card, camera_prim("Cam", [0.0, 0.0, 5.0], 50.0, 10.0), sun.into()]
+            .join("\n");
+        let bytes = ingest_text(dir.path(), &stage(&body));
+        let options = RenderOptions { spp: 256, resolution: Some([16, 16]), ..RenderOptions::default() };
+        let (rgb, width) = render_rgb(&bytes, &options);
+        let card = mean_where(&rgb, width, |_, _| true);
+        assert_close(card, 0.5 * 3.0 / std::f32::consts::PI, 0.02, "card");
+    }
+
+    #[test]
+    fn white_furnace_with_interreflections_reads_one() {
+        let dir = tempfile::tempdir().unwrap();
+        // An open box (a cup) seen from above: its inside reflects light many times before escaping.
+        let p = [
+            [-1.0, -1.0, -1.0],
+            [1.0, -1.0, -1.0],
+            [1.0, 1.0, -1.0],
+            [-1.0, 1.0, -1.0],
+            [-1.0, -1.0, 1.0],
+            [1.0, -1.0, 1.0],
+            [1.0, 1.0, 1.0],
+            [-1.0, 1.0, 1.0],
+        ];
+        let faces = [[0, 3, 2, 1], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
+        let indices: Vec<usize> = faces.iter().flatten().copied().collect();
+        let cup = mesh_prim("Cup", &p, &[4; 5], &indices, None, "/World/White");
+        let body = [lambert_material("/World/White", 1.0), cup, camera_prim("Cam", [0.0, 0.0, 4.0], 50.0, 24.0), DOME.into()]
+            .join("\n");
+        let bytes = ingest_text(dir.path(), &stage(&body));
+        let options =
+            RenderOptions { spp: 256, resolution: Some([16, 16]), max_depth: 256, ..RenderOptions::default() };
+        let (rgb, width) = render_rgb(&bytes, &options);
+        let inside = mean_where(&rgb, width, |x, y| (4..12).contains(&x) && (4..12).contains(&y));
+        assert_close(inside, 1.0, 0.02, "inside the cup");
+        let all = mean_where(&rgb, width, |_, _| true);
+        assert_close(all, 1.0, 0.02, "whole image");
+    }
+}
+
+mod determinism {
+    use super::*;
+
+    #[test]
+    fn one_and_two_threads_give_bit_identical_images() {
+        let dir = tempfile::tempdir().unwrap();
+        let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/tractor.usda");
+        let out = dir.path().join("tractor.blob");
+        ingest::pipeline::ingest_file(&example, &out, &Default::default()).expect("ingest the bundled example");
+        let bytes = blob::AlignedBytes::copy_from(&std::fs::read(&out).unwrap());
+        let options = |threads| RenderOptions {
+            spp: 4,
+            resolution: Some([48, 32]),
+            threads,
+            seed: 7,
+            ..RenderOptions::default()
+        };
+        let (one, _) = render_rgb(&bytes, &options(1));
+        let (two, _) = render_rgb(&bytes, &options(2));
+        assert!(one.iter().zip(&two).all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)));
+        // And the image is not trivially constant.
+        let lum: Vec<f32> = one.iter().map(|p| p[0] + p[1] + p[2]).collect();
+        let (lo, hi) = lum.iter().fold((f32::MAX, f32::MIN), |(l, h), v| (l.min(*v), h.max(*v)));
+        assert!(hi > lo * 1.5, "example image should have contrast: {lo}..{hi}");
+        let (other_seed, _) = render_rgb(&bytes, &RenderOptions { seed: 8, ..options(2) });
+        assert!(one != other_seed, "a different seed gives a different image");
+    }
+
+    #[test]
+    fn ingest_is_deterministic_to_the_byte() {
+        let dir = tempfile::tempdir().unwrap();
+        let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/tractor.usda");
+        let (a, b) = (dir.path().join("a.blob"), dir.path().join("b.blob"));
+        ingest::pipeline::ingest_file(&example, &a, &Default::default()).unwrap();
+        ingest::pipeline::ingest_file(&example, &b, &Default::default()).unwrap();
+        assert_eq!(std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
+    }
+}
+
+mod bad_input {
+    use super::*;
+
+    #[test]
+    fn missing_reference_names_the_referencing_layer_and_leaves_no_blob() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = "#usda 1.0\n\ndef Xform \"World\" (\n    prepend references = @./nowhere.usda@\n)\n{\n}\n";
+        let input = write(dir.path(), "asks.usda", text);
+        let output = dir.path().join("out.blob");
+        let err = ingest::pipeline::ingest_file(&input, &output, &Default::default()).unwrap_err();
+        let message = format!("{err:#}");
+        assert!(message.contains("asks.usda") && message.contains("nowhere.usda"), "{message}");
+        assert!(!output.exists(), "no blob is written on error");
+    }
+
+    #[test]
+    fn corrupted_blob_is_an_error_not_a_panic() {
+        let dir = tempfile::tempdir().unwrap();
+        let bytes = ingest_text(dir.path(), &stage(&lambert_material("/World/M", 0.5)));
+        let mut corrupted = bytes.to_vec();
+        let middle = corrupted.len() / 2;
+        corrupted[middle] ^= 0x10;
+        assert!(blob::SceneView::parse(&blob::AlignedBytes::copy_from(&corrupted)).is_err());
+        assert!(blob::SceneView::parse(&blob::AlignedBytes::copy_from(&bytes[..bytes.len() - 1])).is_err());
+    }
+}
