@@ -9,8 +9,9 @@ if ! command -v cargo >/dev/null 2>&1; then
     exit 1
 fi
 
-# Debian packages: a C/C++ toolchain for crates that build C, and Python's venv module.
-apt_packages=(build-essential pkg-config python3-venv)
+# Debian packages: a C/C++ toolchain for crates that build C, OpenSubdiv (subdiv/ links it), and
+# Python's venv module.
+apt_packages=(build-essential pkg-config python3-venv libosd-dev)
 missing=()
 for p in "${apt_packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

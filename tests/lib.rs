@@ -28,7 +28,14 @@ pub fn lambert_material(path: &str, albedo: f32) -> String {
 }
 
 /// A UV sphere as a polygon Mesh prim (subdivisionScheme none) with per-vertex normals.
-pub fn sphere_mesh(name: &str, center: [f32; 3], radius: f32, rings: usize, segments: usize, material: &str) -> String {
+pub fn sphere_mesh(
+    name: &str,
+    center: [f32; 3],
+    radius: f32,
+    rings: usize,
+    segments: usize,
+    material: &str,
+) -> String {
     let mut points = Vec::new();
     let mut normals = Vec::new();
     for r in 0..=rings {
@@ -65,7 +72,9 @@ pub fn mesh_prim(
     normals: Option<&[[f32; 3]]>,
     material: &str,
 ) -> String {
-    let list3 = |v: &[[f32; 3]]| v.iter().map(|p| format!("({}, {}, {})", p[0], p[1], p[2])).collect::<Vec<_>>().join(", ");
+    let list3 = |v: &[[f32; 3]]| {
+        v.iter().map(|p| format!("({}, {}, {})", p[0], p[1], p[2])).collect::<Vec<_>>().join(", ")
+    };
     let list = |v: &[usize]| v.iter().map(|i| i.to_string()).collect::<Vec<_>>().join(", ");
     let mut s = String::new();
     writeln!(s, "def Mesh \"{name}\" (\n    prepend apiSchemas = [\"MaterialBindingAPI\"]\n)\n{{").unwrap();
@@ -74,7 +83,8 @@ pub fn mesh_prim(
     writeln!(s, "    int[] faceVertexIndices = [{}]", list(indices)).unwrap();
     writeln!(s, "    point3f[] points = [{}]", list3(points)).unwrap();
     if let Some(n) = normals {
-        writeln!(s, "    normal3f[] normals = [{}] (\n        interpolation = \"vertex\"\n    )", list3(n)).unwrap();
+        writeln!(s, "    normal3f[] normals = [{}] (\n        interpolation = \"vertex\"\n    )", list3(n))
+            .unwrap();
     }
     writeln!(s, "    rel material:binding = <{material}>\n}}").unwrap();
     s
@@ -98,7 +108,9 @@ pub fn camera_prim(name: &str, eye: [f32; 3], focal_length: f32, aperture: f32) 
 
 /// Wraps prims into a stage with `/World` as default prim.
 pub fn stage(body: &str) -> String {
-    let mut s = String::from("#usda 1.0\n(\n    defaultPrim = \"World\"\n    metersPerUnit = 1\n    upAxis = \"Y\"\n)\n\n");
+    let mut s = String::from(
+        "#usda 1.0\n(\n    defaultPrim = \"World\"\n    metersPerUnit = 1\n    upAxis = \"Y\"\n)\n\n",
+    );
     s.push_str("def Xform \"World\"\n{\n");
     for line in body.lines() {
         if line.is_empty() {

@@ -7,7 +7,12 @@ use render::{render_image, Image, RenderOptions};
 use std::path::Path;
 use std::time::Instant;
 
-fn render_timed(view: &blob::SceneView, spp: u32, resolution: [u32; 2], seed: u32) -> anyhow::Result<(Image, f64)> {
+fn render_timed(
+    view: &blob::SceneView,
+    spp: u32,
+    resolution: [u32; 2],
+    seed: u32,
+) -> anyhow::Result<(Image, f64)> {
     let options = RenderOptions { spp, resolution: Some(resolution), seed, ..RenderOptions::default() };
     let start = Instant::now();
     let image = render_image(view, &options)?;
@@ -26,7 +31,13 @@ pub fn rmse(a: &Image, b: &Image) -> f64 {
 }
 
 /// Runs the sweep and writes `convergence.json` and `convergence.svg` into `out`.
-pub fn run(view: &blob::SceneView, reference_spp: u32, max_spp: u32, width: u32, out: &Path) -> anyhow::Result<()> {
+pub fn run(
+    view: &blob::SceneView,
+    reference_spp: u32,
+    max_spp: u32,
+    width: u32,
+    out: &Path,
+) -> anyhow::Result<()> {
     let height = render::camera::default_height(view.cameras.get(view.info.default_camera as usize), width);
     let resolution = [width, height];
     // A different seed for the reference, so its noise is independent of the sweep's.

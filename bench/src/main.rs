@@ -83,14 +83,16 @@ fn main() -> anyhow::Result<()> {
                 rays::write_set(&out, set, &prims, &dists)?;
                 let one = rays::measure(&accel, set, 1, repeat)?;
                 let two = rays::measure(&accel, set, 2, repeat)?;
-                let hit_fraction = prims.iter().filter(|&&p| p >= 0).count() as f64 / prims.len().max(1) as f64;
+                let hit_fraction =
+                    prims.iter().filter(|&&p| p >= 0).count() as f64 / prims.len().max(1) as f64;
                 ours.insert(
                     set.name.into(),
                     serde_json::json!({"rays": set.origins.len(), "ours_mrays_1thr": one, "ours_mrays_2thr": two, "hit_fraction": hit_fraction}),
                 );
             }
             let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("embree_rays.py");
-            let embree = Command::new(&python).arg(&script).arg(&out).arg("--repeat").arg(repeat.to_string()).output();
+            let embree =
+                Command::new(&python).arg(&script).arg(&out).arg("--repeat").arg(repeat.to_string()).output();
             let embree: serde_json::Value = match embree {
                 Ok(o) if o.status.success() => serde_json::from_slice(&o.stdout)?,
                 Ok(o) => {
@@ -98,12 +100,26 @@ fn main() -> anyhow::Result<()> {
                     serde_json::Value::Null
                 }
                 Err(e) => {
-                    eprintln!("cannot run {}: {e} (run scripts/bench.sh to install embreex)", python.display());
+                    eprintln!(
+                        "cannot run {}: {e} (run scripts/bench.sh to install embreex)",
+                        python.display()
+                    );
                     serde_json::Value::Null
                 }
             };
             println!("triangles: {}", view.triangles.len());
-            println!("{:<11} {:>8} {:>12} {:>12} {:>12} {:>12} {:>8} {:>8} {:>9}", "rays", "count", "ours 1thr", "embree 1thr", "ours 2thr", "embree 2thr", "ratio1", "ratio2", "agree");
+            println!(
+                "{:<11} {:>8} {:>12} {:>12} {:>12} {:>12} {:>8} {:>8} {:>9}",
+                "rays",
+                "count",
+                "ours 1thr",
+                "embree 1thr",
+                "ours 2thr",
+                "embree 2thr",
+                "ratio1",
+                "ratio2",
+                "agree"
+            );
             for (name, o) in &ours {
                 let e = &embree["sets"][name];
                 let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);

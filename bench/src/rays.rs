@@ -111,7 +111,10 @@ pub fn measure(accel: &Accel, set: &RaySet, threads: usize, repeat: usize) -> an
                 .par_chunks(4096)
                 .zip(set.directions.par_chunks(4096))
                 .map(|(os, ds)| {
-                    os.iter().zip(ds).filter(|(o, d)| accel.closest_hit(**o, **d, f32::INFINITY).is_some()).count()
+                    os.iter()
+                        .zip(ds)
+                        .filter(|(o, d)| accel.closest_hit(**o, **d, f32::INFINITY).is_some())
+                        .count()
                 })
                 .sum()
         });
@@ -141,7 +144,10 @@ pub fn write_triangles(view: &blob::SceneView, dir: &Path) -> anyhow::Result<()>
 /// Writes a ray set and our hits for it.
 pub fn write_set(dir: &Path, set: &RaySet, prims: &[i32], dists: &[f32]) -> anyhow::Result<()> {
     write_f32(&dir.join(format!("{}.origins.f32", set.name)), set.origins.iter().flat_map(|v| v.to_array()))?;
-    write_f32(&dir.join(format!("{}.directions.f32", set.name)), set.directions.iter().flat_map(|v| v.to_array()))?;
+    write_f32(
+        &dir.join(format!("{}.directions.f32", set.name)),
+        set.directions.iter().flat_map(|v| v.to_array()),
+    )?;
     write_i32(&dir.join(format!("{}.ours_prim.i32", set.name)), prims.iter().copied())?;
     write_f32(&dir.join(format!("{}.ours_t.f32", set.name)), dists.iter().copied())
 }

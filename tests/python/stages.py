@@ -500,6 +500,49 @@ def Xform "World"
 """,
 }
 
+# An instanceable prim inside an instance's prototype whose reference targets a prim of that same
+# prototype (</Inner/Proto>): the pattern of OpenUSD's ni_ni_* instancing tests, reduced.
+NESTED_INSTANCING = {
+    "nested_instancing.usda": header() + f"""
+def Xform "World"
+{{
+    def Xform "Inner"
+    {{
+        def Xform "Proto"
+        {{
+            {tri("Tri")}
+        }}
+
+        def "Nested" (
+            instanceable = true
+            references = </World/Inner/Proto>
+        )
+        {{
+            double3 xformOp:translate = (0, 3, 0)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }}
+    }}
+
+    def "Outer" (
+        instanceable = true
+        references = </World/Inner>
+    )
+    {{
+        double3 xformOp:translate = (5, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }}
+
+    def "OuterNotInstanced" (
+        references = </World/Inner>
+    )
+    {{
+        double3 xformOp:translate = (-5, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }}
+}}
+""",
+}
+
 MATERIALS = {
     "materials.usda": header() + f"""
 def Xform "World"
@@ -632,12 +675,21 @@ GENERATED = {
     "composition": COMPOSITION,
     "payload": PAYLOAD,
     "instancing": INSTANCING,
+    "nested_instancing": NESTED_INSTANCING,
     "materials": MATERIALS,
     "zup": ZUP,
 }
 
 # Facts each stage was written to have, checked against the usd-core listing.
 EXPECTED = {
+    "xforms": {
+        "paths": {
+            "/World/Pivoted/Box", "/World/Orders/Box", "/World/Matrix/Tri", "/World/Reset/Mirrored/Box",
+            "/World/ResetOnGprim", "/World/UnlistedOp", "/World/Scope/InScope",
+        },
+    },
+    "payload": {"paths": {"/World/AlwaysThere", "/World/Heavy/Body", "/World/Heavy/Part/Geo"}},
+    "zup": {"paths": {"/World/Body"}, "lights": 2, "cameras": 1},
     "visibility": {
         "paths": {
             "/World/Visible", "/World/RenderOnly", "/World/GuideGroup/AuthoredDefault",
@@ -678,6 +730,12 @@ EXPECTED = {
     "instancing": {
         # 3 references of _Proto (2 gprims each) + 4 visible PointInstancer instances (1 gprim each).
         "count": 3 * 2 + 4,
+    },
+    "nested_instancing": {
+        "paths": {
+            f"/World/{outer}/{inner}/Tri"
+            for outer in ("Inner", "Outer", "OuterNotInstanced") for inner in ("Proto", "Nested")
+        },
     },
     "composition": {
         "paths": {

@@ -10,6 +10,7 @@ malformed layers, corrupted blobs).
 
 from __future__ import annotations
 
+import copy
 import subprocess
 from pathlib import Path
 
@@ -123,6 +124,32 @@ def test_generated_stage_matches_usd_core(ingest, render_info, generated, name):
         assert by_path[path].triangles == triangles, path
     for path, materials in expected.get("materials", {}).items():
         assert by_path[path].materials == materials, path
+
+
+def test_comparison_catches_differences(ingest, generated):
+    """The comparison is not vacuous: each kind of perturbation of a correct listing is reported,
+    and a perturbation within the tolerance is not."""
+    stage = generated["xforms"]
+    dump = ingest(stage).ok().dump
+    ref = usd_listing(stage)
+    assert not compare(dump, ref)
+    atol = tolerance(ref)
+
+    def perturbed(edit):
+        d = copy.deepcopy(dump)
+        edit(d["gprims"])
+        return compare(d, ref)
+
+    def shift(gprims, amount):
+        gprims[0]["bounds_max"][1] += amount
+
+    assert perturbed(lambda g: shift(g, 0.2 * atol)) == []
+    assert perturbed(lambda g: shift(g, 3 * atol))
+    assert perturbed(lambda g: g[0].__setitem__("triangles", g[0]["triangles"] + 1))
+    assert perturbed(lambda g: g[0]["materials"].append("/World/Looks/Extra"))
+    assert perturbed(lambda g: g.pop())
+    assert perturbed(lambda g: g.append(copy.deepcopy(g[0])))
+    assert perturbed(lambda g: g[0].__setitem__("path", g[0]["path"] + "_renamed"))
 
 
 def test_no_payloads_drops_the_payload(ingest, render_info, generated):

@@ -47,7 +47,8 @@ mod analytic {
         let options = RenderOptions { spp: 256, resolution: Some([32, 32]), ..RenderOptions::default() };
         let (rgb, width) = render_rgb(&bytes, &options);
         // The sphere projects to a disc of radius ~10.9 px around the centre (16, 16).
-        let r = |x: usize, y: usize| ((x as f32 + 0.5 - 16.0).powi(2) + (y as f32 + 0.5 - 16.0).powi(2)).sqrt();
+        let r =
+            |x: usize, y: usize| ((x as f32 + 0.5 - 16.0).powi(2) + (y as f32 + 0.5 - 16.0).powi(2)).sqrt();
         let sphere = mean_where(&rgb, width, |x, y| r(x, y) < 8.0);
         let dome = mean_where(&rgb, width, |x, y| r(x, y) > 13.5);
         assert_close(sphere, 0.5, 0.02, "sphere");
@@ -67,8 +68,13 @@ mod analytic {
         );
         // A DistantLight shines along its −Z: straight onto the card's +Z face.
         let sun = "def DistantLight \"Sun\"\n{\n    float inputs:intensity = 3\n    bool inputs:normalize = true\n}\n";
-        let body = [lambert_material("/World/Grey", 0.5), card, camera_prim("Cam", [0.0, 0.0, 5.0], 50.0, 10.0), sun.into()]
-            .join("\n");
+        let body = [
+            lambert_material("/World/Grey", 0.5),
+            card,
+            camera_prim("Cam", [0.0, 0.0, 5.0], 50.0, 10.0),
+            sun.into(),
+        ]
+        .join("\n");
         let bytes = ingest_text(dir.path(), &stage(&body));
         let options = RenderOptions { spp: 256, resolution: Some([16, 16]), ..RenderOptions::default() };
         let (rgb, width) = render_rgb(&bytes, &options);
@@ -93,11 +99,20 @@ mod analytic {
         let faces = [[0, 3, 2, 1], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
         let indices: Vec<usize> = faces.iter().flatten().copied().collect();
         let cup = mesh_prim("Cup", &p, &[4; 5], &indices, None, "/World/White");
-        let body = [lambert_material("/World/White", 1.0), cup, camera_prim("Cam", [0.0, 0.0, 4.0], 50.0, 24.0), DOME.into()]
-            .join("\n");
+        let body = [
+            lambert_material("/World/White", 1.0),
+            cup,
+            camera_prim("Cam", [0.0, 0.0, 4.0], 50.0, 24.0),
+            DOME.into(),
+        ]
+        .join("\n");
         let bytes = ingest_text(dir.path(), &stage(&body));
-        let options =
-            RenderOptions { spp: 256, resolution: Some([16, 16]), max_depth: 256, ..RenderOptions::default() };
+        let options = RenderOptions {
+            spp: 256,
+            resolution: Some([16, 16]),
+            max_depth: 256,
+            ..RenderOptions::default()
+        };
         let (rgb, width) = render_rgb(&bytes, &options);
         let inside = mean_where(&rgb, width, |x, y| (4..12).contains(&x) && (4..12).contains(&y));
         assert_close(inside, 1.0, 0.02, "inside the cup");
@@ -114,7 +129,8 @@ mod determinism {
         let dir = tempfile::tempdir().unwrap();
         let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/tractor.usda");
         let out = dir.path().join("tractor.blob");
-        ingest::pipeline::ingest_file(&example, &out, &Default::default()).expect("ingest the bundled example");
+        ingest::pipeline::ingest_file(&example, &out, &Default::default())
+            .expect("ingest the bundled example");
         let bytes = blob::AlignedBytes::copy_from(&std::fs::read(&out).unwrap());
         let options = |threads| RenderOptions {
             spp: 4,

@@ -1,17 +1,17 @@
-//! USD reader: a composed stage becomes a [`Scene`](crate::Scene).
+//! USD reader: a composed stage becomes a [`Scene`](crate::scene::Scene).
 //!
 //! Composition (sublayers, references, payloads, variants, instancing) is done by the `openusd`
-//! crate behind the thin [`stage`] wrapper; everything USD *means* beyond composition is done here,
+//! crate behind the thin `stage` wrapper; everything USD *means* beyond composition is done here,
 //! because the crate applies no schema fallbacks and computes no transforms:
 //!
-//! - [`xform`]: the xformOp stack; local-to-world is accumulated during the walk in `f64`.
-//! - [`mesh`]: Mesh topology, n-gon triangulation, primvars (normals, st), face-corner splitting,
+//! - `xform`: the xformOp stack; local-to-world is accumulated during the walk in `f64`.
+//! - `mesh`: Mesh topology, n-gon triangulation, primvars (normals, st), face-corner splitting,
 //!   the implicit Sphere/Cube shapes.
-//! - [`material`]: material binding resolution and UsdPreviewSurface constant inputs, with the
+//! - `material`: material binding resolution and UsdPreviewSurface constant inputs, with the
 //!   displayColor fallback for unbound gprims.
-//! - [`lux`]: UsdLux lights, UsdGeomCamera, UsdRender settings.
+//! - `lux`: UsdLux lights, UsdGeomCamera, UsdRender settings.
 //!
-//! The walk itself ([`Reader::visit`]) carries the inherited state down the hierarchy: the world
+//! The walk itself (`Reader::visit`) carries the inherited state down the hierarchy: the world
 //! transform, visibility, purpose. Instances are expanded: instanceable prims are walked through
 //! their instance proxies, PointInstancer prototypes are walked once per instance.
 //!
@@ -281,7 +281,7 @@ struct Reader<'a> {
     scene: Scene,
     /// Every prim of the traversal region, in pre-order.
     prims: Vec<String>,
-    /// Child paths per parent path, restricted to the traversal region (filled lazily).
+    /// Child paths per parent path, restricted to the traversal region.
     children: HashMap<String, Vec<String>>,
     /// Root prims of PointInstancer prototypes: drawn only through their instancer.
     instancer_prototypes: HashSet<String>,
@@ -303,10 +303,15 @@ fn parent_of(path: &str) -> &str {
 impl<'a> Reader<'a> {
     fn new(stage: &'a Stage, prims: &[String], scene: Scene) -> Self {
         let prims = prims.to_vec();
+        // The traversal's pre-order gives every prim's children in one composition pass.
+        let mut children: HashMap<String, Vec<String>> = HashMap::new();
+        for prim in &prims {
+            children.entry(parent_of(prim).to_string()).or_default().push(prim.clone());
+        }
         Reader {
             stage,
             scene,
-            children: HashMap::new(),
+            children,
             prims,
             instancer_prototypes: HashSet::new(),
             material_index: HashMap::new(),
@@ -315,14 +320,9 @@ impl<'a> Reader<'a> {
         }
     }
 
-    /// Children of `path` in the traversal region, cached.
-    fn children_of(&mut self, path: &str) -> Vec<String> {
-        if let Some(children) = self.children.get(path) {
-            return children.clone();
-        }
-        let children = self.stage.children(path);
-        self.children.insert(path.to_string(), children.clone());
-        children
+    /// Children of `path` in the traversal region.
+    fn children_of(&self, path: &str) -> Vec<String> {
+        self.children.get(path).cloned().unwrap_or_default()
     }
 
     fn warn(&mut self, prim: &str, message: impl Into<String>) {
@@ -344,12 +344,8 @@ impl<'a> Reader<'a> {
 
     /// Finds every PointInstancer's prototypes so the plain walk can skip them.
     fn collect_instancer_prototypes(&mut self) -> Result<(), UsdError> {
-        let instancers: Vec<String> = self
-            .prims
-            .iter()
-            .filter(|p| self.stage.type_name(p) == "PointInstancer")
-            .cloned()
-            .collect();
+        let instancers: Vec<String> =
+            self.prims.iter().filter(|p| self.stage.type_name(p) == "PointInstancer").cloned().collect();
         for instancer in instancers {
             for proto in self.stage.targets(&instancer, "prototypes") {
                 self.instancer_prototypes.insert(proto);
@@ -372,7 +368,8 @@ impl<'a> Reader<'a> {
                 }
                 return Ok(());
             }
-            if self.stage.is_instance(path) {
+            // A PointInstancer prototype root reached through its instancer is counted there.
+            if !via_instancer && self.stage.is_instance(path) {
                 self.scene.instance_count += 1;
             }
             let mut warnings = Vec::new();

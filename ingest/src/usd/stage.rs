@@ -241,23 +241,6 @@ impl Stage {
         Ok(out)
     }
 
-    /// Children of `prim` in the default traversal region (active, loaded, defined, non-abstract),
-    /// in namespace order. Unlike [`Stage::traverse`], this also reaches instances nested inside
-    /// instance proxies, which openusd 0.6's proxy traversal skips.
-    pub(crate) fn children(&self, prim: &str) -> Vec<String> {
-        let wanted = usd::PrimStatus::ACTIVE | usd::PrimStatus::LOADED | usd::PrimStatus::DEFINED;
-        let Ok(children) = self.inner.prim(path(prim)).children() else { return Vec::new() };
-        children
-            .into_iter()
-            .filter(|c| {
-                self.inner
-                    .prim_status(c.path().clone())
-                    .is_ok_and(|s| s.contains(wanted) && !s.contains(usd::PrimStatus::ABSTRACT))
-            })
-            .map(|c| c.path().as_str().to_string())
-            .collect()
-    }
-
     /// The prim's schema type name (`""` when untyped).
     pub(crate) fn type_name(&self, prim: &str) -> String {
         self.inner

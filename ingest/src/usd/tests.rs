@@ -592,6 +592,20 @@ fn missing_reference_names_referencing_layer() {
 }
 
 #[test]
+fn unsupported_reference_format_is_a_warning() {
+    let files = [
+        (
+            "scene.usda",
+            "#usda 1.0\n\ndef Xform \"World\" {\n    def \"Look\" (references = @look.mtlx@) {}\n}\n",
+        ),
+        ("look.mtlx", "<?xml version=\"1.0\"?>\n<materialx version=\"1.38\"/>\n"),
+    ];
+    let (_dir, root) = write(&files);
+    let scene = load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(has_warning(&scene, "/World/Look", "look.mtlx"), "{:?}", scene.warnings);
+}
+
+#[test]
 fn malformed_file_names_the_file() {
     let (_dir, root) = write(&[("broken.usda", "#usda 1.0\n\ndef Mesh \"M\" {\n    int[] x = [1, \n")]);
     let err = load(&root, &LoadOptions::default()).unwrap_err();

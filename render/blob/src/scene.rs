@@ -53,7 +53,7 @@ impl SceneData {
 
     /// Serializes to blob bytes: header, section table, then each section 64-byte aligned.
     pub fn encode(&self) -> Vec<u8> {
-        assert!(cfg!(target_endian = "little"), "the blob format is little-endian");
+        const { assert!(cfg!(target_endian = "little"), "the blob format is little-endian") };
         let sections: Vec<(SectionKind, u32, &[u8])> = vec![
             section(SectionKind::SceneInfo, std::slice::from_ref(&self.info)),
             (SectionKind::Strings, 1, &self.strings[..]),
@@ -341,7 +341,7 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
             return Err(BlobError::DuplicateSection(kind));
         }
         let end = entry.offset.checked_add(entry.byte_len);
-        let in_bounds = entry.offset % SECTION_ALIGN as u64 == 0
+        let in_bounds = entry.offset.is_multiple_of(SECTION_ALIGN as u64)
             && entry.offset >= table_end as u64
             && end.is_some_and(|end| end <= actual);
         if !in_bounds {
@@ -351,7 +351,7 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
         if entry.record_size != expected {
             return Err(BlobError::RecordSize { kind, found: entry.record_size, expected });
         }
-        if entry.byte_len % expected as u64 != 0 {
+        if !entry.byte_len.is_multiple_of(expected as u64) {
             return Err(BlobError::SectionBounds { kind, offset: entry.offset, byte_len: entry.byte_len });
         }
         let data = &bytes[entry.offset as usize..(entry.offset + entry.byte_len) as usize];
@@ -381,7 +381,7 @@ fn expected_record_size(kind: SectionKind) -> u32 {
     }) as u32
 }
 
-fn typed<'a, T: Pod>(bytes: &'a [u8], entry: SectionEntry, kind: SectionKind) -> Result<&'a [T], BlobError> {
+fn typed<T: Pod>(bytes: &[u8], entry: SectionEntry, kind: SectionKind) -> Result<&[T], BlobError> {
     let data = &bytes[entry.offset as usize..(entry.offset + entry.byte_len) as usize];
     bytemuck::try_cast_slice(data).map_err(|_| BlobError::Misaligned(kind))
 }

@@ -27,11 +27,8 @@ fn sample_scene() -> SceneData {
     let cname = s.add_string("/Cam");
     s.cameras = vec![Camera { name: cname, focal_length: 50.0, ..Camera::default() }];
     s.emissive_triangles = vec![];
-    s.bvh_nodes = vec![BvhNode {
-        imask: 0,
-        child_meta: [0b0010_0000, 0, 0, 0, 0, 0, 0, 0],
-        ..BvhNode::default()
-    }];
+    s.bvh_nodes =
+        vec![BvhNode { imask: 0, child_meta: [0b0010_0000, 0, 0, 0, 0, 0, 0, 0], ..BvhNode::default() }];
     s.bvh_primitives = vec![0];
     s.info = SceneInfo {
         bounds_min: [0.0; 3],
