@@ -23,7 +23,6 @@ Conventions shared with the ingest (see ingest/src/usd/mod.rs):
 
 from __future__ import annotations
 
-import math
 from collections import defaultdict
 from dataclasses import dataclass, field
 
@@ -323,16 +322,3 @@ def compare(dump: dict, ref: Listing) -> list[str]:
                 problems.extend(f"{path}: {p}" for p in _entry_matches(best, g, atol))
                 unmatched.remove(best)
     return problems
-
-
-def union_bounds(dump: dict):
-    entries = [e for e in dump["gprims"] if e["triangles"]]
-    if not entries:
-        return None, None
-    lo = np.min([e["bounds_min"] for e in entries], axis=0)
-    hi = np.max([e["bounds_max"] for e in entries], axis=0)
-    return lo, hi
-
-
-def finite(x) -> bool:
-    return all(math.isfinite(v) for v in x)

@@ -1,4 +1,4 @@
-//! USD reader: a composed stage becomes a [`Scene`](crate::scene::Scene).
+//! USD reader: a composed stage becomes a [`Scene`].
 //!
 //! Composition (sublayers, references, payloads, variants, instancing) is done by the `openusd`
 //! crate behind the thin `stage` wrapper; everything USD *means* beyond composition is done here,
