@@ -1,1 +1,67 @@
-//! placeholder
+//! Subdivision surfaces for the path tracer, through OpenSubdiv 3.5's Far layer (Debian's
+//! `libosd-dev`) and a small C++ shim.
+//!
+//! Data flow, one mesh at a time:
+//!
+//! 1. [`Cage`] borrows the mesh as USD authors it (`faceVertexCounts`, `faceVertexIndices`,
+//!    crease chains, corners, holes, face-varying index buffers) and [`Topology::new`] validates
+//!    it into an owned [`Topology`]. Bad topology stops here with an [`Error`]; OpenSubdiv never
+//!    sees an out-of-range index.
+//! 2. [`Refiner::new`] builds a `Far::TopologyRefiner` and refines it uniformly to a level, for
+//!    instance one chosen by [`level_for_dicing_rate`]. It owns the C++ object and frees it on
+//!    drop.
+//! 3. [`Refiner::vertex_primvar`] and [`Refiner::face_varying_primvar`] refine any float-n
+//!    primvar to that level, either as control points or on the limit surface;
+//!    [`Refiner::limit`] gives limit positions and tangents.
+//! 4. [`tessellate`] turns the last level into triangles with limit positions, unit limit
+//!    normals (`du × dv`), limit UVs split along seams, and the cage face of each triangle.
+//!
+//! ```
+//! use subdiv::{tessellate, Cage, Refiner, Topology};
+//!
+//! // A unit cube.
+//! let points = [
+//!     [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0],
+//!     [0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0],
+//! ];
+//! let counts = [4; 6];
+//! let indices = [
+//!     0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7,
+//! ];
+//! let cage = Cage {
+//!     face_vertex_counts: &counts,
+//!     face_vertex_indices: &indices,
+//!     vertex_count: points.len(),
+//!     ..Default::default()
+//! };
+//! let topology = Topology::new(&cage)?;
+//! let refiner = Refiner::new(&topology, 2)?;
+//! let mesh = tessellate(&refiner, &points, None)?;
+//! assert_eq!(mesh.triangles.len(), 2 * 6 * 4usize.pow(2));
+//! # Ok::<(), subdiv::Error>(())
+//! ```
+//!
+//! Modules: `topology` (cage and validation), `refine` (the refiner and primvar refinement),
+//! `limit` (limit positions and tangents), `tessellate` (triangles and the dicing-rate level),
+//! `ffi` (private declarations of the shim in `shim/osd_shim.cpp`).
+
+#![deny(missing_docs)]
+
+mod error;
+mod ffi;
+mod limit;
+mod refine;
+mod tessellate;
+mod topology;
+
+pub use error::{Error, Result};
+pub use limit::{normal_from_tangents, LimitSurface};
+pub use refine::{Evaluation, RefinedFaces, Refiner, MAX_LEVEL};
+pub use tessellate::{level_for_dicing_rate, tessellate, Tessellation, UvSource};
+pub use topology::{
+    BoundaryInterpolation, Cage, FaceVaryingChannel, FaceVaryingInterpolation, Options, Scheme, Topology,
+    TriangleSubdivision, UnknownToken,
+};
+
+#[cfg(test)]
+mod tests;

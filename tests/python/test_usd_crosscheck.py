@@ -98,6 +98,14 @@ def generated(tmp_path_factory) -> dict[str, Path]:
     return {name: write_stage(root / name, files) for name, files in stages.GENERATED.items()}
 
 
+NESTED_PROXIES = ("openusd 0.6's instance-proxy traversal misses an instanceable prim inside a prototype that "
+                  "internally references a prim of the same prototype (usd-core finds its proxies)")
+
+
+def xfail(reason: str):
+    return pytest.mark.xfail(strict=True, reason=reason)
+
+
 @pytest.mark.parametrize("name", sorted(stages.GENERATED))
 def test_generated_stage_is_valid_usd(generated, name):
     """usd-core composes every generated stage without errors (so a difference is the ingest's)."""
@@ -106,7 +114,9 @@ def test_generated_stage_is_valid_usd(generated, name):
     assert not stage.GetCompositionErrors(), [str(e) for e in stage.GetCompositionErrors()]
 
 
-@pytest.mark.parametrize("name", sorted(stages.GENERATED))
+@pytest.mark.parametrize("name", [
+    pytest.param(n, marks=xfail(NESTED_PROXIES)) if n == "nested_instancing" else n for n in sorted(stages.GENERATED)
+])
 def test_generated_stage_matches_usd_core(ingest, render_info, generated, name):
     ref = crosscheck(ingest, render_info, generated[name])
     # The reference itself must show what the stage was written to contain.
@@ -190,8 +200,6 @@ TIME_SAMPLES = (
 )
 
 
-def xfail(reason: str):
-    return pytest.mark.xfail(strict=True, reason=reason)
 
 
 ASSET_CASES = [
@@ -203,9 +211,8 @@ ASSET_CASES = [
     *[(USDWG / "schemaTests/usdGeom/transforms" / f, None, ()) for f in (
         "simple_transform.usda", "complex_transform.usda", "matrix_transform.usda", "xforms_nested.usda",
         "scopes_and_xforms_nested.usda")],
-    (USDWG / "schemaTests/usdGeom/transforms/weird_matrix_transform.usda", None, (xfail(
-        "projective xformOp:transform (last column (4, 8, 12, 1)): usd-core applies the homogeneous "
-        "divide, the ingest uses the matrix as affine (and does not warn)"),)),
+    # A projective xformOp:transform (last column (4, 8, 12, 1)): points are divided through, as usd-core does.
+    (USDWG / "schemaTests/usdGeom/transforms/weird_matrix_transform.usda", None, ()),
     # usd-wg conformance: mesh topology and implicit shapes.
     *[(USDWG / "schemaTests/usdGeom/meshes" / f, None, ()) for f in (
         "5_face/5_face.usda", "mixed_faceVertexCounts/mixed.usda", "triangled_mesh/triangles.usda",
@@ -222,7 +229,7 @@ ASSET_CASES = [
         "subLayer/sublayer_same_folder.usda", "subLayer/sublayer_child_folder.usda",
         "subLayer/sublayer_parent_folder.usda")],
     # A Cube with `purpose = "other"` (not an allowed token): usd-core computes purpose "other", which is
-    # neither default nor render, so it is not drawn; the ingest draws it.
+    # neither default nor render, so it is not drawn.
     (USDWG / "foundation/stage_composition/purpose.usda", None, ()),
     (USDWG / "RelationshipEncapsulationTests/ReferencedAssembliesWithInternalReferencesTest.usda", None, ()),
     (USDWG / "TextureTransformTest/TextureTransformTest.usd", None, ()),
@@ -237,7 +244,8 @@ ASSET_CASES = [
     (GL_INSTANCING / "testUsdImagingGLInstancing/nestedInstancedCubes.usda", None, ()),
     # Nested native instances (an instanceable prim inside an instance's prototype) and material
     # bindings on instances at both levels.
-    (GL_INSTANCING / "testUsdImagingGLInstancingWithMaterials/ni_ni_material_binding_resolution.usda", None, ()),
+    (GL_INSTANCING / "testUsdImagingGLInstancingWithMaterials/ni_ni_material_binding_resolution.usda", None,
+     (xfail(NESTED_PROXIES),)),
     (GL_INSTANCING / "testUsdImagingGLPointInstancer/pi_basic.usda", None, ()),
     (GL_INSTANCING / "testUsdImagingGLPointInstancer/ni_pi_xform.usda", None, ()),
     (GL_INSTANCING / "testUsdImagingGLPointInstancer/pi_ni.usda", None, ()),
@@ -370,8 +378,9 @@ BLOB_DAMAGE = {
     "flipped_magic": lambda d: _flip(d, 0),
     "flipped_header_byte": lambda d: _flip(d, 24),
     "flipped_middle_byte": lambda d: _flip(d, len(d) // 2),
-    # (the zero padding after the last section is not data: flip the last byte that is)
     "flipped_last_data_byte": lambda d: _flip(d, len(d.rstrip(b"\0")) - 1),
+    # padding is checked to be zero, so even the last byte of the file counts
+    "flipped_last_padding_byte": lambda d: _flip(d, len(d) - 1),
     "zeroed_tail": lambda d: d[: len(d) // 3] + b"\0" * (len(d) - len(d) // 3),
     "random_bytes": lambda d: np.random.default_rng(7).integers(0, 256, len(d), dtype=np.uint8).tobytes(),
     "text": lambda d: b"#usda 1.0\n" * 100,

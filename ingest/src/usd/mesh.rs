@@ -359,7 +359,7 @@ impl Reader<'_> {
             positions: local
                 .positions
                 .iter()
-                .map(|&p| world_from_local.transform_point3(p).as_vec3())
+                .map(|&p| world_from_local.project_point3(p).as_vec3())
                 .collect(),
             normals: local
                 .normals

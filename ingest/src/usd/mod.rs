@@ -387,7 +387,13 @@ impl<'a> Reader<'a> {
                 Some("proxy") => state.purpose = Purpose::Proxy,
                 Some("guide") => state.purpose = Purpose::Guide,
                 Some("default") => state.purpose = Purpose::Default,
-                _ => {}
+                None => {}
+                // Not a purpose USD draws for rendering (usd-core computes it as authored and
+                // excludes it from render and default traversals).
+                Some(other) => {
+                    self.warn(path, format!("unknown purpose \"{other}\"; not rendered"));
+                    state.purpose = Purpose::Guide;
+                }
             }
             self.read_prim(path, &ty, &state)?;
         }
@@ -464,7 +470,9 @@ impl<'a> Reader<'a> {
             };
             let rotation = orientations.as_ref().map_or(DQuat::IDENTITY, |q| {
                 let [x, y, z, w] = q[i];
-                DQuat::from_xyzw(x, y, z, w).normalize()
+                // As authored, not normalized: usd-core's ComputeInstanceTransformsAtTime builds the
+                // rotation from the raw quaternion, and matching it keeps bounds identical.
+                DQuat::from_xyzw(x, y, z, w)
             });
             let scale = scales.as_ref().map_or(DVec3::ONE, |s| s[i]);
             let instancer_from_instance =

@@ -53,6 +53,15 @@ pub(crate) fn read_local(
             warn(format!("xformOp {name} of type {kind} could not be read; ignored"));
             continue;
         };
+        if kind == "transform" && m.row(3) != glam::DVec4::W {
+            // USD's fourth column (our fourth row) makes the matrix projective. Points go through it
+            // with the homogeneous divide, as usd-core's GfMatrix4d::Transform does; normals and
+            // lights only see its affine part.
+            warn(format!(
+                "xformOp {name} is projective (last column {:?}); points are divided through",
+                m.row(3)
+            ));
+        }
         if inverted {
             m = m.inverse();
         }

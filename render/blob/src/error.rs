@@ -37,6 +37,8 @@ pub enum BlobError {
     SectionChecksum(SectionKind),
     /// The section's memory is not aligned for its record type.
     Misaligned(SectionKind),
+    /// Nonzero bytes in the padding between or after sections.
+    Padding { offset: u64 },
     /// A record refers outside its target section, or a count is inconsistent.
     BadIndex { kind: SectionKind, record: u64, what: &'static str },
 }
@@ -68,6 +70,7 @@ impl fmt::Display for BlobError {
             }
             BlobError::SectionChecksum(k) => write!(f, "section {k:?} checksum mismatch (corrupted data)"),
             BlobError::Misaligned(k) => write!(f, "section {k:?} is not aligned in memory"),
+            BlobError::Padding { offset } => write!(f, "nonzero padding byte at offset {offset} (corrupted file)"),
             BlobError::BadIndex { kind, record, what } => {
                 write!(f, "section {kind:?} record {record}: {what}")
             }

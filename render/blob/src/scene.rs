@@ -360,7 +360,32 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
         }
         *slot = Some(entry);
     }
+    check_layout(bytes, table_end, &found)?;
     Ok(found)
+}
+
+/// Sections must not overlap, and every byte outside the header, the table and the sections (the
+/// alignment padding) must be zero: checksums cover the sections, this covers the rest, so no byte of
+/// the file can change unnoticed.
+fn check_layout(bytes: &[u8], table_end: usize, found: &[Option<SectionEntry>]) -> Result<(), BlobError> {
+    let mut sections: Vec<SectionEntry> = found.iter().flatten().copied().collect();
+    sections.sort_by_key(|e| e.offset);
+    let mut cursor = table_end;
+    for entry in &sections {
+        let start = entry.offset as usize;
+        let kind = SectionKind::from_u32(entry.kind).ok_or(BlobError::UnknownSection(entry.kind))?;
+        if start < cursor {
+            return Err(BlobError::SectionBounds { kind, offset: entry.offset, byte_len: entry.byte_len });
+        }
+        if bytes[cursor..start].iter().any(|&b| b != 0) {
+            return Err(BlobError::Padding { offset: cursor as u64 });
+        }
+        cursor = start + entry.byte_len as usize;
+    }
+    if bytes[cursor..].iter().any(|&b| b != 0) {
+        return Err(BlobError::Padding { offset: cursor as u64 });
+    }
+    Ok(())
 }
 
 fn expected_record_size(kind: SectionKind) -> u32 {

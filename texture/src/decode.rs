@@ -1,0 +1,124 @@
+//! Texture files → [`SourceImage`]: png, jpg, tga, tif, hdr via `image`; exr via `exr`.
+//!
+//! The decoded image keeps its bit depth (8-bit, 16-bit or float) because the colour-space rule and the
+//! stored format both depend on it, and its channel count (1..=4) because the bake keeps it.
+
+use std::path::Path;
+
+use crate::error::{Error, ErrorKind};
+use crate::record::MAX_DIMENSION;
+
+/// Decoded samples, in the source's bit depth.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Samples {
+    /// 8-bit sources (png, jpg, tga, 8-bit tif).
+    U8(Vec<u8>),
+    /// 16-bit sources (png, tif).
+    U16(Vec<u16>),
+    /// Float sources (hdr, exr, float tif). EXR half samples are widened to `f32`.
+    F32(Vec<f32>),
+}
+
+/// A decoded image: rows top-down as in the file, channels interleaved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA.
+    pub channels: u32,
+    /// `width * height * channels` samples.
+    pub samples: Samples,
+}
+
+impl SourceImage {
+    /// Checks the invariants the bake relies on.
+    pub(crate) fn validate(&self, path: &Path) -> Result<(), Error> {
+        let (w, h) = (self.width, self.height);
+        if w == 0 || h == 0 || w > MAX_DIMENSION || h > MAX_DIMENSION {
+            return Err(Error::new(path, ErrorKind::Size { width: w, height: h }));
+        }
+        if !(1..=4).contains(&self.channels) {
+            return Err(Error::new(path, ErrorKind::Channels(format!("{} channels", self.channels))));
+        }
+        let len = match &self.samples {
+            Samples::U8(v) => v.len(),
+            Samples::U16(v) => v.len(),
+            Samples::F32(v) => v.len(),
+        };
+        if len != w as usize * h as usize * self.channels as usize {
+            return Err(Error::new(path, ErrorKind::Channels(format!("{len} samples for {w}x{h}"))));
+        }
+        Ok(())
+    }
+}
+
+/// Decodes a texture file, choosing the decoder by extension (`.exr`) or by content.
+pub fn decode(path: &Path) -> Result<SourceImage, Error> {
+    let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let img = if is_exr { decode_exr(path)? } else { decode_image(path)? };
+    img.validate(path)?;
+    Ok(img)
+}
+
+fn decode_image(path: &Path) -> Result<SourceImage, Error> {
+    use image::DynamicImage as D;
+    let err = |e| Error::new(path, ErrorKind::Image(e));
+    let mut reader = image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| Error::new(path, ErrorKind::Io(e)))?;
+    // Production textures (16k 16-bit) exceed the default 512 MiB allocation limit.
+    reader.no_limits();
+    let dynamic = reader.decode().map_err(err)?;
+    let (width, height) = (dynamic.width(), dynamic.height());
+    let (channels, samples) = match dynamic {
+        D::ImageLuma8(b) => (1, Samples::U8(b.into_raw())),
+        D::ImageLumaA8(b) => (2, Samples::U8(b.into_raw())),
+        D::ImageRgb8(b) => (3, Samples::U8(b.into_raw())),
+        D::ImageRgba8(b) => (4, Samples::U8(b.into_raw())),
+        D::ImageLuma16(b) => (1, Samples::U16(b.into_raw())),
+        D::ImageLumaA16(b) => (2, Samples::U16(b.into_raw())),
+        D::ImageRgb16(b) => (3, Samples::U16(b.into_raw())),
+        D::ImageRgba16(b) => (4, Samples::U16(b.into_raw())),
+        D::ImageRgb32F(b) => (3, Samples::F32(b.into_raw())),
+        D::ImageRgba32F(b) => (4, Samples::F32(b.into_raw())),
+        // `DynamicImage` is non-exhaustive; anything newer goes through RGBA float.
+        other => (4, Samples::F32(other.into_rgba32f().into_raw())),
+    };
+    Ok(SourceImage { width, height, channels, samples })
+}
+
+/// Reads the first valid layer's largest level with all its channels, then picks R, G, B, A or Y by name
+/// (the part after the last `.`, so `diffuse.R` counts as `R`). A layer with a single channel of another
+/// name (`Z`, `mask`) is read as grey.
+fn decode_exr(path: &Path) -> Result<SourceImage, Error> {
+    let image = exr::prelude::read_first_flat_layer_from_file(path)
+        .map_err(|e| Error::new(path, ErrorKind::Exr(e)))?;
+    let layer = &image.layer_data;
+    let (w, h) = (layer.size.0, layer.size.1);
+    let list = &layer.channel_data.list;
+    let find = |want: &str| {
+        list.iter().position(|c| {
+            let name = c.name.to_string();
+            name.rsplit('.').next().is_some_and(|n| n.eq_ignore_ascii_case(want))
+        })
+    };
+    let picks: Vec<usize> = match (find("R"), find("G"), find("B"), find("Y"), find("A")) {
+        (Some(r), Some(g), Some(b), _, a) => [Some(r), Some(g), Some(b), a].into_iter().flatten().collect(),
+        (_, _, _, Some(y), a) => [Some(y), a].into_iter().flatten().collect(),
+        _ if list.len() == 1 => vec![0],
+        _ => {
+            let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
+            return Err(Error::new(path, ErrorKind::Channels(format!("EXR channels {names:?}"))));
+        }
+    };
+    let c = picks.len();
+    let mut data = vec![0.0f32; w * h * c];
+    for (k, &ch) in picks.iter().enumerate() {
+        for (i, v) in list[ch].sample_data.values_as_f32().enumerate().take(w * h) {
+            data[i * c + k] = v;
+        }
+    }
+    Ok(SourceImage { width: w as u32, height: h as u32, channels: c as u32, samples: Samples::F32(data) })
+}

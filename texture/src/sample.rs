@@ -1,0 +1,321 @@
+//! Filtered lookups on borrowed texel bytes: no allocation, no locks, no I/O beyond page faults.
+//!
+//! The texel format is resolved once per lookup (a `match` that picks a monomorphised filter), so the
+//! per-texel path is a table load (sRGB8), a multiply (unorm8) or a half→float conversion (f16). Texels
+//! with fewer than four channels expand as UsdUVTexture does: grey → `(g, g, g, 1)`, grey+alpha →
+//! `(g, g, g, a)`, RGB → `(r, g, b, 1)`.
+//!
+//! Coordinates follow USD: `(0, 0)` is the bottom-left corner of the image and `(1, 1)` the top-right; texel
+//! `(x, y)` of a `w × h` level covers `[x/w, (x+1)/w) × [y/h, (y+1)/h)` with its centre at `+0.5`.
+//!
+//! All filters are written as scalar code over one lookup; a SIMD pass would run the same steps across
+//! lanes (footprint → level → wrapped integer coordinates → gathers → weights).
+
+use crate::error::Error;
+use crate::format::{Filter, TexelFormat, Wrap};
+use crate::layout::LevelLayout;
+use crate::mip::mip_count;
+use crate::record::{TextureRecord, MAX_DIMENSION};
+use crate::srgb::SRGB_TO_LINEAR;
+use crate::stats::{NoTouch, Touch};
+
+/// Most taps the anisotropic filter takes along the footprint's major axis; footprints more elongated
+/// than this are blurred along the minor axis instead (their level is raised).
+pub const MAX_ANISOTROPY: u32 = 8;
+
+/// A validated texture: its record and the whole texel array its offsets point into.
+#[derive(Clone, Copy, Debug)]
+pub struct TextureView<'a> {
+    record: &'a TextureRecord,
+    format: TexelFormat,
+    texels: &'a [u8],
+}
+
+impl<'a> TextureView<'a> {
+    /// Checks `record` against `texels` (the whole texel array) so lookups cannot index out of bounds.
+    pub fn new(record: &'a TextureRecord, texels: &'a [u8]) -> Result<Self, Error> {
+        validate(record, texels.len(), 0)
+            .map(|format| TextureView { record, format, texels })
+            .map_err(|reason| Error::invalid("texture", 0, reason))
+    }
+
+    /// A view of a record already validated by [`validate`].
+    pub(crate) fn trusted(record: &'a TextureRecord, format: TexelFormat, texels: &'a [u8]) -> Self {
+        TextureView { record, format, texels }
+    }
+
+    /// The texture's record.
+    pub fn record(&self) -> &'a TextureRecord {
+        self.record
+    }
+
+    /// The stored texel format.
+    pub fn format(&self) -> TexelFormat {
+        self.format
+    }
+}
+
+/// Checks one record against a texel array of `len` bytes; returns its format or the failed check.
+pub(crate) fn validate(rec: &TextureRecord, len: usize, _index: usize) -> Result<TexelFormat, &'static str> {
+    let format = TexelFormat::from_u32(rec.format).ok_or("unknown texel format")?;
+    if !(1..=MAX_DIMENSION).contains(&rec.width) || !(1..=MAX_DIMENSION).contains(&rec.height) {
+        return Err("width or height out of range");
+    }
+    if !(1..=4).contains(&rec.channels) {
+        return Err("channels must be 1..=4");
+    }
+    if !(2..=12).contains(&rec.tile_log2) {
+        return Err("tile_log2 must be 2..=12");
+    }
+    if rec.mip_count == 0 || rec.mip_count > mip_count(rec.width, rec.height) {
+        return Err("mip_count must be 1..=full chain");
+    }
+    for level in 0..rec.mip_count {
+        let layout = LevelLayout::of(rec, level);
+        let end = (rec.level_offsets[level as usize] as usize).checked_add(layout.byte_len());
+        if end.is_none_or(|end| end > len) {
+            return Err("mip level runs past the texel array");
+        }
+    }
+    Ok(format)
+}
+
+/// Everything a lookup needs besides the texture; `Copy`, built on the stack per lookup.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Lookup {
+    /// Texture coordinate `(s, t)`.
+    pub uv: [f32; 2],
+    /// Change of `uv` per pixel step in x (the footprint's first axis).
+    pub duv_dx: [f32; 2],
+    /// Change of `uv` per pixel step in y.
+    pub duv_dy: [f32; 2],
+    /// Filter.
+    pub filter: Filter,
+    /// Wrap along `s`.
+    pub wrap_s: Wrap,
+    /// Wrap along `t`.
+    pub wrap_t: Wrap,
+}
+
+/// Filtered RGBA at `uv`, linear. See the module docs for coordinates and [`Filter`] for the filters.
+#[inline]
+pub fn sample(
+    tex: &TextureView,
+    uv: [f32; 2],
+    duv_dx: [f32; 2],
+    duv_dy: [f32; 2],
+    filter: Filter,
+    wrap_s: Wrap,
+    wrap_t: Wrap,
+) -> [f32; 4] {
+    sample_with(tex, &Lookup { uv, duv_dx, duv_dy, filter, wrap_s, wrap_t }, &NoTouch)
+}
+
+/// [`sample`], reporting every texel read to `touch`.
+#[inline]
+pub fn sample_with<T: Touch>(tex: &TextureView, lookup: &Lookup, touch: &T) -> [f32; 4] {
+    // Resolve the format once; each arm is a separately optimised copy of the filters.
+    match tex.format {
+        TexelFormat::Srgb8 => Sampler::<Srgb8, T>::new(tex, lookup, touch).filter(lookup),
+        TexelFormat::Unorm8 => Sampler::<Unorm8, T>::new(tex, lookup, touch).filter(lookup),
+        TexelFormat::F16 => Sampler::<F16, T>::new(tex, lookup, touch).filter(lookup),
+    }
+}
+
+/// Level of detail for a footprint: `log2` of the larger of `|duv_dx|`, `|duv_dy|` measured in level-0
+/// texels. `≤ 0` means magnification; `-inf` for a zero footprint.
+#[inline]
+pub fn mip_level(rec: &TextureRecord, duv_dx: [f32; 2], duv_dy: [f32; 2]) -> f32 {
+    let (w, h) = (rec.width as f32, rec.height as f32);
+    let ax = (duv_dx[0] * w).hypot(duv_dx[1] * h);
+    let ay = (duv_dy[0] * w).hypot(duv_dy[1] * h);
+    ax.max(ay).log2()
+}
+
+/// Maps integer texel coordinate `i` into `0..n`, or `None` for a black border.
+#[inline(always)]
+pub fn wrap(i: i32, n: u32, mode: Wrap) -> Option<u32> {
+    let n = n as i32; // n <= MAX_DIMENSION, so 2n fits too
+    match mode {
+        Wrap::Repeat => Some(i.rem_euclid(n) as u32),
+        Wrap::Mirror => {
+            let m = i.rem_euclid(2 * n);
+            Some(if m < n { m } else { 2 * n - 1 - m } as u32)
+        }
+        Wrap::Clamp => Some(i.clamp(0, n - 1) as u32),
+        Wrap::Black => (0..n).contains(&i).then_some(i as u32),
+    }
+}
+
+/// Decodes one stored texel to linear RGBA.
+trait Decode {
+    fn texel(bytes: &[u8], channels: u32) -> [f32; 4];
+}
+
+struct Srgb8;
+struct Unorm8;
+struct F16;
+
+/// Grey / grey+alpha / RGB / RGBA → RGBA, with colour and alpha decoded by separate functions.
+#[inline(always)]
+fn expand(channels: u32, colour: impl Fn(usize) -> f32, alpha: impl Fn(usize) -> f32) -> [f32; 4] {
+    match channels {
+        1 => {
+            let g = colour(0);
+            [g, g, g, 1.0]
+        }
+        2 => {
+            let g = colour(0);
+            [g, g, g, alpha(1)]
+        }
+        3 => [colour(0), colour(1), colour(2), 1.0],
+        _ => [colour(0), colour(1), colour(2), alpha(3)],
+    }
+}
+
+impl Decode for Srgb8 {
+    #[inline(always)]
+    fn texel(b: &[u8], channels: u32) -> [f32; 4] {
+        expand(channels, |i| SRGB_TO_LINEAR[b[i] as usize], |i| b[i] as f32 * (1.0 / 255.0))
+    }
+}
+
+impl Decode for Unorm8 {
+    #[inline(always)]
+    fn texel(b: &[u8], channels: u32) -> [f32; 4] {
+        let unorm = |i: usize| b[i] as f32 * (1.0 / 255.0);
+        expand(channels, unorm, unorm)
+    }
+}
+
+impl Decode for F16 {
+    #[inline(always)]
+    fn texel(b: &[u8], channels: u32) -> [f32; 4] {
+        let half = |i: usize| half::f16::from_le_bytes([b[2 * i], b[2 * i + 1]]).to_f32();
+        expand(channels, half, half)
+    }
+}
+
+#[inline(always)]
+fn lerp4(a: [f32; 4], b: [f32; 4], t: f32) -> [f32; 4] {
+    std::array::from_fn(|i| a[i] + (b[i] - a[i]) * t)
+}
+
+/// One lookup's state, specialised on texel format and touch sink.
+struct Sampler<'a, D, T> {
+    tex: &'a TextureView<'a>,
+    wrap_s: Wrap,
+    wrap_t: Wrap,
+    touch: &'a T,
+    _decode: std::marker::PhantomData<D>,
+}
+
+impl<'a, D: Decode, T: Touch> Sampler<'a, D, T> {
+    #[inline(always)]
+    fn new(tex: &'a TextureView<'a>, lookup: &Lookup, touch: &'a T) -> Self {
+        Sampler { tex, wrap_s: lookup.wrap_s, wrap_t: lookup.wrap_t, touch, _decode: std::marker::PhantomData }
+    }
+
+    #[inline(always)]
+    fn last_level(&self) -> u32 {
+        self.tex.record.mip_count - 1
+    }
+
+    #[inline(always)]
+    fn fetch(&self, lv: &LevelLayout, x: i32, y: i32) -> [f32; 4] {
+        match (wrap(x, lv.width, self.wrap_s), wrap(y, lv.height, self.wrap_t)) {
+            (Some(x), Some(y)) => {
+                let off = lv.texel_offset(x, y);
+                let n = lv.texel_bytes as usize;
+                self.touch.touch(off, n);
+                D::texel(&self.tex.texels[off..off + n], self.tex.record.channels)
+            }
+            _ => [0.0; 4],
+        }
+    }
+
+    /// Texel containing `uv` on `level`.
+    fn nearest(&self, level: u32, uv: [f32; 2]) -> [f32; 4] {
+        let lv = LevelLayout::of(self.tex.record, level);
+        // `as i32` saturates huge or NaN coordinates (NaN → 0) instead of failing; wrap keeps them in range.
+        let x = (uv[0] * lv.width as f32).floor() as i32;
+        let y = (uv[1] * lv.height as f32).floor() as i32;
+        self.fetch(&lv, x, y)
+    }
+
+    /// Bilinear blend of the four texels whose centres surround `uv` on `level`.
+    fn bilinear(&self, level: u32, uv: [f32; 2]) -> [f32; 4] {
+        let lv = LevelLayout::of(self.tex.record, level);
+        let x = uv[0] * lv.width as f32 - 0.5;
+        let y = uv[1] * lv.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i32, y0 as i32);
+        let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
+        let bottom = lerp4(self.fetch(&lv, x0, y0), self.fetch(&lv, x1, y0), fx);
+        let top = lerp4(self.fetch(&lv, x0, y1), self.fetch(&lv, x1, y1), fx);
+        lerp4(bottom, top, fy)
+    }
+
+    /// Splits a fractional level into the two levels to blend and the weight of the upper one; `None`
+    /// when magnifying (level ≤ 0, or NaN).
+    #[inline(always)]
+    fn level_pair(&self, level: f32) -> Option<(u32, u32, f32)> {
+        if !(level > 0.0) {
+            return None;
+        }
+        let last = self.last_level();
+        let level = level.min(last as f32);
+        let l0 = level.floor();
+        let l0i = l0 as u32;
+        Some((l0i, (l0i + 1).min(last), level - l0))
+    }
+
+    fn trilinear(&self, level: f32, uv: [f32; 2]) -> [f32; 4] {
+        match self.level_pair(level) {
+            None => self.bilinear(0, uv),
+            Some((l0, _, t)) if t == 0.0 => self.bilinear(l0, uv),
+            Some((l0, l1, t)) => lerp4(self.bilinear(l0, uv), self.bilinear(l1, uv), t),
+        }
+    }
+
+    fn filter(&self, q: &Lookup) -> [f32; 4] {
+        match q.filter {
+            Filter::Moonray => match self.level_pair(mip_level(self.tex.record, q.duv_dx, q.duv_dy)) {
+                None => self.bilinear(0, q.uv),
+                Some((l0, _, t)) if t == 0.0 => self.nearest(l0, q.uv),
+                Some((l0, l1, t)) => lerp4(self.nearest(l0, q.uv), self.nearest(l1, q.uv), t),
+            },
+            Filter::Bilinear => {
+                let level = mip_level(self.tex.record, q.duv_dx, q.duv_dy);
+                // NaN and -inf round to NaN/-inf; `as u32` saturates both to 0.
+                self.bilinear((level.round() as u32).min(self.last_level()), q.uv)
+            }
+            Filter::Trilinear => self.trilinear(mip_level(self.tex.record, q.duv_dx, q.duv_dy), q.uv),
+            Filter::Anisotropic => self.anisotropic(q),
+        }
+    }
+
+    /// Trilinear taps spread along the footprint's major axis, level chosen from the minor axis.
+    fn anisotropic(&self, q: &Lookup) -> [f32; 4] {
+        let (w, h) = (self.tex.record.width as f32, self.tex.record.height as f32);
+        let ax = (q.duv_dx[0] * w).hypot(q.duv_dx[1] * h);
+        let ay = (q.duv_dy[0] * w).hypot(q.duv_dy[1] * h);
+        let (axis, major, minor) = if ax >= ay { (q.duv_dx, ax, ay) } else { (q.duv_dy, ay, ax) };
+        if !(major > 0.0) {
+            return self.bilinear(0, q.uv);
+        }
+        let minor = minor.max(major / MAX_ANISOTROPY as f32);
+        let taps = ((major / minor).ceil() as u32).clamp(1, MAX_ANISOTROPY);
+        let level = minor.log2();
+        let mut sum = [0.0f32; 4];
+        for i in 0..taps {
+            // Tap centres at the middles of `taps` equal segments of the major axis, which spans
+            // one pixel step: -0.5 .. 0.5 times `axis`.
+            let o = (i as f32 + 0.5) / taps as f32 - 0.5;
+            let c = self.trilinear(level, [q.uv[0] + axis[0] * o, q.uv[1] + axis[1] * o]);
+            sum = std::array::from_fn(|k| sum[k] + c[k]);
+        }
+        sum.map(|v| v / taps as f32)
+    }
+}
