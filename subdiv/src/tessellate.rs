@@ -41,7 +41,7 @@ impl Tessellation {
     /// output vertices.
     pub fn gather<const N: usize>(&self, refined: &[f32]) -> Result<Vec<[f32; N]>> {
         let needed = self.refined_vertex.iter().map(|&v| v as usize + 1).max().unwrap_or(0) * N;
-        if refined.len() < needed || refined.len() % N.max(1) != 0 {
+        if refined.len() < needed || !refined.len().is_multiple_of(N.max(1)) {
             return Err(Error::PrimvarSize { what: "refined primvar", expected: needed, got: refined.len() });
         }
         Ok(self
@@ -53,7 +53,11 @@ impl Tessellation {
 }
 
 /// Tessellates the surface `refiner` describes, with cage `positions` and optional UVs.
-pub fn tessellate(refiner: &Refiner, positions: &[[f32; 3]], uvs: Option<UvSource<'_>>) -> Result<Tessellation> {
+pub fn tessellate(
+    refiner: &Refiner,
+    positions: &[[f32; 3]],
+    uvs: Option<UvSource<'_>>,
+) -> Result<Tessellation> {
     let limit = refiner.limit(positions)?;
     let faces = refiner.faces(uvs.map(|uv| uv.channel))?;
     let uv_values = match uvs {
@@ -132,8 +136,9 @@ pub fn tessellate(refiner: &Refiner, positions: &[[f32; 3]], uvs: Option<UvSourc
     let normal_of = |v: usize| -> [f64; 3] {
         let reference = face_normal_sum[v];
         match normal_from_tangents(limit.du[v], limit.dv[v]) {
-            // OpenSubdiv's tangent order follows the vertex's face order, whose handedness is not
-            // the face winding everywhere (boundaries, creases); the faces decide the side.
+            // OpenSubdiv's du × dv follows the face winding (the tests find no exception at
+            // boundaries, creases, corners, valence 3 and 5); the faces still decide the side, so
+            // that a convention change or a twisted cage cannot turn a shading normal inside out.
             Some(n) if dot(n, reference) < 0.0 => [-n[0], -n[1], -n[2]],
             Some(n) => n,
             None => {
@@ -168,7 +173,7 @@ pub fn level_for_dicing_rate(edge_px: f32, rate_px: f32, max_level: u32) -> u32 
     if !(edge_px.is_finite() && edge_px > 0.0) {
         return 0;
     }
-    if !(rate_px > 0.0) {
+    if rate_px.is_nan() || rate_px <= 0.0 {
         return max_level;
     }
     let level = (edge_px as f64 / rate_px as f64).log2().ceil();
