@@ -73,7 +73,15 @@ fn linearize(src: &SourceImage, color_space: ColorSpace) -> LinearImage {
         Samples::U8(v) => v
             .iter()
             .enumerate()
-            .map(|(i, &b)| if srgb && !is_alpha(i % c, c) { SRGB_TO_LINEAR[b as usize] } else { b as f32 / 255.0 })
+            .map(
+                |(i, &b)| {
+                    if srgb && !is_alpha(i % c, c) {
+                        SRGB_TO_LINEAR[b as usize]
+                    } else {
+                        b as f32 / 255.0
+                    }
+                },
+            )
             .collect(),
         Samples::U16(v) => v.iter().enumerate().map(|(i, &s)| convert(i, s as f32 / 65535.0)).collect(),
         Samples::F32(v) => v.iter().enumerate().map(|(i, &s)| convert(i, s)).collect(),

@@ -64,11 +64,9 @@ impl fmt::Display for Error {
             ErrorKind::Image(e) => write!(f, "decoding failed: {e}"),
             ErrorKind::Exr(e) => write!(f, "decoding EXR failed: {e}"),
             ErrorKind::Channels(what) => write!(f, "unsupported channel layout: {what}"),
-            ErrorKind::Size { width, height } => write!(
-                f,
-                "image size {width}x{height} is outside 1..={} per side",
-                crate::MAX_DIMENSION
-            ),
+            ErrorKind::Size { width, height } => {
+                write!(f, "image size {width}x{height} is outside 1..={} per side", crate::MAX_DIMENSION)
+            }
             ErrorKind::Udim(what) => write!(f, "UDIM: {what}"),
             ErrorKind::InvalidRecord { table, index, reason } => {
                 write!(f, "{table} record {index} is invalid: {reason}")

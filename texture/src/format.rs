@@ -83,7 +83,9 @@ impl FromStr for Wrap {
             "mirror" => Ok(Wrap::Mirror),
             "clamp" => Ok(Wrap::Clamp),
             "black" => Ok(Wrap::Black),
-            other => Err(format!("unknown wrap mode {other:?} (expected repeat|mirror|clamp|black|useMetadata)")),
+            other => {
+                Err(format!("unknown wrap mode {other:?} (expected repeat|mirror|clamp|black|useMetadata)"))
+            }
         }
     }
 }
@@ -117,14 +119,17 @@ impl FromStr for Filter {
             "bilinear" => Ok(Filter::Bilinear),
             "trilinear" => Ok(Filter::Trilinear),
             "ewa" | "anisotropic" => Ok(Filter::Anisotropic),
-            other => Err(format!("unknown texture filter {other:?} (expected moonray|bilinear|trilinear|ewa)")),
+            other => {
+                Err(format!("unknown texture filter {other:?} (expected moonray|bilinear|trilinear|ewa)"))
+            }
         }
     }
 }
 
 impl fmt::Display for Filter {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
+        // `pad` so that width/alignment flags (`{:<10}`) apply.
+        f.pad(match self {
             Filter::Moonray => "moonray",
             Filter::Bilinear => "bilinear",
             Filter::Trilinear => "trilinear",

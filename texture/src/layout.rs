@@ -33,7 +33,16 @@ impl LevelLayout {
         let tile = 1u32 << tile_log2;
         let tile_w = width.min(tile);
         let tile_h = height.min(tile);
-        LevelLayout { base, width, height, texel_bytes, tile_log2, tile_w, tile_h, tiles_x: width.div_ceil(tile_w) }
+        LevelLayout {
+            base,
+            width,
+            height,
+            texel_bytes,
+            tile_log2,
+            tile_w,
+            tile_h,
+            tiles_x: width.div_ceil(tile_w),
+        }
     }
 
     /// Layout of level `level` of a baked texture.

@@ -31,7 +31,7 @@ pub struct LinearImage {
 fn taps(n: u32, i: u32) -> [(u32, f32); 3] {
     if n == 1 {
         [(0, 1.0), (0, 0.0), (0, 0.0)]
-    } else if n % 2 == 0 {
+    } else if n.is_multiple_of(2) {
         [(2 * i, 0.5), (2 * i + 1, 0.5), (2 * i + 1, 0.0)]
     } else {
         let m = (n / 2) as f32;

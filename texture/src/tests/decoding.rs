@@ -1,0 +1,140 @@
+//! Every supported file type and layout, written by the test and read back through decode → bake → sample.
+
+use std::path::Path;
+
+use super::{assert_close, at};
+use crate::{decode, BakeOptions, ColorSpace, Filter, Samples, TexelFormat, TextureRef, TextureSetBuilder};
+
+/// Decodes, bakes and point-samples the centre of `path`; returns (channels, format, rgba).
+fn read_back(path: &Path, cs: ColorSpace) -> (u32, TexelFormat, [f32; 4]) {
+    let channels = decode(path).unwrap().channels;
+    let mut b = TextureSetBuilder::new();
+    let TextureRef::Texture(t) =
+        b.add_file(path, &BakeOptions { color_space: cs, ..Default::default() }).unwrap()
+    else {
+        panic!()
+    };
+    let set = b.finish();
+    let view = set.view().unwrap();
+    let tex = view.texture(t).unwrap();
+    (channels, tex.format(), view_sample(&tex))
+}
+
+fn view_sample(tex: &crate::TextureView) -> [f32; 4] {
+    crate::sample_with(tex, &at([0.5, 0.5], Filter::Moonray), &crate::NoTouch)
+}
+
+const S128: f32 = 0.215_860_5; // sRGB 128 → linear
+const S10: f32 = 0.003_035_3; // sRGB 10 → linear
+
+#[test]
+fn png_8bit_layouts() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n);
+    image::GrayImage::from_pixel(4, 4, image::Luma([128])).save(p("l.png")).unwrap();
+    image::GrayAlphaImage::from_pixel(4, 4, image::LumaA([128, 51])).save(p("la.png")).unwrap();
+    image::RgbImage::from_pixel(4, 4, image::Rgb([10, 128, 255])).save(p("rgb.png")).unwrap();
+    image::RgbaImage::from_pixel(4, 4, image::Rgba([10, 128, 255, 51])).save(p("rgba.png")).unwrap();
+
+    let (c, f, v) = read_back(&p("l.png"), ColorSpace::Auto);
+    assert_eq!((c, f), (1, TexelFormat::Srgb8));
+    assert_close(v, [S128, S128, S128, 1.0], 1e-7);
+
+    let (c, _, v) = read_back(&p("la.png"), ColorSpace::Auto);
+    assert_eq!(c, 2);
+    assert_close(v, [S128, S128, S128, 0.2], 1e-7); // alpha stays linear: 51/255
+
+    let (c, _, v) = read_back(&p("rgb.png"), ColorSpace::Srgb);
+    assert_eq!(c, 3);
+    assert_close(v, [S10, S128, 1.0, 1.0], 1e-7);
+
+    let (c, _, v) = read_back(&p("rgba.png"), ColorSpace::Auto);
+    assert_eq!(c, 4);
+    assert_close(v, [S10, S128, 1.0, 0.2], 1e-7);
+
+    // `raw` keeps the codes linear.
+    let (_, f, v) = read_back(&p("rgba.png"), ColorSpace::Raw);
+    assert_eq!(f, TexelFormat::Unorm8);
+    assert_close(v, [10.0 / 255.0, 128.0 / 255.0, 1.0, 0.2], 1e-7);
+}
+
+#[test]
+fn png_16bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rgb16.png");
+    image::ImageBuffer::<image::Rgb<u16>, _>::from_pixel(4, 4, image::Rgb([0u16, 32768, 65535]))
+        .save(&path)
+        .unwrap();
+    assert!(matches!(decode(&path).unwrap().samples, Samples::U16(_)));
+    // `auto` on 16-bit is raw: 32768 / 65535 = 0.500008, stored as f16.
+    let (c, f, v) = read_back(&path, ColorSpace::Auto);
+    assert_eq!((c, f), (3, TexelFormat::F16));
+    assert_close(v, [0.0, 0.500_008, 1.0, 1.0], 3e-4);
+    // Explicit sRGB decodes at bake: sRGB(0.5) = 0.214041.
+    let (_, _, v) = read_back(&path, ColorSpace::Srgb);
+    assert_close(v, [0.0, 0.214_05, 1.0, 1.0], 3e-4);
+
+    let grey = dir.path().join("l16.png");
+    image::ImageBuffer::<image::Luma<u16>, _>::from_pixel(2, 2, image::Luma([16384u16])).save(&grey).unwrap();
+    let (c, _, v) = read_back(&grey, ColorSpace::Auto);
+    assert_eq!(c, 1);
+    assert_close(v, [0.25, 0.25, 0.25, 1.0], 3e-4);
+}
+
+#[test]
+fn hdr_and_exr_floats() {
+    let dir = tempfile::tempdir().unwrap();
+    let hdr = dir.path().join("sky.hdr");
+    let img = image::Rgb32FImage::from_pixel(4, 4, image::Rgb([2.5, 0.25, 16.0]));
+    image::DynamicImage::ImageRgb32F(img).save(&hdr).unwrap();
+    let (c, f, v) = read_back(&hdr, ColorSpace::Auto);
+    assert_eq!((c, f), (3, TexelFormat::F16));
+    assert_close(v, [2.5, 0.25, 16.0, 1.0], 0.01 * 16.0); // RGBE: 8-bit mantissa, shared exponent
+    assert!((v[0] - 2.5).abs() < 0.02 && (v[1] - 0.25).abs() < 0.002, "{v:?}");
+
+    let exr_path = dir.path().join("light.exr");
+    exr::prelude::write_rgba_file(&exr_path, 4, 4, |_, _| (0.25f32, 1.5f32, 8.0f32, 0.5f32)).unwrap();
+    let (c, f, v) = read_back(&exr_path, ColorSpace::Auto);
+    assert_eq!((c, f), (4, TexelFormat::F16));
+    assert_close(v, [0.25, 1.5, 8.0, 0.5], 0.0);
+
+    // A luminance-only EXR is grey.
+    use exr::prelude::*;
+    let y_path = dir.path().join("height.exr");
+    let pixels = SpecificChannels::build().with_channel("Y").with_pixel_fn(|_| (0.75f32,));
+    Image::from_channels((3, 5), pixels).write().to_file(&y_path).unwrap();
+    let (c, _, v) = read_back(&y_path, ColorSpace::Auto);
+    assert_eq!(c, 1);
+    assert_close(v, [0.75, 0.75, 0.75, 1.0], 0.0);
+}
+
+#[test]
+fn jpg_tga_tif() {
+    let dir = tempfile::tempdir().unwrap();
+    let rgb = image::RgbImage::from_pixel(8, 8, image::Rgb([10, 128, 255]));
+    for name in ["a.jpg", "a.tga", "a.tif"] {
+        let path = dir.path().join(name);
+        rgb.save(&path).unwrap();
+        let (c, f, v) = read_back(&path, ColorSpace::Auto);
+        assert_eq!((c, f), (3, TexelFormat::Srgb8), "{name}");
+        // JPEG is lossy (chroma subsampling of a flat colour still shifts codes by a few).
+        let tol = if name.ends_with("jpg") { 0.02 } else { 1e-7 };
+        assert_close(v, [S10, S128, 1.0, 1.0], tol);
+    }
+    let tif16 = dir.path().join("b.tif");
+    image::ImageBuffer::<image::Rgba<u16>, _>::from_pixel(4, 4, image::Rgba([65535u16, 0, 32768, 65535]))
+        .save(&tif16)
+        .unwrap();
+    let (c, f, v) = read_back(&tif16, ColorSpace::Auto);
+    assert_eq!((c, f), (4, TexelFormat::F16));
+    assert_close(v, [1.0, 0.0, 0.5, 1.0], 3e-4);
+}
+
+#[test]
+fn unreadable_file_names_the_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("broken.png");
+    std::fs::write(&path, b"definitely not a png").unwrap();
+    let err = decode(&path).unwrap_err();
+    assert!(err.to_string().contains("broken.png"), "{err}");
+}
