@@ -4,11 +4,14 @@
 //!   (embreex) on the same triangles, 1 and 2 threads, with the ratio and how often the two agree.
 //! - `bench convergence BLOB`: RMSE against a high-spp reference versus render seconds for spp = 1…256,
 //!   charted as SVG.
+//! - `bench subdiv`: subdivision tessellation error (pixels at the render camera) against ingest
+//!   seconds and blob bytes, for uniform levels and dicing rates, charted as SVG.
 //!
 //! Figures go to stdout and to a JSON file.
 
 mod convergence;
 mod rays;
+mod subdiv;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -61,6 +64,26 @@ enum Cmd {
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
     },
+    /// Subdivision: chordal error in pixels against ingest seconds and blob bytes.
+    Subdiv {
+        /// NAME=ROOT_LAYER[@MAX_LEVEL] (repeatable; default: the teapot to level 5 and the chess
+        /// set to level 4 from ../shared/assets).
+        #[arg(long = "asset", value_name = "NAME=PATH[@MAX]")]
+        assets: Vec<String>,
+        /// Work folder for the chart and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+}
+
+/// Parses `NAME=PATH[@MAX_LEVEL]`.
+fn subdiv_asset(spec: &str) -> anyhow::Result<subdiv::Asset> {
+    let (name, rest) = spec.split_once('=').context("expected NAME=PATH[@MAX_LEVEL]")?;
+    let (path, max_level) = match rest.rsplit_once('@') {
+        Some((path, max)) => (path, max.parse().context("MAX_LEVEL")?),
+        None => (rest, 5),
+    };
+    Ok(subdiv::Asset { name: name.into(), path: path.into(), max_level })
 }
 
 fn load(path: &PathBuf) -> anyhow::Result<blob::AlignedBytes> {
@@ -146,6 +169,19 @@ fn main() -> anyhow::Result<()> {
             let view = blob::SceneView::parse(&bytes).with_context(|| format!("{}", path.display()))?;
             std::fs::create_dir_all(&out)?;
             convergence::run(&view, reference_spp, max_spp, width, &out)?;
+        }
+        Cmd::Subdiv { assets, out } => {
+            let assets = if assets.is_empty() {
+                vec![
+                    "teapot=../shared/assets/teapot/full_assets/Teapot/Teapot.usd@5".to_string(),
+                    "chess=../shared/assets/open_chess_set/full_assets/OpenChessSet/chess_set.usda@4".to_string(),
+                ]
+            } else {
+                assets
+            };
+            let assets = assets.iter().map(|a| subdiv_asset(a)).collect::<anyhow::Result<Vec<_>>>()?;
+            std::fs::create_dir_all(&out)?;
+            subdiv::run(&assets, &out)?;
         }
     }
     Ok(())

@@ -5,13 +5,14 @@
 //! `pack` turns the scene into a [`blob::SceneData`] with a prebuilt BVH (`bvh`) and the emissive-triangle
 //! distribution; [`blob::write_atomic`] writes it.
 //!
-//! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`pack`] (scene → blob records), `bvh`,
-//! [`pipeline`] (the whole step as one call).
+//! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`dicing`] (subdivision levels from the
+//! render camera), [`pack`] (scene → blob records), `bvh`, [`pipeline`] (the whole step as one call).
 
 mod bvh;
+pub mod dicing;
 pub mod pack;
 pub mod pipeline;
 pub mod scene;
 pub mod usd;
 
-pub use scene::{Camera, Light, LightKind, Material, Mesh, Scene, UpAxis, Warning};
+pub use scene::{Camera, Light, LightKind, Material, Mesh, Scene, Subdivision, UpAxis, Warning};

@@ -16,12 +16,30 @@ struct Args {
     /// Leave payload arcs unloaded.
     #[arg(long)]
     no_payloads: bool,
-    /// A missing sublayer/reference/payload is a warning instead of an error.
+    /// A missing sublayer/reference/payload, or a composition cycle, is a warning instead of an error.
     #[arg(long)]
     lenient: bool,
     /// Also write a JSON list of every rendered gprim (path, bounds, triangles, materials).
     #[arg(long, value_name = "FILE")]
     dump_json: Option<PathBuf>,
+    /// Search directory for asset paths not found next to the layer naming them (repeatable;
+    /// searched in order).
+    #[arg(long = "asset-path", value_name = "DIR")]
+    asset_paths: Vec<PathBuf>,
+    /// Evaluate time samples at this time code (default: the stage's startTimeCode).
+    #[arg(long, value_name = "F", allow_negative_numbers = true)]
+    frame: Option<f64>,
+    /// Refine every subdivision surface to this uniform level, ignoring the camera.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=subdiv::MAX_LEVEL as i64))]
+    subdiv_level: Option<u32>,
+    /// Target on-screen length of a refined subdivision edge, in pixels at the render camera and
+    /// resolution.
+    #[arg(long, value_name = "PX", default_value_t = 1.0)]
+    dicing_rate: f32,
+    /// Highest subdivision level dicing may choose.
+    #[arg(long, value_name = "N", default_value_t = 5,
+          value_parser = clap::value_parser!(u32).range(0..=subdiv::MAX_LEVEL as i64))]
+    max_subdiv_level: u32,
     /// Print no summary (warnings are still printed).
     #[arg(short, long)]
     quiet: bool,
@@ -38,7 +56,20 @@ fn main() -> ExitCode {
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
-    let options = ingest::usd::LoadOptions { load_payloads: !args.no_payloads, lenient: args.lenient };
+    if !(args.dicing_rate.is_finite() && args.dicing_rate > 0.0) {
+        anyhow::bail!("--dicing-rate must be a positive number of pixels, not {}", args.dicing_rate);
+    }
+    let options = ingest::usd::LoadOptions {
+        load_payloads: !args.no_payloads,
+        lenient: args.lenient,
+        asset_paths: args.asset_paths,
+        frame: args.frame,
+        subdiv: ingest::dicing::SubdivOptions {
+            forced_level: args.subdiv_level,
+            dicing_rate: args.dicing_rate,
+            max_level: args.max_subdiv_level,
+        },
+    };
     let (scene, report) = ingest::pipeline::ingest_file(&args.asset, &args.output, &options)?;
     for w in &report.warnings {
         eprintln!("warning: {w}");
@@ -60,6 +91,17 @@ fn run(args: Args) -> anyhow::Result<()> {
             report.load_seconds,
             report.pack_seconds
         );
+        if report.subdivision_meshes > 0 {
+            let saved = report.triangles_at_fixed_level as i64 - report.triangles as i64;
+            eprintln!(
+                "ingest: {} subdivision meshes; {} triangles at level {} everywhere, {} saved by dicing ({:.1}%)",
+                report.subdivision_meshes,
+                report.triangles_at_fixed_level,
+                args.max_subdiv_level,
+                saved,
+                100.0 * saved as f64 / report.triangles_at_fixed_level.max(1) as f64
+            );
+        }
     }
     Ok(())
 }

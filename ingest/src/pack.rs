@@ -4,7 +4,7 @@
 //! The output depends only on the scene (no hash-map iteration order, no thread timing), so the same scene
 //! always encodes to the same bytes.
 
-use crate::scene::{LightKind, Scene, UpAxis};
+use crate::scene::{LightKind, Scene, ShaderNode, ShadingInput, TextureData, UpAxis};
 use blob::records as rec;
 use glam::{Mat4, Vec3};
 
@@ -76,8 +76,11 @@ pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
         });
     }
 
+    let texture_refs = pack_textures(scene, &mut data);
     for m in &scene.materials {
         let name = data.add_string(&m.path);
+        let program_start = data.shader_ops.len() as u32;
+        data.shader_ops.extend(m.program.iter().map(|node| shader_op(node, &texture_refs)));
         data.materials.push(rec::Material {
             name,
             diffuse_color: m.diffuse_color.to_array(),
@@ -91,7 +94,9 @@ pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
             clearcoat: m.clearcoat,
             clearcoat_roughness: m.clearcoat_roughness,
             use_specular_workflow: m.use_specular_workflow as u32,
-            reserved: [0; 5],
+            program_start,
+            program_len: m.program.len() as u32,
+            reserved: [0; 3],
         });
     }
 
@@ -156,7 +161,8 @@ pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
         });
     }
 
-    data.emissive_triangles = emissive_distribution(&data);
+    let emission: Vec<Vec3> = scene.materials.iter().map(emission_estimate).collect();
+    data.emissive_triangles = emissive_distribution(&data, &emission);
 
     let corners: Vec<[Vec3; 3]> = data
         .triangles
@@ -191,12 +197,137 @@ fn affine_rows(m: &Mat4) -> [[f32; 4]; 3] {
     [rows[0], rows[1], rows[2]]
 }
 
-/// Triangles with emission, with a distribution proportional to emitted power (area × luminance).
-fn emissive_distribution(data: &blob::SceneData) -> Vec<rec::EmissiveTriangle> {
+/// Copies the baked textures into the blob's texture tables; returns, per scene texture, the blob
+/// reference (`(index, is_udim)`).
+fn pack_textures(scene: &Scene, data: &mut blob::SceneData) -> Vec<(u32, bool)> {
+    let mut builder = texture::TextureSetBuilder::new();
+    let mut refs = Vec::with_capacity(scene.textures.len());
+    // (first tile, u count, v count, cells) per UDIM set, filled once the builder is finished.
+    let mut udim_sets: Vec<rec::UdimSet> = Vec::new();
+    let mut udim_tiles: Vec<u32> = Vec::new();
+    for t in &scene.textures {
+        match &t.data {
+            TextureData::Image(baked) => refs.push((builder.add_baked(baked.clone()), false)),
+            TextureData::Udim(tiles) => {
+                let u_count = tiles.iter().map(|t| t.0).max().unwrap_or(0) + 1;
+                let v_count = tiles.iter().map(|t| t.1).max().unwrap_or(0) + 1;
+                let mut grid = vec![rec::NONE; (u_count * v_count) as usize];
+                for (u, v, baked) in tiles {
+                    grid[(v * u_count + u) as usize] = builder.add_baked(baked.clone());
+                }
+                let first_tile = udim_tiles.len() as u32;
+                udim_tiles.extend_from_slice(&grid);
+                udim_sets.push(rec::UdimSet { first_tile, u_count, v_count, reserved: 0 });
+                refs.push((udim_sets.len() as u32 - 1, true));
+            }
+        }
+    }
+    let set = builder.finish();
+    data.texture_records = bytemuck::cast_slice(&set.records).to_vec();
+    data.texels = set.texels;
+    data.udim_sets = udim_sets;
+    data.udim_tiles = udim_tiles;
+    refs
+}
+
+fn wrap_code(w: texture::Wrap) -> u32 {
+    match w {
+        texture::Wrap::Repeat => 0,
+        texture::Wrap::Mirror => 1,
+        texture::Wrap::Clamp => 2,
+        texture::Wrap::Black => 3,
+    }
+}
+
+fn input_code(input: ShadingInput) -> u32 {
+    use rec::shading_input as si;
+    match input {
+        ShadingInput::DiffuseColor => si::DIFFUSE_COLOR,
+        ShadingInput::EmissiveColor => si::EMISSIVE_COLOR,
+        ShadingInput::SpecularColor => si::SPECULAR_COLOR,
+        ShadingInput::Roughness => si::ROUGHNESS,
+        ShadingInput::Metallic => si::METALLIC,
+        ShadingInput::Opacity => si::OPACITY,
+        ShadingInput::Normal => si::NORMAL,
+        ShadingInput::Clearcoat => si::CLEARCOAT,
+        ShadingInput::ClearcoatRoughness => si::CLEARCOAT_ROUGHNESS,
+        ShadingInput::Ior => si::IOR,
+    }
+}
+
+/// One program node as a blob op (see [`rec::op_kind`] for the field meanings).
+fn shader_op(node: &ShaderNode, textures: &[(u32, bool)]) -> rec::ShaderOp {
+    use rec::op_kind;
+    let op = rec::ShaderOp::default();
+    match *node {
+        ShaderNode::Const { dst, value } => {
+            rec::ShaderOp { kind: op_kind::CONST, dst, params: [value, [0.0; 4], [0.0; 4]], ..op }
+        }
+        ShaderNode::PrimvarUv { dst, fallback } => {
+            rec::ShaderOp { kind: op_kind::PRIMVAR_UV, dst, params: [fallback, [0.0; 4], [0.0; 4]], ..op }
+        }
+        ShaderNode::Transform2d { dst, src, rotation_degrees, scale, translation } => {
+            // UsdTransform2d: result = in * scale, rotated, then translated; as one 2×2 matrix.
+            let (sin, cos) = rotation_degrees.to_radians().sin_cos();
+            let m = [cos * scale[0], -sin * scale[1], sin * scale[0], cos * scale[1]];
+            rec::ShaderOp {
+                kind: op_kind::TRANSFORM_2D,
+                dst,
+                src,
+                params: [m, [translation[0], translation[1], 0.0, 0.0], [0.0; 4]],
+                ..op
+            }
+        }
+        ShaderNode::Texture { dst, src, texture, wrap_s, wrap_t, scale, bias, fallback } => {
+            let (index, udim) = texture.and_then(|t| textures.get(t as usize).copied()).unwrap_or((rec::NONE, false));
+            rec::ShaderOp {
+                kind: op_kind::TEXTURE,
+                dst,
+                src,
+                texture: index,
+                flags: rec::op_wrap_flags(wrap_code(wrap_s), wrap_code(wrap_t))
+                    | if udim { rec::OP_UDIM } else { 0 },
+                params: [scale, bias, fallback],
+                ..op
+            }
+        }
+        ShaderNode::Output { input, src, swizzle } => {
+            let flags = swizzle.iter().enumerate().fold(0u32, |f, (i, &c)| f | ((c as u32 & 3) << (2 * i)));
+            rec::ShaderOp { kind: op_kind::OUTPUT, dst: input_code(input), src, flags, ..op }
+        }
+    }
+}
+
+/// Emitted radiance used to weight a material's triangles in the light distribution: the constant,
+/// or for a textured `emissiveColor` the bound of `scale + bias` over texel values in `[0, 1]` (the
+/// estimate only steers sampling; the radiance itself is evaluated per point).
+fn emission_estimate(m: &crate::scene::Material) -> Vec3 {
+    let textured = m.program.iter().find_map(|n| match n {
+        ShaderNode::Output { input: ShadingInput::EmissiveColor, src, .. } => Some(*src),
+        _ => None,
+    });
+    let Some(register) = textured else { return m.emissive_color };
+    // The last writer of the register decides the bound.
+    let bound = m.program.iter().rev().find_map(|n| match *n {
+        ShaderNode::Texture { dst, scale, bias, texture, fallback, .. } if dst == register => Some(if texture.is_some() {
+            Vec3::new(scale[0].abs() + bias[0], scale[1].abs() + bias[1], scale[2].abs() + bias[2])
+                .max(Vec3::from_slice(&fallback[..3]))
+        } else {
+            Vec3::from_slice(&fallback[..3])
+        }),
+        ShaderNode::Const { dst, value } if dst == register => Some(Vec3::from_slice(&value[..3])),
+        _ => None,
+    });
+    bound.unwrap_or(Vec3::ONE).max(Vec3::ZERO)
+}
+
+/// Triangles with emission, with a distribution proportional to emitted power (area × luminance of
+/// `emission[material]`).
+fn emissive_distribution(data: &blob::SceneData, emission: &[Vec3]) -> Vec<rec::EmissiveTriangle> {
     let mut entries: Vec<rec::EmissiveTriangle> = Vec::new();
     let mut total = 0.0f64;
     for (i, (tri, &material)) in data.triangles.iter().zip(&data.triangle_materials).enumerate() {
-        let e = Vec3::from_array(data.materials[material as usize].emissive_color);
+        let e = emission[material as usize];
         let luminance = e.dot(Vec3::new(0.2126, 0.7152, 0.0722));
         if luminance <= 0.0 {
             continue;
@@ -249,6 +380,11 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
             return fail(&mesh.path, "non-finite point".into());
         }
     }
+    for m in &scene.materials {
+        if let Some(problem) = program_problem(&m.program, scene.textures.len()) {
+            return fail(&m.path, problem);
+        }
+    }
     if scene.positions_total() > u32::MAX as usize || scene.triangle_count() > u32::MAX as usize {
         return fail("/", "more than 2^32 vertices or triangles".into());
     }
@@ -256,6 +392,26 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
         return fail("/", format!("default camera {c} out of range"));
     }
     Ok(())
+}
+
+/// Why a material program cannot be encoded (registers past the file, unknown textures), if it cannot.
+fn program_problem(program: &[ShaderNode], textures: usize) -> Option<String> {
+    let max = rec::MAX_REGISTERS;
+    for node in program {
+        let (regs, texture) = match *node {
+            ShaderNode::Const { dst, .. } | ShaderNode::PrimvarUv { dst, .. } => ([dst, 0], None),
+            ShaderNode::Transform2d { dst, src, .. } => ([dst, src], None),
+            ShaderNode::Texture { dst, src, texture, .. } => ([dst, src], texture),
+            ShaderNode::Output { src, .. } => ([src, 0], None),
+        };
+        if regs.iter().any(|&r| r >= max) {
+            return Some(format!("shading program uses a register past {max}"));
+        }
+        if texture.is_some_and(|t| t as usize >= textures) {
+            return Some("shading program names a texture that was not baked".into());
+        }
+    }
+    None
 }
 
 impl Scene {

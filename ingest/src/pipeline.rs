@@ -27,6 +27,10 @@ pub struct IngestReport {
     pub pack_seconds: f64,
     /// Warnings, as `prim: message`.
     pub warnings: Vec<String>,
+    /// Subdivision meshes diced.
+    pub subdivision_meshes: usize,
+    /// Triangles the scene would have with every subdivision mesh at the level cap.
+    pub triangles_at_fixed_level: u64,
 }
 
 /// Composes `input`, packs it and writes the blob to `output` atomically.
@@ -53,16 +57,35 @@ pub fn ingest_file(
         load_seconds,
         pack_seconds,
         warnings: scene.warnings.iter().map(|w| format!("{}: {}", w.prim, w.message)).collect(),
+        subdivision_meshes: scene.subdivisions.len(),
+        triangles_at_fixed_level: triangles_at_fixed_level(&scene),
     };
     Ok((scene, report))
 }
 
-/// The `--dump-json` listing: every rendered gprim with its world bounds, triangle count and material.
+/// Triangles of `scene` if every subdivision mesh were refined to the level cap instead of its
+/// diced level (from the face-count formula, see [`crate::dicing::triangles_at_level`]).
+pub fn triangles_at_fixed_level(scene: &Scene) -> u64 {
+    let diced: u64 = scene.subdivisions.iter().map(|s| scene.meshes[s.mesh].triangles.len() as u64).sum();
+    let fixed: u64 = scene.subdivisions.iter().map(|s| s.triangles_at_max_level).sum();
+    scene.triangle_count() as u64 - diced + fixed
+}
+
+/// The `--dump-json` listing: every rendered gprim with its world bounds, triangle count and
+/// material; subdivision surfaces add their `scheme` and the `subdiv_level` refined to. The top
+/// level has the scene's `triangles`, `triangles_at_fixed_level` (every subdivision mesh at the
+/// level cap) and `triangles_saved` (their difference; negative when a forced level exceeds the
+/// cap).
 pub fn dump_json(scene: &Scene) -> serde_json::Value {
+    let mut subdivision = vec![None; scene.meshes.len()];
+    for s in &scene.subdivisions {
+        subdivision[s.mesh] = Some(s);
+    }
     let gprims: Vec<serde_json::Value> = scene
         .meshes
         .iter()
-        .map(|m| {
+        .zip(&subdivision)
+        .map(|(m, subdivision)| {
             let (lo, hi) = m.positions.iter().fold(
                 (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY)),
                 |(lo, hi), p| (lo.min(*p), hi.max(*p)),
@@ -71,15 +94,28 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
                 m.triangle_materials.iter().map(|&i| scene.materials[i as usize].path.as_str()).collect();
             materials.sort_unstable();
             materials.dedup();
-            serde_json::json!({
+            let mut entry = serde_json::json!({
                 "path": m.path,
                 "type": "Mesh",
                 "triangles": m.triangles.len(),
                 "bounds_min": lo.to_array(),
                 "bounds_max": hi.to_array(),
                 "materials": materials,
-            })
+            });
+            if let Some(s) = subdivision {
+                entry["scheme"] = crate::dicing::scheme_token(s.topology.options().scheme).into();
+                entry["subdiv_level"] = s.level.into();
+            }
+            entry
         })
         .collect();
-    serde_json::json!({ "gprims": gprims, "instances": scene.instance_count })
+    let triangles = scene.triangle_count() as u64;
+    let fixed = triangles_at_fixed_level(scene);
+    serde_json::json!({
+        "gprims": gprims,
+        "instances": scene.instance_count,
+        "triangles": triangles,
+        "triangles_at_fixed_level": fixed,
+        "triangles_saved": fixed as i64 - triangles as i64,
+    })
 }

@@ -29,6 +29,120 @@ pub struct Scene {
     pub instance_count: u32,
     /// Unsupported features and other non-fatal findings, each naming the prim and the feature.
     pub warnings: Vec<Warning>,
+    /// The subdivision surfaces among `meshes`: their cages and the level each was diced at.
+    pub subdivisions: Vec<Subdivision>,
+    /// Baked textures read by the materials' programs ([`ShaderNode::Texture`] indexes this).
+    pub textures: Vec<SceneTexture>,
+}
+
+/// A texture a bound material reads, already decoded and baked (mip chain, tiles) at read time, so
+/// that a file that cannot be read is a warning on the shader that names it, not a pack error.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneTexture {
+    /// The resolved file, or the `<UDIM>` pattern.
+    pub path: std::path::PathBuf,
+    /// `sourceColorSpace` it was baked with (a file read in two colour spaces is two textures).
+    pub color_space: texture::ColorSpace,
+    /// The baked data.
+    pub data: TextureData,
+}
+
+/// One image, or the tiles of a UDIM set found on disk.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TextureData {
+    /// A single image.
+    Image(texture::BakedTexture),
+    /// UDIM tiles as `(u, v, baked)`, tile number `1001 + u + 10 v`; absent tiles are holes whose
+    /// lookups return the texture node's fallback.
+    Udim(Vec<(u32, u32, texture::BakedTexture)>),
+}
+
+/// A UsdPreviewSurface input a material program can drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ShadingInput {
+    /// `diffuseColor`.
+    DiffuseColor,
+    /// `emissiveColor`.
+    EmissiveColor,
+    /// `specularColor`.
+    SpecularColor,
+    /// `roughness`.
+    Roughness,
+    /// `metallic`.
+    Metallic,
+    /// `opacity`.
+    Opacity,
+    /// `normal` (tangent space, `[-1, 1]³`).
+    Normal,
+    /// `clearcoat`.
+    Clearcoat,
+    /// `clearcoatRoughness`.
+    ClearcoatRoughness,
+    /// `ior`.
+    Ior,
+}
+
+/// One node of a material's shading network, flattened to straight-line code over `vec4` registers
+/// (at most `blob::MAX_REGISTERS`). Programs list nodes in dependency order and end with
+/// [`ShaderNode::Output`]s.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShaderNode {
+    /// `r[dst] = value`.
+    Const {
+        /// Destination register.
+        dst: u32,
+        /// The value.
+        value: [f32; 4],
+    },
+    /// `r[dst] = (u, v, 0, 1)` of the mesh's texture coordinates, `fallback` on a mesh without them.
+    PrimvarUv {
+        /// Destination register.
+        dst: u32,
+        /// `inputs:fallback` of the primvar reader.
+        fallback: [f32; 4],
+    },
+    /// UsdTransform2d: `r[dst].xy = translation + rotate(rotation_degrees, scale * r[src].xy)`.
+    Transform2d {
+        /// Destination register.
+        dst: u32,
+        /// Source register.
+        src: u32,
+        /// `inputs:rotation`, degrees counter-clockwise.
+        rotation_degrees: f32,
+        /// `inputs:scale`.
+        scale: [f32; 2],
+        /// `inputs:translation`.
+        translation: [f32; 2],
+    },
+    /// UsdUVTexture: `r[dst] = lookup(r[src].xy) * scale + bias`, or `fallback` without data.
+    Texture {
+        /// Destination register.
+        dst: u32,
+        /// Register holding `st`.
+        src: u32,
+        /// Index into [`Scene::textures`]; `None` when the file is missing (lookups use `fallback`).
+        texture: Option<u32>,
+        /// `inputs:wrapS`.
+        wrap_s: texture::Wrap,
+        /// `inputs:wrapT`.
+        wrap_t: texture::Wrap,
+        /// `inputs:scale`.
+        scale: [f32; 4],
+        /// `inputs:bias`.
+        bias: [f32; 4],
+        /// `inputs:fallback`.
+        fallback: [f32; 4],
+    },
+    /// Binds `swizzle(r[src])` to a shading input.
+    Output {
+        /// The input.
+        input: ShadingInput,
+        /// Source register.
+        src: u32,
+        /// Channel of `r[src]` per component (the connected output: `rgb` → `[0, 1, 2, 3]`, `r` →
+        /// `[0; 4]`, `a` → `[3; 4]`).
+        swizzle: [u8; 4],
+    },
 }
 
 /// Stage up axis.
@@ -72,6 +186,28 @@ pub struct Mesh {
     pub double_sided: bool,
 }
 
+/// A subdivision surface as diced: `Scene::meshes[mesh]` holds its triangles.
+///
+/// The cage is kept (validated, wound counter-clockwise) so that reports and benchmarks can
+/// re-refine it, e.g. to measure the tessellation error against the limit surface.
+#[derive(Clone, Debug)]
+pub struct Subdivision {
+    /// Index into `Scene::meshes`.
+    pub mesh: usize,
+    /// The validated cage (left-handed faces already reversed).
+    pub topology: subdiv::Topology,
+    /// Cage points in the gprim's local space.
+    pub points: Vec<[f32; 3]>,
+    /// Local-to-world transform of the gprim.
+    pub world_from_local: glam::DMat4,
+    /// Uniform level refined to (what OpenSubdiv used: Catmull–Clark cages with non-quads are
+    /// refined at least once).
+    pub level: u32,
+    /// Triangles the same surface would have at the level cap (`--max-subdiv-level`), from the
+    /// face-count formula.
+    pub triangles_at_max_level: u64,
+}
+
 /// UsdPreviewSurface with constant inputs (fallbacks from the UsdPreviewSurface spec when unauthored).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -99,6 +235,8 @@ pub struct Material {
     pub clearcoat: f32,
     /// `clearcoatRoughness` (fallback 0.01).
     pub clearcoat_roughness: f32,
+    /// Inputs connected to shading networks, compiled; empty when every input is a constant.
+    pub program: Vec<ShaderNode>,
 }
 
 impl Default for Material {
@@ -116,6 +254,7 @@ impl Default for Material {
             opacity_threshold: 0.0,
             clearcoat: 0.0,
             clearcoat_roughness: 0.01,
+            program: Vec::new(),
         }
     }
 }

@@ -67,6 +67,9 @@ pub struct BsdfSample {
     pub f: Vec3,
     /// Solid-angle pdf of all lobes combined.
     pub pdf: f32,
+    /// GGX α of the lobe that was sampled (1 for the diffuse lobe): how much the bounce widens a
+    /// ray cone.
+    pub lobe_alpha: f32,
 }
 
 /// Material parameters resolved for one shading point.
@@ -179,9 +182,14 @@ impl Bsdf {
     /// Resolves `mat` at a point with unit shading normal `ns` and unit geometric normal `ng`, both
     /// already flipped to the side of the outgoing direction.
     pub fn new(mat: &blob::Material, ns: Vec3, ng: Vec3) -> Self {
-        let base = Vec3::from(mat.diffuse_color).clamp(Vec3::ZERO, Vec3::ONE);
-        let (diffuse, f0) = if mat.use_specular_workflow != 0 {
-            (base, Vec3::from(mat.specular_color).clamp(Vec3::ZERO, Vec3::ONE))
+        Self::from_inputs(&crate::shading::ShadingInputs::constant(mat), ns, ng)
+    }
+
+    /// Resolves evaluated shading inputs (constants or a material program's output); see [`Bsdf::new`].
+    pub fn from_inputs(mat: &crate::shading::ShadingInputs, ns: Vec3, ng: Vec3) -> Self {
+        let base = mat.diffuse_color.clamp(Vec3::ZERO, Vec3::ONE);
+        let (diffuse, f0) = if mat.use_specular_workflow {
+            (base, mat.specular_color.clamp(Vec3::ZERO, Vec3::ONE))
         } else {
             let metallic = mat.metallic.clamp(0.0, 1.0);
             let r = (mat.ior - 1.0) / (mat.ior + 1.0);
@@ -266,12 +274,12 @@ impl Bsdf {
         if p_d + p_s + p_c <= 0.0 {
             return None;
         }
-        let wi_l = if u_lobe < p_d {
-            sample_cosine_hemisphere(u)
+        let (wi_l, lobe_alpha) = if u_lobe < p_d {
+            (sample_cosine_hemisphere(u), 1.0)
         } else {
             let alpha = if u_lobe < p_d + p_s { self.alpha } else { self.clearcoat_alpha };
             let h = sample_ggx_vndf(wo_l, alpha, u);
-            2.0 * wo_l.dot(h) * h - wo_l
+            (2.0 * wo_l.dot(h) * h - wo_l, alpha)
         };
         if wi_l.z <= 0.0 {
             return None;
@@ -281,7 +289,7 @@ impl Bsdf {
             return None;
         }
         let (f, pdf) = self.eval_local(wo_l, wi_l);
-        (pdf > 0.0 && f.is_finite()).then_some(BsdfSample { wi, f, pdf })
+        (pdf > 0.0 && f.is_finite()).then_some(BsdfSample { wi, f, pdf, lobe_alpha })
     }
 }
 

@@ -17,6 +17,26 @@ pub struct Camera {
     window_min: [f32; 2],
     window_size: [f32; 2],
     focal: f32,
+    /// Image width in pixels (the window is split into this many pixel steps).
+    width: u32,
+}
+
+/// A ray cone (Akenine-Möller et al., "Texture Level of Detail Strategies for Real-Time Ray Tracing",
+/// Ray Tracing Gems 2019): the width of one pixel's footprint along a ray, `width + spread · t`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RayCone {
+    /// Footprint width at the ray origin, scene units.
+    pub width: f32,
+    /// Growth of the width per unit distance (the cone's angle, radians, small-angle).
+    pub spread: f32,
+}
+
+impl RayCone {
+    /// The footprint width at distance `t`.
+    #[inline]
+    pub fn width_at(&self, t: f32) -> f32 {
+        self.width + self.spread * t
+    }
 }
 
 /// Reads a row-major 3×4 `[[f32; 4]; 3]` affine matrix.
@@ -45,6 +65,7 @@ impl Camera {
             window_min: [centre[0] - 0.5 * size[0], centre[1] - 0.5 * size[1]],
             window_size: size,
             focal: if cam.focal_length > 0.0 { cam.focal_length } else { 50.0 },
+            width: width.max(1),
         }
     }
 
@@ -76,7 +97,26 @@ impl Camera {
             window_min: [-0.5 * h_ap, -0.5 * v_ap],
             window_size: [h_ap, v_ap],
             focal,
+            width: width.max(1),
         }
+    }
+
+    /// The cone of one pixel around a camera ray with unit camera-space direction `dir_z` (its −z
+    /// component, the cosine to the optical axis): a perspective pixel subtends `pitch · cos / focal`
+    /// radians at that angle (`cos²` from the oblique film distance, `1/cos` from the oblique pixel
+    /// pitch seen along the ray), an orthographic pixel is a constant width.
+    pub fn pixel_cone(&self, cos_to_axis: f32) -> RayCone {
+        let pitch = self.window_size[0] / self.width as f32;
+        if self.orthographic {
+            RayCone { width: pitch, spread: 0.0 }
+        } else {
+            RayCone { width: 0.0, spread: pitch * cos_to_axis.clamp(0.0, 1.0) / self.focal }
+        }
+    }
+
+    /// The camera's viewing direction (its −Z) in world space.
+    pub fn forward(&self) -> Vec3 {
+        Vec3::from(self.world_from_camera.transform_vector3a(Vec3A::NEG_Z)).normalize_or_zero()
     }
 
     /// The world-space ray through film position (`fx`, `fy`) in [0, 1]², x to the right and y down

@@ -38,9 +38,17 @@ pub struct Args {
     /// Also write an 8-bit sRGB PNG preview of the beauty.
     #[arg(long)]
     pub png: Option<PathBuf>,
-    /// Write the run's statistics as JSON.
+    /// Write the run's statistics as JSON (also counts the texture bytes the render reads).
     #[arg(long)]
     pub stats: Option<PathBuf>,
+    /// Texture filter: moonray (two point-sampled levels blended; bilinear when magnifying),
+    /// bilinear, trilinear or ewa (anisotropic).
+    #[arg(long, default_value = "moonray", value_parser = parse_filter)]
+    pub texture_filter: texture::Filter,
+}
+
+fn parse_filter(s: &str) -> Result<texture::Filter, String> {
+    s.parse()
 }
 
 fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
@@ -88,10 +96,10 @@ impl Args {
         let output =
             self.output.ok_or_else(|| RenderError::InvalidOption("-o OUT.exr is required".into()))?;
         Ok(Command::Render {
+            stats: self.stats.clone(),
             blob: self.blob,
             output,
             png: self.png,
-            stats: self.stats,
             options: RenderOptions {
                 spp: self.spp,
                 resolution: self.res,
@@ -99,6 +107,8 @@ impl Args {
                 threads: self.threads,
                 seed: self.seed,
                 max_depth: self.max_depth,
+                texture_filter: self.texture_filter,
+                texture_stats: self.stats.is_some(),
                 ..RenderOptions::default()
             },
         })

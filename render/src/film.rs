@@ -3,7 +3,7 @@
 //! scheduling order.
 
 use crate::error::RenderError;
-use crate::integrator::RayCounts;
+use crate::integrator::{PathSettings, RayCounts};
 use crate::sampler::{dim, sample_2d, SampleKey};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -28,6 +28,11 @@ pub struct RenderOptions {
     pub max_depth: u32,
     /// Tile edge in pixels.
     pub tile_size: u32,
+    /// Texture filter (`--texture-filter`).
+    pub texture_filter: texture::Filter,
+    /// Count the texel pages the render reads (`RenderStats::texture_bytes_touched`); off by default
+    /// because every texel fetch then also marks a shared bitmap.
+    pub texture_stats: bool,
 }
 
 impl Default for RenderOptions {
@@ -40,6 +45,8 @@ impl Default for RenderOptions {
             seed: 0,
             max_depth: 8,
             tile_size: 16,
+            texture_filter: texture::Filter::default(),
+            texture_stats: false,
         }
     }
 }
@@ -57,6 +64,10 @@ pub struct RenderStats {
     pub seconds: f64,
     /// Worker threads used.
     pub threads: usize,
+    /// Texel bytes in the blob.
+    pub texture_bytes_total: u64,
+    /// Bytes of the 4 KiB texel pages read at least once (0 unless `RenderOptions::texture_stats`).
+    pub texture_bytes_touched: u64,
 }
 
 /// A rendered image with its AOVs, row-major from the top-left pixel.
@@ -113,6 +124,27 @@ pub fn render_scene_with_progress(
     options: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
+    let total_bytes = scene.shading.textures().texel_bytes();
+    if options.texture_stats {
+        // One bitmap for the whole render, allocated before any tile starts.
+        let pages = texture::PageTouches::new(total_bytes);
+        let mut image = render_with_touch(scene, options, progress, &pages)?;
+        image.stats.texture_bytes_touched = pages.touched_bytes();
+        image.stats.texture_bytes_total = total_bytes as u64;
+        Ok(image)
+    } else {
+        let mut image = render_with_touch(scene, options, progress, &texture::NoTouch)?;
+        image.stats.texture_bytes_total = total_bytes as u64;
+        Ok(image)
+    }
+}
+
+fn render_with_touch<T: texture::Touch + Sync>(
+    scene: &Scene,
+    options: &RenderOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+    touch: &T,
+) -> Result<Image, RenderError> {
     if options.spp == 0 {
         return Err(RenderError::InvalidOption("spp must be at least 1".into()));
     }
@@ -145,6 +177,8 @@ pub fn render_scene_with_progress(
     let done = std::sync::atomic::AtomicUsize::new(0);
     let start = Instant::now();
     let spp = options.spp;
+    let settings = PathSettings { max_depth: options.max_depth, filter: options.texture_filter };
+    let forward = camera.forward();
 
     let render_tile = |tile: &Tile| -> TileResult {
         let n = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
@@ -166,7 +200,8 @@ pub fn render_scene_with_progress(
                     let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
                     let (o, d) =
                         camera.generate_ray((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
-                    let r = scene.trace_path(o, d, key, options.max_depth, &mut out.rays);
+                    let cone = camera.pixel_cone(d.dot(forward));
+                    let r = scene.trace_path_with(o, d, cone, key, &settings, &mut out.rays, touch);
                     if r.radiance.is_finite() {
                         sum += r.radiance;
                     } else {

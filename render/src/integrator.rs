@@ -9,11 +9,14 @@
 //! a pure function of the keys.
 
 use crate::accel::offset_ray_origin;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, Frame};
+use crate::camera::RayCone;
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
 use crate::scene::Scene;
+use crate::shading::{ShadingInputs, UvFootprint};
 use glam::Vec3;
+use texture::{Filter, NoTouch, Touch};
 
 /// Bounces before Russian roulette starts.
 pub const RR_START_BOUNCE: u32 = 3;
@@ -65,32 +68,43 @@ impl RayCounts {
     }
 }
 
-/// UsdPreviewSurface opacity as a pass-through probability: `opacityThreshold > 0` makes it a cut-out.
-#[inline]
-fn effective_opacity(m: &blob::Material) -> f32 {
-    if m.opacity_threshold > 0.0 {
-        if m.opacity < m.opacity_threshold {
-            0.0
-        } else {
-            1.0
-        }
-    } else {
-        m.opacity.clamp(0.0, 1.0)
-    }
+/// Per-render settings the path reads.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PathSettings {
+    /// Maximum number of bounces.
+    pub max_depth: u32,
+    /// Texture filter.
+    pub filter: Filter,
 }
 
+/// How much a bounce off a lobe of GGX α widens a ray cone, radians per unit α. A diffuse bounce
+/// (α = 1) adds half a radian: indirect texture reads come from coarse levels, as in MoonRay, where the
+/// footprint of a rough bounce is far larger than a pixel. Specular bounces (α → 0) keep the cone
+/// (surface curvature is ignored).
+pub const CONE_WIDEN_PER_ALPHA: f32 = 0.5;
+
 /// Surface data at a hit.
-struct Surface {
-    p: Vec3,
+pub struct Surface {
+    /// Hit point.
+    pub p: Vec3,
     /// Geometric normal facing the incoming ray's origin.
-    ng: Vec3,
-    /// Shading normal on the same side as `ng`.
-    ns: Vec3,
-    material: u32,
+    pub ng: Vec3,
+    /// Shading normal on the same side as `ng` (normal map applied by the caller).
+    pub ns: Vec3,
+    /// Material index.
+    pub material: u32,
+    /// Texture coordinates and pixel footprint.
+    pub uv: UvFootprint,
+    /// `dp/du` of the triangle's uv parametrization (zero without uvs), for normal-map tangents.
+    pub dpdu: Vec3,
+    /// `dp/dv`.
+    pub dpdv: Vec3,
 }
 
 impl<'a> Scene<'a> {
-    fn surface(&self, hit: &crate::accel::Hit, wo: Vec3) -> Option<Surface> {
+    /// Surface data at `hit` seen along `-wo`, with the uv footprint of a ray cone of width
+    /// `footprint` (one pixel, scene units) there. `None` for a degenerate triangle.
+    pub fn surface(&self, hit: &crate::accel::Hit, wo: Vec3, footprint: f32) -> Option<Surface> {
         let view = &self.view;
         let tri = &view.triangles[hit.triangle as usize];
         let [p0, p1, p2] = self.accel.triangle_vertices(hit.triangle);
@@ -113,18 +127,148 @@ impl<'a> Scene<'a> {
                 }
             }
         }
-        Some(Surface { p, ng, ns, material: view.triangle_materials[hit.triangle as usize] })
+        let (mut uv, mut dpdu, mut dpdv) = (UvFootprint::default(), Vec3::ZERO, Vec3::ZERO);
+        if mesh.flags & blob::MESH_HAS_UVS != 0 {
+            let [t0, t1, t2] = tri.vertices.map(|v| glam::Vec2::from(view.uvs[v as usize]));
+            let at = t0 * b0 + t1 * hit.b1 + t2 * hit.b2;
+            let (e1, e2) = (p1 - p0, p2 - p0);
+            let (d1, d2) = (t1 - t0, t2 - t0);
+            let det = d1.x * d2.y - d1.y * d2.x;
+            if det != 0.0 && det.is_finite() {
+                dpdu = (e1 * d2.y - e2 * d1.y) / det;
+                dpdv = (e2 * d1.x - e1 * d2.x) / det;
+            }
+            // The cone's footprint on the triangle's plane is an ellipse whose axes are the in-plane
+            // direction of steepest tilt (stretched by 1/cos) and the direction across it. Each axis,
+            // written in the edges e1, e2 (a 2×2 Gram solve), maps to uv through the same weights.
+            let d = -wo;
+            let axis1 = (ng - d * ng.dot(d)).try_normalize().unwrap_or_else(|| Frame::new(d).t);
+            let axis2 = d.cross(axis1);
+            let cos = ng.dot(d);
+            let cos = if cos.abs() < 1e-4 { 1e-4f32.copysign(cos) } else { cos };
+            let on_plane = |v: Vec3| v - d * (v.dot(ng) / cos);
+            let (g11, g12, g22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let gram = g11 * g22 - g12 * g12;
+            let to_uv = |v: Vec3| {
+                if gram <= 0.0 {
+                    return [0.0; 2];
+                }
+                let (r1, r2) = (v.dot(e1), v.dot(e2));
+                let a = (r1 * g22 - r2 * g12) / gram;
+                let b = (r2 * g11 - r1 * g12) / gram;
+                (d1 * a + d2 * b).to_array()
+            };
+            uv = UvFootprint {
+                uv: at.to_array(),
+                duv_dx: to_uv(on_plane(axis1 * footprint)),
+                duv_dy: to_uv(on_plane(axis2 * footprint)),
+                has_uv: true,
+            };
+        }
+        Some(Surface { p, ng, ns, material: view.triangle_materials[hit.triangle as usize], uv, dpdu, dpdv })
     }
 
-    /// Traces one camera path with keys `key`.
+    /// The shading sort key of `hit` (UDIM tile, mip level and uv of its material's first texture;
+    /// see [`crate::shading::Shading::sort_key`]) for a ray cone of width `footprint` there: what a
+    /// wavefront integrator sorts its shade queue by.
+    pub fn shading_sort_key(&self, hit: &crate::accel::Hit, wo: Vec3, footprint: f32) -> u32 {
+        self.surface(hit, wo, footprint).map_or(0, |s| self.shading.sort_key(s.material, &s.uv))
+    }
+
+    /// The shading normal with the material's tangent-space normal map applied: tangent from
+    /// `dp/du` (Gram-Schmidt against the interpolated normal), bitangent `n × t` flipped to agree with
+    /// `dp/dv`. Keeps `s.ns` where there are no uvs or the mapped normal would face away from `wo`.
+    fn mapped_normal(s: &Surface, tangent_normal: Vec3, wo: Vec3) -> Vec3 {
+        let Some(t) = (s.dpdu - s.ns * s.ns.dot(s.dpdu)).try_normalize() else { return s.ns };
+        let mut b = s.ns.cross(t);
+        if b.dot(s.dpdv) < 0.0 {
+            b = -b;
+        }
+        match (t * tangent_normal.x + b * tangent_normal.y + s.ns * tangent_normal.z).try_normalize() {
+            Some(n) if n.dot(wo) >= 1e-4 && n.dot(s.ng) > 0.0 => n,
+            _ => s.ns,
+        }
+    }
+
+    /// Shading inputs at a surface point.
+    #[inline]
+    fn shade<T: Touch>(&self, s: &Surface, filter: Filter, touch: &T) -> ShadingInputs {
+        self.shading.evaluate(s.material, &s.uv, filter, touch)
+    }
+
+    /// Whether a shadow ray from `origin` along unit `dir` reaches distance `tmax` through transparent
+    /// surfaces. Pass-through odds are decided once per triangle by a hash of `seed` (the same odds as
+    /// camera and BSDF rays). When some material's opacity is textured, the ray walks closest hits
+    /// and evaluates opacity at each; otherwise one any-hit query answers.
+    fn shadow_transmits<T: Touch>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmax: f32,
+        seed: u32,
+        filter: Filter,
+        touch: &T,
+    ) -> bool {
+        let passes = |tri: u32, opacity: f32| {
+            opacity < 1.0 && (hash_combine(seed, tri) >> 8) as f32 * (1.0 / 16_777_216.0) >= opacity
+        };
+        let constant_opacity = |tri: u32| {
+            let m = &self.view.materials[self.view.triangle_materials[tri as usize] as usize];
+            ShadingInputs::constant(m).effective_opacity()
+        };
+        if !self.shading.any_textured_opacity() {
+            return !self.accel.any_hit(origin, dir, tmax, |tri| !passes(tri, constant_opacity(tri)));
+        }
+        let end = origin + dir * tmax;
+        let mut o = origin;
+        for _ in 0..MAX_NULL_EVENTS {
+            let remaining = if tmax.is_finite() { (end - o).dot(dir) } else { f32::INFINITY };
+            if remaining <= 0.0 {
+                return true;
+            }
+            let Some(hit) = self.accel.closest_hit(o, dir, remaining) else { return true };
+            let Some(s) = self.surface(&hit, -dir, 0.0) else { return false };
+            let opacity = if self.shading.flags(s.material).textured_opacity {
+                self.shade(&s, filter, touch).effective_opacity()
+            } else {
+                constant_opacity(hit.triangle)
+            };
+            if !passes(hit.triangle, opacity) {
+                return false;
+            }
+            o = offset_ray_origin(s.p, -s.ng);
+        }
+        false
+    }
+
+    /// Traces one camera path with keys `key`, without texture footprints (level-0 lookups).
     pub fn trace_path(
         &self,
-        mut origin: Vec3,
-        mut dir: Vec3,
+        origin: Vec3,
+        dir: Vec3,
         key: SampleKey,
         max_depth: u32,
         rays: &mut RayCounts,
     ) -> PathResult {
+        let settings = PathSettings { max_depth, filter: Filter::default() };
+        self.trace_path_with(origin, dir, RayCone::default(), key, &settings, rays, &NoTouch)
+    }
+
+    /// Traces one camera path with keys `key` whose pixel footprint is `cone`, reporting texel reads to
+    /// `touch`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace_path_with<T: Touch>(
+        &self,
+        mut origin: Vec3,
+        mut dir: Vec3,
+        mut cone: RayCone,
+        key: SampleKey,
+        settings: &PathSettings,
+        rays: &mut RayCounts,
+        touch: &T,
+    ) -> PathResult {
+        let max_depth = settings.max_depth;
+        let filter = settings.filter;
         let mut result = PathResult::default();
         let mut beta = Vec3::ONE;
         let mut radiance = Vec3::ZERO;
@@ -144,29 +288,34 @@ impl<'a> Scene<'a> {
                 break;
             };
             let wo = -dir;
-            let Some(s) = self.surface(&hit, wo) else { break };
-            let material = &self.view.materials[s.material as usize];
+            let footprint = cone.width_at(hit.t);
+            let Some(mut s) = self.surface(&hit, wo, footprint) else { break };
+            let inputs = self.shade(&s, filter, touch);
 
             // Stochastic transparency: continue straight with probability 1 − opacity.
-            let opacity = effective_opacity(material);
+            let opacity = inputs.effective_opacity();
             if opacity < 1.0 && sample_1d(key, vertex, dim::OPACITY) >= opacity {
                 vertex += 1;
                 if vertex > max_depth + MAX_NULL_EVENTS {
                     break;
                 }
                 travelled += hit.t;
+                cone.width = footprint;
                 origin = offset_ray_origin(s.p, -s.ng);
                 rays.bounce += 1;
                 continue;
             }
+            if let Some(n) = inputs.normal {
+                s.ns = Self::mapped_normal(&s, n, wo);
+            }
 
-            let bsdf = Bsdf::new(material, s.ns, s.ng);
+            let bsdf = Bsdf::from_inputs(&inputs, s.ns, s.ng);
             if result.first_hit.is_none() && bounces == 0 {
                 result.first_hit =
                     Some(FirstHit { albedo: bsdf.diffuse_albedo(), normal: s.ns, depth: travelled + hit.t });
             }
 
-            let le = Vec3::from(material.emissive_color).max(Vec3::ZERO);
+            let le = inputs.emissive_color.max(Vec3::ZERO);
             if le != Vec3::ZERO {
                 let w = match prev {
                     None => 1.0,
@@ -183,7 +332,10 @@ impl<'a> Scene<'a> {
             // Next-event estimation.
             let u_select = sample_1d(key, vertex, dim::LIGHT_SELECT);
             let u_light = sample_2d(key, vertex, dim::LIGHT_UV);
-            if let Some(ls) = self.lights.sample(s.p, u_select, u_light) {
+            if let Some(mut ls) = self.lights.sample(s.p, u_select, u_light) {
+                if let Some((tri, [b1, b2])) = ls.emitter {
+                    ls.li = self.emission_at(tri, b1, b2, filter, touch);
+                }
                 let (f, bsdf_pdf) = bsdf.eval(wo, ls.wi);
                 let contribution = beta * f * ls.li * (s.ns.dot(ls.wi).abs() / ls.pdf);
                 if contribution.max_element() > 0.0 {
@@ -195,15 +347,7 @@ impl<'a> Scene<'a> {
                         f32::INFINITY
                     };
                     rays.shadow += 1;
-                    let occluded = self.accel.any_hit(shadow_origin, ls.wi, tmax, |tri| {
-                        let m = &self.view.materials[self.view.triangle_materials[tri as usize] as usize];
-                        let op = effective_opacity(m);
-                        // Same pass-through odds as camera and BSDF rays, decided once per triangle.
-                        op >= 1.0
-                            || (hash_combine(shadow_seed ^ vertex, tri) >> 8) as f32 * (1.0 / 16_777_216.0)
-                                < op
-                    });
-                    if !occluded {
+                    if self.shadow_transmits(shadow_origin, ls.wi, tmax, shadow_seed ^ vertex, filter, touch) {
                         radiance += contribution * w;
                     }
                 }
@@ -227,9 +371,25 @@ impl<'a> Scene<'a> {
             origin = offset_ray_origin(s.p, s.ng);
             dir = bs.wi;
             travelled = 0.0;
+            cone = RayCone { width: footprint, spread: cone.spread + CONE_WIDEN_PER_ALPHA * bs.lobe_alpha };
             rays.bounce += 1;
         }
         result.radiance = radiance;
         result
+    }
+
+    /// Emitted radiance at barycentrics `(b1, b2)` of emissive triangle `tri` (a light sample), with
+    /// a point lookup (a light sample has no pixel footprint).
+    fn emission_at<T: Touch>(&self, tri: u32, b1: f32, b2: f32, filter: Filter, touch: &T) -> Vec3 {
+        let material = self.view.triangle_materials[tri as usize];
+        if !self.shading.flags(material).textured_emission {
+            return self.lights.triangle_emission(tri);
+        }
+        let [p0, p1, p2] = self.accel.triangle_vertices(tri);
+        // Any direction off the surface will do: emission is two-sided and only uv matters here.
+        let wo = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+        let hit = crate::accel::Hit { t: 0.0, triangle: tri, b1, b2 };
+        self.surface(&hit, wo, 0.0)
+            .map_or(Vec3::ZERO, |s| self.shade(&s, filter, touch).emissive_color.max(Vec3::ZERO))
     }
 }

@@ -26,7 +26,8 @@
 //! contract), [`accel`] (CWBVH traversal, watertight triangle test, ray offsets), [`camera`],
 //! [`sampler`] (stateless Owen-scrambled Sobol), [`bsdf`] (UsdPreviewSurface), [`lights`] (UsdLux +
 //! emissive triangles, MIS), [`integrator`] (the path), [`film`] (tiles, options, image), [`output`]
-//! (EXR/PNG), [`stats`] (summary), [`info`] (`--info`), [`scene`] (view + derived data), [`error`].
+//! (EXR/PNG), [`stats`] (summary), [`info`] (`--info`), [`scene`] (view + derived data), [`shading`]
+//! (material programs and filtered texture lookups), [`error`].
 
 #![deny(missing_docs)]
 
@@ -43,6 +44,7 @@ pub mod mapped;
 pub mod output;
 pub mod sampler;
 pub mod scene;
+pub mod shading;
 pub mod stats;
 #[cfg(test)]
 mod tests;

@@ -100,6 +100,9 @@ pub struct LightSample {
     pub pdf: f32,
     /// A delta light (no MIS: BSDF sampling cannot hit it).
     pub delta: bool,
+    /// For a point on an emissive triangle: the triangle and the barycentric weights of its vertices 1
+    /// and 2, so that a textured `emissiveColor` can be evaluated there (`li` holds the constant).
+    pub emitter: Option<(u32, [f32; 2])>,
 }
 
 /// The scene's lights, ready for sampling.
@@ -374,6 +377,7 @@ impl<'a> Lights<'a> {
                 li,
                 pdf: sel * d2 / (cos * area),
                 delta: false,
+                emitter: None,
             })
         };
         match light.shape {
@@ -383,6 +387,7 @@ impl<'a> Lights<'a> {
                 li: light.radiance,
                 pdf: sel / (4.0 * PI),
                 delta: false,
+                emitter: None,
             }),
             Shape::Distant { to_light, one_minus_cos_max } => {
                 if one_minus_cos_max == 0.0 {
@@ -392,6 +397,7 @@ impl<'a> Lights<'a> {
                         li: light.radiance,
                         pdf: sel,
                         delta: true,
+                        emitter: None,
                     })
                 } else {
                     Some(LightSample {
@@ -400,6 +406,7 @@ impl<'a> Lights<'a> {
                         li: light.radiance,
                         pdf: sel / (TAU * one_minus_cos_max),
                         delta: false,
+                        emitter: None,
                     })
                 }
             }
@@ -413,6 +420,7 @@ impl<'a> Lights<'a> {
                     li: light.radiance / d2,
                     pdf: sel,
                     delta: true,
+                    emitter: None,
                 })
             }
             Shape::Sphere { center, radius } => {
@@ -435,6 +443,7 @@ impl<'a> Lights<'a> {
                         li: light.radiance,
                         pdf: sel / (TAU * one_minus_cos_max),
                         delta: false,
+                        emitter: None,
                     })
                 }
             }
@@ -462,6 +471,7 @@ impl<'a> Lights<'a> {
                 let n = (b - a).cross(c - a).normalize_or_zero();
                 let area = e.area / e.pmf.max(f32::MIN_POSITIVE);
                 area_sample(x, n, area, true, self.triangle_emission(e.triangle))
+                    .map(|s| LightSample { emitter: Some((e.triangle, [b1, 1.0 - b0 - b1])), ..s })
             }
         }
     }

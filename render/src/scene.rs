@@ -5,6 +5,7 @@ use crate::accel::Accel;
 use crate::camera::{default_height, Camera};
 use crate::error::RenderError;
 use crate::lights::Lights;
+use crate::shading::Shading;
 use blob::SceneView;
 use glam::Vec3;
 
@@ -17,12 +18,14 @@ pub struct Scene<'a> {
     pub accel: Accel<'a>,
     /// Lights for sampling and MIS.
     pub lights: Lights<'a>,
+    /// Material programs and textures.
+    pub shading: Shading<'a>,
 }
 
 impl<'a> Scene<'a> {
     /// Prepares a validated view for rendering.
     pub fn new(view: SceneView<'a>) -> Self {
-        Scene { accel: Accel::new(&view), lights: Lights::new(&view), view }
+        Scene { accel: Accel::new(&view), lights: Lights::new(&view), shading: Shading::new(&view), view }
     }
 
     /// Index of the camera with prim path `path`, or the default camera when `path` is `None`

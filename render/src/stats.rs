@@ -35,6 +35,10 @@ pub struct Summary {
     pub render_seconds: f64,
     /// Seconds writing outputs.
     pub write_seconds: f64,
+    /// Texel bytes in the blob.
+    pub texture_bytes_total: u64,
+    /// Bytes of the texel pages the render read (counted only with `--stats`).
+    pub texture_bytes_touched: u64,
 }
 
 impl Summary {
@@ -54,6 +58,8 @@ impl Summary {
             msamples_per_second: stats.samples as f64 / secs / 1e6,
             nonfinite_samples: stats.nonfinite_samples,
             render_seconds: stats.seconds,
+            texture_bytes_total: stats.texture_bytes_total,
+            texture_bytes_touched: stats.texture_bytes_touched,
             ..Summary::default()
         }
     }
@@ -63,7 +69,7 @@ impl Summary {
         format!(
             "{}x{} @ {} spp on {} threads\n\
              rays: {} ({} camera, {} bounce, {} shadow), {:.2} Mrays/s, {:.3} Msamples/s\n\
-             time: load {:.3} s, render {:.3} s, write {:.3} s{}",
+             time: load {:.3} s, render {:.3} s, write {:.3} s{}{}",
             self.width,
             self.height,
             self.spp,
@@ -77,6 +83,16 @@ impl Summary {
             self.load_seconds,
             self.render_seconds,
             self.write_seconds,
+            if self.texture_bytes_total > 0 {
+                format!(
+                    "\ntextures: {:.1} MiB touched of {:.1} MiB ({:.1}%)",
+                    self.texture_bytes_touched as f64 / 1048576.0,
+                    self.texture_bytes_total as f64 / 1048576.0,
+                    100.0 * self.texture_bytes_touched as f64 / self.texture_bytes_total as f64
+                )
+            } else {
+                String::new()
+            },
             if self.nonfinite_samples > 0 {
                 format!("\nwarning: {} NaN/inf samples discarded", self.nonfinite_samples)
             } else {

@@ -13,9 +13,18 @@ Conventions shared with the ingest (see ingest/src/usd/mod.rs):
 * PointInstancer: prototype subtrees are not drawn as themselves; each instance draws its prototype
   subtree once (the same path repeats per instance). Visibility/purpose inside a prototype are
   resolved from the prototype root down, starting from the instancer's own state.
-* triangles: sum of (n - 2) over faces with n >= 3 that are not listed in `holeIndices`
-  (subdivision meshes count their cage, as the ingest renders the cage).
+* triangles: sum of (n - 2) over faces with n >= 3 that are not listed in `holeIndices`.
+  Subdivision meshes (`subdivisionScheme` other than `none`) are refined uniformly to the level
+  the ingest reports as `subdiv_level` L (chosen from the render camera, so read from the dump):
+  catmullClark and bilinear make 4^L quads of a quad and n * 4^(L-1) of an n-gon (L >= 1;
+  OpenSubdiv refines a catmullClark cage with non-quads at least once, so L >= 1 there; bilinear
+  n-gons at L = 0 are fanned into n - 2 triangles), two triangles per quad; loop makes 4^L
+  triangles of a triangle. Holes make nothing, and with `interpolateBoundary = none` neither
+  does any face with a vertex on the boundary (OpenSubdiv tags those as holes). A subdivision
+  mesh the ingest could not refine (no `subdiv_level`; it warns) is its triangulated cage.
 * bounds: the mesh points transformed by `ComputeLocalToWorldTransform` (not authored extents).
+  The limit surface of a subdivision mesh lies inside its cage's convex hull, so there ours must
+  be non-empty and inside the cage bounds (within the tolerance) instead of equal to them.
 * materials: per face, the material bound to a `materialBind` GeomSubset holding the face, else the
   gprim's bound material (`ComputeBoundMaterial` for the "full" purpose); the set over drawn faces.
   No material = the ingest's synthetic `<gprim>.displayColor` material.
@@ -46,6 +55,21 @@ class Gprim:
     # tessellation's axis vertices) and outer_lo/outer_hi (the analytic sphere).
     outer_lo: np.ndarray | None = None
     outer_hi: np.ndarray | None = None
+    # Subdivision meshes: the scheme token, the sizes of the faces that reach the surface, and
+    # whether every cage face is a quad (None for polygon meshes and implicit shapes).
+    scheme: str | None = None
+    face_sizes: list[int] = field(default_factory=list)
+    all_quads: bool = False
+
+    def subdiv_triangles(self, level: int) -> int:
+        """Triangles of this subdivision mesh refined uniformly to `level` (see the module docs)."""
+        if self.scheme == "loop":
+            return len(self.face_sizes) * 4**level
+        if self.scheme == "catmullClark" and level == 0 and not self.all_quads:
+            level = 1
+        if level == 0:
+            return sum(n - 2 for n in self.face_sizes)
+        return sum(2 * 4**level if n == 4 else 2 * n * 4 ** (level - 1) for n in self.face_sizes)
 
 
 @dataclass
@@ -111,7 +135,32 @@ def _mesh_record(prim: Usd.Prim, world: np.ndarray, time) -> Gprim | None:
                 face_material[i] = material
     materials = frozenset(m for m in face_material.values() if m is not None)
     w = _transform(pts, world)
-    return Gprim(str(prim.GetPath()), "Mesh", triangles, w.min(axis=0), w.max(axis=0), materials)
+    record = Gprim(str(prim.GetPath()), "Mesh", triangles, w.min(axis=0), w.max(axis=0), materials)
+    scheme = mesh.GetSubdivisionSchemeAttr().Get(time) or UsdGeom.Tokens.catmullClark
+    if scheme != UsdGeom.Tokens.none:
+        record.scheme = str(scheme)
+        record.all_quads = all(n == 4 for n in counts)
+        surface = drawn_faces
+        if mesh.GetInterpolateBoundaryAttr().Get(time) == UsdGeom.Tokens.none:
+            boundary = _boundary_vertices(counts, list(mesh.GetFaceVertexIndicesAttr().Get(time) or []))
+            starts = np.concatenate([[0], np.cumsum(counts)])
+            indices = list(mesh.GetFaceVertexIndicesAttr().Get(time) or [])
+            surface = [i for i in drawn_faces
+                       if not any(v in boundary for v in indices[starts[i]:starts[i] + counts[i]])]
+        record.face_sizes = [counts[i] for i in surface]
+    return record
+
+
+def _boundary_vertices(counts, indices) -> set:
+    """Vertices on an edge used by exactly one face."""
+    edges = defaultdict(int)
+    start = 0
+    for n in counts:
+        face = indices[start:start + n]
+        start += n
+        for a, b in zip(face, face[1:] + face[:1]):
+            edges[(min(a, b), max(a, b))] += 1
+    return {v for e, uses in edges.items() if uses == 1 for v in e}
 
 
 def _shape_record(prim: Usd.Prim, world: np.ndarray, time) -> Gprim:
@@ -264,14 +313,36 @@ def _close(ours, ref, atol) -> bool:
     return bool(np.all(np.abs(ours - ref) <= atol + 4 * F32_EPS * np.abs(ref)))
 
 
+def _within(x, lo, hi, atol) -> bool:
+    """lo <= x <= hi within the tolerance (plus float32 rounding)."""
+    return bool(np.all(x >= lo - atol - 4 * F32_EPS * np.abs(lo)) and np.all(x <= hi + atol + 4 * F32_EPS * np.abs(hi)))
+
+
+def expected_triangles(entry, g: Gprim) -> int | None:
+    """The triangles `entry` must have: the cage's, or for a subdivision mesh the count at the
+    level the ingest reports (None: not compared)."""
+    if g.scheme is not None and "subdiv_level" in entry:
+        return g.subdiv_triangles(entry["subdiv_level"])
+    return g.triangles
+
+
 def _entry_matches(entry, g: Gprim, atol) -> list[str]:
     """Differences between one dumped gprim and one reference gprim (same path)."""
     problems = []
-    if g.triangles is not None and entry["triangles"] != g.triangles:
-        problems.append(f"triangles: ours {entry['triangles']}, usd-core {g.triangles}")
+    subdivided = g.scheme is not None and "subdiv_level" in entry
+    if subdivided and entry.get("scheme") != g.scheme:
+        problems.append(f"scheme: ours {entry.get('scheme')}, usd-core {g.scheme}")
+    want = expected_triangles(entry, g)
+    if want is not None and entry["triangles"] != want:
+        level = f" at subdiv_level {entry['subdiv_level']}" if subdivided else ""
+        problems.append(f"triangles: ours {entry['triangles']}, usd-core {want}{level}")
     if g.lo is not None:
         lo, hi = np.asarray(entry["bounds_min"]), np.asarray(entry["bounds_max"])
-        if g.kind == "Sphere":
+        if subdivided:
+            # The limit surface: non-empty (unless every face is a hole) and inside the cage.
+            empty = not g.face_sizes
+            ok = empty or (bool(np.all(lo <= hi)) and _within(lo, g.lo, g.hi, atol) and _within(hi, g.lo, g.hi, atol))
+        elif g.kind == "Sphere":
             ok = all(
                 np.all(x >= a - atol - 4 * F32_EPS * np.abs(a)) and np.all(x <= b + atol + 4 * F32_EPS * np.abs(b))
                 for x, a, b in ((lo, g.outer_lo, g.lo), (hi, g.hi, g.outer_hi))

@@ -7,22 +7,74 @@
 //! topmost such ancestor wins). Only if no full/all-purpose binding exists anywhere up the chain is
 //! `material:binding:preview` used, with a warning. Collection-based bindings are not resolved
 //! (warned). GeomSubsets of a mesh carrying a direct binding give per-face materials.
+//!
+//! Inputs connected to shading networks are compiled into the material's program
+//! ([`crate::scene::ShaderNode`]): each reachable node (UsdUVTexture, UsdPrimvarReader_float2,
+//! UsdTransform2d; other readers become their fallback constant) gets one register, in dependency
+//! order, and each connected PreviewSurface input an `Output` reading the connected channel(s).
+//! Texture files resolve against the layer that authored `inputs:file` and are decoded and baked here,
+//! once per (file, colour space), so a missing or unreadable file is a warning on the shader naming the
+//! file and the fallback the lookup will return instead.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::stage::Value;
 use super::{Reader, UsdError};
-use crate::scene::Material;
+use crate::scene::{Material, SceneTexture, ShaderNode, ShadingInput, TextureData};
 
 /// Where a shader input's value comes from.
 enum Input {
     /// Not authored: the PreviewSurface fallback applies.
     Unauthored,
-    /// An authored (or interface-forwarded) constant.
-    Constant(Value),
-    /// Connected to a texture / primvar-reader node: its `inputs:fallback` (if authored) and the
-    /// output the connection reads (`rgb`, `r`, ...).
-    Network { fallback: Option<Value>, output: String },
+    /// An authored (or interface-forwarded) constant, and the attribute that holds it.
+    Constant { value: Value, prim: String, attr: String },
+    /// Connected to a shader node: its prim and the output the connection reads (`rgb`, `r`, ...).
+    Network { node: String, output: String },
+}
+
+/// Most shader nodes a network may nest (a cycle guard).
+const MAX_NODE_DEPTH: u32 = 16;
+
+/// A material program being built: the nodes so far, one register per compiled node.
+#[derive(Default)]
+struct Program {
+    nodes: Vec<ShaderNode>,
+    /// Register per compiled node prim (a node feeding several inputs is evaluated once).
+    registers: HashMap<String, u32>,
+    /// Program index of each UsdUVTexture node whose `scale` and `bias` are both unauthored, by
+    /// register (a normal map without them is remapped from `[0, 1]` to `[-1, 1]`).
+    unscaled_textures: HashMap<u32, usize>,
+}
+
+impl Program {
+    fn register(&self) -> Option<u32> {
+        let next = self.registers.len() as u32;
+        (next < blob::MAX_REGISTERS).then_some(next)
+    }
+}
+
+/// The channels a connection to `output` reads: `[0; 4]` for `r`, the identity for `rgb`/`result`.
+fn swizzle(output: &str) -> [u8; 4] {
+    match output {
+        "r" | "x" => [0; 4],
+        "g" | "y" => [1; 4],
+        "b" | "z" => [2; 4],
+        "a" | "w" => [3; 4],
+        _ => [0, 1, 2, 3],
+    }
+}
+
+/// A value as a `vec4`: scalars broadcast to rgb (alpha 1), tuples padded with `default`.
+fn vec4(value: &Value, default: [f32; 4]) -> [f32; 4] {
+    match value {
+        Value::Scalar(s) => [*s as f32, *s as f32, *s as f32, 1.0],
+        Value::Tuple(t) => std::array::from_fn(|i| t.get(i).map_or(default[i], |&c| c as f32)),
+        _ => default,
+    }
 }
 
 fn channel(output: &str) -> usize {
@@ -231,57 +283,315 @@ impl Reader<'_> {
             return Ok(None);
         }
         let mut m = Material::default();
-        let color = |r: &mut Self, name: &str, slot: &mut Vec3| -> Result<(), UsdError> {
-            if let Some((v, out)) = r.input(path, &shader, name)? {
+        let mut program = Program::default();
+        let p = &mut program;
+        let mut color = |r: &mut Self, name: &str, input: ShadingInput, slot: &mut Vec3| -> Result<(), UsdError> {
+            if let Some((v, out)) = r.input(path, &shader, name, p, Some(input))? {
                 if let Some(c) = as_color(&v, &out) {
                     *slot = c;
                 }
             }
             Ok(())
         };
-        color(self, "diffuseColor", &mut m.diffuse_color)?;
-        color(self, "emissiveColor", &mut m.emissive_color)?;
-        color(self, "specularColor", &mut m.specular_color)?;
-        let float = |r: &mut Self, name: &str, slot: &mut f32| -> Result<(), UsdError> {
-            if let Some((v, out)) = r.input(path, &shader, name)? {
+        color(self, "diffuseColor", ShadingInput::DiffuseColor, &mut m.diffuse_color)?;
+        color(self, "emissiveColor", ShadingInput::EmissiveColor, &mut m.emissive_color)?;
+        color(self, "specularColor", ShadingInput::SpecularColor, &mut m.specular_color)?;
+        let mut normal = Vec3::Z;
+        color(self, "normal", ShadingInput::Normal, &mut normal)?;
+        let mut float = |r: &mut Self, name: &str, input: Option<ShadingInput>, slot: &mut f32| -> Result<(), UsdError> {
+            if let Some((v, out)) = r.input(path, &shader, name, p, input)? {
                 if let Some(f) = as_float(&v, &out) {
                     *slot = f;
                 }
             }
             Ok(())
         };
-        float(self, "roughness", &mut m.roughness)?;
-        float(self, "metallic", &mut m.metallic)?;
-        float(self, "ior", &mut m.ior)?;
-        float(self, "opacity", &mut m.opacity)?;
-        float(self, "opacityThreshold", &mut m.opacity_threshold)?;
-        float(self, "clearcoat", &mut m.clearcoat)?;
-        float(self, "clearcoatRoughness", &mut m.clearcoat_roughness)?;
+        float(self, "roughness", Some(ShadingInput::Roughness), &mut m.roughness)?;
+        float(self, "metallic", Some(ShadingInput::Metallic), &mut m.metallic)?;
+        float(self, "ior", Some(ShadingInput::Ior), &mut m.ior)?;
+        float(self, "opacity", Some(ShadingInput::Opacity), &mut m.opacity)?;
+        float(self, "opacityThreshold", None, &mut m.opacity_threshold)?;
+        float(self, "clearcoat", Some(ShadingInput::Clearcoat), &mut m.clearcoat)?;
+        float(self, "clearcoatRoughness", Some(ShadingInput::ClearcoatRoughness), &mut m.clearcoat_roughness)?;
         let mut workflow = 0.0;
-        float(self, "useSpecularWorkflow", &mut workflow)?;
+        float(self, "useSpecularWorkflow", None, &mut workflow)?;
         m.use_specular_workflow = workflow != 0.0;
+        let displaced = match self.trace_input(&shader, "inputs:displacement")? {
+            Input::Unauthored => false,
+            Input::Constant { value, .. } => value.as_f64().is_none_or(|d| d != 0.0),
+            Input::Network { .. } => true,
+        };
+        if displaced {
+            self.warn(path, "displacement ignored");
+        }
+        m.program = program.nodes;
         Ok(Some(m))
     }
 
     /// The constant value of a shader input and the output channel it reads (`""` for a direct
-    /// value), or `None` to keep the PreviewSurface fallback.
+    /// value), or `None` to keep the PreviewSurface fallback. An input connected to a network is
+    /// compiled into `program` with an output binding for `slot`; its value here is `None`.
     fn input(
         &mut self,
         material: &str,
         shader: &str,
         name: &str,
+        program: &mut Program,
+        slot: Option<ShadingInput>,
     ) -> Result<Option<(Value, String)>, UsdError> {
         match self.trace_input(shader, &format!("inputs:{name}"))? {
             Input::Unauthored => Ok(None),
-            Input::Constant(v) => Ok(Some((v, String::new()))),
-            Input::Network { fallback, output } => {
-                self.warn(
-                    material,
-                    format!("input {name} is connected to a texture network; textures not supported yet"),
-                );
-                Ok(fallback.map(|f| (f, output)))
+            Input::Constant { value, .. } => Ok(Some((value, String::new()))),
+            Input::Network { node, output } => {
+                let Some(slot) = slot else {
+                    self.warn(material, format!("input {name} is connected to a shading network; only its constant is supported, using the PreviewSurface fallback"));
+                    return Ok(None);
+                };
+                match self.compile_node(material, &node, program, 0)? {
+                    Some(src) => {
+                        if slot == ShadingInput::Normal {
+                            // A normal map stores [-1, 1] as [0, 1]; assets that do not author the
+                            // texture's scale (2) and bias (-1) themselves get that remap here.
+                            if let Some(&i) = program.unscaled_textures.get(&src) {
+                                if let ShaderNode::Texture { scale, bias, .. } = &mut program.nodes[i] {
+                                    *scale = [2.0, 2.0, 2.0, 1.0];
+                                    *bias = [-1.0, -1.0, -1.0, 0.0];
+                                }
+                            }
+                        }
+                        program.nodes.push(ShaderNode::Output { input: slot, src, swizzle: swizzle(&output) });
+                        Ok(None)
+                    }
+                    None => Ok(None),
+                }
             }
         }
+    }
+
+    /// Compiles shader `node` (and what it reads) into `program`; returns the register holding its
+    /// output, or `None` when the network is too large.
+    fn compile_node(
+        &mut self,
+        material: &str,
+        node: &str,
+        program: &mut Program,
+        depth: u32,
+    ) -> Result<Option<u32>, UsdError> {
+        if let Some(&r) = program.registers.get(node) {
+            return Ok(Some(r));
+        }
+        if depth > MAX_NODE_DEPTH {
+            self.warn(node, "shading network nested too deeply (a cycle?); using the PreviewSurface fallback");
+            return Ok(None);
+        }
+        let id = self.token(node, "info:id")?.unwrap_or_default();
+        let value = |r: &mut Self, name: &str| -> Result<Option<Value>, UsdError> {
+            Ok(match r.trace_input(node, &format!("inputs:{name}"))? {
+                Input::Constant { value, .. } => Some(value),
+                _ => None,
+            })
+        };
+        let fallback = value(self, "fallback")?;
+        let node_out: ShaderNode = match id.as_str() {
+            "UsdUVTexture" => {
+                let st = self.coordinate_register(material, node, "st", program, depth)?;
+                let file = self.texture_file(material, node)?;
+                let wrap = |r: &mut Self, name: &str| -> Result<texture::Wrap, UsdError> {
+                    let token = value(r, name)?.and_then(|v| v.as_str().map(str::to_string));
+                    Ok(match token.as_deref().map(str::parse::<texture::Wrap>) {
+                        None => texture::Wrap::Repeat,
+                        Some(Ok(w)) => w,
+                        Some(Err(e)) => {
+                            r.warn(node, format!("{e}; using repeat"));
+                            texture::Wrap::Repeat
+                        }
+                    })
+                };
+                let (wrap_s, wrap_t) = (wrap(self, "wrapS")?, wrap(self, "wrapT")?);
+                let scale_v = value(self, "scale")?;
+                let bias_v = value(self, "bias")?;
+                let fallback = fallback.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |v| vec4(v, [0.0, 0.0, 0.0, 1.0]));
+                let color_space = match value(self, "sourceColorSpace")?.as_ref().and_then(Value::as_str) {
+                    None => texture::ColorSpace::Auto,
+                    Some(t) => t.parse().unwrap_or_else(|e: String| {
+                        self.warn(node, format!("{e}; using auto"));
+                        texture::ColorSpace::Auto
+                    }),
+                };
+                let texture = match file {
+                    Some(path) => self.bake_texture(node, &path, color_space, fallback),
+                    None => None,
+                };
+                let Some(dst) = program.register() else { return self.too_many(node) };
+                if scale_v.is_none() && bias_v.is_none() {
+                    program.unscaled_textures.insert(dst, program.nodes.len());
+                }
+                ShaderNode::Texture {
+                    dst,
+                    src: st,
+                    texture,
+                    wrap_s,
+                    wrap_t,
+                    scale: scale_v.as_ref().map_or([1.0; 4], |v| vec4(v, [1.0; 4])),
+                    bias: bias_v.as_ref().map_or([0.0; 4], |v| vec4(v, [0.0; 4])),
+                    fallback,
+                }
+            }
+            "UsdPrimvarReader_float2" => {
+                let Some(dst) = program.register() else { return self.too_many(node) };
+                ShaderNode::PrimvarUv { dst, fallback: fallback.as_ref().map_or([0.0; 4], |v| vec4(v, [0.0; 4])) }
+            }
+            "UsdTransform2d" => {
+                let src = self.coordinate_register(material, node, "in", program, depth)?;
+                let pair = |v: Option<Value>, d: [f32; 2]| match v {
+                    Some(Value::Tuple(t)) if t.len() >= 2 => [t[0] as f32, t[1] as f32],
+                    Some(Value::Scalar(s)) => [s as f32; 2],
+                    _ => d,
+                };
+                let rotation_degrees = value(self, "rotation")?.and_then(|v| v.as_f64()).unwrap_or(0.0) as f32;
+                let scale = pair(value(self, "scale")?, [1.0; 2]);
+                let translation = pair(value(self, "translation")?, [0.0; 2]);
+                let Some(dst) = program.register() else { return self.too_many(node) };
+                ShaderNode::Transform2d { dst, src, rotation_degrees, scale, translation }
+            }
+            other => {
+                let what = if other.starts_with("UsdPrimvarReader_") {
+                    format!("{other} reads a primvar the renderer does not carry (only texture coordinates)")
+                } else {
+                    format!("shader {other:?} is not supported")
+                };
+                let value = fallback.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |v| vec4(v, [0.0, 0.0, 0.0, 1.0]));
+                self.warn(node, format!("{what}; using its fallback {value:?}"));
+                let Some(dst) = program.register() else { return self.too_many(node) };
+                ShaderNode::Const { dst, value }
+            }
+        };
+        let dst = program.registers.len() as u32;
+        program.registers.insert(node.to_string(), dst);
+        program.nodes.push(node_out);
+        Ok(Some(dst))
+    }
+
+    fn too_many(&mut self, node: &str) -> Result<Option<u32>, UsdError> {
+        self.warn(
+            node,
+            format!("material network has more than {} nodes; the rest use the PreviewSurface fallback", blob::MAX_REGISTERS),
+        );
+        Ok(None)
+    }
+
+    /// The register holding a node's coordinate input (`st` of a texture, `in` of a transform):
+    /// the connected node's output, else a constant (USD's fallback is `(0, 0)`).
+    fn coordinate_register(
+        &mut self,
+        material: &str,
+        node: &str,
+        name: &str,
+        program: &mut Program,
+        depth: u32,
+    ) -> Result<u32, UsdError> {
+        let constant = match self.trace_input(node, &format!("inputs:{name}"))? {
+            Input::Network { node: source, .. } => {
+                if let Some(r) = self.compile_node(material, &source, program, depth + 1)? {
+                    return Ok(r);
+                }
+                [0.0; 4]
+            }
+            Input::Constant { value, .. } => vec4(&value, [0.0; 4]),
+            Input::Unauthored => [0.0; 4],
+        };
+        // Constant coordinates share one register per value; a full file reuses the last one.
+        let key = format!("{node}.inputs:{name}");
+        let dst = program.register().unwrap_or(blob::MAX_REGISTERS - 1);
+        program.registers.insert(key, dst);
+        program.nodes.push(ShaderNode::Const { dst, value: constant });
+        Ok(dst)
+    }
+
+    /// The resolved `inputs:file` of a texture node, or `None` with a warning.
+    fn texture_file(&mut self, material: &str, node: &str) -> Result<Option<PathBuf>, UsdError> {
+        let (asset, prim, attr) = match self.trace_input(node, "inputs:file")? {
+            Input::Constant { value: Value::Str(s), prim, attr } if !s.is_empty() => (s, prim, attr),
+            _ => {
+                self.warn(node, "texture has no inputs:file; using its fallback");
+                return Ok(None);
+            }
+        };
+        let layer = self.stage.authoring_layer(&prim, &attr);
+        match resolve_asset(&layer, &asset) {
+            Ok(path) => Ok(Some(path)),
+            Err(why) => {
+                self.warn(node, format!("texture file {asset:?} (material {material}): {why}; using its fallback"));
+                Ok(None)
+            }
+        }
+    }
+
+    /// The scene texture for `path` baked in `color_space` (decoded once per pair), or `None` with a
+    /// warning naming the file and the fallback the lookups return instead.
+    fn bake_texture(
+        &mut self,
+        node: &str,
+        path: &Path,
+        color_space: texture::ColorSpace,
+        fallback: [f32; 4],
+    ) -> Option<u32> {
+        if let Some(i) = self.scene.textures.iter().position(|t| t.path == path && t.color_space == color_space) {
+            return Some(i as u32);
+        }
+        let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
+        let bake_one = |p: &Path| texture::decode(p).and_then(|src| texture::bake(&src, &options));
+        let data = if texture::udim::is_udim(path) {
+            let tiles = match texture::udim::expand(path) {
+                Ok(tiles) => tiles,
+                Err(e) => {
+                    self.warn(node, format!("texture {}: {e}; using its fallback {fallback:?}", path.display()));
+                    return None;
+                }
+            };
+            // Tiles decode independently: one task each.
+            let baked: Vec<_> = tiles.par_iter().map(|t| (t, bake_one(&t.path))).collect();
+            let mut found = Vec::new();
+            for (tile, result) in baked {
+                match result {
+                    Ok(b) => found.push((tile.u, tile.v, b)),
+                    Err(e) => self.warn(node, format!("UDIM tile {} cannot be read ({e}); lookups there use the fallback {fallback:?}", tile.number)),
+                }
+            }
+            if found.is_empty() {
+                return None;
+            }
+            let u_count = found.iter().map(|t| t.0).max().unwrap_or(0) + 1;
+            let v_count = found.iter().map(|t| t.1).max().unwrap_or(0) + 1;
+            for v in 0..v_count {
+                for u in 0..u_count {
+                    if !found.iter().any(|t| (t.0, t.1) == (u, v)) {
+                        let number = 1001 + u + 10 * v;
+                        let tile = texture::udim::tile_path(path, number);
+                        self.warn(
+                            node,
+                            format!(
+                                "UDIM tile {number} of {} is missing ({} not found); lookups there use the fallback {fallback:?}",
+                                path.display(),
+                                tile.display()
+                            ),
+                        );
+                    }
+                }
+            }
+            TextureData::Udim(found)
+        } else {
+            match bake_one(path) {
+                Ok(b) => TextureData::Image(b),
+                Err(e) => {
+                    let why = if path.exists() { format!("cannot be read ({e})") } else { "not found".to_string() };
+                    self.warn(node, format!("texture file {} {why}; using its fallback {fallback:?}", path.display()));
+                    return None;
+                }
+            }
+        };
+        self.scene.textures.push(SceneTexture { path: path.to_path_buf(), color_space, data });
+        Some(self.scene.textures.len() as u32 - 1)
     }
 
     /// Follows an input's connections through interface inputs to a constant or a network node.
@@ -290,15 +600,14 @@ impl Reader<'_> {
         for _ in 0..16 {
             let Some(source) = self.stage.connections(&prim, &attr).into_iter().next() else {
                 return Ok(match self.stage.attr(&prim, &attr)? {
-                    Some(v) => Input::Constant(v),
+                    Some(value) => Input::Constant { value, prim, attr },
                     None => Input::Unauthored,
                 });
             };
             let Some((src_prim, src_prop)) = source.split_once('.') else { return Ok(Input::Unauthored) };
             if self.stage.type_name(src_prim) == "Shader" {
                 let output = src_prop.strip_prefix("outputs:").unwrap_or(src_prop).to_string();
-                let fallback = self.stage.attr(src_prim, "inputs:fallback")?;
-                return Ok(Input::Network { fallback, output });
+                return Ok(Input::Network { node: src_prim.to_string(), output });
             }
             (prim, attr) = (src_prim.to_string(), src_prop.to_string());
         }
@@ -363,4 +672,19 @@ impl Reader<'_> {
         }
         Ok(Some(sum.map(|s| s / values.len() as f64)))
     }
+}
+
+/// Resolves a texture asset path against the layer that authored it: absolute paths as they are,
+/// relative ones (`./`, `../` or bare) next to the layer file.
+fn resolve_asset(layer: &str, asset: &str) -> Result<PathBuf, String> {
+    if asset.contains(".usdz[") || asset.ends_with(']') || layer.contains(".usdz[") || layer.ends_with(".usdz") {
+        return Err("textures inside .usdz packages are not supported yet".into());
+    }
+    let asset_path = Path::new(asset);
+    if asset_path.is_absolute() {
+        return Ok(asset_path.to_path_buf());
+    }
+    let base = Path::new(layer).parent().unwrap_or(Path::new("."));
+    let joined = base.join(asset_path.strip_prefix("./").unwrap_or(asset_path));
+    Ok(joined)
 }

@@ -2,7 +2,7 @@
 
 use std::collections::HashSet;
 
-use glam::{DMat3, DVec2, DVec3, Vec2};
+use glam::{DMat3, DMat4, DVec2, DVec3, Vec2};
 
 use super::stage::Value;
 use super::{fallback, Inherited, Reader, UsdError};
@@ -10,7 +10,7 @@ use crate::scene::Mesh;
 
 /// Primvar interpolation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Interpolation {
+pub(super) enum Interpolation {
     Constant,
     Uniform,
     Vertex,
@@ -36,10 +36,10 @@ impl Interpolation {
 }
 
 /// A validated primvar: every lookup is in range.
-struct Primvar<T> {
-    values: Vec<T>,
-    indices: Option<Vec<usize>>,
-    interpolation: Interpolation,
+pub(super) struct Primvar<T> {
+    pub values: Vec<T>,
+    pub indices: Option<Vec<usize>>,
+    pub interpolation: Interpolation,
 }
 
 impl<T: Copy> Primvar<T> {
@@ -77,8 +77,106 @@ pub(super) struct LocalMesh {
     pub double_sided: bool,
 }
 
+/// A mesh's cage as authored, checked enough to triangulate: the polygon path, and the fallback
+/// of a subdivision surface OpenSubdiv cannot take.
+pub(super) struct PolygonCage {
+    pub points: Vec<DVec3>,
+    /// `faceVertexCounts` (non-negative).
+    pub counts: Vec<usize>,
+    /// Point per face corner; [`INVALID_POINT`] where a subdivision mesh authors an index out of
+    /// range (its face is left out of the cage).
+    pub corners_to_points: Vec<usize>,
+    pub holes: HashSet<i64>,
+    pub left_handed: bool,
+    pub normals: Option<Primvar<DVec3>>,
+    pub uvs: Option<Primvar<DVec2>>,
+    /// Material index per face.
+    pub face_materials: Vec<u32>,
+    pub double_sided: bool,
+}
+
+/// Marks a face corner whose point index is out of range.
+pub(super) const INVALID_POINT: usize = usize::MAX;
+
+/// What [`PolygonCage::triangulate`] left out.
+#[derive(Default)]
+pub(super) struct Skipped {
+    /// Faces with fewer than 3 vertices.
+    pub degenerate: usize,
+    /// Faces with a point index out of range.
+    pub invalid: usize,
+}
+
+impl PolygonCage {
+    /// Triangulates every face that is not a hole, splitting vertices per face corner where a
+    /// primvar is uniform or face-varying.
+    pub(super) fn triangulate(&self) -> (LocalMesh, Skipped) {
+        let (points, corners_to_points) = (&self.points, &self.corners_to_points);
+        let (normals, uvs) = (&self.normals, &self.uvs);
+        let split = normals.as_ref().is_some_and(|p| p.interpolation.splits())
+            || uvs.as_ref().is_some_and(|p| p.interpolation.splits());
+        let mut out = LocalMesh { double_sided: self.double_sided, ..LocalMesh::default() };
+        if !split {
+            out.positions = points.clone();
+            if let Some(n) = normals {
+                out.normals = (0..points.len()).map(|p| n.get(0, 0, p)).collect();
+            }
+            if let Some(uv) = uvs {
+                out.uvs = (0..points.len()).map(|p| uv.get(0, 0, p).as_vec2()).collect();
+            }
+        }
+        let mut skipped = Skipped::default();
+        let mut start = 0usize;
+        let mut polygon = Vec::new();
+        for (face, &n) in self.counts.iter().enumerate() {
+            let corners = start..start + n;
+            start += n;
+            if n < 3 {
+                skipped.degenerate += 1;
+                continue;
+            }
+            if corners.clone().any(|c| corners_to_points[c] == INVALID_POINT) {
+                skipped.invalid += 1;
+                continue;
+            }
+            if self.holes.contains(&(face as i64)) {
+                continue;
+            }
+            polygon.clear();
+            polygon.extend(corners.clone().map(|c| points[corners_to_points[c]]));
+            let triangles = triangulate(&polygon);
+            let vertex_of = |k: usize| -> u32 { corners_to_points[corners.start + k] as u32 };
+            let base = out.positions.len() as u32;
+            if split {
+                for c in corners.clone() {
+                    let p = corners_to_points[c];
+                    out.positions.push(points[p]);
+                    if let Some(nv) = normals {
+                        out.normals.push(nv.get(face, c, p));
+                    }
+                    if let Some(uv) = uvs {
+                        out.uvs.push(uv.get(face, c, p).as_vec2());
+                    }
+                }
+            }
+            for [a, b, c] in triangles {
+                let tri = if split {
+                    [base + a as u32, base + b as u32, base + c as u32]
+                } else {
+                    [vertex_of(a), vertex_of(b), vertex_of(c)]
+                };
+                out.triangles.push(if self.left_handed { [tri[0], tri[2], tri[1]] } else { tri });
+                out.triangle_materials.push(self.face_materials[face]);
+            }
+        }
+        (out, skipped)
+    }
+}
+
 impl Reader<'_> {
-    /// Reads a Mesh prim into the scene.
+    /// Reads a Mesh prim into the scene: subdivision surfaces (any `subdivisionScheme` but
+    /// `none`) are queued for dicing once the camera is known (`super::subdivision`), polygon
+    /// meshes are triangulated here.
     pub(super) fn read_mesh(&mut self, path: &str, state: &Inherited) -> Result<(), UsdError> {
         // A topology attribute of the wrong type makes the mesh unreadable, not the stage.
         let (points, counts, indices) = match (
@@ -99,12 +197,13 @@ impl Reader<'_> {
             self.warn(path, "mesh has no points or no faces; skipped");
             return Ok(());
         }
-        let mut total = 0usize;
+        let mut sizes = Vec::with_capacity(counts.len());
         for &c in &counts {
-            total += usize::try_from(c).map_err(|_| {
+            sizes.push(usize::try_from(c).map_err(|_| {
                 self.invalid(path, "faceVertexCounts", format!("negative face vertex count {c}"))
-            })?;
+            })?);
         }
+        let total: usize = sizes.iter().sum();
         if total != indices.len() {
             return Err(self.invalid(
                 path,
@@ -112,10 +211,17 @@ impl Reader<'_> {
                 format!("counts sum to {total} but faceVertexIndices has {} entries", indices.len()),
             ));
         }
+        let scheme = self
+            .token(path, "subdivisionScheme")?
+            .unwrap_or_else(|| fallback::SUBDIVISION_SCHEME.to_string());
+        let subdivided = scheme != "none";
         let mut corners_to_points = Vec::with_capacity(indices.len());
         for &i in &indices {
             match usize::try_from(i) {
                 Ok(i) if i < points.len() => corners_to_points.push(i),
+                // A subdivision surface with bad topology falls back to its cage (less the bad
+                // faces) with a warning, like every other topology OpenSubdiv rejects.
+                _ if subdivided => corners_to_points.push(INVALID_POINT),
                 _ => {
                     return Err(self.invalid(
                         path,
@@ -128,16 +234,10 @@ impl Reader<'_> {
         let holes: HashSet<i64> = self.ints(path, "holeIndices")?.unwrap_or_default().into_iter().collect();
         let left_handed =
             self.token(path, "orientation")?.as_deref().unwrap_or(fallback::ORIENTATION) == "leftHanded";
-        let scheme = self
-            .token(path, "subdivisionScheme")?
-            .unwrap_or_else(|| fallback::SUBDIVISION_SCHEME.to_string());
-        let subdivided = scheme != "none";
-        if subdivided {
-            self.warn(path, format!("subdivision scheme {scheme} not supported yet; rendering the cage"));
-        }
         let topology = Topology { faces: counts.len(), points: points.len(), corners: indices.len() };
 
-        // Authored normals are ignored on subdivision surfaces (USD spec); `primvars:normals` wins.
+        // Authored normals are ignored on subdivision surfaces (USD spec: the limit surface
+        // defines them); `primvars:normals` wins over `normals`.
         let normals = if subdivided {
             None
         } else if self.stage.attr(path, "primvars:normals")?.is_some() {
@@ -149,64 +249,34 @@ impl Reader<'_> {
             Some(name) => self.primvar2(path, &name, &topology)?,
             None => None,
         };
-        let split = normals.as_ref().is_some_and(|p| p.interpolation.splits())
-            || uvs.as_ref().is_some_and(|p| p.interpolation.splits());
         let face_materials = self.mesh_face_materials(path, counts.len())?;
         let double_sided = self.bool(path, "doubleSided")?.unwrap_or(fallback::DOUBLE_SIDED);
-
-        let mut out = LocalMesh { double_sided, ..LocalMesh::default() };
-        if !split {
-            out.positions = points.clone();
-            if let Some(n) = &normals {
-                out.normals = (0..points.len()).map(|p| n.get(0, 0, p)).collect();
+        let cage = PolygonCage {
+            points,
+            counts: sizes,
+            corners_to_points,
+            holes,
+            left_handed,
+            normals,
+            uvs,
+            face_materials,
+            double_sided,
+        };
+        let cage = if subdivided {
+            match self.queue_subdivision(path, &scheme, &counts, &indices, cage, state)? {
+                Some(rejected) => rejected,
+                None => return Ok(()),
             }
-            if let Some(uv) = &uvs {
-                out.uvs = (0..points.len()).map(|p| uv.get(0, 0, p).as_vec2()).collect();
-            }
+        } else {
+            cage
+        };
+        let (out, skipped) = cage.triangulate();
+        if skipped.degenerate > 0 {
+            let n = skipped.degenerate;
+            self.warn(path, format!("{n} degenerate faces (fewer than 3 vertices) skipped"));
         }
-        let mut degenerate = 0usize;
-        let mut start = 0usize;
-        let mut polygon = Vec::new();
-        for (face, &count) in counts.iter().enumerate() {
-            let n = count as usize;
-            let corners = start..start + n;
-            start += n;
-            if n < 3 {
-                degenerate += 1;
-                continue;
-            }
-            if holes.contains(&(face as i64)) {
-                continue;
-            }
-            polygon.clear();
-            polygon.extend(corners.clone().map(|c| points[corners_to_points[c]]));
-            let triangles = triangulate(&polygon);
-            let vertex_of = |k: usize| -> u32 { corners_to_points[corners.start + k] as u32 };
-            let base = out.positions.len() as u32;
-            if split {
-                for c in corners.clone() {
-                    let p = corners_to_points[c];
-                    out.positions.push(points[p]);
-                    if let Some(nv) = &normals {
-                        out.normals.push(nv.get(face, c, p));
-                    }
-                    if let Some(uv) = &uvs {
-                        out.uvs.push(uv.get(face, c, p).as_vec2());
-                    }
-                }
-            }
-            for [a, b, c] in triangles {
-                let tri = if split {
-                    [base + a as u32, base + b as u32, base + c as u32]
-                } else {
-                    [vertex_of(a), vertex_of(b), vertex_of(c)]
-                };
-                out.triangles.push(if left_handed { [tri[0], tri[2], tri[1]] } else { tri });
-                out.triangle_materials.push(face_materials[face]);
-            }
-        }
-        if degenerate > 0 {
-            self.warn(path, format!("{degenerate} degenerate faces (fewer than 3 vertices) skipped"));
+        if skipped.invalid > 0 {
+            self.warn(path, format!("{} faces with a point index out of range skipped", skipped.invalid));
         }
         self.push_mesh(path, out, state);
         Ok(())
@@ -340,37 +410,37 @@ impl Reader<'_> {
     }
 
     /// Transforms a local mesh to world space and adds it to the scene.
-    ///
-    /// A transform with negative determinant mirrors the surface; the winding is flipped so the
-    /// triangles stay counter-clockwise about the (inverse-transpose transformed) normals, as Hydra
-    /// does (`orientation` XOR mirrored).
     pub(super) fn push_mesh(&mut self, path: &str, local: LocalMesh, state: &Inherited) {
-        let world_from_local = state.world_from_local;
-        let normal_from_local = DMat3::from_mat4(world_from_local).inverse().transpose();
-        let mirrored = world_from_local.determinant() < 0.0;
-        let mut triangles = local.triangles;
-        if mirrored {
-            for t in &mut triangles {
-                t.swap(1, 2);
-            }
+        self.scene.meshes.push(world_mesh(path, local, state.world_from_local));
+    }
+}
+
+/// A local mesh in world space.
+///
+/// A transform with negative determinant mirrors the surface; the winding is flipped so the
+/// triangles stay counter-clockwise about the (inverse-transpose transformed) normals, as Hydra
+/// does (`orientation` XOR mirrored).
+pub(super) fn world_mesh(path: &str, local: LocalMesh, world_from_local: DMat4) -> Mesh {
+    let normal_from_local = DMat3::from_mat4(world_from_local).inverse().transpose();
+    let mirrored = world_from_local.determinant() < 0.0;
+    let mut triangles = local.triangles;
+    if mirrored {
+        for t in &mut triangles {
+            t.swap(1, 2);
         }
-        self.scene.meshes.push(Mesh {
-            path: path.to_string(),
-            positions: local
-                .positions
-                .iter()
-                .map(|&p| world_from_local.project_point3(p).as_vec3())
-                .collect(),
-            normals: local
-                .normals
-                .iter()
-                .map(|&n| (normal_from_local * n).normalize_or_zero().as_vec3())
-                .collect(),
-            uvs: local.uvs,
-            triangles,
-            triangle_materials: local.triangle_materials,
-            double_sided: local.double_sided,
-        });
+    }
+    Mesh {
+        path: path.to_string(),
+        positions: local.positions.iter().map(|&p| world_from_local.project_point3(p).as_vec3()).collect(),
+        normals: local
+            .normals
+            .iter()
+            .map(|&n| (normal_from_local * n).normalize_or_zero().as_vec3())
+            .collect(),
+        uvs: local.uvs,
+        triangles,
+        triangle_materials: local.triangle_materials,
+        double_sided: local.double_sided,
     }
 }
 

@@ -9,6 +9,8 @@
 //!   the implicit Sphere/Cube shapes.
 //! - `material`: material binding resolution and UsdPreviewSurface constant inputs, with the
 //!   displayColor fallback for unbound gprims.
+//! - `subdivision`: subdivision surfaces, queued during the walk and diced against the render
+//!   camera after it.
 //! - `lux`: UsdLux lights, UsdGeomCamera, UsdRender settings.
 //!
 //! The walk itself (`Reader::visit`) carries the inherited state down the hierarchy: the world
@@ -17,12 +19,19 @@
 //!
 //! Schema fallback values live in [`fallback`], in one place.
 
+mod layer_fix;
 mod lux;
 mod material;
 mod mesh;
+mod resolver;
 mod stage;
+mod subdivision;
 mod xform;
 
+#[cfg(test)]
+mod composition_tests;
+#[cfg(test)]
+mod subdivision_tests;
 #[cfg(test)]
 mod tests;
 
@@ -82,13 +91,27 @@ pub mod fallback {
 pub struct LoadOptions {
     /// Load payload arcs (default `true`).
     pub load_payloads: bool,
-    /// A missing or unreadable sublayer/reference/payload becomes a warning instead of an error.
+    /// A missing or unreadable sublayer/reference/payload, or a composition cycle, becomes a
+    /// warning instead of an error.
     pub lenient: bool,
+    /// Directories searched, in order, for asset paths not found next to the layer naming them
+    /// (relative paths not starting with `./` or `../`), as usd-core's search paths.
+    pub asset_paths: Vec<std::path::PathBuf>,
+    /// Time code at which attributes are evaluated; `None` for the stage's `startTimeCode`.
+    pub frame: Option<f64>,
+    /// How subdivision surfaces are diced.
+    pub subdiv: crate::dicing::SubdivOptions,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        LoadOptions { load_payloads: true, lenient: false }
+        LoadOptions {
+            load_payloads: true,
+            lenient: false,
+            asset_paths: Vec::new(),
+            frame: None,
+            subdiv: crate::dicing::SubdivOptions::default(),
+        }
     }
 }
 
@@ -202,7 +225,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     // Prim indices compose lazily, so composition errors are complete only after the traversal.
     let mut scene = Scene { meters_per_unit: fallback::METERS_PER_UNIT, ..Scene::default() };
     for issue in stage.composition_issues() {
-        if issue.missing_asset && !options.lenient {
+        if issue.fatal && !options.lenient {
             let mut error = UsdError::new(&issue.layer, issue.kind);
             if let Some(prim) = &issue.prim {
                 error = error.at(prim);
@@ -217,6 +240,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     reader.collect_instancer_prototypes()?;
     reader.visit("/", &Inherited::root(), false)?;
     reader.finish()?;
+    reader.tessellate_subdivisions(&options.subdiv);
     for (prim, message) in stage.take_notes() {
         reader.scene.warn(prim, message);
     }
@@ -291,6 +315,8 @@ struct Reader<'a> {
     render_settings: Vec<String>,
     /// Direct binding per (prim, first relationship name tried).
     binding_cache: HashMap<(String, &'static str), Option<(String, bool)>>,
+    /// Subdivision meshes waiting for the render camera.
+    subdivisions: Vec<subdivision::QueuedSubdivision>,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -317,6 +343,7 @@ impl<'a> Reader<'a> {
             material_index: HashMap::new(),
             render_settings: Vec::new(),
             binding_cache: HashMap::new(),
+            subdivisions: Vec::new(),
         }
     }
 
@@ -444,17 +471,20 @@ impl<'a> Reader<'a> {
             );
             return Ok(());
         }
-        let orientations = match self.stage.attr(path, "orientations")? {
+        // usd-core prefers the float `orientationsf` when it holds values, else the half `orientations`.
+        let orientations = match self.stage.attr(path, "orientationsf")? {
             Some(Value::QuatArray(q)) if q.len() == n => Some(q),
-            _ => match self.stage.attr(path, "orientationsf")? {
+            _ => match self.stage.attr(path, "orientations")? {
                 Some(Value::QuatArray(q)) if q.len() == n => Some(q),
                 _ => None,
             },
         };
         let scales = self.vec3s(path, "scales")?.filter(|s| s.len() == n);
         let ids = self.ints(path, "ids")?.filter(|ids| ids.len() == n);
-        let invisible: HashSet<i64> =
+        let mut invisible: HashSet<i64> =
             self.ints(path, "invisibleIds")?.unwrap_or_default().into_iter().collect();
+        // `inactiveIds` (list-op metadata) deactivates ids for all time, like invisibleIds.
+        invisible.extend(self.stage.prim_id_list(path, "inactiveIds"));
         let mut expanded = 0;
         for i in 0..n {
             let id = ids.as_ref().map_or(i as i64, |ids| ids[i]);

@@ -3,14 +3,18 @@
 //! Everything the reader needs is a handful of queries (children, type name, attribute value and
 //! metadata, connections, relationship targets, stage metadata, composition errors) over plain
 //! `&str` prim paths, with values converted once into the small [`Value`] enum. Swapping the
-//! composition backend means rewriting this file only.
+//! composition backend means rewriting this file only (with [`super::resolver`], the crate
+//! extension it opens layers through).
 
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::Path;
 
+use openusd::ar::{ResolvedPath, Resolver};
 use openusd::{pcp, sdf, usd};
 
+use super::layer_fix::{list_op_field, parse_error_location};
+use super::resolver::IngestResolver;
 use super::{LoadOptions, UsdError, UsdErrorKind};
 
 /// A resolved attribute value, reduced to what the reader consumes.
@@ -194,15 +198,21 @@ pub(crate) struct CompositionIssue {
     pub prim: Option<String>,
     /// What went wrong.
     pub kind: UsdErrorKind,
-    /// `true` for a missing or unreadable sublayer/reference/payload (an error unless lenient).
-    pub missing_asset: bool,
+    /// An error unless lenient: a missing or unreadable sublayer/reference/payload, or a
+    /// composition cycle.
+    pub fatal: bool,
 }
 
 /// A composed stage opened through `openusd`.
 pub(crate) struct Stage {
     inner: usd::Stage,
     root_layer: String,
-    /// Time at which attributes are evaluated: the stage's `startTimeCode` (0 when unauthored).
+    /// A second resolver like the stage's, to re-read a layer the crate rejected and locate
+    /// the construct it stopped at.
+    resolver: IngestResolver,
+    /// Time at which attributes are evaluated: [`LoadOptions::frame`], else the stage's
+    /// `startTimeCode` (0 when unauthored). The crate interpolates time samples at it (linear
+    /// for interpolable types, held otherwise) after applying layer offsets.
     time: f64,
     /// Non-fatal problems met while reading values, as (prim, message); see [`Stage::take_notes`].
     notes: RefCell<Vec<(String, String)>>,
@@ -219,12 +229,21 @@ impl Stage {
         let root_layer = file.display().to_string();
         let load =
             if options.load_payloads { usd::InitialLoadSet::LoadAll } else { usd::InitialLoadSet::LoadNone };
+        let resolver = IngestResolver::new(&options.asset_paths);
         let inner = usd::Stage::builder()
+            .resolver(IngestResolver::new(&options.asset_paths))
             .load(load)
             .open(&root_layer)
-            .map_err(|e| UsdError::new(&root_layer, UsdErrorKind::Open(format!("{e:#}"))))?;
-        let time = inner.start_time_code();
-        Ok(Stage { inner, root_layer, time, notes: RefCell::new(Vec::new()) })
+            .map_err(|e| {
+                let mut message = format!("{e:#}");
+                let root = resolver.resolve(&resolver.create_identifier(&root_layer, None));
+                if let Some(location) = root.and_then(|r| locate_parse_error(&resolver, &r)) {
+                    message = format!("{location} ({message})");
+                }
+                UsdError::new(&root_layer, UsdErrorKind::Open(message))
+            })?;
+        let time = options.frame.unwrap_or_else(|| inner.start_time_code());
+        Ok(Stage { inner, root_layer, resolver, time, notes: RefCell::new(Vec::new()) })
     }
 
     fn err(&self, e: anyhow::Error) -> UsdError {
@@ -330,6 +349,53 @@ impl Stage {
             .unwrap_or_default()
     }
 
+    /// A composed integer list-op metadata field of a prim (`inactiveIds`): every layer's list op
+    /// applied from the weakest to the strongest opinion.
+    ///
+    /// A `.usdc` layer holds a real `int64ListOp`; a `.usda` layer holds the explicit items under
+    /// `key` and each operation's items under [`list_op_field`] (see [`super::layer_fix`]).
+    pub(crate) fn prim_id_list(&self, prim: &str, key: &str) -> Vec<i64> {
+        let Ok(stack) = self.inner.prim(path(prim)).prim_stack() else { return Vec::new() };
+        let mut ids: Vec<i64> = Vec::new();
+        for (layer_id, spec_path) in stack.iter().rev() {
+            let Some(layer) = self.inner.layer(layer_id) else { continue };
+            let Some(spec) = layer.prim(spec_path.clone()) else { continue };
+            let field = |name: &str| spec.field(name).ok().flatten();
+            let items = |name: &str| match field(name) {
+                Some(sdf::Value::Int64Vec(v)) => Some(v),
+                Some(sdf::Value::IntVec(v)) => Some(v.into_iter().map(i64::from).collect()),
+                _ => None,
+            };
+            let op = match field(key) {
+                Some(sdf::Value::Int64ListOp(op)) => op,
+                Some(sdf::Value::IntListOp(op)) => sdf::Int64ListOp {
+                    explicit: op.explicit,
+                    explicit_items: op.explicit_items.into_iter().map(i64::from).collect(),
+                    added_items: op.added_items.into_iter().map(i64::from).collect(),
+                    prepended_items: op.prepended_items.into_iter().map(i64::from).collect(),
+                    appended_items: op.appended_items.into_iter().map(i64::from).collect(),
+                    deleted_items: op.deleted_items.into_iter().map(i64::from).collect(),
+                    ordered_items: op.ordered_items.into_iter().map(i64::from).collect(),
+                },
+                _ => {
+                    let explicit = items(key);
+                    let listed = |op: &str| items(&list_op_field(key, op)).unwrap_or_default();
+                    sdf::Int64ListOp {
+                        explicit: explicit.is_some(),
+                        explicit_items: explicit.unwrap_or_default(),
+                        added_items: listed("add"),
+                        prepended_items: listed("prepend"),
+                        appended_items: listed("append"),
+                        deleted_items: listed("delete"),
+                        ordered_items: listed("reorder"),
+                    }
+                }
+            };
+            ids = op.compose_over(&ids);
+        }
+        ids
+    }
+
     /// A metadata field on a relationship (`bindMaterialAs`), from the strongest spec authoring it.
     pub(crate) fn rel_metadata(&self, prim: &str, name: &str, key: &str) -> Option<Value> {
         let p = path(prim).append_property(name).ok()?;
@@ -377,36 +443,86 @@ impl Stage {
                 layer: introduced_by,
                 prim: Some(site_path.as_str().to_string()),
                 kind: UsdErrorKind::MissingAsset { arc: arc_name(arc), asset: asset_path },
-                missing_asset: true,
+                fatal: true,
             },
             pcp::Error::MalformedLayer { asset_path, arc, introduced_by, site_path, reason } => {
+                let reason = self.locate(&asset_path, &introduced_by, reason);
                 CompositionIssue {
-                    layer: introduced_by,
                     prim: Some(site_path.as_str().to_string()),
                     // A file that exists in a format openusd cannot read (`.mtlx` references in
                     // MaterialX-only looks) is not a missing asset: usd-core skips it with a warning too.
-                    missing_asset: !reason.contains("no file format registered"),
+                    fatal: !reason.contains("no file format registered"),
                     kind: UsdErrorKind::MalformedAsset { arc: arc_name(arc), asset: asset_path, reason },
+                    layer: introduced_by,
                 }
             }
             pcp::Error::UnresolvedSublayer { asset_path, introduced_by } => CompositionIssue {
                 layer: introduced_by,
                 prim: None,
                 kind: UsdErrorKind::MissingAsset { arc: "sublayer".into(), asset: asset_path },
-                missing_asset: true,
+                fatal: true,
             },
             pcp::Error::MalformedSublayer { asset_path, introduced_by, reason } => CompositionIssue {
-                layer: introduced_by,
                 prim: None,
-                kind: UsdErrorKind::MalformedAsset { arc: "sublayer".into(), asset: asset_path, reason },
-                missing_asset: true,
+                kind: UsdErrorKind::MalformedAsset {
+                    arc: "sublayer".into(),
+                    reason: self.locate(&asset_path, &introduced_by, reason),
+                    asset: asset_path,
+                },
+                layer: introduced_by,
+                fatal: true,
+            },
+            pcp::Error::ArcCycle(chain) => CompositionIssue {
+                layer: chain.root_layer.clone(),
+                prim: Some(chain.composing.as_str().to_string()),
+                kind: UsdErrorKind::Stage(describe_cycle(&chain)),
+                fatal: true,
+            },
+            pcp::Error::SublayerCycle { root_layer, seen_layer } => CompositionIssue {
+                kind: UsdErrorKind::Stage(format!(
+                    "sublayer cycle: {root_layer} includes {seen_layer}, which already includes it"
+                )),
+                layer: root_layer,
+                prim: None,
+                fatal: true,
             },
             _ => CompositionIssue {
                 layer: self.root_layer.clone(),
                 prim: None,
                 kind: UsdErrorKind::Stage(text),
-                missing_asset: false,
+                fatal: false,
             },
         }
     }
+
+    /// `reason` with the line and construct the parser stopped at in the layer `asset_path`
+    /// (as authored in `introduced_by`), when it is a text layer that fails to parse.
+    fn locate(&self, asset_path: &str, introduced_by: &str, reason: String) -> String {
+        let anchor = ResolvedPath::new(introduced_by);
+        let identifier = self.resolver.create_identifier(asset_path, Some(&anchor));
+        match self.resolver.resolve(&identifier).and_then(|r| locate_parse_error(&self.resolver, &r)) {
+            Some(location) => format!("{location} ({reason})"),
+            None => reason,
+        }
+    }
+}
+
+/// `file: line L, column C: `source`: message` for a text layer the crate cannot parse.
+fn locate_parse_error(resolver: &IngestResolver, resolved: &ResolvedPath) -> Option<String> {
+    let text = resolver.layer_text(resolved)?;
+    parse_error_location(&text).map(|location| format!("{resolved}: {location}"))
+}
+
+/// A reference/payload/inherit cycle as `/A (a.usda) -references-> </B> in b.usda -> ...`.
+fn describe_cycle(chain: &pcp::CycleChain) -> String {
+    let file =
+        |layer: &str| Path::new(layer).file_name().map_or(layer.to_string(), |f| f.to_string_lossy().into());
+    let mut text =
+        format!("composition cycle: <{}> in {}", chain.composing.as_str(), file(&chain.root_layer));
+    for hop in &chain.hops {
+        let arc = format!("{:?}", hop.arc).to_lowercase();
+        text.push_str(&format!(" -{arc}-> <{}> in {}", hop.path.as_str(), file(&hop.layer)));
+    }
+    text.push_str(" (the last arc closes the cycle and is dropped)");
+    text
 }

@@ -14,10 +14,14 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
+
+/// Alignment of a non-empty [`SectionKind::TextureTexels`] section: a page, so that each texture (which
+/// starts on a 4 KiB boundary of the section) shares pages only with itself once the file is mapped.
+pub const TEXEL_ALIGN: usize = 4096;
 
 /// File header. 64 bytes.
 #[repr(C)]
@@ -80,6 +84,12 @@ macro_rules! section_kinds {
             /// Every kind, in table order.
             pub const ALL: &'static [SectionKind] = &[$(SectionKind::$name,)*];
 
+            /// Position of the kind in [`SectionKind::ALL`].
+            pub fn slot(self) -> usize {
+                // Every kind is in ALL, so the fallback is never taken.
+                Self::ALL.iter().position(|&k| k == self).unwrap_or(0)
+            }
+
             /// The kind for a raw table value.
             pub fn from_u32(value: u32) -> Option<Self> {
                 match value { $($value => Some(SectionKind::$name),)* _ => None }
@@ -117,4 +127,15 @@ section_kinds! {
     BvhNodes = 13,
     /// `u32` triangle index per BVH primitive slot.
     BvhPrimitives = 14,
+    /// [`crate::TextureRecord`]. Texture kinds start at 30 so that other section kinds can be added
+    /// below them without renumbering.
+    TextureRecords = 30,
+    /// [`crate::UdimSet`].
+    UdimSets = 31,
+    /// `u32` texture index (or [`crate::NONE`]) per UDIM grid cell.
+    UdimTiles = 32,
+    /// Texel bytes of every texture; starts on a [`TEXEL_ALIGN`] boundary when non-empty.
+    TextureTexels = 33,
+    /// [`crate::ShaderOp`]: every material's program, concatenated.
+    ShaderOps = 34,
 }

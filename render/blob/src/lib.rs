@@ -30,7 +30,7 @@ pub mod records;
 mod scene;
 
 pub use checksum::checksum;
-pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN};
+pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};
 pub use error::BlobError;
 pub use io::{write_atomic, AlignedBytes};
 pub use records::*;

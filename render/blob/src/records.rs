@@ -92,7 +92,10 @@ pub struct Mesh {
 }
 const _: () = assert!(std::mem::size_of::<Mesh>() == 32);
 
-/// UsdPreviewSurface inputs as constants. 96 bytes.
+/// UsdPreviewSurface inputs as constants, plus the material's shading program. 96 bytes.
+///
+/// The constants are the values of inputs that no program op writes; a textured input's constant is
+/// the value the scene authored on the input itself (or the spec fallback) and is never read.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Material {
@@ -120,8 +123,12 @@ pub struct Material {
     pub clearcoat_roughness: f32,
     /// `useSpecularWorkflow` (0 or 1).
     pub use_specular_workflow: u32,
+    /// First op of the material's program in the [`crate::SectionKind::ShaderOps`] section.
+    pub program_start: u32,
+    /// Ops in the program; 0 for a material whose inputs are all constants.
+    pub program_len: u32,
     /// Reserved, zero.
-    pub reserved: [u32; 5],
+    pub reserved: [u32; 3],
 }
 const _: () = assert!(std::mem::size_of::<Material>() == 96);
 
@@ -250,3 +257,157 @@ pub struct BvhNode {
     pub child_max_z: [u8; 8],
 }
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 80);
+
+/// One baked texture: size, texel format and where each mip level starts in the
+/// [`crate::SectionKind::TextureTexels`] section. 168 bytes, align 8.
+///
+/// Bit-identical to `texture::TextureRecord` (this crate depends on bytemuck only, so the layout is
+/// repeated here and pinned by the same size assertion; render casts one slice type to the other).
+///
+/// | offset | field           | meaning                                                        |
+/// |-------:|-----------------|----------------------------------------------------------------|
+/// | 0      | `width`         | level-0 width; level `l` is `max(1, width >> l)`                |
+/// | 4      | `height`        | level-0 height                                                  |
+/// | 8      | `channels`      | 1..=4                                                           |
+/// | 12     | `format`        | 0 sRGB8, 1 unorm8, 2 f16                                        |
+/// | 16     | `mip_count`     | levels stored (down to 1×1)                                     |
+/// | 20     | `tile_log2`     | tiles are `2^tile_log2` texels square (clipped to the level)    |
+/// | 24     | `reserved`      | zero                                                            |
+/// | 32     | `byte_len`      | bytes from `level_offsets[0]` to the end of the last level      |
+/// | 40     | `level_offsets` | byte offset of each level in the texel section                  |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct TextureRecord {
+    /// Level-0 width in texels.
+    pub width: u32,
+    /// Level-0 height in texels.
+    pub height: u32,
+    /// Stored channels per texel, 1..=4.
+    pub channels: u32,
+    /// Texel format discriminant (0 sRGB8, 1 unorm8, 2 f16).
+    pub format: u32,
+    /// Mip levels stored.
+    pub mip_count: u32,
+    /// log2 of the tile edge.
+    pub tile_log2: u32,
+    /// Zero.
+    pub reserved: [u32; 2],
+    /// Total bytes of all levels.
+    pub byte_len: u64,
+    /// Byte offset of each level in the texel section.
+    pub level_offsets: [u64; MAX_MIP_LEVELS],
+}
+const _: () = assert!(std::mem::size_of::<TextureRecord>() == 168);
+const _: () = assert!(std::mem::align_of::<TextureRecord>() == 8);
+
+/// Most mip levels a texture may store.
+pub const MAX_MIP_LEVELS: usize = 16;
+/// Largest texture side.
+pub const MAX_TEXTURE_DIMENSION: u32 = 1 << (MAX_MIP_LEVELS - 1);
+
+/// A UDIM set: a `u_count × v_count` window of the UDIM grid in the [`crate::SectionKind::UdimTiles`]
+/// section, whose cells are texture indices or [`NONE`] (a missing tile). 16 bytes; bit-identical to
+/// `texture::UdimSetRecord`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct UdimSet {
+    /// Index of tile 1001 in the tile table.
+    pub first_tile: u32,
+    /// Columns, 1..=10.
+    pub u_count: u32,
+    /// Rows.
+    pub v_count: u32,
+    /// Zero.
+    pub reserved: u32,
+}
+const _: () = assert!(std::mem::size_of::<UdimSet>() == 16);
+
+/// Registers of a shading program: each a `vec4` of `f32`.
+pub const MAX_REGISTERS: u32 = 16;
+
+/// [`ShaderOp::kind`] values: the closed set of shader nodes a material program is made of.
+pub mod op_kind {
+    /// `r[dst] = params[0]`.
+    pub const CONST: u32 = 0;
+    /// `r[dst] = (u, v, 0, 1)` from the mesh's texture coordinates, or `params[0]` on a mesh without
+    /// them (UsdPrimvarReader_float2 with its fallback).
+    pub const PRIMVAR_UV: u32 = 1;
+    /// `r[dst].xy = M · r[src].xy + t` with `M = params[0]` (row-major 2×2: scale, then rotation) and
+    /// `t = params[1].xy` (UsdTransform2d); `zw` copied.
+    pub const TRANSFORM_2D: u32 = 2;
+    /// `r[dst] = lookup(texture, r[src].xy) · params[0] + params[1]`, or `params[2]` (the fallback)
+    /// where the texture has no data (missing file, missing UDIM tile). `flags`: [`super::OP_UDIM`]
+    /// and the wrap modes (see [`super::op_wrap_s`]).
+    pub const TEXTURE: u32 = 3;
+    /// Shading input `dst` (a [`super::shading_input`]) = `swizzle(r[src])`, the swizzle in `flags`
+    /// as four 2-bit channel selectors, lowest first.
+    pub const OUTPUT: u32 = 4;
+    /// One past the largest kind.
+    pub const COUNT: u32 = 5;
+}
+
+/// [`op_kind::TEXTURE`] flag: `texture` indexes the UDIM sets, not the textures.
+pub const OP_UDIM: u32 = 1;
+/// Wrap modes in [`op_kind::TEXTURE`] flags: 0 repeat, 1 mirror, 2 clamp, 3 black.
+pub const fn op_wrap_s(flags: u32) -> u32 {
+    (flags >> 8) & 3
+}
+/// See [`op_wrap_s`].
+pub const fn op_wrap_t(flags: u32) -> u32 {
+    (flags >> 10) & 3
+}
+/// Packs wrap modes into [`op_kind::TEXTURE`] flags.
+pub const fn op_wrap_flags(s: u32, t: u32) -> u32 {
+    ((s & 3) << 8) | ((t & 3) << 10)
+}
+
+/// The UsdPreviewSurface inputs a program can drive ([`op_kind::OUTPUT`]'s `dst`).
+pub mod shading_input {
+    /// `diffuseColor` (rgb).
+    pub const DIFFUSE_COLOR: u32 = 0;
+    /// `emissiveColor` (rgb).
+    pub const EMISSIVE_COLOR: u32 = 1;
+    /// `specularColor` (rgb).
+    pub const SPECULAR_COLOR: u32 = 2;
+    /// `roughness` (x).
+    pub const ROUGHNESS: u32 = 3;
+    /// `metallic` (x).
+    pub const METALLIC: u32 = 4;
+    /// `opacity` (x).
+    pub const OPACITY: u32 = 5;
+    /// `normal`, tangent space (xyz).
+    pub const NORMAL: u32 = 6;
+    /// `clearcoat` (x).
+    pub const CLEARCOAT: u32 = 7;
+    /// `clearcoatRoughness` (x).
+    pub const CLEARCOAT_ROUGHNESS: u32 = 8;
+    /// `ior` (x).
+    pub const IOR: u32 = 9;
+    /// One past the largest input.
+    pub const COUNT: u32 = 10;
+}
+
+/// One op of a material's shading program: a node of the UsdShade network, flattened. 80 bytes.
+///
+/// Programs are straight-line code over [`MAX_REGISTERS`] `vec4` registers, in dependency order, ending
+/// in [`op_kind::OUTPUT`] ops that bind registers to shading inputs. See [`op_kind`] for each kind's
+/// meaning of the fields.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ShaderOp {
+    /// One of [`op_kind`].
+    pub kind: u32,
+    /// Destination register, or the shading input for [`op_kind::OUTPUT`].
+    pub dst: u32,
+    /// Source register (ignored by `CONST` and `PRIMVAR_UV`).
+    pub src: u32,
+    /// Texture or UDIM-set index for [`op_kind::TEXTURE`] ([`NONE`]: missing, use the fallback).
+    pub texture: u32,
+    /// Kind-specific bits.
+    pub flags: u32,
+    /// Reserved, zero.
+    pub reserved: [u32; 3],
+    /// Kind-specific constants.
+    pub params: [[f32; 4]; 3],
+}
+const _: () = assert!(std::mem::size_of::<ShaderOp>() == 80);

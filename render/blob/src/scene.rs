@@ -1,7 +1,7 @@
 //! [`SceneData`] (owned, what ingest fills) and [`SceneView`] (borrowed, validated, what render reads).
 
 use crate::checksum::checksum;
-use crate::container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN};
+use crate::container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};
 use crate::error::BlobError;
 use crate::records::*;
 use bytemuck::Pod;
@@ -41,6 +41,16 @@ pub struct SceneData {
     pub bvh_nodes: Vec<BvhNode>,
     /// Triangle index per BVH primitive slot.
     pub bvh_primitives: Vec<u32>,
+    /// Baked textures (a UDIM tile is a texture).
+    pub texture_records: Vec<TextureRecord>,
+    /// UDIM sets.
+    pub udim_sets: Vec<UdimSet>,
+    /// Texture index (or [`NONE`]) per UDIM grid cell.
+    pub udim_tiles: Vec<u32>,
+    /// Texel bytes; texture records' level offsets point in here.
+    pub texels: Vec<u8>,
+    /// Every material's shading program, concatenated.
+    pub shader_ops: Vec<ShaderOp>,
 }
 
 impl SceneData {
@@ -69,11 +79,21 @@ impl SceneData {
             section(SectionKind::EmissiveTriangles, &self.emissive_triangles),
             section(SectionKind::BvhNodes, &self.bvh_nodes),
             section(SectionKind::BvhPrimitives, &self.bvh_primitives),
+            section(SectionKind::TextureRecords, &self.texture_records),
+            section(SectionKind::UdimSets, &self.udim_sets),
+            section(SectionKind::UdimTiles, &self.udim_tiles),
+            section(SectionKind::ShaderOps, &self.shader_ops),
+            // Last, so the page padding in front of it is paid once and the small sections stay
+            // together at the start of the file.
+            (SectionKind::TextureTexels, 1, &self.texels[..]),
         ];
         let table_len = sections.len() * std::mem::size_of::<SectionEntry>();
         let mut cursor = align_up(std::mem::size_of::<Header>() + table_len);
         let mut table = Vec::with_capacity(sections.len());
         for (kind, record_size, bytes) in &sections {
+            if *kind == SectionKind::TextureTexels && !bytes.is_empty() {
+                cursor = cursor.next_multiple_of(TEXEL_ALIGN);
+            }
             table.push(SectionEntry {
                 kind: *kind as u32,
                 record_size: *record_size,
@@ -147,13 +167,23 @@ pub struct SceneView<'a> {
     pub bvh_nodes: &'a [BvhNode],
     /// Triangle index per BVH primitive slot.
     pub bvh_primitives: &'a [u32],
+    /// Baked textures (every level inside `texels`, checked).
+    pub texture_records: &'a [TextureRecord],
+    /// UDIM sets (tile ranges inside `udim_tiles`, checked).
+    pub udim_sets: &'a [UdimSet],
+    /// Texture index or [`NONE`] per UDIM cell (indices checked).
+    pub udim_tiles: &'a [u32],
+    /// Texel bytes.
+    pub texels: &'a [u8],
+    /// Shading programs (kinds, registers, texture and input indices checked).
+    pub shader_ops: &'a [ShaderOp],
 }
 
 impl<'a> SceneView<'a> {
     /// Validates `bytes` completely and returns typed slices into it.
     pub fn parse(bytes: &'a [u8]) -> Result<Self, BlobError> {
         let sections = parse_container(bytes)?;
-        let get = |kind: SectionKind| sections[kind as usize - 1].ok_or(BlobError::MissingSection(kind));
+        let get = |kind: SectionKind| sections[kind.slot()].ok_or(BlobError::MissingSection(kind));
         let info_slice: &[SceneInfo] = typed(bytes, get(SectionKind::SceneInfo)?, SectionKind::SceneInfo)?;
         let [info] = info_slice else {
             return Err(BlobError::BadIndex {
@@ -185,6 +215,11 @@ impl<'a> SceneView<'a> {
             )?,
             bvh_nodes: typed(bytes, get(SectionKind::BvhNodes)?, SectionKind::BvhNodes)?,
             bvh_primitives: typed(bytes, get(SectionKind::BvhPrimitives)?, SectionKind::BvhPrimitives)?,
+            texture_records: typed(bytes, get(SectionKind::TextureRecords)?, SectionKind::TextureRecords)?,
+            udim_sets: typed(bytes, get(SectionKind::UdimSets)?, SectionKind::UdimSets)?,
+            udim_tiles: typed(bytes, get(SectionKind::UdimTiles)?, SectionKind::UdimTiles)?,
+            texels: typed(bytes, get(SectionKind::TextureTexels)?, SectionKind::TextureTexels)?,
+            shader_ops: typed(bytes, get(SectionKind::ShaderOps)?, SectionKind::ShaderOps)?,
         };
         view.validate_indices()?;
         Ok(view)
@@ -194,6 +229,51 @@ impl<'a> SceneView<'a> {
     pub fn string(&self, s: StrRef) -> &'a str {
         let range = s.offset as usize..s.offset as usize + s.len as usize;
         std::str::from_utf8(&self.strings[range]).unwrap_or("")
+    }
+
+    /// Texture records against the texel section (every level's bytes inside it), UDIM sets against the
+    /// tile table, tiles and ops against the texture tables, op registers and inputs against their
+    /// ranges: everything a lookup or a program step indexes.
+    fn validate_textures(&self) -> Result<(), BlobError> {
+        use SectionKind as K;
+        let bad = |kind, record: usize, what| Err(BlobError::BadIndex { kind, record: record as u64, what });
+        for (i, rec) in self.texture_records.iter().enumerate() {
+            if let Err(what) = check_texture(rec, self.texels.len() as u64) {
+                return bad(K::TextureRecords, i, what);
+            }
+        }
+        for (i, set) in self.udim_sets.iter().enumerate() {
+            let cells = set.u_count as u64 * set.v_count as u64;
+            if !(1..=10).contains(&set.u_count)
+                || set.v_count == 0
+                || set.first_tile as u64 + cells > self.udim_tiles.len() as u64
+            {
+                return bad(K::UdimSets, i, "tile range outside the tile table or bad grid size");
+            }
+        }
+        let textures = self.texture_records.len();
+        if let Some(i) = self.udim_tiles.iter().position(|&t| t != NONE && t as usize >= textures) {
+            return bad(K::UdimTiles, i, "texture index out of range");
+        }
+        for (i, op) in self.shader_ops.iter().enumerate() {
+            let register_ok = |r: u32| r < MAX_REGISTERS;
+            let ok = match op.kind {
+                op_kind::CONST | op_kind::PRIMVAR_UV => register_ok(op.dst),
+                op_kind::TRANSFORM_2D => register_ok(op.dst) && register_ok(op.src),
+                op_kind::TEXTURE => {
+                    let limit = if op.flags & OP_UDIM != 0 { self.udim_sets.len() } else { textures };
+                    register_ok(op.dst)
+                        && register_ok(op.src)
+                        && (op.texture == NONE || (op.texture as usize) < limit)
+                }
+                op_kind::OUTPUT => op.dst < shading_input::COUNT && register_ok(op.src),
+                _ => false,
+            };
+            if !ok {
+                return bad(K::ShaderOps, i, "unknown kind, register, texture or input index out of range");
+            }
+        }
+        Ok(())
     }
 
     fn validate_indices(&self) -> Result<(), BlobError> {
@@ -247,7 +327,11 @@ impl<'a> SceneView<'a> {
             if !strings_ok(m.name) {
                 return bad(K::Materials, i, "name outside the strings section");
             }
+            if m.program_start as u64 + m.program_len as u64 > self.shader_ops.len() as u64 {
+                return bad(K::Materials, i, "program range outside the shader-op section");
+            }
         }
+        self.validate_textures()?;
         for (i, l) in self.lights.iter().enumerate() {
             if !strings_ok(l.name) || l.kind > light_kind::DISK {
                 return bad(K::Lights, i, "bad name or unknown light kind");
@@ -336,12 +420,13 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
     for raw in table_bytes.chunks_exact(std::mem::size_of::<SectionEntry>()) {
         let entry: SectionEntry = bytemuck::pod_read_unaligned(raw);
         let kind = SectionKind::from_u32(entry.kind).ok_or(BlobError::UnknownSection(entry.kind))?;
-        let slot = &mut found[kind as usize - 1];
+        let slot = &mut found[kind.slot()];
         if slot.is_some() {
             return Err(BlobError::DuplicateSection(kind));
         }
         let end = entry.offset.checked_add(entry.byte_len);
-        let in_bounds = entry.offset.is_multiple_of(SECTION_ALIGN as u64)
+        let align = if kind == SectionKind::TextureTexels && entry.byte_len > 0 { TEXEL_ALIGN } else { SECTION_ALIGN };
+        let in_bounds = entry.offset.is_multiple_of(align as u64)
             && entry.offset >= table_end as u64
             && end.is_some_and(|end| end <= actual);
         if !in_bounds {
@@ -388,15 +473,52 @@ fn check_layout(bytes: &[u8], table_end: usize, found: &[Option<SectionEntry>]) 
     Ok(())
 }
 
+/// The checks of `texture::TextureView::new`, repeated here so that the blob alone guarantees that no
+/// lookup reads outside the texel section: format, size, channels, tile size, level count, and every
+/// level's tiled byte range (edge tiles padded, as the bake lays them out) inside `texel_len`.
+fn check_texture(rec: &TextureRecord, texel_len: u64) -> Result<(), &'static str> {
+    if rec.format > 2 {
+        return Err("unknown texel format");
+    }
+    if !(1..=MAX_TEXTURE_DIMENSION).contains(&rec.width) || !(1..=MAX_TEXTURE_DIMENSION).contains(&rec.height) {
+        return Err("width or height out of range");
+    }
+    if !(1..=4).contains(&rec.channels) {
+        return Err("channels must be 1..=4");
+    }
+    if !(2..=12).contains(&rec.tile_log2) {
+        return Err("tile_log2 must be 2..=12");
+    }
+    let full_chain = 32 - rec.width.max(rec.height).leading_zeros();
+    if rec.mip_count == 0 || rec.mip_count > full_chain {
+        return Err("mip_count must be 1..=full chain");
+    }
+    let texel_bytes = rec.channels as u64 * if rec.format == 2 { 2 } else { 1 };
+    let tile = 1u64 << rec.tile_log2;
+    for level in 0..rec.mip_count {
+        let w = ((rec.width >> level).max(1)) as u64;
+        let h = ((rec.height >> level).max(1)) as u64;
+        let (tw, th) = (w.min(tile), h.min(tile));
+        let len = w.div_ceil(tw) * h.div_ceil(th) * tw * th * texel_bytes;
+        if rec.level_offsets[level as usize].checked_add(len).is_none_or(|end| end > texel_len) {
+            return Err("mip level runs past the texel section");
+        }
+    }
+    Ok(())
+}
+
 fn expected_record_size(kind: SectionKind) -> u32 {
     use std::mem::size_of;
     (match kind {
         SectionKind::SceneInfo => size_of::<SceneInfo>(),
-        SectionKind::Strings => 1,
+        SectionKind::Strings | SectionKind::TextureTexels => 1,
         SectionKind::Positions | SectionKind::Normals => size_of::<[f32; 3]>(),
         SectionKind::Uvs => size_of::<[f32; 2]>(),
         SectionKind::Triangles => size_of::<Triangle>(),
-        SectionKind::TriangleMaterials | SectionKind::BvhPrimitives => size_of::<u32>(),
+        SectionKind::TriangleMaterials | SectionKind::BvhPrimitives | SectionKind::UdimTiles => size_of::<u32>(),
+        SectionKind::TextureRecords => size_of::<TextureRecord>(),
+        SectionKind::UdimSets => size_of::<UdimSet>(),
+        SectionKind::ShaderOps => size_of::<ShaderOp>(),
         SectionKind::Meshes => size_of::<Mesh>(),
         SectionKind::Materials => size_of::<Material>(),
         SectionKind::Lights => size_of::<Light>(),

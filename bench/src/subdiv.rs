@@ -1,0 +1,347 @@
+//! `bench subdiv`: subdivision tessellation error against ingest time and blob size.
+//!
+//! For each asset, the whole ingest (USD → diced limit surfaces → BVH → blob) runs once per
+//! uniform level 0…max and once per dicing rate (4, 2, 1, 0.5 px), and the tessellation's
+//! chordal error is measured in pixels at the render camera. Assets without a camera get one:
+//! a wrapper layer sublayers the asset and adds the camera `render` would frame it with (45°
+//! horizontal field of view, 512 × 512), so dicing and error see the same view as the image.
+//!
+//! ## The error measure
+//!
+//! The triangles' vertices are exact limit points, so the error lives between them. For a level-N
+//! face, the level-(N+1) vertices inside it are also exact limit points, at known parameters:
+//! the edge children at the parametric midpoints of the face's edges and (Catmull–Clark,
+//! bilinear) the face child at its centre. The flat level-N tessellation puts the same parameters
+//! at the chord midpoints `(P(a) + P(b)) / 2` and, for quads, at the midpoint of the diagonal the
+//! quad was split along. The distance between the two is the chordal deviation at that
+//! parameter; for a surface that is locally quadratic (which the error of a fine tessellation
+//! is), the deviation along an edge peaks at its midpoint, so the maximum over these samples is
+//! the standard midpoint estimate of the chordal error (it can miss a larger deviation in the
+//! interior of a triangle, by a bounded factor). Each sample's world distance is scaled by the
+//! camera's pixels per unit at its depth; samples outside the view are left out.
+//!
+//! The level-(N+1) children of a level-N face are found topologically, without relying on
+//! OpenSubdiv's vertex numbering: child faces are contiguous per parent (Vtr refines face by
+//! face; checked against the `coarse_face` ancestry), the face child is the vertex every child
+//! shares, a vertex child appears in one child and sits on its parent's limit point, and the
+//! child of edge (a, b) is the vertex the children at a and at b share besides the face child.
+
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use glam::DVec3;
+use ingest::dicing::{DicingCamera, SubdivOptions};
+use plotters::prelude::*;
+use ::subdiv::{Refiner, Scheme};
+
+/// Dicing rates of the sweep, in pixels.
+const RATES: [f32; 4] = [4.0, 2.0, 1.0, 0.5];
+/// Image width of the framing camera (as `render` without a camera).
+const WIDTH: u32 = 512;
+
+/// One asset of the sweep: a name and its root layer; `max_level` caps its uniform levels.
+pub struct Asset {
+    pub name: String,
+    pub path: PathBuf,
+    pub max_level: u32,
+}
+
+/// Chordal error statistics, in pixels.
+#[derive(Clone, Copy, Debug, Default)]
+struct ErrorStats {
+    max: f64,
+    sum_sq: f64,
+    samples: u64,
+}
+
+impl ErrorStats {
+    fn add(&mut self, px: f64) {
+        self.max = self.max.max(px);
+        self.sum_sq += px * px;
+        self.samples += 1;
+    }
+
+    fn merge(&mut self, o: &ErrorStats) {
+        self.max = self.max.max(o.max);
+        self.sum_sq += o.sum_sq;
+        self.samples += o.samples;
+    }
+
+    fn rms(&self) -> f64 {
+        (self.sum_sq / self.samples.max(1) as f64).sqrt()
+    }
+}
+
+/// One ingest of the sweep.
+struct Row {
+    asset: String,
+    mode: String,
+    levels: Vec<u32>,
+    triangles: usize,
+    seconds: f64,
+    blob_bytes: usize,
+    error: ErrorStats,
+}
+
+/// A root layer that adds `render`'s framing camera to an asset without one.
+fn with_framing_camera(asset: &Path, out: &Path, name: &str) -> anyhow::Result<PathBuf> {
+    let options = ingest::usd::LoadOptions {
+        subdiv: SubdivOptions { forced_level: Some(0), ..SubdivOptions::default() },
+        ..ingest::usd::LoadOptions::default()
+    };
+    let scene = ingest::usd::load(asset, &options).with_context(|| format!("cannot load {}", asset.display()))?;
+    if scene.default_camera.is_some() {
+        return Ok(asset.to_path_buf());
+    }
+    let (lo, hi) = scene.meshes.iter().flat_map(|m| &m.positions).fold(
+        (DVec3::INFINITY, DVec3::NEG_INFINITY),
+        |(lo, hi), p| (lo.min(p.as_dvec3()), hi.max(p.as_dvec3())),
+    );
+    if !lo.cmple(hi).all() {
+        bail!("{} has no geometry", asset.display());
+    }
+    // As render::camera::Camera::framing: the bounding sphere fit into a 45° field of view.
+    let (centre, radius) = ((lo + hi) / 2.0, ((hi - lo).length() / 2.0).max(1e-3));
+    let half_fov = 22.5f64.to_radians();
+    let distance = radius / half_fov.sin() * 1.05;
+    let z_up = scene.up_axis == ingest::UpAxis::Z;
+    let (eye, rotate) = if z_up { (centre - DVec3::Y * distance, "(90, 0, 0)") } else { (centre + DVec3::Z * distance, "(0, 0, 0)") };
+    let focal = 18.0 / half_fov.tan();
+    let text = format!(
+        r#"#usda 1.0
+(
+    subLayers = [@{asset}@]
+    upAxis = "{up}"
+)
+
+def Camera "BenchCamera" {{
+    float focalLength = {focal}
+    float horizontalAperture = 36
+    float verticalAperture = 36
+    float2 clippingRange = ({near}, {far})
+    double3 xformOp:translate = ({x}, {y}, {z})
+    float3 xformOp:rotateXYZ = {rotate}
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
+}}
+"#,
+        asset = std::fs::canonicalize(asset)?.display(),
+        up = if z_up { "Z" } else { "Y" },
+        near = (distance - radius).max(distance * 1e-3),
+        far = distance + 2.0 * radius,
+        x = eye.x,
+        y = eye.y,
+        z = eye.z,
+    );
+    let path = out.join(format!("subdiv_{name}.usda"));
+    std::fs::write(&path, text)?;
+    Ok(path)
+}
+
+/// Chordal error of one subdivision surface refined to `level`, in pixels at `camera`.
+fn chordal_error(s: &ingest::Subdivision, level: u32, camera: &DicingCamera) -> anyhow::Result<ErrorStats> {
+    // Subdivision commutes with affine maps: refine the world-space cage directly.
+    let world: Vec<[f32; 3]> = s
+        .points
+        .iter()
+        .map(|p| s.world_from_local.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array())
+        .collect();
+    let coarse = Refiner::new(&s.topology, level)?;
+    let fine = Refiner::new(&s.topology, coarse.level() + 1)?;
+    let (f0, f1) = (coarse.faces(None)?, fine.faces(None)?);
+    let (p0, p1) = (coarse.limit(&world)?.positions, fine.limit(&world)?.positions);
+    let v = |p: [f64; 3]| DVec3::from_array(p);
+
+    let mut stats = ErrorStats::default();
+    let mut sample = |flat: DVec3, exact: DVec3| {
+        if !camera.outside(exact, exact) {
+            stats.add(flat.distance(exact) * camera.pixels_per_unit_at(exact));
+        }
+    };
+    let mut seen_edges = HashSet::new();
+    let (mut start0, mut child) = (0usize, 0usize);
+    let mut start1 = vec![0usize; f1.counts.len() + 1];
+    for (i, &n) in f1.counts.iter().enumerate() {
+        start1[i + 1] = start1[i] + n as usize;
+    }
+    for (face, &n) in f0.counts.iter().enumerate() {
+        let n = n as usize;
+        let parent = &f0.vertices[start0..start0 + n];
+        start0 += n;
+        // Quads and n-gons split into n quads (Catmull–Clark, bilinear), triangles into 4 (loop).
+        let children = if fine.scheme() == Scheme::Loop { 4 } else { n };
+        let group = child..child + children;
+        child += children;
+        if group.end > f1.counts.len() || group.clone().any(|c| f1.coarse_face[c] != f0.coarse_face[face]) {
+            bail!("refined faces are not grouped by parent face; cannot pair levels");
+        }
+        if f0.is_hole[face] {
+            continue;
+        }
+        let faces: Vec<&[u32]> = group.map(|c| &f1.vertices[start1[c]..start1[c + 1]]).collect();
+        let mut uses: HashMap<u32, usize> = HashMap::new();
+        for f in &faces {
+            for &x in *f {
+                *uses.entry(x).or_default() += 1;
+            }
+        }
+        let face_child = uses.iter().find(|(_, &u)| u == faces.len()).map(|(&x, _)| x);
+        let singles: Vec<u32> = uses.iter().filter(|(_, &u)| u == 1).map(|(&x, _)| x).collect();
+        // The child of each parent corner: the single-use vertex on its limit point.
+        let corner_child: Vec<u32> = parent
+            .iter()
+            .map(|&p| {
+                let at = v(p0[p as usize]);
+                *singles
+                    .iter()
+                    .min_by(|&&a, &&b| v(p1[a as usize]).distance(at).total_cmp(&v(p1[b as usize]).distance(at)))
+                    .expect("a vertex child per corner")
+            })
+            .collect();
+        let holder = |x: u32| faces.iter().find(|f| f.contains(&x)).expect("child face of a corner");
+        for j in 0..n {
+            let (a, b) = (parent[j], parent[(j + 1) % n]);
+            if !seen_edges.insert((a.min(b), a.max(b))) {
+                continue;
+            }
+            let (fa, fb) = (holder(corner_child[j]), holder(corner_child[(j + 1) % n]));
+            let Some(&edge_child) = fa.iter().find(|x| Some(**x) != face_child && fb.contains(x)) else {
+                bail!("no shared edge child between the children at {a} and {b}");
+            };
+            sample((v(p0[a as usize]) + v(p0[b as usize])) / 2.0, v(p1[edge_child as usize]));
+        }
+        if let (4, Some(centre)) = (n, face_child) {
+            // The flat quad's centre lies on the diagonal it was split along (the shorter one,
+            // as `subdiv::tessellate` splits).
+            let q = parent.iter().map(|&p| v(p0[p as usize])).collect::<Vec<_>>();
+            let mid = if q[0].distance(q[2]) <= q[1].distance(q[3]) { (q[0] + q[2]) / 2.0 } else { (q[1] + q[3]) / 2.0 };
+            sample(mid, v(p1[centre as usize]));
+        }
+    }
+    Ok(stats)
+}
+
+/// Runs the sweep and writes `subdiv.json` and `subdiv.svg` into `out`.
+pub fn run(assets: &[Asset], out: &Path) -> anyhow::Result<()> {
+    let mut rows = Vec::new();
+    for asset in assets {
+        let root = with_framing_camera(&asset.path, out, &asset.name)?;
+        let blob = out.join(format!("subdiv_{}.blob", asset.name));
+        // Errors per (mesh, level), shared by every run that picks that level for that mesh.
+        let mut cache: HashMap<(usize, u32), ErrorStats> = HashMap::new();
+        let mut modes: Vec<(String, SubdivOptions)> = (0..=asset.max_level)
+            .map(|l| (format!("level {l}"), SubdivOptions { forced_level: Some(l), ..SubdivOptions::default() }))
+            .collect();
+        modes.extend(RATES.iter().map(|&r| {
+            (format!("rate {r} px"), SubdivOptions { dicing_rate: r, max_level: asset.max_level, ..SubdivOptions::default() })
+        }));
+        for (mode, subdiv) in modes {
+            let options = ingest::usd::LoadOptions { subdiv, ..ingest::usd::LoadOptions::default() };
+            let start = Instant::now();
+            let (scene, report) = ingest::pipeline::ingest_file(&root, &blob, &options)?;
+            let seconds = start.elapsed().as_secs_f64();
+            let camera = scene
+                .default_camera
+                .map(|i| DicingCamera::new(&scene.cameras[i], scene.resolution))
+                .context("no render camera")?;
+            let mut error = ErrorStats::default();
+            for (k, s) in scene.subdivisions.iter().enumerate() {
+                let stats = match cache.get(&(k, s.level)) {
+                    Some(stats) => *stats,
+                    None => {
+                        let stats = chordal_error(s, s.level, &camera)
+                            .with_context(|| format!("{}", scene.meshes[s.mesh].path))?;
+                        cache.insert((k, s.level), stats);
+                        stats
+                    }
+                };
+                error.merge(&stats);
+            }
+            let mut levels: Vec<u32> = scene.subdivisions.iter().map(|s| s.level).collect();
+            levels.sort_unstable();
+            let row = Row {
+                asset: asset.name.clone(),
+                mode,
+                levels,
+                triangles: report.triangles,
+                seconds,
+                blob_bytes: report.blob_bytes,
+                error,
+            };
+            print_row(&row);
+            rows.push(row);
+        }
+        let _ = std::fs::remove_file(&blob);
+    }
+    let json = serde_json::json!({
+        "error": "chordal error at level-N edge midpoints and quad centres against the level-(N+1) limit points, pixels at the render camera",
+        "rows": rows.iter().map(|r| {
+            let (lo, hi) = (r.levels.first().copied(), r.levels.last().copied());
+            serde_json::json!({
+                "asset": r.asset, "mode": r.mode, "min_level": lo, "max_level": hi,
+                "subdivision_meshes": r.levels.len(), "triangles": r.triangles,
+                "ingest_seconds": r.seconds, "blob_bytes": r.blob_bytes,
+                "error_max_px": r.error.max, "error_rms_px": r.error.rms(), "error_samples": r.error.samples,
+            })
+        }).collect::<Vec<_>>(),
+    });
+    std::fs::write(out.join("subdiv.json"), serde_json::to_string_pretty(&json)?)?;
+    chart(&rows, &out.join("subdiv.svg"))?;
+    println!("figures written to {}", out.join("subdiv.json").display());
+    Ok(())
+}
+
+fn print_row(r: &Row) {
+    let (lo, hi) = (r.levels.first().copied().unwrap_or(0), r.levels.last().copied().unwrap_or(0));
+    println!(
+        "{:<8} {:<12} levels {lo}..{hi}  {:>10} tris  {:>7.2} s  {:>8.1} MiB  err max {:>9.4} px  rms {:>9.4} px",
+        r.asset,
+        r.mode,
+        r.triangles,
+        r.seconds,
+        r.blob_bytes as f64 / (1 << 20) as f64,
+        r.error.max,
+        r.error.rms()
+    );
+}
+
+/// Max error against ingest seconds, log–log: per asset one line through the uniform levels and
+/// one through the dicing rates.
+fn chart(rows: &[Row], path: &Path) -> anyhow::Result<()> {
+    let root = SVGBackend::new(path, (820, 520)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let finite: Vec<&Row> = rows.iter().filter(|r| r.error.max > 0.0 && r.seconds > 0.0).collect();
+    let (t0, t1) = finite.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r.seconds), hi.max(r.seconds)));
+    let (e0, e1) = finite.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r.error.max), hi.max(r.error.max)));
+    let mut chart = ChartBuilder::on(&root)
+        .caption("Subdivision: max chordal error (px) vs ingest seconds", ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((t0 * 0.8..t1 * 1.25).log_scale(), (e0 * 0.5..e1 * 2.0).log_scale())?;
+    chart.configure_mesh().x_desc("ingest seconds (USD → blob)").y_desc("max chordal error, px").draw()?;
+    let palette = [BLUE, RED, GREEN, MAGENTA];
+    let mut assets: Vec<&str> = rows.iter().map(|r| r.asset.as_str()).collect();
+    assets.dedup();
+    for (k, asset) in assets.iter().enumerate() {
+        let colour = palette[k % palette.len()];
+        for (kind, dashed) in [("level", false), ("rate", true)] {
+            let pts: Vec<&Row> =
+                finite.iter().copied().filter(|r| r.asset == *asset && r.mode.starts_with(kind)).collect();
+            let style = if dashed { colour.mix(0.5).stroke_width(2) } else { colour.stroke_width(2) };
+            chart
+                .draw_series(LineSeries::new(pts.iter().map(|r| (r.seconds, r.error.max)), style))?
+                .label(format!("{asset}: {}", if dashed { "dicing rate" } else { "uniform level" }))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
+            chart.draw_series(pts.iter().map(|r| Circle::new((r.seconds, r.error.max), 3, colour.filled())))?;
+            chart.draw_series(pts.iter().map(|r| {
+                let label = r.mode.replace("level ", "L").replace("rate ", "").replace(" px", "px");
+                Text::new(label, (r.seconds, r.error.max * 1.12), ("sans-serif", 11).into_font())
+            }))?;
+        }
+    }
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+    root.present()?;
+    Ok(())
+}

@@ -1,0 +1,306 @@
+//! Dicing: the uniform subdivision level of each mesh, chosen from the render camera.
+//!
+//! A mesh is refined until its longest refined edge projects to about `dicing_rate` pixels at the
+//! render resolution. The projection is conservative: the longest *cage* edge (in world space) is
+//! placed at the point of the mesh's world bounding box nearest to the camera, so no part of the
+//! mesh comes out coarser than the rate; each level halves the edges
+//! ([`subdiv::level_for_dicing_rate`]). Meshes wholly outside the view frustum still cast shadows
+//! and show in reflections, so they keep a coarse level (≤ 1) rather than the cage.
+//!
+//! The render camera is the scene's default camera (RenderSettings, else the first camera) at the
+//! RenderSettings resolution, else 512 pixels wide at the aperture's aspect, as `render` uses.
+//! Without a camera every mesh gets [`DEFAULT_LEVEL`].
+
+use glam::{DMat4, DVec3};
+
+use crate::scene::Camera;
+
+/// Level used for every subdivision mesh when the stage has no camera (capped by the maximum).
+pub const DEFAULT_LEVEL: u32 = 2;
+/// Level cap for meshes outside the view frustum (capped by the maximum).
+pub const OFF_SCREEN_LEVEL: u32 = 1;
+/// Image width `render` uses when RenderSettings authors no resolution.
+pub const DEFAULT_WIDTH: u32 = 512;
+
+/// How subdivision surfaces are diced.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SubdivOptions {
+    /// Refine every subdivision mesh to this level, ignoring the camera (`--subdiv-level`).
+    pub forced_level: Option<u32>,
+    /// Target length of a refined edge on screen, in pixels (`--dicing-rate`, default 1).
+    pub dicing_rate: f32,
+    /// Highest level chosen by dicing (`--max-subdiv-level`, default 5).
+    pub max_level: u32,
+}
+
+impl Default for SubdivOptions {
+    fn default() -> Self {
+        SubdivOptions { forced_level: None, dicing_rate: 1.0, max_level: 5 }
+    }
+}
+
+/// How world lengths become pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Projection {
+    /// Pixels per world unit at unit distance: `focal_length / horizontal_aperture × width`.
+    Perspective { focal_px: f64 },
+    /// Pixels per world unit anywhere: `width / (horizontal_aperture / 10)` (apertures are in
+    /// tenths of a scene unit).
+    Orthographic { px_per_unit: f64 },
+}
+
+/// The render camera, reduced to what dicing needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DicingCamera {
+    camera_from_world: DMat4,
+    eye: DVec3,
+    near: f64,
+    projection: Projection,
+    /// The image window `[x_min, x_max, y_min, y_max]`: at unit distance in front of the camera
+    /// (perspective) or in camera-space units (orthographic).
+    window: [f64; 4],
+}
+
+impl DicingCamera {
+    /// The camera rendered at `resolution` (`None`: [`DEFAULT_WIDTH`] wide at the aperture's
+    /// aspect, as `render` does).
+    pub fn new(camera: &Camera, resolution: Option<[u32; 2]>) -> Self {
+        let world_from_camera = camera.world_from_camera.as_dmat4();
+        let h_ap = f64::from(camera.horizontal_aperture).max(1e-6);
+        let v_ap = f64::from(camera.vertical_aperture).max(1e-6);
+        let [width, height] = resolution.unwrap_or_else(|| {
+            [DEFAULT_WIDTH, ((f64::from(DEFAULT_WIDTH) * v_ap / h_ap).round() as u32).max(1)]
+        });
+        let (width, height) = (f64::from(width.max(1)), f64::from(height.max(1)));
+        // The horizontal aperture spans the image width; the vertical extent follows the image
+        // aspect, as in `render`.
+        let half_w = h_ap / 2.0;
+        let half_h = half_w * height / width;
+        let (off_x, off_y) =
+            (f64::from(camera.horizontal_aperture_offset), f64::from(camera.vertical_aperture_offset));
+        let film = [off_x - half_w, off_x + half_w, off_y - half_h, off_y + half_h];
+        let (projection, window) = if camera.orthographic {
+            (Projection::Orthographic { px_per_unit: width / (h_ap / 10.0) }, film.map(|v| v / 10.0))
+        } else {
+            let focal = f64::from(camera.focal_length).max(1e-6);
+            (Projection::Perspective { focal_px: focal / h_ap * width }, film.map(|v| v / focal))
+        };
+        DicingCamera {
+            camera_from_world: world_from_camera.inverse(),
+            eye: world_from_camera.transform_point3(DVec3::ZERO),
+            near: f64::from(camera.clipping_range[0]).max(1e-6),
+            projection,
+            window,
+        }
+    }
+
+    /// Whether the world box `lo..hi` lies wholly outside the view frustum (behind the camera or
+    /// beyond one side of the image). Conservative: a box straddling the frustum's corner
+    /// planes counts as visible.
+    pub fn outside(&self, lo: DVec3, hi: DVec3) -> bool {
+        let corners: [DVec3; 8] = std::array::from_fn(|i| {
+            let p = DVec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            );
+            self.camera_from_world.transform_point3(p)
+        });
+        let [x_min, x_max, y_min, y_max] = self.window;
+        // Signed distances that are negative outside each plane (the camera looks down −Z).
+        let planes: [&dyn Fn(DVec3) -> f64; 5] = match self.projection {
+            Projection::Perspective { .. } => [
+                &|p| -p.z,
+                &|p| p.x + x_min * p.z,
+                &|p| -x_max * p.z - p.x,
+                &|p| p.y + y_min * p.z,
+                &|p| -y_max * p.z - p.y,
+            ],
+            Projection::Orthographic { .. } => {
+                [&|p| -p.z, &|p| p.x - x_min, &|p| x_max - p.x, &|p| p.y - y_min, &|p| y_max - p.y]
+            }
+        };
+        planes.iter().any(|plane| corners.iter().all(|&c| plane(c) < 0.0))
+    }
+
+    /// Conservative on-screen length, in pixels, of a world length `length` anywhere in the world
+    /// box `lo..hi`.
+    pub fn pixels(&self, length: f64, lo: DVec3, hi: DVec3) -> f64 {
+        match self.projection {
+            Projection::Orthographic { px_per_unit } => length * px_per_unit,
+            Projection::Perspective { focal_px } => {
+                let nearest = self.eye.clamp(lo, hi);
+                length * focal_px / self.eye.distance(nearest).max(self.near)
+            }
+        }
+    }
+
+    /// Pixels per world unit at world point `p` (for error measurements): perspective scale at
+    /// its depth (at least the near distance).
+    pub fn pixels_per_unit_at(&self, p: DVec3) -> f64 {
+        match self.projection {
+            Projection::Orthographic { px_per_unit } => px_per_unit,
+            Projection::Perspective { focal_px } => {
+                let depth = -self.camera_from_world.transform_point3(p).z;
+                focal_px / depth.max(self.near)
+            }
+        }
+    }
+}
+
+/// The level of one mesh: forced, else diced against `camera` (off-screen meshes ≤
+/// [`OFF_SCREEN_LEVEL`]), else [`DEFAULT_LEVEL`]; all but the forced level capped by
+/// `options.max_level`. `longest_edge` is the longest cage edge in world units and `lo..hi` the
+/// cage's world bounds.
+pub fn choose_level(
+    options: &SubdivOptions,
+    camera: Option<&DicingCamera>,
+    longest_edge: f64,
+    lo: DVec3,
+    hi: DVec3,
+) -> u32 {
+    if let Some(level) = options.forced_level {
+        return level;
+    }
+    let Some(camera) = camera else { return DEFAULT_LEVEL.min(options.max_level) };
+    if camera.outside(lo, hi) {
+        return OFF_SCREEN_LEVEL.min(options.max_level);
+    }
+    let edge_px = camera.pixels(longest_edge, lo, hi);
+    subdiv::level_for_dicing_rate(edge_px as f32, options.dicing_rate, options.max_level)
+}
+
+/// Triangles a cage yields at uniform `level`, from the face counts alone: Catmull–Clark and
+/// bilinear make `4^L` quads of a quad and `n·4^(L−1)` of an n-gon (Catmull–Clark cages with
+/// non-quads are refined at least once, as [`subdiv::Refiner::new`] does; bilinear n-gons at
+/// level 0 are fanned), loop makes `4^L` triangles of a triangle; quads are split in two.
+///
+/// `face_sizes` lists the faces that reach the surface (no holes); `all_quads` is whether the
+/// whole cage is quads.
+pub fn triangles_at_level(
+    scheme: subdiv::Scheme,
+    face_sizes: impl IntoIterator<Item = usize>,
+    all_quads: bool,
+    level: u32,
+) -> u64 {
+    let level = if level == 0 && scheme == subdiv::Scheme::CatmullClark && !all_quads { 1 } else { level };
+    let four = |l: u32| 4u64.saturating_pow(l);
+    face_sizes
+        .into_iter()
+        .map(|n| match (scheme, n, level) {
+            (subdiv::Scheme::Loop, _, l) => four(l),
+            (_, 4, l) => 2 * four(l),
+            (_, n, 0) => n.saturating_sub(2) as u64,
+            (_, n, l) => 2 * n as u64 * four(l - 1),
+        })
+        .sum()
+}
+
+/// The USD token of a scheme (`subdivisionScheme`).
+pub fn scheme_token(scheme: subdiv::Scheme) -> &'static str {
+    match scheme {
+        subdiv::Scheme::CatmullClark => "catmullClark",
+        subdiv::Scheme::Loop => "loop",
+        subdiv::Scheme::Bilinear => "bilinear",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Mat4, Vec3};
+
+    /// A 36 mm lens on 36 mm square film (half-angle atan 0.5 ≈ 26.6°) at `eye`, looking down −Z.
+    fn camera(eye: Vec3, orthographic: bool) -> Camera {
+        Camera {
+            path: "/Cam".into(),
+            world_from_camera: Mat4::from_translation(eye),
+            orthographic,
+            focal_length: 36.0,
+            horizontal_aperture: 36.0,
+            vertical_aperture: 36.0,
+            horizontal_aperture_offset: 0.0,
+            vertical_aperture_offset: 0.0,
+            clipping_range: [0.1, 1000.0],
+        }
+    }
+
+    #[test]
+    fn perspective_pixels_follow_distance() {
+        let cam = DicingCamera::new(&camera(Vec3::ZERO, false), Some([1000, 1000]));
+        // focal_px = 36 / 36 × 1000: a unit edge 10 units away is 100 px.
+        let lo = DVec3::new(-1.0, -1.0, -12.0);
+        let hi = DVec3::new(1.0, 1.0, -10.0);
+        assert!((cam.pixels(1.0, lo, hi) - 100.0).abs() < 1e-9);
+        assert!(!cam.outside(lo, hi));
+        // 100 px at 1 px per edge: ceil(log2 100) = 7, capped at 5.
+        let options = SubdivOptions::default();
+        assert_eq!(choose_level(&options, Some(&cam), 1.0, lo, hi), 5);
+        let options = SubdivOptions { dicing_rate: 25.0, ..SubdivOptions::default() };
+        assert_eq!(choose_level(&options, Some(&cam), 1.0, lo, hi), 2);
+        // The camera inside the box: the near distance.
+        assert!((cam.pixels(1.0, -DVec3::ONE, DVec3::ONE) / (1000.0 / 0.1) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn frustum_culling() {
+        let cam = DicingCamera::new(&camera(Vec3::ZERO, false), Some([1000, 1000]));
+        let unit = |c: DVec3| (c - DVec3::splat(0.5), c + DVec3::splat(0.5));
+        // Behind, left, right, above, below; the half-angle is atan(0.5).
+        for c in [
+            DVec3::new(0.0, 0.0, 5.0),
+            DVec3::new(-10.0, 0.0, -5.0),
+            DVec3::new(10.0, 0.0, -5.0),
+            DVec3::new(0.0, 10.0, -5.0),
+            DVec3::new(0.0, -10.0, -5.0),
+        ] {
+            let (lo, hi) = unit(c);
+            assert!(cam.outside(lo, hi), "{c}");
+            assert_eq!(choose_level(&SubdivOptions::default(), Some(&cam), 1.0, lo, hi), 1);
+        }
+        // Straddling the edge of the image: visible.
+        let (lo, hi) = unit(DVec3::new(2.6, 0.0, -5.0));
+        assert!(!cam.outside(lo, hi));
+    }
+
+    #[test]
+    fn orthographic_pixels_do_not_depend_on_distance() {
+        // A 3.6-unit-wide window over 1000 px.
+        let cam = DicingCamera::new(&camera(Vec3::ZERO, true), Some([1000, 1000]));
+        let near = cam.pixels(1.0, DVec3::new(0.0, 0.0, -2.0), DVec3::new(0.1, 0.1, -1.0));
+        let far = cam.pixels(1.0, DVec3::new(0.0, 0.0, -200.0), DVec3::new(0.1, 0.1, -100.0));
+        assert!((near - 1000.0 / 3.6).abs() < 1e-9 && near == far);
+        assert!(cam.outside(DVec3::new(2.0, 0.0, -2.0), DVec3::new(3.0, 1.0, -1.0)));
+    }
+
+    #[test]
+    fn default_resolution_is_512_wide_at_the_aperture_aspect() {
+        let mut c = camera(Vec3::ZERO, false);
+        c.vertical_aperture = 18.0;
+        let cam = DicingCamera::new(&c, None);
+        assert_eq!(cam.projection, Projection::Perspective { focal_px: 512.0 });
+        assert!((cam.window[3] - 0.25).abs() < 1e-3, "{:?}", cam.window);
+    }
+
+    #[test]
+    fn no_camera_and_forced_levels() {
+        let o = SubdivOptions::default();
+        assert_eq!(choose_level(&o, None, 1.0, DVec3::ZERO, DVec3::ONE), DEFAULT_LEVEL);
+        let o = SubdivOptions { max_level: 1, ..o };
+        assert_eq!(choose_level(&o, None, 1.0, DVec3::ZERO, DVec3::ONE), 1);
+        let o = SubdivOptions { forced_level: Some(7), ..o };
+        assert_eq!(choose_level(&o, None, 1.0, DVec3::ZERO, DVec3::ONE), 7);
+    }
+
+    #[test]
+    fn triangle_formula() {
+        use subdiv::Scheme::{Bilinear, CatmullClark, Loop};
+        assert_eq!(triangles_at_level(CatmullClark, [4; 6], true, 3), 12 * 64);
+        assert_eq!(triangles_at_level(CatmullClark, [4; 6], true, 0), 12);
+        // A pentagon: refined once even at level 0 by Catmull–Clark, fanned by bilinear.
+        assert_eq!(triangles_at_level(CatmullClark, [5], false, 0), 10);
+        assert_eq!(triangles_at_level(Bilinear, [5], false, 0), 3);
+        assert_eq!(triangles_at_level(CatmullClark, [3, 4], false, 2), 2 * 3 * 4 + 2 * 16);
+        assert_eq!(triangles_at_level(Loop, [3; 4], false, 2), 64);
+    }
+}

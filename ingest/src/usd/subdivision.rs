@@ -1,0 +1,327 @@
+//! Subdivision surfaces: every Mesh whose `subdivisionScheme` is not `none`.
+//!
+//! During the walk `queue_subdivision` turns the mesh into a validated OpenSubdiv cage (scheme
+//! and rule tokens, creases, corners, holes, the st primvar as a face-varying channel or a vertex
+//! primvar; left-handed faces reversed) and reserves the mesh's slot in `Scene::meshes`, so the
+//! mesh order stays the traversal order. Dicing needs the render camera, which is only known
+//! once the walk has ended (RenderSettings may name a camera anywhere on the stage), so
+//! `tessellate_subdivisions` runs after the walk: it picks each mesh's level
+//! (`crate::dicing`), refines and tessellates the queued cages in parallel, and fills the slots
+//! with world-space limit surfaces. A cage OpenSubdiv rejects is rendered as its triangulated
+//! cage, with one warning naming the problem.
+
+use std::str::FromStr;
+
+use glam::{DMat4, DVec3, Vec2};
+use rayon::prelude::*;
+use subdiv::{
+    tessellate, BoundaryInterpolation, Cage, Evaluation, FaceVaryingChannel, FaceVaryingInterpolation,
+    Options, Refiner, Scheme, Topology, TriangleSubdivision, UvSource,
+};
+
+use super::mesh::{world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
+use super::{Inherited, Reader, UsdError};
+use crate::dicing::{choose_level, triangles_at_level, DicingCamera, SubdivOptions};
+use crate::scene::{Mesh, Subdivision};
+
+/// The st primvar in the form the refiner takes.
+enum UvInput {
+    None,
+    /// Face-varying channel 0 of the cage (faceVarying primvars, and uniform ones as one value
+    /// per face): one UV per channel value.
+    FaceVarying(Vec<[f32; 2]>),
+    /// One UV per cage point (vertex and varying primvars), refined like the points.
+    Vertex(Vec<[f32; 2]>),
+    /// One UV for the whole mesh.
+    Constant(Vec2),
+}
+
+/// A subdivision mesh read during the walk, waiting for its level.
+pub(super) struct QueuedSubdivision {
+    /// Index of its placeholder in `Scene::meshes`.
+    slot: usize,
+    path: String,
+    topology: Topology,
+    /// Cage points, local space.
+    points: Vec<[f32; 3]>,
+    uv: UvInput,
+    /// The polygon cage: per-face materials, and the fallback if refinement fails.
+    cage: PolygonCage,
+    world_from_local: DMat4,
+}
+
+/// A diced, tessellated subdivision mesh in local space.
+struct Diced {
+    local: LocalMesh,
+    level: u32,
+    triangles_at_max_level: u64,
+    note: Option<String>,
+}
+
+/// USD stores indices as `int`; anything beyond is out of range for OpenSubdiv as well.
+fn to_i32(v: i64) -> i32 {
+    v.clamp(-1, i32::MAX.into()) as i32
+}
+
+impl Reader<'_> {
+    fn floats(&self, prim: &str, attr: &str) -> Result<Vec<f32>, UsdError> {
+        Ok(match self.stage.attr(prim, attr)? {
+            Some(super::stage::Value::Array { data, arity: 1 }) => data.into_iter().map(|x| x as f32).collect(),
+            Some(super::stage::Value::Scalar(x)) => vec![x as f32],
+            _ => Vec::new(),
+        })
+    }
+
+    fn i32s(&self, prim: &str, attr: &str) -> Result<Vec<i32>, UsdError> {
+        Ok(self.ints(prim, attr)?.unwrap_or_default().into_iter().map(to_i32).collect())
+    }
+
+    /// A rule token, or its USD fallback with a warning when it is not one of the attribute's
+    /// values.
+    fn rule<T: FromStr + Default>(&mut self, path: &str, attr: &str) -> Result<T, UsdError> {
+        let Some(token) = self.token(path, attr)? else { return Ok(T::default()) };
+        match token.parse() {
+            Ok(value) => Ok(value),
+            Err(_) => {
+                self.warn(path, format!("{attr} {token:?} is not a known value; using the USD fallback"));
+                Ok(T::default())
+            }
+        }
+    }
+
+    /// Validates a subdivision mesh's cage and queues it for dicing. Returns the polygon cage
+    /// back, after one warning, when OpenSubdiv cannot take it.
+    pub(super) fn queue_subdivision(
+        &mut self,
+        path: &str,
+        scheme: &str,
+        counts: &[i64],
+        indices: &[i64],
+        cage: PolygonCage,
+        state: &Inherited,
+    ) -> Result<Option<PolygonCage>, UsdError> {
+        match self.subdivision_cage(path, scheme, counts, indices, &cage)? {
+            Ok((topology, uv)) => {
+                let slot = self.scene.meshes.len();
+                self.scene.meshes.push(Mesh {
+                    path: path.to_string(),
+                    double_sided: cage.double_sided,
+                    ..Mesh::default()
+                });
+                self.subdivisions.push(QueuedSubdivision {
+                    slot,
+                    path: path.to_string(),
+                    topology,
+                    points: cage.points.iter().map(|p| p.as_vec3().to_array()).collect(),
+                    uv,
+                    cage,
+                    world_from_local: state.world_from_local,
+                });
+                Ok(None)
+            }
+            Err(problem) => {
+                self.warn(
+                    path,
+                    format!("cannot subdivide: {problem}; rendering the triangulated cage instead"),
+                );
+                Ok(Some(cage))
+            }
+        }
+    }
+
+    /// The OpenSubdiv cage of a mesh, or what is wrong with it.
+    #[allow(clippy::type_complexity)]
+    fn subdivision_cage(
+        &mut self,
+        path: &str,
+        scheme: &str,
+        counts: &[i64],
+        indices: &[i64],
+        cage: &PolygonCage,
+    ) -> Result<Result<(Topology, UvInput), String>, UsdError> {
+        let Ok(scheme) = Scheme::from_str(scheme) else {
+            return Ok(Err(format!("subdivisionScheme {scheme:?} is not a known scheme")));
+        };
+        if let Some(at) = cage.corners_to_points.iter().position(|&p| p == INVALID_POINT) {
+            let (index, bound) = (indices[at], cage.points.len());
+            return Ok(Err(format!("faceVertexIndices[{at}] = {index} is outside 0..{bound}")));
+        }
+        let options = Options {
+            scheme,
+            boundary: self.rule::<BoundaryInterpolation>(path, "interpolateBoundary")?,
+            face_varying: self.rule::<FaceVaryingInterpolation>(path, "faceVaryingLinearInterpolation")?,
+            triangle_subdivision: self.rule::<TriangleSubdivision>(path, "triangleSubdivisionRule")?,
+        };
+
+        // Left-handed faces are reversed (first corner kept), with their face-varying indices, so
+        // that OpenSubdiv's du × dv and the triangles come out counter-clockwise.
+        let mut order = Vec::with_capacity(indices.len());
+        let mut face_of_corner = Vec::with_capacity(indices.len());
+        let mut start = 0;
+        for (face, &n) in cage.counts.iter().enumerate() {
+            if cage.left_handed && n > 0 {
+                order.push(start);
+                order.extend((start + 1..start + n).rev());
+            } else {
+                order.extend(start..start + n);
+            }
+            face_of_corner.extend(std::iter::repeat_n(face, n));
+            start += n;
+        }
+        let face_vertex_counts: Vec<i32> = counts.iter().map(|&c| to_i32(c)).collect();
+        let face_vertex_indices: Vec<i32> =
+            order.iter().map(|&c| to_i32(cage.corners_to_points[c] as i64)).collect();
+
+        let (uv, fvar_indices) = match &cage.uvs {
+            None => (UvInput::None, Vec::new()),
+            Some(p) => {
+                let value = |element: usize| p.indices.as_ref().map_or(element, |ix| ix[element]);
+                let f32x2 = |v: glam::DVec2| v.as_vec2().to_array();
+                match p.interpolation {
+                    Interpolation::Constant => (UvInput::Constant(p.values[value(0)].as_vec2()), Vec::new()),
+                    Interpolation::Vertex => (
+                        UvInput::Vertex((0..cage.points.len()).map(|pt| f32x2(p.values[value(pt)])).collect()),
+                        Vec::new(),
+                    ),
+                    Interpolation::FaceVarying | Interpolation::Uniform => {
+                        let element = |c: usize| {
+                            if p.interpolation == Interpolation::Uniform {
+                                face_of_corner[c]
+                            } else {
+                                c
+                            }
+                        };
+                        let channel = order.iter().map(|&c| to_i32(value(element(c)) as i64)).collect();
+                        (UvInput::FaceVarying(p.values.iter().map(|&v| f32x2(v)).collect()), channel)
+                    }
+                }
+            }
+        };
+        let channels = match &uv {
+            UvInput::FaceVarying(values) => {
+                vec![FaceVaryingChannel { indices: &fvar_indices, value_count: values.len() }]
+            }
+            _ => Vec::new(),
+        };
+
+        let crease_indices = self.i32s(path, "creaseIndices")?;
+        let crease_lengths = self.i32s(path, "creaseLengths")?;
+        let crease_sharpnesses = self.floats(path, "creaseSharpnesses")?;
+        let corner_indices = self.i32s(path, "cornerIndices")?;
+        let corner_sharpnesses = self.floats(path, "cornerSharpnesses")?;
+        let hole_indices = self.i32s(path, "holeIndices")?;
+        let topology = Topology::new(&Cage {
+            face_vertex_counts: &face_vertex_counts,
+            face_vertex_indices: &face_vertex_indices,
+            vertex_count: cage.points.len(),
+            options,
+            crease_indices: &crease_indices,
+            crease_lengths: &crease_lengths,
+            crease_sharpnesses: &crease_sharpnesses,
+            corner_indices: &corner_indices,
+            corner_sharpnesses: &corner_sharpnesses,
+            hole_indices: &hole_indices,
+            face_varying: &channels,
+        });
+        Ok(topology.map(|t| (t, uv)).map_err(|e| e.to_string()))
+    }
+
+    /// Dices, refines and tessellates every queued subdivision mesh (in parallel) into its slot.
+    pub(super) fn tessellate_subdivisions(&mut self, options: &SubdivOptions) {
+        let queued = std::mem::take(&mut self.subdivisions);
+        if queued.is_empty() {
+            return;
+        }
+        let camera =
+            self.scene.default_camera.map(|i| DicingCamera::new(&self.scene.cameras[i], self.scene.resolution));
+        let diced: Vec<_> = queued.par_iter().map(|q| dice(q, options, camera.as_ref())).collect();
+        for (q, result) in queued.into_iter().zip(diced) {
+            match result {
+                Ok(d) => {
+                    if let Some(note) = d.note {
+                        self.warn(&q.path, note);
+                    }
+                    self.scene.meshes[q.slot] = world_mesh(&q.path, d.local, q.world_from_local);
+                    self.scene.subdivisions.push(Subdivision {
+                        mesh: q.slot,
+                        topology: q.topology,
+                        points: q.points,
+                        world_from_local: q.world_from_local,
+                        level: d.level,
+                        triangles_at_max_level: d.triangles_at_max_level,
+                    });
+                }
+                Err(e) => {
+                    self.warn(&q.path, format!("cannot subdivide: {e}; rendering the triangulated cage instead"));
+                    let (local, _) = q.cage.triangulate();
+                    self.scene.meshes[q.slot] = world_mesh(&q.path, local, q.world_from_local);
+                }
+            }
+        }
+    }
+}
+
+/// World-space bounds of `points`.
+fn bounds(points: &[[f32; 3]]) -> (DVec3, DVec3) {
+    points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+        let p = glam::Vec3::from_array(*p).as_dvec3();
+        (lo.min(p), hi.max(p))
+    })
+}
+
+/// Chooses the level of one queued mesh and tessellates it (local space).
+fn dice(q: &QueuedSubdivision, options: &SubdivOptions, camera: Option<&DicingCamera>) -> subdiv::Result<Diced> {
+    let world: Vec<[f32; 3]> = q
+        .points
+        .iter()
+        .map(|p| q.world_from_local.project_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array())
+        .collect();
+    let (lo, hi) = bounds(&world);
+    let longest = q.topology.longest_edge(&world)?;
+    let level = choose_level(options, camera, longest.into(), lo, hi);
+    let mut note = None;
+    let refiner = match Refiner::new(&q.topology, level) {
+        Err(subdiv::Error::LevelTooHigh { level, max }) => {
+            note = Some(format!("level {level} is too fine for this cage's size; refined to level {max}"));
+            Refiner::new(&q.topology, max)?
+        }
+        other => other?,
+    };
+    let uv_source = match &q.uv {
+        UvInput::FaceVarying(values) => Some(UvSource { channel: 0, values }),
+        _ => None,
+    };
+    let tess = tessellate(&refiner, &q.points, uv_source)?;
+    let uvs: Vec<Vec2> = match &q.uv {
+        UvInput::None => Vec::new(),
+        UvInput::FaceVarying(_) => tess.uvs.iter().flatten().map(|&uv| Vec2::from_array(uv)).collect(),
+        UvInput::Vertex(values) => {
+            let flat: Vec<f32> = values.iter().flatten().copied().collect();
+            let refined = refiner.vertex_primvar(&flat, 2, Evaluation::Limit)?;
+            tess.gather::<2>(&refined)?.into_iter().map(Vec2::from_array).collect()
+        }
+        UvInput::Constant(uv) => vec![*uv; tess.positions.len()],
+    };
+
+    // Faces that made it to the surface (not holes, not dropped by interpolateBoundary = none),
+    // for the triangle count at the level cap.
+    let mut drawn = vec![false; q.cage.counts.len()];
+    for &f in &tess.coarse_face {
+        drawn[f as usize] = true;
+    }
+    let all_quads = q.cage.counts.iter().all(|&n| n == 4);
+    let drawn_sizes = q.cage.counts.iter().zip(&drawn).filter(|(_, &d)| d).map(|(&n, _)| n);
+    let triangles_at_max_level =
+        triangles_at_level(refiner.scheme(), drawn_sizes, all_quads, options.max_level);
+
+    let f64x3 = |p: &[f32; 3]| glam::Vec3::from_array(*p).as_dvec3();
+    let local = LocalMesh {
+        positions: tess.positions.iter().map(f64x3).collect(),
+        normals: tess.normals.iter().map(f64x3).collect(),
+        uvs,
+        triangle_materials: tess.coarse_face.iter().map(|&f| q.cage.face_materials[f as usize]).collect(),
+        triangles: tess.triangles,
+        double_sided: q.cage.double_sided,
+    };
+    Ok(Diced { local, level: refiner.level(), triangles_at_max_level, note })
+}

@@ -1,0 +1,349 @@
+//! Subdivision surfaces through the reader: levels, limit normals, creases, corners, holes,
+//! GeomSubset materials, handedness, dicing against the render camera, bad topology.
+
+use glam::Vec3;
+
+use super::*;
+use crate::dicing::SubdivOptions;
+use crate::scene::{Mesh, Scene};
+
+/// The unit cube [0, 1]³ as a Catmull–Clark cage (the USD fallback scheme), faces wound
+/// counter-clockwise seen from outside: bottom, top, y = 0, x = 1, y = 1, x = 0.
+const CUBE_POINTS: [[f32; 3]; 8] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [1.0, 1.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [1.0, 0.0, 1.0],
+    [1.0, 1.0, 1.0],
+    [0.0, 1.0, 1.0],
+];
+const CUBE_INDICES: [i32; 24] = [0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7];
+
+fn points_text(points: &[[f32; 3]]) -> String {
+    let p: Vec<String> = points.iter().map(|p| format!("({}, {}, {})", p[0], p[1], p[2])).collect();
+    p.join(", ")
+}
+
+fn ints_text(values: &[i32]) -> String {
+    values.iter().map(i32::to_string).collect::<Vec<_>>().join(", ")
+}
+
+/// A cube cage Mesh prim named `name` with extra attribute lines `extra`.
+fn cube_prim(name: &str, points: &[[f32; 3]], indices: &[i32], extra: &str) -> String {
+    format!(
+        r#"def Mesh "{name}" {{
+    int[] faceVertexCounts = [4, 4, 4, 4, 4, 4]
+    int[] faceVertexIndices = [{}]
+    point3f[] points = [{}]
+    {extra}
+}}
+"#,
+        ints_text(indices),
+        points_text(points)
+    )
+}
+
+fn load_with(body: &str, subdiv: SubdivOptions) -> Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("scene.usda");
+    std::fs::write(&root, format!("#usda 1.0\n\n{body}\n")).unwrap();
+    load(&root, &LoadOptions { subdiv, ..LoadOptions::default() }).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn forced(level: u32) -> SubdivOptions {
+    SubdivOptions { forced_level: Some(level), ..SubdivOptions::default() }
+}
+
+fn mesh<'a>(scene: &'a Scene, path: &str) -> &'a Mesh {
+    scene.meshes.iter().find(|m| m.path == path).unwrap_or_else(|| panic!("no mesh {path}"))
+}
+
+fn level_of(scene: &Scene, path: &str) -> u32 {
+    let s = scene.subdivisions.iter().find(|s| scene.meshes[s.mesh].path == path);
+    s.unwrap_or_else(|| panic!("{path} was not subdivided")).level
+}
+
+fn centroid(m: &Mesh, t: [u32; 3]) -> Vec3 {
+    t.map(|i| m.positions[i as usize]).iter().sum::<Vec3>() / 3.0
+}
+
+/// Unit normals on the side the triangles face, pointing away from `centre`.
+fn assert_outward(m: &Mesh, centre: Vec3) {
+    assert_eq!(m.normals.len(), m.positions.len());
+    for (p, n) in m.positions.iter().zip(&m.normals) {
+        assert!((n.length() - 1.0).abs() < 1e-4, "normal {n} is not unit");
+        assert!(n.dot(*p - centre) > 0.0, "normal {n} at {p} points inwards");
+    }
+    for &t in &m.triangles {
+        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+        let face = (b - a).cross(c - a);
+        let shading: Vec3 = t.map(|i| m.normals[i as usize]).iter().sum();
+        assert!(face.dot(shading) > 0.0, "triangle {t:?} winds against its normals");
+        assert!(face.dot(centroid(m, t) - centre) > 0.0, "triangle {t:?} faces inwards");
+    }
+}
+
+#[test]
+fn cube_cage_quadruples_triangles_per_level_with_smooth_unit_normals() {
+    let centre = Vec3::splat(0.5);
+    for level in 0..=3u32 {
+        let scene = load_with(&cube_prim("Cube", &CUBE_POINTS, &CUBE_INDICES, ""), forced(level));
+        let m = mesh(&scene, "/Cube");
+        assert_eq!(m.triangles.len(), 12 * 4usize.pow(level), "level {level}");
+        assert_eq!(level_of(&scene, "/Cube"), level);
+        assert_outward(m, centre);
+        // The limit surface lies inside the cage and is rounded away from the corners (the limit
+        // point of corner 0 is (1/4, 1/4, 1/4)).
+        for p in &m.positions {
+            assert!(p.cmpge(Vec3::splat(-1e-6)).all() && p.cmple(Vec3::splat(1.0 + 1e-6)).all(), "{p}");
+            assert!((*p - Vec3::ZERO).length() > 0.1);
+        }
+        // Smooth: normals at shared positions agree (no faceted splits), and on the face centres
+        // they are the face normals.
+        let top = m.positions.iter().zip(&m.normals).filter(|(p, _)| (p.x - 0.5).abs() < 1e-4 && (p.y - 0.5).abs() < 1e-4);
+        for (p, n) in top {
+            let expected = if p.z > 0.5 { Vec3::Z } else { -Vec3::Z };
+            assert!((*n - expected).length() < 1e-4, "{p} {n}");
+        }
+        assert!(scene.warnings.iter().all(|w| !w.message.contains("subdivi")), "{:?}", scene.warnings);
+    }
+}
+
+#[test]
+fn infinitely_sharp_corner_and_crease_keep_the_cage_corner() {
+    // Corner 0 tagged infinitely sharp (USD: sharpness 10).
+    let corner = cube_prim("Corner", &CUBE_POINTS, &CUBE_INDICES, "int[] cornerIndices = [0]\n    float[] cornerSharpnesses = [10]");
+    // The three edges at corner 0 creased: a vertex with three sharp edges is a corner.
+    let crease = cube_prim(
+        "Crease",
+        &CUBE_POINTS,
+        &CUBE_INDICES,
+        "int[] creaseIndices = [0, 1, 0, 3, 0, 4]\n    int[] creaseLengths = [2, 2, 2]\n    float[] creaseSharpnesses = [10, 10, 10]",
+    );
+    let plain = cube_prim("Plain", &CUBE_POINTS, &CUBE_INDICES, "");
+    let scene = load_with(&format!("{corner}{crease}{plain}"), forced(3));
+    let nearest = |path: &str| -> f32 {
+        mesh(&scene, path).positions.iter().map(|p| p.length()).fold(f32::INFINITY, f32::min)
+    };
+    assert!(nearest("/Corner") < 1e-5, "corner: nearest vertex {} from the cage corner", nearest("/Corner"));
+    assert!(nearest("/Crease") < 1e-5, "crease: nearest vertex {} from the cage corner", nearest("/Crease"));
+    // A smooth corner is rounded off to its limit point (1/4, 1/4, 1/4).
+    assert!((nearest("/Plain") - 0.75f32.sqrt() / 2.0).abs() < 1e-5, "{}", nearest("/Plain"));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+}
+
+#[test]
+fn holes_leave_no_faces() {
+    let body = cube_prim("Holey", &CUBE_POINTS, &CUBE_INDICES, "int[] holeIndices = [1]");
+    for level in 0..=2u32 {
+        let scene = load_with(&body, forced(level));
+        let m = mesh(&scene, "/Holey");
+        assert_eq!(m.triangles.len(), 10 * 4usize.pow(level));
+        // Nothing covers the middle of the top face (z = 1).
+        for &t in &m.triangles {
+            let c = centroid(m, t);
+            assert!(!(c.z > 0.8 && (c.x - 0.5).abs() < 0.2 && (c.y - 0.5).abs() < 0.2), "{c}");
+        }
+    }
+}
+
+#[test]
+fn geom_subset_materials_follow_the_cage_faces() {
+    let subset = r#"rel material:binding = </Looks/Blue>
+    def GeomSubset "Top" (prepend apiSchemas = ["MaterialBindingAPI"]) {
+        uniform token elementType = "face"
+        uniform token familyName = "materialBind"
+        int[] indices = [1]
+        rel material:binding = </Looks/Red>
+    }"#;
+    let looks = r#"def Scope "Looks" {
+    def Material "Red" {
+        token outputs:surface.connect = </Looks/Red/Surface.outputs:surface>
+        def Shader "Surface" {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (1, 0, 0)
+            token outputs:surface
+        }
+    }
+    def Material "Blue" {
+        token outputs:surface.connect = </Looks/Blue/Surface.outputs:surface>
+        def Shader "Surface" {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (0, 0, 1)
+            token outputs:surface
+        }
+    }
+}
+"#;
+    let body = format!("{looks}{}", cube_prim("Cube", &CUBE_POINTS, &CUBE_INDICES, subset));
+    let scene = load_with(&body, forced(2));
+    let m = mesh(&scene, "/Cube");
+    let index = |path: &str| scene.materials.iter().position(|x| x.path == path).unwrap() as u32;
+    let (red, blue) = (index("/Looks/Red"), index("/Looks/Blue"));
+    assert_eq!(m.triangle_materials.iter().filter(|&&x| x == blue).count(), 10 * 16);
+    let reds: Vec<_> = m.triangles.iter().zip(&m.triangle_materials).filter(|(_, &mat)| mat == red).collect();
+    assert_eq!(reds.len(), 2 * 16);
+    for (&t, _) in reds {
+        assert!(centroid(m, t).z > 0.7, "red triangle at {}", centroid(m, t));
+    }
+    assert_eq!(m.triangle_materials.len(), m.triangles.len());
+}
+
+#[test]
+fn left_handed_normals_point_outwards_like_the_right_handed_mirror() {
+    // An irregular cage (one corner pulled out) and its mirror image in x: mirroring reverses
+    // the winding, which `orientation = "leftHanded"` declares.
+    let mut points = CUBE_POINTS;
+    points[6] = [1.4, 1.3, 1.2];
+    let mirrored: Vec<[f32; 3]> = points.iter().map(|p| [-p[0], p[1], p[2]]).collect();
+    let rh = cube_prim("Right", &points, &CUBE_INDICES, "");
+    let lh = cube_prim("Left", &mirrored, &CUBE_INDICES, "uniform token orientation = \"leftHanded\"");
+    let scene = load_with(&format!("{rh}{lh}"), forced(2));
+    let (r, l) = (mesh(&scene, "/Right"), mesh(&scene, "/Left"));
+    assert_eq!(r.triangles.len(), l.triangles.len());
+    assert_outward(r, Vec3::splat(0.5));
+    assert_outward(l, Vec3::new(-0.5, 0.5, 0.5));
+    // Every left-handed vertex is the mirror of a right-handed one, with the mirrored normal.
+    let flip = Vec3::new(-1.0, 1.0, 1.0);
+    for (p, n) in l.positions.iter().zip(&l.normals) {
+        let i = (0..r.positions.len())
+            .min_by(|&a, &b| (r.positions[a] * flip).distance(*p).total_cmp(&(r.positions[b] * flip).distance(*p)))
+            .unwrap();
+        assert!((r.positions[i] * flip).distance(*p) < 1e-5, "{p} has no mirror");
+        assert!((r.normals[i] * flip).distance(*n) < 1e-4, "{p}: {n} vs mirrored {}", r.normals[i] * flip);
+    }
+}
+
+#[test]
+fn dicing_follows_distance_frustum_and_cap() {
+    // A camera at the origin looking down −Z, 1000 px wide; the same unit cube 4, 49 and 1999
+    // units in front, and one behind the camera.
+    let camera = r#"def Camera "Cam" {
+    float focalLength = 36
+    float horizontalAperture = 36
+    float verticalAperture = 36
+    float2 clippingRange = (0.1, 10000)
+}
+def Scope "Render" {
+    def RenderSettings "Settings" {
+        rel camera = </Cam>
+        uniform int2 resolution = (1000, 1000)
+    }
+}
+"#;
+    let placed = |name: &str, z: f32| {
+        let points: Vec<[f32; 3]> = CUBE_POINTS.iter().map(|p| [p[0] - 0.5, p[1] - 0.5, p[2] + z]).collect();
+        cube_prim(name, &points, &CUBE_INDICES, "")
+    };
+    let body = format!(
+        "{camera}{}{}{}{}",
+        placed("Near", -5.0),
+        placed("Mid", -50.0),
+        placed("Far", -2000.0),
+        placed("Behind", 20.0)
+    );
+    let scene = load_with(&body, SubdivOptions::default());
+    let level = |p: &str| level_of(&scene, p);
+    // Longest edge 1 at distance 4: 1000/4 = 250 px → level 8, capped at 5; at 49: 20.4 px → 5;
+    // at 1999: 0.5 px → 0.
+    assert_eq!((level("/Near"), level("/Mid"), level("/Far")), (5, 5, 0));
+    assert!(level("/Behind") <= 1);
+    let coarse = load_with(&body, SubdivOptions { dicing_rate: 8.0, ..SubdivOptions::default() });
+    let coarse_level = |p: &str| level_of(&coarse, p);
+    // 250/8 → 5; 20.4/8 → 2; 0.5/8 → 0.
+    assert_eq!((coarse_level("/Near"), coarse_level("/Mid"), coarse_level("/Far")), (5, 2, 0));
+    let capped = load_with(&body, SubdivOptions { max_level: 3, ..SubdivOptions::default() });
+    assert!(capped.subdivisions.iter().all(|s| s.level <= 3));
+    assert_eq!(level_of(&capped, "/Near"), 3);
+    // The listing: the saving against level 3 everywhere.
+    let dump = crate::pipeline::dump_json(&capped);
+    let fixed = 4 * 12 * 64;
+    assert_eq!(dump["triangles_at_fixed_level"], fixed);
+    assert_eq!(dump["triangles"], capped.triangle_count());
+    assert_eq!(dump["triangles_saved"], fixed - capped.triangle_count() as i64);
+    let near = dump["gprims"].as_array().unwrap().iter().find(|g| g["path"] == "/Near").unwrap();
+    assert_eq!(near["subdiv_level"], 3);
+    assert_eq!(near["scheme"], "catmullClark");
+}
+
+#[test]
+fn no_camera_uses_the_default_level() {
+    let scene = load_with(&cube_prim("Cube", &CUBE_POINTS, &CUBE_INDICES, ""), SubdivOptions::default());
+    assert_eq!(level_of(&scene, "/Cube"), crate::dicing::DEFAULT_LEVEL);
+    assert_eq!(mesh(&scene, "/Cube").triangles.len(), 12 * 16);
+}
+
+#[test]
+fn bad_topology_warns_once_and_renders_the_cage() {
+    let mut indices = CUBE_INDICES;
+    indices[5] = 12;
+    let out_of_range = cube_prim("OutOfRange", &CUBE_POINTS, &indices, "");
+    let bad_crease = cube_prim(
+        "BadCrease",
+        &CUBE_POINTS,
+        &CUBE_INDICES,
+        "int[] creaseIndices = [0, 6]\n    int[] creaseLengths = [2]\n    float[] creaseSharpnesses = [10]",
+    );
+    let scene = load_with(&format!("{out_of_range}{bad_crease}"), SubdivOptions::default());
+    let warnings = |prim: &str| -> Vec<&str> {
+        scene.warnings.iter().filter(|w| w.prim == prim).map(|w| w.message.as_str()).collect()
+    };
+    let w = warnings("/OutOfRange");
+    assert_eq!(w.len(), 2, "{w:?}");
+    assert_eq!(
+        w[0],
+        "cannot subdivide: faceVertexIndices[5] = 12 is outside 0..8; rendering the triangulated cage instead"
+    );
+    assert_eq!(w[1], "1 faces with a point index out of range skipped");
+    // The cage less the face with the bad index, flat (no normals).
+    let m = mesh(&scene, "/OutOfRange");
+    assert_eq!(m.triangles.len(), 10);
+    assert!(m.normals.is_empty());
+    let w = warnings("/BadCrease");
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].starts_with("cannot subdivide: creaseIndices: crease 0 runs along 0–6"), "{}", w[0]);
+    assert_eq!(mesh(&scene, "/BadCrease").triangles.len(), 12);
+    assert!(scene.subdivisions.is_empty());
+}
+
+#[test]
+fn face_varying_and_vertex_uvs_are_refined() {
+    // Face-varying st with one UV island per face (every cage edge a seam), and vertex st.
+    let fv: Vec<String> = (0..6)
+        .flat_map(|f| {
+            let u = f as f32;
+            [(u, 0.0), (u + 1.0, 0.0), (u + 1.0, 1.0), (u, 1.0)].map(|(a, b)| format!("({a}, {b})"))
+        })
+        .collect();
+    let face_varying = format!(
+        "texCoord2f[] primvars:st = [{}] (interpolation = \"faceVarying\")",
+        fv.join(", ")
+    );
+    let vertex_st: Vec<String> = CUBE_POINTS.iter().map(|p| format!("({}, {})", p[0], p[1])).collect();
+    let vertex =
+        format!("texCoord2f[] primvars:st = [{}] (interpolation = \"vertex\")", vertex_st.join(", "));
+    let body = format!(
+        "{}{}",
+        cube_prim("FaceVarying", &CUBE_POINTS, &CUBE_INDICES, &face_varying),
+        cube_prim("Vertex", &CUBE_POINTS, &CUBE_INDICES, &vertex)
+    );
+    let scene = load_with(&body, forced(2));
+    let m = mesh(&scene, "/FaceVarying");
+    assert_eq!(m.uvs.len(), m.positions.len());
+    // Seams split vertices: every face has its own (4 + 1)² grid of vertices at level 2.
+    assert_eq!(m.positions.len(), 6 * 25);
+    for &t in &m.triangles {
+        // A triangle's UVs stay in its face's island.
+        let island = (t.map(|i| m.uvs[i as usize].x).iter().sum::<f32>() / 3.0).floor();
+        for i in t {
+            let uv = m.uvs[i as usize];
+            assert!(uv.x >= island - 1e-5 && uv.x <= island + 1.0 + 1e-5 && (0.0..=1.0).contains(&uv.y), "{uv}");
+        }
+    }
+    let m = mesh(&scene, "/Vertex");
+    assert_eq!(m.uvs.len(), m.positions.len());
+    assert_eq!(m.positions.len(), 6 * 16 + 2);
+    assert!(m.uvs.iter().all(|uv| (0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y)));
+}

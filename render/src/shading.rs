@@ -1,0 +1,378 @@
+//! Material programs: the UsdPreviewSurface inputs at one hit, evaluated from the blob's flat op list
+//! with filtered texture lookups, without allocation.
+//!
+//! A material is its constants ([`blob::Material`]) plus an optional program ([`blob::ShaderOp`]s, see
+//! [`blob::op_kind`]): straight-line code over [`blob::MAX_REGISTERS`] `vec4` registers that ends in
+//! `OUTPUT` ops overriding constants. Next to each register the evaluator carries the pixel-footprint
+//! derivatives of its `xy` (zero for constants, the hit's `duv/dx`, `duv/dy` for the texture
+//! coordinates, transformed by `TRANSFORM_2D`), so a texture read through a UsdTransform2d picks its mip
+//! level from the transformed footprint.
+//!
+//! The op kind is matched once per op; programs are a handful of ops, so a per-kind batch (one queue per
+//! op kind, as a wavefront shade stage would run them) would not pay for itself in the scalar
+//! integrator.
+
+use blob::{op_kind, shading_input, ShaderOp, MAX_REGISTERS, NONE};
+use glam::Vec3;
+use texture::{Filter, Lookup, TextureSetView, Touch, Wrap};
+
+/// Where on a texture a hit is, and how large its pixel footprint is there.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UvFootprint {
+    /// Texture coordinates at the hit (`(0, 0)` on a mesh without them).
+    pub uv: [f32; 2],
+    /// Change of `uv` across the footprint's first axis (one pixel).
+    pub duv_dx: [f32; 2],
+    /// Change of `uv` across the second axis.
+    pub duv_dy: [f32; 2],
+    /// The mesh has texture coordinates (otherwise primvar readers return their fallback).
+    pub has_uv: bool,
+}
+
+/// The UsdPreviewSurface inputs at one shading point, after the program ran.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadingInputs {
+    /// `diffuseColor`.
+    pub diffuse_color: Vec3,
+    /// `emissiveColor`.
+    pub emissive_color: Vec3,
+    /// `specularColor`.
+    pub specular_color: Vec3,
+    /// `useSpecularWorkflow`.
+    pub use_specular_workflow: bool,
+    /// `roughness`.
+    pub roughness: f32,
+    /// `metallic`.
+    pub metallic: f32,
+    /// `ior`.
+    pub ior: f32,
+    /// `opacity`.
+    pub opacity: f32,
+    /// `opacityThreshold`.
+    pub opacity_threshold: f32,
+    /// `clearcoat`.
+    pub clearcoat: f32,
+    /// `clearcoatRoughness`.
+    pub clearcoat_roughness: f32,
+    /// Tangent-space `normal` when a program drives it (`None`: the interpolated normal).
+    pub normal: Option<Vec3>,
+}
+
+impl ShadingInputs {
+    /// The constants of a material (what a material without a program shades with).
+    pub fn constant(m: &blob::Material) -> Self {
+        ShadingInputs {
+            diffuse_color: Vec3::from(m.diffuse_color),
+            emissive_color: Vec3::from(m.emissive_color),
+            specular_color: Vec3::from(m.specular_color),
+            use_specular_workflow: m.use_specular_workflow != 0,
+            roughness: m.roughness,
+            metallic: m.metallic,
+            ior: m.ior,
+            opacity: m.opacity,
+            opacity_threshold: m.opacity_threshold,
+            clearcoat: m.clearcoat,
+            clearcoat_roughness: m.clearcoat_roughness,
+            normal: None,
+        }
+    }
+
+    /// UsdPreviewSurface opacity as a pass-through probability: `opacityThreshold > 0` makes it a
+    /// cut-out (below the threshold fully transparent, else opaque).
+    #[inline]
+    pub fn effective_opacity(&self) -> f32 {
+        if self.opacity_threshold > 0.0 {
+            if self.opacity < self.opacity_threshold {
+                0.0
+            } else {
+                1.0
+            }
+        } else {
+            self.opacity.clamp(0.0, 1.0)
+        }
+    }
+
+    fn set(&mut self, input: u32, v: [f32; 4]) {
+        let rgb = Vec3::new(v[0], v[1], v[2]);
+        match input {
+            shading_input::DIFFUSE_COLOR => self.diffuse_color = rgb,
+            shading_input::EMISSIVE_COLOR => self.emissive_color = rgb,
+            shading_input::SPECULAR_COLOR => self.specular_color = rgb,
+            shading_input::ROUGHNESS => self.roughness = v[0],
+            shading_input::METALLIC => self.metallic = v[0],
+            shading_input::OPACITY => self.opacity = v[0],
+            shading_input::NORMAL => self.normal = Some(rgb),
+            shading_input::CLEARCOAT => self.clearcoat = v[0],
+            shading_input::CLEARCOAT_ROUGHNESS => self.clearcoat_roughness = v[0],
+            shading_input::IOR => self.ior = v[0],
+            _ => {}
+        }
+    }
+}
+
+/// Per-material facts the integrator branches on, found once at load.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ProgramFlags {
+    /// A program writes `opacity` (shadow rays must evaluate it per hit).
+    pub textured_opacity: bool,
+    /// A program writes `emissiveColor` (light samples must evaluate it per point).
+    pub textured_emission: bool,
+}
+
+/// The materials, their programs and the texture tables of a validated blob.
+#[derive(Clone, Debug)]
+pub struct Shading<'a> {
+    materials: &'a [blob::Material],
+    ops: &'a [ShaderOp],
+    textures: TextureSetView<'a>,
+    flags: Vec<ProgramFlags>,
+    any_textured_opacity: bool,
+}
+
+/// Wrap code of a texture op (see [`blob::op_wrap_s`]).
+fn wrap(code: u32) -> Wrap {
+    match code {
+        1 => Wrap::Mirror,
+        2 => Wrap::Clamp,
+        3 => Wrap::Black,
+        _ => Wrap::Repeat,
+    }
+}
+
+impl<'a> Shading<'a> {
+    /// Wraps the validated view's materials, programs and textures.
+    pub fn new(view: &blob::SceneView<'a>) -> Self {
+        // The blob validated every record the way `TextureSetView::new` does (same checks, repeated in
+        // the blob crate), so this cannot fail; an empty view would only make lookups return fallbacks.
+        let textures = TextureSetView::new(
+            bytemuck::cast_slice(view.texture_records),
+            bytemuck::cast_slice(view.udim_sets),
+            view.udim_tiles,
+            view.texels,
+        )
+        .unwrap_or_else(|_| TextureSetView::new(&[], &[], &[], &[]).expect("empty tables are valid"));
+        let flags: Vec<ProgramFlags> = view
+            .materials
+            .iter()
+            .map(|m| {
+                let ops = &view.shader_ops[m.program_start as usize..][..m.program_len as usize];
+                let writes = |input| ops.iter().any(|op| op.kind == op_kind::OUTPUT && op.dst == input);
+                ProgramFlags {
+                    textured_opacity: writes(shading_input::OPACITY),
+                    textured_emission: writes(shading_input::EMISSIVE_COLOR),
+                }
+            })
+            .collect();
+        let any_textured_opacity = flags.iter().any(|f| f.textured_opacity);
+        Shading { materials: view.materials, ops: view.shader_ops, textures, flags, any_textured_opacity }
+    }
+
+    /// The texture tables.
+    pub fn textures(&self) -> &TextureSetView<'a> {
+        &self.textures
+    }
+
+    /// Facts about material `material`'s program.
+    #[inline]
+    pub fn flags(&self, material: u32) -> ProgramFlags {
+        self.flags[material as usize]
+    }
+
+    /// Some material's opacity comes from a program.
+    pub fn any_textured_opacity(&self) -> bool {
+        self.any_textured_opacity
+    }
+
+    fn program(&self, material: u32) -> &'a [ShaderOp] {
+        let m = &self.materials[material as usize];
+        // In range: validated by `SceneView::parse`.
+        &self.ops[m.program_start as usize..][..m.program_len as usize]
+    }
+
+    /// The shading inputs of `material` at `at`, looking textures up with `filter` and reporting texel
+    /// reads to `touch`.
+    pub fn evaluate<T: Touch>(&self, material: u32, at: &UvFootprint, filter: Filter, touch: &T) -> ShadingInputs {
+        let mut inputs = ShadingInputs::constant(&self.materials[material as usize]);
+        let program = self.program(material);
+        if program.is_empty() {
+            return inputs;
+        }
+        let mut regs = Registers::default();
+        for op in program {
+            match op.kind {
+                op_kind::OUTPUT => inputs.set(op.dst, swizzle(regs.value[reg(op.src)], op.flags)),
+                op_kind::TEXTURE => {
+                    let (uv, dx, dy) = regs.coordinates(op.src);
+                    let value = self.lookup(op, uv, dx, dy, filter, touch);
+                    regs.set(op.dst, value, [0.0; 2], [0.0; 2]);
+                }
+                _ => regs.step(op, at),
+            }
+        }
+        inputs
+    }
+
+    /// One UsdUVTexture op: filtered texel · scale + bias, or the fallback where there is no data.
+    #[inline]
+    fn lookup<T: Touch>(
+        &self,
+        op: &ShaderOp,
+        uv: [f32; 2],
+        duv_dx: [f32; 2],
+        duv_dy: [f32; 2],
+        filter: Filter,
+        touch: &T,
+    ) -> [f32; 4] {
+        let [scale, bias, fallback] = op.params;
+        let lookup = Lookup {
+            uv,
+            duv_dx,
+            duv_dy,
+            filter,
+            wrap_s: wrap(blob::op_wrap_s(op.flags)),
+            wrap_t: wrap(blob::op_wrap_t(op.flags)),
+        };
+        let texel = if op.texture == NONE {
+            return fallback;
+        } else if op.flags & blob::OP_UDIM != 0 {
+            match self.textures.udim_tile(op.texture, uv) {
+                Some((_, Some(_))) => self.textures.sample_udim_with(op.texture, &lookup, fallback, touch),
+                _ => return fallback,
+            }
+        } else {
+            match self.textures.texture(op.texture) {
+                Some(tex) => texture::sample_with(&tex, &lookup, touch),
+                None => return fallback,
+            }
+        };
+        std::array::from_fn(|i| texel[i] * scale[i] + bias[i])
+    }
+
+    /// The shading sort key of a hit on `material` (see [`texture::shading_sort_key`]): UDIM tile,
+    /// mip level and `uv` of the program's first texture lookup, so that queue entries sorted by it
+    /// read neighbouring texel tiles. 0 for materials without textures. Costs the coordinate ops of
+    /// the program, no texel reads.
+    pub fn sort_key(&self, material: u32, at: &UvFootprint) -> u32 {
+        let mut regs = Registers::default();
+        for op in self.program(material) {
+            match op.kind {
+                op_kind::OUTPUT => {}
+                op_kind::TEXTURE => {
+                    let (uv, dx, dy) = regs.coordinates(op.src);
+                    let (tile, texture) = if op.flags & blob::OP_UDIM != 0 {
+                        match self.textures.udim_tile(op.texture, uv) {
+                            Some((tile, Some(t))) => (tile, t),
+                            Some((tile, None)) => return texture::shading_sort_key_saturating(tile, 0, uv),
+                            None => return 0,
+                        }
+                    } else {
+                        (0, op.texture)
+                    };
+                    let level = self.textures.texture(texture).map_or(0.0, |t| texture::mip_level(t.record(), dx, dy));
+                    // NaN and negative levels (magnification) saturate to 0.
+                    return texture::shading_sort_key_saturating(tile, level.round() as u32, uv);
+                }
+                _ => regs.step(op, at),
+            }
+        }
+        0
+    }
+}
+
+/// Register index, masked into range (validated at parse; the mask keeps the compiler from
+/// inserting a bounds check).
+#[inline(always)]
+fn reg(r: u32) -> usize {
+    const { assert!(MAX_REGISTERS.is_power_of_two()) };
+    (r & (MAX_REGISTERS - 1)) as usize
+}
+
+/// `OUTPUT`'s swizzle: four 2-bit channel selectors, lowest first.
+#[inline]
+fn swizzle(v: [f32; 4], flags: u32) -> [f32; 4] {
+    std::array::from_fn(|i| v[((flags >> (2 * i)) & 3) as usize])
+}
+
+/// The register file: values and the footprint derivatives of their `xy`.
+#[derive(Default)]
+struct Registers {
+    value: [[f32; 4]; MAX_REGISTERS as usize],
+    dx: [[f32; 2]; MAX_REGISTERS as usize],
+    dy: [[f32; 2]; MAX_REGISTERS as usize],
+}
+
+impl Registers {
+    #[inline]
+    fn set(&mut self, r: u32, value: [f32; 4], dx: [f32; 2], dy: [f32; 2]) {
+        let r = reg(r);
+        self.value[r] = value;
+        self.dx[r] = dx;
+        self.dy[r] = dy;
+    }
+
+    #[inline]
+    fn coordinates(&self, r: u32) -> ([f32; 2], [f32; 2], [f32; 2]) {
+        let r = reg(r);
+        ([self.value[r][0], self.value[r][1]], self.dx[r], self.dy[r])
+    }
+
+    /// The coordinate ops (`CONST`, `PRIMVAR_UV`, `TRANSFORM_2D`).
+    #[inline]
+    fn step(&mut self, op: &ShaderOp, at: &UvFootprint) {
+        match op.kind {
+            op_kind::CONST => self.set(op.dst, op.params[0], [0.0; 2], [0.0; 2]),
+            op_kind::PRIMVAR_UV => {
+                if at.has_uv {
+                    self.set(op.dst, [at.uv[0], at.uv[1], 0.0, 1.0], at.duv_dx, at.duv_dy);
+                } else {
+                    self.set(op.dst, op.params[0], [0.0; 2], [0.0; 2]);
+                }
+            }
+            op_kind::TRANSFORM_2D => {
+                let [a, b, c, d] = op.params[0];
+                let t = op.params[1];
+                let m = |v: [f32; 2]| [a * v[0] + b * v[1], c * v[0] + d * v[1]];
+                let (xy, dx, dy) = self.coordinates(op.src);
+                let v = self.value[reg(op.src)];
+                let p = m(xy);
+                self.set(op.dst, [p[0] + t[0], p[1] + t[1], v[2], v[3]], m(dx), m(dy));
+            }
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn swizzles_select_channels() {
+        let v = [1.0, 2.0, 3.0, 4.0];
+        assert_eq!(swizzle(v, 0b11_10_01_00), v);
+        assert_eq!(swizzle(v, 0), [1.0; 4]);
+        assert_eq!(swizzle(v, 0xff), [4.0; 4]);
+    }
+
+    #[test]
+    fn transform2d_scales_rotates_translates_and_carries_derivatives() {
+        let mut regs = Registers::default();
+        let at = UvFootprint { uv: [1.0, 0.0], duv_dx: [0.01, 0.0], duv_dy: [0.0, 0.01], has_uv: true };
+        regs.step(&ShaderOp { kind: op_kind::PRIMVAR_UV, dst: 0, ..Default::default() }, &at);
+        // scale (2, 1), rotate 90°, translate (0.5, 0): (1, 0) → (2, 0) → (0, 2) → (0.5, 2).
+        let (s, c) = (1.0f32, 0.0f32);
+        let m = [c * 2.0, -s * 1.0, s * 2.0, c * 1.0];
+        let op = ShaderOp {
+            kind: op_kind::TRANSFORM_2D,
+            dst: 1,
+            src: 0,
+            params: [m, [0.5, 0.0, 0.0, 0.0], [0.0; 4]],
+            ..Default::default()
+        };
+        regs.step(&op, &at);
+        let (uv, dx, dy) = regs.coordinates(1);
+        assert_eq!(uv, [0.5, 2.0]);
+        assert_eq!(dx, [0.0, 0.02]);
+        assert_eq!(dy, [-0.01, 0.0]);
+    }
+}

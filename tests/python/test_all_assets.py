@@ -1,0 +1,71 @@
+"""Every USD file of the shared asset library, ingested and cross-checked against usd-core.
+
+Each .usd/.usda/.usdc/.usdz file below `../shared/assets` (beside the repository) is opened as a root
+layer with `ingest ROOT -o BLOB --dump-json JSON --lenient --subdiv-level 0` and with usd-core at the stage's
+startTimeCode (the ingest's default time); the drawn gprims must match by path, triangle count and
+world bounds (see usd_reference.py for the conventions and tolerances). Bound materials are
+cross-checked by test_usd_crosscheck.py on curated assets, not here.
+
+Known differences are xfail(strict=True), so fixing one makes the run fail until its entry goes.
+The module is skipped when the asset library is absent. With the binaries built it takes about 35 s
+(the usd-core side of teapotScene_layout.usd alone about 12 s).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from conftest import ROOT
+
+SHARED_ASSETS = ROOT.parent / "shared" / "assets"
+if not SHARED_ASSETS.is_dir():
+    pytest.skip(f"shared asset library not found at {SHARED_ASSETS}", allow_module_level=True)
+
+from usd_reference import compare, usd_listing  # noqa: E402  (imports pxr, needed only when run)
+
+EXTENSIONS = {".usd", ".usda", ".usdc", ".usdz"}
+ROOTS = sorted(
+    p.relative_to(SHARED_ASSETS).as_posix()
+    for p in SHARED_ASSETS.rglob("*")
+    if p.suffix.lower() in EXTENSIONS and p.is_file()
+)
+
+#: Root layer (relative to the asset library) -> why ours differs from usd-core.
+KNOWN_DIFFERENCES: dict[str, str] = {
+    "openusd_instancing/pxr/usdImaging/usdImagingGL/testenv/testUsdImagingGLInstancingWithMaterials/"
+    "ni_ni_material_binding_resolution.usda": (
+        "openusd 0.6's instance-proxy traversal misses an instanceable prim inside a prototype that internally "
+        "references a prim of the same prototype (usd-core finds its proxies; as test_usd_crosscheck's "
+        "nested_instancing)"
+    ),
+    "openusd_subdiv/extras/usd/tutorials/animatedTop/top.geom.usd": (
+        "openusd 0.6 cannot decode the time samples of this crate file (version 0.4.0: 'Invalid time samples "
+        "count'), and the mesh has no default values, so the ingest warns and skips /Top/mesh_0"
+    ),
+    "usdwg_conformance/test_assets/schemaTests/usdGeom/meshes/points_types/pointsTypes.usda": (
+        "the usd-core reference listing (usd_reference.py) cannot list /World/int, a Mesh whose points are "
+        "declared int[] (it reshapes them to 3-vectors); the ingest opens the file"
+    ),
+}
+
+def _param(rel: str):
+    reason = KNOWN_DIFFERENCES.get(rel)
+    marks = [pytest.mark.xfail(strict=True, reason=reason)] if reason else []
+    return pytest.param(rel, marks=marks, id=rel)
+
+
+def test_library_is_complete():
+    """The library holds the 305 files the openusd compatibility notes were written against."""
+    assert len(ROOTS) == 305, len(ROOTS)
+    assert set(KNOWN_DIFFERENCES) <= set(ROOTS), set(KNOWN_DIFFERENCES) - set(ROOTS)
+
+
+@pytest.mark.parametrize("rel", [_param(r) for r in ROOTS])
+def test_asset_matches_usd_core(ingest, rel):
+    stage = SHARED_ASSETS / rel
+    # Level 0: subdivision surfaces as their cage, whose triangles usd_reference counts.
+    result = ingest(stage, "--lenient", "--subdiv-level", "0")
+    assert result.returncode == 0, f"ingest exited {result.returncode}:\n{result.stderr}"
+    ref = usd_listing(stage, time="start")
+    problems = [p for p in compare(result.dump, ref) if ": materials: " not in p]
+    assert not problems, f"{rel}: ours differs from usd-core:\n  " + "\n  ".join(problems)
