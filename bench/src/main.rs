@@ -12,6 +12,7 @@
 mod convergence;
 mod rays;
 mod subdiv;
+mod textures;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -27,6 +28,21 @@ struct Args {
 
 #[derive(Subcommand)]
 enum Cmd {
+    /// Texture filters: RMSE against a supersampled reference versus render time, and lookups/s.
+    Textures {
+        /// Reference samples per pixel.
+        #[arg(long, default_value_t = 1024)]
+        reference_spp: u32,
+        /// Samples per pixel of each filter's render.
+        #[arg(long, default_value_t = 4)]
+        spp: u32,
+        /// Image width (height is two thirds).
+        #[arg(long, default_value_t = 240)]
+        width: u32,
+        /// Work folder for the chart and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
     /// Ray throughput: ours against Embree on the same rays.
     Rays {
         /// Scene blob.
@@ -93,6 +109,10 @@ fn load(path: &PathBuf) -> anyhow::Result<blob::AlignedBytes> {
 
 fn main() -> anyhow::Result<()> {
     match Args::parse().command {
+        Cmd::Textures { reference_spp, spp, width, out } => {
+            std::fs::create_dir_all(&out)?;
+            textures::run(reference_spp, spp, width, &out)?;
+        }
         Cmd::Rays { blob: path, res, rays: count, repeat, python, out } => {
             let bytes = load(&path)?;
             let view = blob::SceneView::parse(&bytes).with_context(|| format!("{}", path.display()))?;

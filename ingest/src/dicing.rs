@@ -9,7 +9,15 @@
 //!
 //! The render camera is the scene's default camera (RenderSettings, else the first camera) at the
 //! RenderSettings resolution, else 512 pixels wide at the aperture's aspect, as `render` uses.
-//! Without a camera every mesh gets [`DEFAULT_LEVEL`].
+//! A stage without a camera is diced for the camera `render` frames it with
+//! ([`DicingCamera::framing`]); [`DEFAULT_LEVEL`] is left for callers without any view.
+//!
+//! Two guards keep the conservative estimate from running away, as it does when a mesh has a few
+//! long edges among many short ones (the shader ball's cage diced to level 5 was 16 M triangles
+//! for a 512 × 512 image; 1000 camera-less teapots at a fixed level 2 were 40 M triangles and
+//! 18 GB of ingest): a mesh is never diced past the level at which it has more triangles than
+//! the image has pixels per `dicing_rate²`, twice over (`2·W·H / rate²`: a triangle pair per
+//! rate-sized square), and the level is capped by `max_level`.
 
 use glam::{DMat4, DVec3};
 
@@ -52,6 +60,8 @@ enum Projection {
 /// The render camera, reduced to what dicing needs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DicingCamera {
+    /// Image size in pixels.
+    resolution: [u32; 2],
     camera_from_world: DMat4,
     eye: DVec3,
     near: f64,
@@ -71,7 +81,8 @@ impl DicingCamera {
         let [width, height] = resolution.unwrap_or_else(|| {
             [DEFAULT_WIDTH, ((f64::from(DEFAULT_WIDTH) * v_ap / h_ap).round() as u32).max(1)]
         });
-        let (width, height) = (f64::from(width.max(1)), f64::from(height.max(1)));
+        let resolution = [width.max(1), height.max(1)];
+        let (width, height) = (f64::from(resolution[0]), f64::from(resolution[1]));
         // The horizontal aperture spans the image width; the vertical extent follows the image
         // aspect, as in `render`.
         let half_w = h_ap / 2.0;
@@ -86,12 +97,47 @@ impl DicingCamera {
             (Projection::Perspective { focal_px: focal / h_ap * width }, film.map(|v| v / focal))
         };
         DicingCamera {
+            resolution,
             camera_from_world: world_from_camera.inverse(),
             eye: world_from_camera.transform_point3(DVec3::ZERO),
             near: f64::from(camera.clipping_range[0]).max(1e-6),
             projection,
             window,
         }
+    }
+
+    /// The camera `render` uses for a blob without one: 45° horizontal field of view, the world
+    /// box `lo..hi`'s bounding sphere fit in view from +Z (from −Y for a Z-up stage), at
+    /// [`DEFAULT_WIDTH`] × [`DEFAULT_WIDTH`] (`render::camera::Camera::framing`).
+    pub fn framing(lo: DVec3, hi: DVec3, z_up: bool) -> Self {
+        let (centre, radius) = ((lo + hi) / 2.0, ((hi - lo).length() / 2.0).max(1e-3));
+        let half_fov = 22.5f64.to_radians();
+        let distance = radius / half_fov.sin() * 1.05;
+        let (eye, x, y, z) = if z_up {
+            (centre - DVec3::Y * distance, DVec3::X, DVec3::Z, -DVec3::Y)
+        } else {
+            (centre + DVec3::Z * distance, DVec3::X, DVec3::Y, DVec3::Z)
+        };
+        let world_from_camera = DMat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), eye.extend(1.0));
+        let camera = Camera {
+            path: String::new(),
+            world_from_camera: world_from_camera.as_mat4(),
+            orthographic: false,
+            focal_length: (18.0 / half_fov.tan()) as f32,
+            horizontal_aperture: 36.0,
+            vertical_aperture: 36.0,
+            horizontal_aperture_offset: 0.0,
+            vertical_aperture_offset: 0.0,
+            // No clipping in `render`; the near distance only bounds the projection.
+            clipping_range: [(distance * 1e-3) as f32, f32::MAX],
+        };
+        DicingCamera::new(&camera, Some([DEFAULT_WIDTH, DEFAULT_WIDTH]))
+    }
+
+    /// The most triangles worth dicing one mesh into at `rate_px`: `2·W·H / rate²`.
+    pub fn triangle_budget(&self, rate_px: f32) -> u64 {
+        let pixels = f64::from(self.resolution[0]) * f64::from(self.resolution[1]);
+        (2.0 * pixels / f64::from(rate_px).powi(2).max(1e-6)).min(u64::MAX as f64) as u64
     }
 
     /// Whether the world box `lo..hi` lies wholly outside the view frustum (behind the camera or
@@ -149,15 +195,17 @@ impl DicingCamera {
 }
 
 /// The level of one mesh: forced, else diced against `camera` (off-screen meshes ≤
-/// [`OFF_SCREEN_LEVEL`]), else [`DEFAULT_LEVEL`]; all but the forced level capped by
-/// `options.max_level`. `longest_edge` is the longest cage edge in world units and `lo..hi` the
-/// cage's world bounds.
+/// [`OFF_SCREEN_LEVEL`]; on-screen ones no finer than the camera's
+/// [`DicingCamera::triangle_budget`]), else [`DEFAULT_LEVEL`]; all but the forced level capped
+/// by `options.max_level`. `longest_edge` is the longest cage edge in world units, `lo..hi` the
+/// cage's world bounds and `triangles_at(level)` the mesh's triangle count at a level.
 pub fn choose_level(
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
     longest_edge: f64,
     lo: DVec3,
     hi: DVec3,
+    triangles_at: impl Fn(u32) -> u64,
 ) -> u32 {
     if let Some(level) = options.forced_level {
         return level;
@@ -167,7 +215,12 @@ pub fn choose_level(
         return OFF_SCREEN_LEVEL.min(options.max_level);
     }
     let edge_px = camera.pixels(longest_edge, lo, hi);
-    subdiv::level_for_dicing_rate(edge_px as f32, options.dicing_rate, options.max_level)
+    let mut level = subdiv::level_for_dicing_rate(edge_px as f32, options.dicing_rate, options.max_level);
+    let budget = camera.triangle_budget(options.dicing_rate);
+    while level > 0 && triangles_at(level) > budget {
+        level -= 1;
+    }
+    level
 }
 
 /// Triangles a cage yields at uniform `level`, from the face counts alone: Catmull–Clark and
@@ -235,9 +288,9 @@ mod tests {
         assert!(!cam.outside(lo, hi));
         // 100 px at 1 px per edge: ceil(log2 100) = 7, capped at 5.
         let options = SubdivOptions::default();
-        assert_eq!(choose_level(&options, Some(&cam), 1.0, lo, hi), 5);
+        assert_eq!(choose_level(&options, Some(&cam), 1.0, lo, hi, |_| 0), 5);
         let options = SubdivOptions { dicing_rate: 25.0, ..SubdivOptions::default() };
-        assert_eq!(choose_level(&options, Some(&cam), 1.0, lo, hi), 2);
+        assert_eq!(choose_level(&options, Some(&cam), 1.0, lo, hi, |_| 0), 2);
         // The camera inside the box: the near distance.
         assert!((cam.pixels(1.0, -DVec3::ONE, DVec3::ONE) / (1000.0 / 0.1) - 1.0).abs() < 1e-6);
     }
@@ -256,7 +309,7 @@ mod tests {
         ] {
             let (lo, hi) = unit(c);
             assert!(cam.outside(lo, hi), "{c}");
-            assert_eq!(choose_level(&SubdivOptions::default(), Some(&cam), 1.0, lo, hi), 1);
+            assert_eq!(choose_level(&SubdivOptions::default(), Some(&cam), 1.0, lo, hi, |_| 0), 1);
         }
         // Straddling the edge of the image: visible.
         let (lo, hi) = unit(DVec3::new(2.6, 0.0, -5.0));
@@ -285,11 +338,37 @@ mod tests {
     #[test]
     fn no_camera_and_forced_levels() {
         let o = SubdivOptions::default();
-        assert_eq!(choose_level(&o, None, 1.0, DVec3::ZERO, DVec3::ONE), DEFAULT_LEVEL);
+        assert_eq!(choose_level(&o, None, 1.0, DVec3::ZERO, DVec3::ONE, |_| 0), DEFAULT_LEVEL);
         let o = SubdivOptions { max_level: 1, ..o };
-        assert_eq!(choose_level(&o, None, 1.0, DVec3::ZERO, DVec3::ONE), 1);
+        assert_eq!(choose_level(&o, None, 1.0, DVec3::ZERO, DVec3::ONE, |_| 0), 1);
         let o = SubdivOptions { forced_level: Some(7), ..o };
-        assert_eq!(choose_level(&o, None, 1.0, DVec3::ZERO, DVec3::ONE), 7);
+        assert_eq!(choose_level(&o, None, 1.0, DVec3::ZERO, DVec3::ONE, |_| 0), 7);
+    }
+
+    #[test]
+    fn triangle_budget_lowers_the_level() {
+        let cam = DicingCamera::new(&camera(Vec3::ZERO, false), Some([100, 100]));
+        let (lo, hi) = (DVec3::new(-1.0, -1.0, -3.0), DVec3::new(1.0, 1.0, -2.0));
+        // 500 px edges want level 9, capped at 5; the budget is 2·100·100 = 20000 triangles.
+        let cube = |l: u32| 12 * 4u64.pow(l);
+        assert_eq!(cam.triangle_budget(1.0), 20_000);
+        assert_eq!(choose_level(&SubdivOptions::default(), Some(&cam), 10.0, lo, hi, cube), 5);
+        // 1200·4^L ≤ 20000 up to level 2.
+        let big = |l: u32| 100 * cube(l);
+        assert_eq!(choose_level(&SubdivOptions::default(), Some(&cam), 10.0, lo, hi, big), 2);
+        assert_eq!(choose_level(&SubdivOptions::default(), Some(&cam), 10.0, lo, hi, |_| u64::MAX), 0);
+    }
+
+    #[test]
+    fn framing_camera_sees_the_box() {
+        let (lo, hi) = (DVec3::splat(-1.0), DVec3::splat(1.0));
+        for z_up in [false, true] {
+            let cam = DicingCamera::framing(lo, hi, z_up);
+            assert!(!cam.outside(lo, hi));
+            assert!(cam.outside(lo + DVec3::X * 10.0, hi + DVec3::X * 10.0));
+            let eye = if z_up { -DVec3::Y } else { DVec3::Z };
+            assert!((cam.eye.normalize() - eye).length() < 1e-9, "{}", cam.eye);
+        }
     }
 
     #[test]

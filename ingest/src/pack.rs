@@ -279,7 +279,8 @@ fn shader_op(node: &ShaderNode, textures: &[(u32, bool)]) -> rec::ShaderOp {
             }
         }
         ShaderNode::Texture { dst, src, texture, wrap_s, wrap_t, scale, bias, fallback } => {
-            let (index, udim) = texture.and_then(|t| textures.get(t as usize).copied()).unwrap_or((rec::NONE, false));
+            let (index, udim) =
+                texture.and_then(|t| textures.get(t as usize).copied()).unwrap_or((rec::NONE, false));
             rec::ShaderOp {
                 kind: op_kind::TEXTURE,
                 dst,
@@ -309,12 +310,14 @@ fn emission_estimate(m: &crate::scene::Material) -> Vec3 {
     let Some(register) = textured else { return m.emissive_color };
     // The last writer of the register decides the bound.
     let bound = m.program.iter().rev().find_map(|n| match *n {
-        ShaderNode::Texture { dst, scale, bias, texture, fallback, .. } if dst == register => Some(if texture.is_some() {
-            Vec3::new(scale[0].abs() + bias[0], scale[1].abs() + bias[1], scale[2].abs() + bias[2])
-                .max(Vec3::from_slice(&fallback[..3]))
-        } else {
-            Vec3::from_slice(&fallback[..3])
-        }),
+        ShaderNode::Texture { dst, scale, bias, texture, fallback, .. } if dst == register => {
+            Some(if texture.is_some() {
+                Vec3::new(scale[0].abs() + bias[0], scale[1].abs() + bias[1], scale[2].abs() + bias[2])
+                    .max(Vec3::from_slice(&fallback[..3]))
+            } else {
+                Vec3::from_slice(&fallback[..3])
+            })
+        }
         ShaderNode::Const { dst, value } if dst == register => Some(Vec3::from_slice(&value[..3])),
         _ => None,
     });

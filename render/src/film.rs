@@ -30,6 +30,9 @@ pub struct RenderOptions {
     pub tile_size: u32,
     /// Texture filter (`--texture-filter`).
     pub texture_filter: texture::Filter,
+    /// Multiplies every camera ray's footprint: 1 filters textures over one pixel, 0 reads level 0 at
+    /// the sample point (a supersampled reference needs no prefiltering).
+    pub texture_footprint_scale: f32,
     /// Count the texel pages the render reads (`RenderStats::texture_bytes_touched`); off by default
     /// because every texel fetch then also marks a shared bitmap.
     pub texture_stats: bool,
@@ -46,6 +49,7 @@ impl Default for RenderOptions {
             max_depth: 8,
             tile_size: 16,
             texture_filter: texture::Filter::default(),
+            texture_footprint_scale: 1.0,
             texture_stats: false,
         }
     }
@@ -200,7 +204,9 @@ fn render_with_touch<T: texture::Touch + Sync>(
                     let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
                     let (o, d) =
                         camera.generate_ray((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
-                    let cone = camera.pixel_cone(d.dot(forward));
+                    let mut cone = camera.pixel_cone(d.dot(forward));
+                    cone.width *= options.texture_footprint_scale;
+                    cone.spread *= options.texture_footprint_scale;
                     let r = scene.trace_path_with(o, d, cone, key, &settings, &mut out.rays, touch);
                     if r.radiance.is_finite() {
                         sum += r.radiance;

@@ -347,7 +347,8 @@ impl<'a> Scene<'a> {
                         f32::INFINITY
                     };
                     rays.shadow += 1;
-                    if self.shadow_transmits(shadow_origin, ls.wi, tmax, shadow_seed ^ vertex, filter, touch) {
+                    if self.shadow_transmits(shadow_origin, ls.wi, tmax, shadow_seed ^ vertex, filter, touch)
+                    {
                         radiance += contribution * w;
                     }
                 }

@@ -50,6 +50,8 @@ pub mod stats;
 mod tests;
 #[cfg(test)]
 mod testscene;
+#[cfg(test)]
+mod texture_tests;
 
 pub use accel::{Accel, Hit, Ray};
 pub use error::RenderError;

@@ -191,7 +191,13 @@ impl<'a> Shading<'a> {
 
     /// The shading inputs of `material` at `at`, looking textures up with `filter` and reporting texel
     /// reads to `touch`.
-    pub fn evaluate<T: Touch>(&self, material: u32, at: &UvFootprint, filter: Filter, touch: &T) -> ShadingInputs {
+    pub fn evaluate<T: Touch>(
+        &self,
+        material: u32,
+        at: &UvFootprint,
+        filter: Filter,
+        touch: &T,
+    ) -> ShadingInputs {
         let mut inputs = ShadingInputs::constant(&self.materials[material as usize]);
         let program = self.program(material);
         if program.is_empty() {
@@ -268,7 +274,10 @@ impl<'a> Shading<'a> {
                     } else {
                         (0, op.texture)
                     };
-                    let level = self.textures.texture(texture).map_or(0.0, |t| texture::mip_level(t.record(), dx, dy));
+                    let level = self
+                        .textures
+                        .texture(texture)
+                        .map_or(0.0, |t| texture::mip_level(t.record(), dx, dy));
                     // NaN and negative levels (magnification) saturate to 0.
                     return texture::shading_sort_key_saturating(tile, level.round() as u32, uv);
                 }

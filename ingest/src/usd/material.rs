@@ -285,34 +285,41 @@ impl Reader<'_> {
         let mut m = Material::default();
         let mut program = Program::default();
         let p = &mut program;
-        let mut color = |r: &mut Self, name: &str, input: ShadingInput, slot: &mut Vec3| -> Result<(), UsdError> {
-            if let Some((v, out)) = r.input(path, &shader, name, p, Some(input))? {
-                if let Some(c) = as_color(&v, &out) {
-                    *slot = c;
+        let mut color =
+            |r: &mut Self, name: &str, input: ShadingInput, slot: &mut Vec3| -> Result<(), UsdError> {
+                if let Some((v, out)) = r.input(path, &shader, name, p, Some(input))? {
+                    if let Some(c) = as_color(&v, &out) {
+                        *slot = c;
+                    }
                 }
-            }
-            Ok(())
-        };
+                Ok(())
+            };
         color(self, "diffuseColor", ShadingInput::DiffuseColor, &mut m.diffuse_color)?;
         color(self, "emissiveColor", ShadingInput::EmissiveColor, &mut m.emissive_color)?;
         color(self, "specularColor", ShadingInput::SpecularColor, &mut m.specular_color)?;
         let mut normal = Vec3::Z;
         color(self, "normal", ShadingInput::Normal, &mut normal)?;
-        let mut float = |r: &mut Self, name: &str, input: Option<ShadingInput>, slot: &mut f32| -> Result<(), UsdError> {
-            if let Some((v, out)) = r.input(path, &shader, name, p, input)? {
-                if let Some(f) = as_float(&v, &out) {
-                    *slot = f;
+        let mut float =
+            |r: &mut Self, name: &str, input: Option<ShadingInput>, slot: &mut f32| -> Result<(), UsdError> {
+                if let Some((v, out)) = r.input(path, &shader, name, p, input)? {
+                    if let Some(f) = as_float(&v, &out) {
+                        *slot = f;
+                    }
                 }
-            }
-            Ok(())
-        };
+                Ok(())
+            };
         float(self, "roughness", Some(ShadingInput::Roughness), &mut m.roughness)?;
         float(self, "metallic", Some(ShadingInput::Metallic), &mut m.metallic)?;
         float(self, "ior", Some(ShadingInput::Ior), &mut m.ior)?;
         float(self, "opacity", Some(ShadingInput::Opacity), &mut m.opacity)?;
         float(self, "opacityThreshold", None, &mut m.opacity_threshold)?;
         float(self, "clearcoat", Some(ShadingInput::Clearcoat), &mut m.clearcoat)?;
-        float(self, "clearcoatRoughness", Some(ShadingInput::ClearcoatRoughness), &mut m.clearcoat_roughness)?;
+        float(
+            self,
+            "clearcoatRoughness",
+            Some(ShadingInput::ClearcoatRoughness),
+            &mut m.clearcoat_roughness,
+        )?;
         let mut workflow = 0.0;
         float(self, "useSpecularWorkflow", None, &mut workflow)?;
         m.use_specular_workflow = workflow != 0.0;
@@ -359,7 +366,11 @@ impl Reader<'_> {
                                 }
                             }
                         }
-                        program.nodes.push(ShaderNode::Output { input: slot, src, swizzle: swizzle(&output) });
+                        program.nodes.push(ShaderNode::Output {
+                            input: slot,
+                            src,
+                            swizzle: swizzle(&output),
+                        });
                         Ok(None)
                     }
                     None => Ok(None),
@@ -381,7 +392,10 @@ impl Reader<'_> {
             return Ok(Some(r));
         }
         if depth > MAX_NODE_DEPTH {
-            self.warn(node, "shading network nested too deeply (a cycle?); using the PreviewSurface fallback");
+            self.warn(
+                node,
+                "shading network nested too deeply (a cycle?); using the PreviewSurface fallback",
+            );
             return Ok(None);
         }
         let id = self.token(node, "info:id")?.unwrap_or_default();
@@ -410,7 +424,8 @@ impl Reader<'_> {
                 let (wrap_s, wrap_t) = (wrap(self, "wrapS")?, wrap(self, "wrapT")?);
                 let scale_v = value(self, "scale")?;
                 let bias_v = value(self, "bias")?;
-                let fallback = fallback.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |v| vec4(v, [0.0, 0.0, 0.0, 1.0]));
+                let fallback =
+                    fallback.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |v| vec4(v, [0.0, 0.0, 0.0, 1.0]));
                 let color_space = match value(self, "sourceColorSpace")?.as_ref().and_then(Value::as_str) {
                     None => texture::ColorSpace::Auto,
                     Some(t) => t.parse().unwrap_or_else(|e: String| {
@@ -439,7 +454,10 @@ impl Reader<'_> {
             }
             "UsdPrimvarReader_float2" => {
                 let Some(dst) = program.register() else { return self.too_many(node) };
-                ShaderNode::PrimvarUv { dst, fallback: fallback.as_ref().map_or([0.0; 4], |v| vec4(v, [0.0; 4])) }
+                ShaderNode::PrimvarUv {
+                    dst,
+                    fallback: fallback.as_ref().map_or([0.0; 4], |v| vec4(v, [0.0; 4])),
+                }
             }
             "UsdTransform2d" => {
                 let src = self.coordinate_register(material, node, "in", program, depth)?;
@@ -448,7 +466,8 @@ impl Reader<'_> {
                     Some(Value::Scalar(s)) => [s as f32; 2],
                     _ => d,
                 };
-                let rotation_degrees = value(self, "rotation")?.and_then(|v| v.as_f64()).unwrap_or(0.0) as f32;
+                let rotation_degrees =
+                    value(self, "rotation")?.and_then(|v| v.as_f64()).unwrap_or(0.0) as f32;
                 let scale = pair(value(self, "scale")?, [1.0; 2]);
                 let translation = pair(value(self, "translation")?, [0.0; 2]);
                 let Some(dst) = program.register() else { return self.too_many(node) };
@@ -475,7 +494,10 @@ impl Reader<'_> {
     fn too_many(&mut self, node: &str) -> Result<Option<u32>, UsdError> {
         self.warn(
             node,
-            format!("material network has more than {} nodes; the rest use the PreviewSurface fallback", blob::MAX_REGISTERS),
+            format!(
+                "material network has more than {} nodes; the rest use the PreviewSurface fallback",
+                blob::MAX_REGISTERS
+            ),
         );
         Ok(None)
     }
@@ -521,7 +543,10 @@ impl Reader<'_> {
         match resolve_asset(&layer, &asset) {
             Ok(path) => Ok(Some(path)),
             Err(why) => {
-                self.warn(node, format!("texture file {asset:?} (material {material}): {why}; using its fallback"));
+                self.warn(
+                    node,
+                    format!("texture file {asset:?} (material {material}): {why}; using its fallback"),
+                );
                 Ok(None)
             }
         }
@@ -536,7 +561,9 @@ impl Reader<'_> {
         color_space: texture::ColorSpace,
         fallback: [f32; 4],
     ) -> Option<u32> {
-        if let Some(i) = self.scene.textures.iter().position(|t| t.path == path && t.color_space == color_space) {
+        if let Some(i) =
+            self.scene.textures.iter().position(|t| t.path == path && t.color_space == color_space)
+        {
             return Some(i as u32);
         }
         let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
@@ -545,7 +572,10 @@ impl Reader<'_> {
             let tiles = match texture::udim::expand(path) {
                 Ok(tiles) => tiles,
                 Err(e) => {
-                    self.warn(node, format!("texture {}: {e}; using its fallback {fallback:?}", path.display()));
+                    self.warn(
+                        node,
+                        format!("texture {}: {e}; using its fallback {fallback:?}", path.display()),
+                    );
                     return None;
                 }
             };
@@ -555,7 +585,13 @@ impl Reader<'_> {
             for (tile, result) in baked {
                 match result {
                     Ok(b) => found.push((tile.u, tile.v, b)),
-                    Err(e) => self.warn(node, format!("UDIM tile {} cannot be read ({e}); lookups there use the fallback {fallback:?}", tile.number)),
+                    Err(e) => self.warn(
+                        node,
+                        format!(
+                            "UDIM tile {} cannot be read ({e}); lookups there use the fallback {fallback:?}",
+                            tile.number
+                        ),
+                    ),
                 }
             }
             if found.is_empty() {
@@ -584,8 +620,12 @@ impl Reader<'_> {
             match bake_one(path) {
                 Ok(b) => TextureData::Image(b),
                 Err(e) => {
-                    let why = if path.exists() { format!("cannot be read ({e})") } else { "not found".to_string() };
-                    self.warn(node, format!("texture file {} {why}; using its fallback {fallback:?}", path.display()));
+                    let why =
+                        if path.exists() { format!("cannot be read ({e})") } else { "not found".to_string() };
+                    self.warn(
+                        node,
+                        format!("texture file {} {why}; using its fallback {fallback:?}", path.display()),
+                    );
                     return None;
                 }
             }
@@ -677,7 +717,11 @@ impl Reader<'_> {
 /// Resolves a texture asset path against the layer that authored it: absolute paths as they are,
 /// relative ones (`./`, `../` or bare) next to the layer file.
 fn resolve_asset(layer: &str, asset: &str) -> Result<PathBuf, String> {
-    if asset.contains(".usdz[") || asset.ends_with(']') || layer.contains(".usdz[") || layer.ends_with(".usdz") {
+    if asset.contains(".usdz[")
+        || asset.ends_with(']')
+        || layer.contains(".usdz[")
+        || layer.ends_with(".usdz")
+    {
         return Err("textures inside .usdz packages are not supported yet".into());
     }
     let asset_path = Path::new(asset);

@@ -232,8 +232,21 @@ impl Reader<'_> {
         if queued.is_empty() {
             return;
         }
-        let camera =
-            self.scene.default_camera.map(|i| DicingCamera::new(&self.scene.cameras[i], self.scene.resolution));
+        let camera = match self.scene.default_camera {
+            Some(i) => DicingCamera::new(&self.scene.cameras[i], self.scene.resolution),
+            None => {
+                // `render` frames the whole scene; the cages bound their limit surfaces.
+                let cages = queued.iter().flat_map(|q| {
+                    q.points.iter().map(|p| q.world_from_local.project_point3(glam::Vec3::from_array(*p).as_dvec3()))
+                });
+                let meshes = self.scene.meshes.iter().flat_map(|m| m.positions.iter().map(|p| p.as_dvec3()));
+                let (lo, hi) = cages
+                    .chain(meshes)
+                    .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+                DicingCamera::framing(lo, hi, self.scene.up_axis == crate::scene::UpAxis::Z)
+            }
+        };
+        let camera = Some(camera);
         let diced: Vec<_> = queued.par_iter().map(|q| dice(q, options, camera.as_ref())).collect();
         for (q, result) in queued.into_iter().zip(diced) {
             match result {
@@ -278,7 +291,14 @@ fn dice(q: &QueuedSubdivision, options: &SubdivOptions, camera: Option<&DicingCa
         .collect();
     let (lo, hi) = bounds(&world);
     let longest = q.topology.longest_edge(&world)?;
-    let level = choose_level(options, camera, longest.into(), lo, hi);
+    let all_quads = q.cage.counts.iter().all(|&n| n == 4);
+    let scheme = q.topology.options().scheme;
+    let surface_faces = || {
+        q.cage.counts.iter().enumerate().filter(|(f, _)| !q.cage.holes.contains(&(*f as i64))).map(|(_, &n)| n)
+    };
+    let level = choose_level(options, camera, longest.into(), lo, hi, |l| {
+        triangles_at_level(scheme, surface_faces(), all_quads, l)
+    });
     let mut note = None;
     let refiner = match Refiner::new(&q.topology, level) {
         Err(subdiv::Error::LevelTooHigh { level, max }) => {
@@ -309,7 +329,6 @@ fn dice(q: &QueuedSubdivision, options: &SubdivOptions, camera: Option<&DicingCa
     for &f in &tess.coarse_face {
         drawn[f as usize] = true;
     }
-    let all_quads = q.cage.counts.iter().all(|&n| n == 4);
     let drawn_sizes = q.cage.counts.iter().zip(&drawn).filter(|(_, &d)| d).map(|(&n, _)| n);
     let triangles_at_max_level =
         triangles_at_level(refiner.scheme(), drawn_sizes, all_quads, options.max_level);

@@ -269,10 +269,16 @@ def Scope "Render" {
 }
 
 #[test]
-fn no_camera_uses_the_default_level() {
-    let scene = load_with(&cube_prim("Cube", &CUBE_POINTS, &CUBE_INDICES, ""), SubdivOptions::default());
-    assert_eq!(level_of(&scene, "/Cube"), crate::dicing::DEFAULT_LEVEL);
-    assert_eq!(mesh(&scene, "/Cube").triangles.len(), 12 * 16);
+fn no_camera_dices_for_the_framing_camera_within_the_pixel_budget() {
+    // `render` frames the unit cube 1.88 units from its front face with a 618 px focal length
+    // (512 px, 45°): a 329 px edge, level 9, capped at 5.
+    let body = cube_prim("Cube", &CUBE_POINTS, &CUBE_INDICES, "");
+    let scene = load_with(&body, SubdivOptions::default());
+    assert_eq!(level_of(&scene, "/Cube"), 5);
+    assert_eq!(mesh(&scene, "/Cube").triangles.len(), 12 * 1024);
+    // At 64 px the edge wants level 3, but 2·512²/64² = 128 triangles only pay for level 1.
+    let scene = load_with(&body, SubdivOptions { dicing_rate: 64.0, ..SubdivOptions::default() });
+    assert_eq!(level_of(&scene, "/Cube"), 1);
 }
 
 #[test]

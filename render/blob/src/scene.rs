@@ -1,7 +1,9 @@
 //! [`SceneData`] (owned, what ingest fills) and [`SceneView`] (borrowed, validated, what render reads).
 
 use crate::checksum::checksum;
-use crate::container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};
+use crate::container::{
+    Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN,
+};
 use crate::error::BlobError;
 use crate::records::*;
 use bytemuck::Pod;
@@ -425,7 +427,11 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
             return Err(BlobError::DuplicateSection(kind));
         }
         let end = entry.offset.checked_add(entry.byte_len);
-        let align = if kind == SectionKind::TextureTexels && entry.byte_len > 0 { TEXEL_ALIGN } else { SECTION_ALIGN };
+        let align = if kind == SectionKind::TextureTexels && entry.byte_len > 0 {
+            TEXEL_ALIGN
+        } else {
+            SECTION_ALIGN
+        };
         let in_bounds = entry.offset.is_multiple_of(align as u64)
             && entry.offset >= table_end as u64
             && end.is_some_and(|end| end <= actual);
@@ -480,7 +486,8 @@ fn check_texture(rec: &TextureRecord, texel_len: u64) -> Result<(), &'static str
     if rec.format > 2 {
         return Err("unknown texel format");
     }
-    if !(1..=MAX_TEXTURE_DIMENSION).contains(&rec.width) || !(1..=MAX_TEXTURE_DIMENSION).contains(&rec.height) {
+    if !(1..=MAX_TEXTURE_DIMENSION).contains(&rec.width) || !(1..=MAX_TEXTURE_DIMENSION).contains(&rec.height)
+    {
         return Err("width or height out of range");
     }
     if !(1..=4).contains(&rec.channels) {
@@ -515,7 +522,9 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::Positions | SectionKind::Normals => size_of::<[f32; 3]>(),
         SectionKind::Uvs => size_of::<[f32; 2]>(),
         SectionKind::Triangles => size_of::<Triangle>(),
-        SectionKind::TriangleMaterials | SectionKind::BvhPrimitives | SectionKind::UdimTiles => size_of::<u32>(),
+        SectionKind::TriangleMaterials | SectionKind::BvhPrimitives | SectionKind::UdimTiles => {
+            size_of::<u32>()
+        }
         SectionKind::TextureRecords => size_of::<TextureRecord>(),
         SectionKind::UdimSets => size_of::<UdimSet>(),
         SectionKind::ShaderOps => size_of::<ShaderOp>(),

@@ -21,7 +21,49 @@ fn sample_scene() -> SceneData {
         reserved: 0,
     }];
     let mname = s.add_string("/Looks/M");
-    s.materials = vec![Material { name: mname, diffuse_color: [0.5; 3], ..Material::default() }];
+    s.materials = vec![Material {
+        name: mname,
+        diffuse_color: [0.5; 3],
+        program_start: 0,
+        program_len: 3,
+        ..Material::default()
+    }];
+    // A 2×2 grey texture with its 1×1 level, a one-tile UDIM set over it, and a program reading it.
+    let mut level_offsets = [0u64; MAX_MIP_LEVELS];
+    level_offsets[1] = 64;
+    s.texture_records = vec![TextureRecord {
+        width: 2,
+        height: 2,
+        channels: 1,
+        format: 0,
+        mip_count: 2,
+        tile_log2: 2,
+        byte_len: 65,
+        level_offsets,
+        ..TextureRecord::default()
+    }];
+    s.texels = vec![7; 65];
+    s.udim_sets = vec![UdimSet { first_tile: 0, u_count: 1, v_count: 1, reserved: 0 }];
+    s.udim_tiles = vec![0];
+    s.shader_ops = vec![
+        ShaderOp { kind: op_kind::PRIMVAR_UV, dst: 0, ..ShaderOp::default() },
+        ShaderOp {
+            kind: op_kind::TEXTURE,
+            dst: 1,
+            src: 0,
+            texture: 0,
+            flags: OP_UDIM | op_wrap_flags(2, 3),
+            params: [[1.0; 4], [0.0; 4], [0.0, 0.0, 0.0, 1.0]],
+            ..ShaderOp::default()
+        },
+        ShaderOp {
+            kind: op_kind::OUTPUT,
+            dst: shading_input::DIFFUSE_COLOR,
+            src: 1,
+            flags: 0b11_10_01_00,
+            ..ShaderOp::default()
+        },
+    ];
     let lname = s.add_string("/Light");
     s.lights = vec![Light { name: lname, kind: light_kind::DOME, radiance: [1.0; 3], ..Light::default() }];
     let cname = s.add_string("/Cam");
@@ -61,6 +103,11 @@ fn round_trip_preserves_every_section() {
     assert_eq!(view.cameras, &scene.cameras[..]);
     assert_eq!(view.bvh_nodes, &scene.bvh_nodes[..]);
     assert_eq!(view.bvh_primitives, &scene.bvh_primitives[..]);
+    assert_eq!(view.texture_records, &scene.texture_records[..]);
+    assert_eq!(view.udim_sets, &scene.udim_sets[..]);
+    assert_eq!(view.udim_tiles, &scene.udim_tiles[..]);
+    assert_eq!(view.texels, &scene.texels[..]);
+    assert_eq!(view.shader_ops, &scene.shader_ops[..]);
     assert_eq!(view.string(view.meshes[0].name), "/World/Tri");
     assert_eq!(view.string(view.cameras[0].name), "/Cam");
 }
@@ -74,6 +121,58 @@ fn sections_are_64_byte_aligned_and_encoding_is_deterministic() {
         let entry: SectionEntry = bytemuck::pod_read_unaligned(&bytes[64 + 32 * i..96 + 32 * i]);
         assert_eq!(entry.offset % 64, 0);
     }
+}
+
+#[test]
+fn texel_section_starts_on_a_page() {
+    let bytes = sample_scene().encode();
+    let header: Header = bytemuck::pod_read_unaligned(&bytes[..64]);
+    let texels = (0..header.section_count as usize)
+        .map(|i| bytemuck::pod_read_unaligned::<SectionEntry>(&bytes[64 + 32 * i..96 + 32 * i]))
+        .find(|e| e.kind == SectionKind::TextureTexels as u32)
+        .unwrap();
+    assert_eq!(texels.offset % TEXEL_ALIGN as u64, 0);
+    assert_eq!(texels.byte_len, 65);
+}
+
+#[test]
+fn bad_texture_and_program_indices_are_rejected() {
+    let rejects = |what: &str, edit: &dyn Fn(&mut SceneData), kind: SectionKind| {
+        let mut scene = sample_scene();
+        edit(&mut scene);
+        match parse(&scene.encode()) {
+            Err(BlobError::BadIndex { kind: k, .. }) if k == kind => {}
+            other => panic!("{what}: {other:?}"),
+        }
+    };
+    rejects(
+        "level past the texels",
+        &|s| s.texture_records[0].level_offsets[1] = 65,
+        SectionKind::TextureRecords,
+    );
+    rejects("too many levels", &|s| s.texture_records[0].mip_count = 3, SectionKind::TextureRecords);
+    rejects("unknown format", &|s| s.texture_records[0].format = 3, SectionKind::TextureRecords);
+    rejects("huge width", &|s| s.texture_records[0].width = 1 << 20, SectionKind::TextureRecords);
+    rejects("tile past the table", &|s| s.udim_sets[0].u_count = 2, SectionKind::UdimSets);
+    rejects("tile names no texture", &|s| s.udim_tiles[0] = 1, SectionKind::UdimTiles);
+    rejects("udim set out of range", &|s| s.shader_ops[1].texture = 1, SectionKind::ShaderOps);
+    rejects(
+        "texture out of range",
+        &|s| {
+            s.shader_ops[1].flags = 0;
+            s.shader_ops[1].texture = 1;
+        },
+        SectionKind::ShaderOps,
+    );
+    rejects("register out of range", &|s| s.shader_ops[1].dst = MAX_REGISTERS, SectionKind::ShaderOps);
+    rejects("source register out of range", &|s| s.shader_ops[2].src = 99, SectionKind::ShaderOps);
+    rejects("unknown input", &|s| s.shader_ops[2].dst = shading_input::COUNT, SectionKind::ShaderOps);
+    rejects("unknown op", &|s| s.shader_ops[0].kind = op_kind::COUNT, SectionKind::ShaderOps);
+    rejects("program past the ops", &|s| s.materials[0].program_len = 4, SectionKind::Materials);
+    // A missing texture is NONE, not an error.
+    let mut scene = sample_scene();
+    scene.shader_ops[1].texture = NONE;
+    assert!(parse(&scene.encode()).is_ok());
 }
 
 #[test]
