@@ -194,7 +194,8 @@ fn main() -> anyhow::Result<()> {
             let assets = if assets.is_empty() {
                 vec![
                     "teapot=../shared/assets/teapot/full_assets/Teapot/Teapot.usd@5".to_string(),
-                    "chess=../shared/assets/open_chess_set/full_assets/OpenChessSet/chess_set.usda@4".to_string(),
+                    "chess=../shared/assets/open_chess_set/full_assets/OpenChessSet/chess_set.usda@4"
+                        .to_string(),
                 ]
             } else {
                 assets

@@ -30,16 +30,14 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use ::subdiv::{Refiner, Scheme};
 use anyhow::{bail, Context};
 use glam::DVec3;
 use ingest::dicing::{DicingCamera, SubdivOptions};
 use plotters::prelude::*;
-use ::subdiv::{Refiner, Scheme};
 
 /// Dicing rates of the sweep, in pixels.
 const RATES: [f32; 4] = [4.0, 2.0, 1.0, 0.5];
-/// Image width of the framing camera (as `render` without a camera).
-const WIDTH: u32 = 512;
 
 /// One asset of the sweep: a name and its root layer; `max_level` caps its uniform levels.
 pub struct Asset {
@@ -54,6 +52,8 @@ struct ErrorStats {
     max: f64,
     sum_sq: f64,
     samples: u64,
+    /// Faces whose children could not be paired with their corners (left out).
+    skipped_faces: u64,
 }
 
 impl ErrorStats {
@@ -67,6 +67,7 @@ impl ErrorStats {
         self.max = self.max.max(o.max);
         self.sum_sq += o.sum_sq;
         self.samples += o.samples;
+        self.skipped_faces += o.skipped_faces;
     }
 
     fn rms(&self) -> f64 {
@@ -91,14 +92,18 @@ fn with_framing_camera(asset: &Path, out: &Path, name: &str) -> anyhow::Result<P
         subdiv: SubdivOptions { forced_level: Some(0), ..SubdivOptions::default() },
         ..ingest::usd::LoadOptions::default()
     };
-    let scene = ingest::usd::load(asset, &options).with_context(|| format!("cannot load {}", asset.display()))?;
+    let scene =
+        ingest::usd::load(asset, &options).with_context(|| format!("cannot load {}", asset.display()))?;
     if scene.default_camera.is_some() {
         return Ok(asset.to_path_buf());
     }
-    let (lo, hi) = scene.meshes.iter().flat_map(|m| &m.positions).fold(
-        (DVec3::INFINITY, DVec3::NEG_INFINITY),
-        |(lo, hi), p| (lo.min(p.as_dvec3()), hi.max(p.as_dvec3())),
-    );
+    let (lo, hi) = scene
+        .meshes
+        .iter()
+        .flat_map(|m| &m.positions)
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.as_dvec3()), hi.max(p.as_dvec3()))
+        });
     if !lo.cmple(hi).all() {
         bail!("{} has no geometry", asset.display());
     }
@@ -107,7 +112,11 @@ fn with_framing_camera(asset: &Path, out: &Path, name: &str) -> anyhow::Result<P
     let half_fov = 22.5f64.to_radians();
     let distance = radius / half_fov.sin() * 1.05;
     let z_up = scene.up_axis == ingest::UpAxis::Z;
-    let (eye, rotate) = if z_up { (centre - DVec3::Y * distance, "(90, 0, 0)") } else { (centre + DVec3::Z * distance, "(0, 0, 0)") };
+    let (eye, rotate) = if z_up {
+        (centre - DVec3::Y * distance, "(90, 0, 0)")
+    } else {
+        (centre + DVec3::Z * distance, "(0, 0, 0)")
+    };
     let focal = 18.0 / half_fov.tan();
     let text = format!(
         r#"#usda 1.0
@@ -145,7 +154,9 @@ fn chordal_error(s: &ingest::Subdivision, level: u32, camera: &DicingCamera) -> 
     let world: Vec<[f32; 3]> = s
         .points
         .iter()
-        .map(|p| s.world_from_local.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array())
+        .map(|p| {
+            s.world_from_local.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array()
+        })
         .collect();
     let coarse = Refiner::new(&s.topology, level)?;
     let fine = Refiner::new(&s.topology, coarse.level() + 1)?;
@@ -154,6 +165,7 @@ fn chordal_error(s: &ingest::Subdivision, level: u32, camera: &DicingCamera) -> 
     let v = |p: [f64; 3]| DVec3::from_array(p);
 
     let mut stats = ErrorStats::default();
+    let mut skipped = 0;
     let mut sample = |flat: DVec3, exact: DVec3| {
         if !camera.outside(exact, exact) {
             stats.add(flat.distance(exact) * camera.pixels_per_unit_at(exact));
@@ -188,37 +200,56 @@ fn chordal_error(s: &ingest::Subdivision, level: u32, camera: &DicingCamera) -> 
         }
         let face_child = uses.iter().find(|(_, &u)| u == faces.len()).map(|(&x, _)| x);
         let singles: Vec<u32> = uses.iter().filter(|(_, &u)| u == 1).map(|(&x, _)| x).collect();
-        // The child of each parent corner: the single-use vertex on its limit point.
-        let corner_child: Vec<u32> = parent
+        // The child of each parent corner: the single-use vertex on its limit point. Faces whose
+        // children cannot be told apart (coincident cage points, non-manifold neighbourhoods)
+        // are skipped and counted.
+        let corner_child: Option<Vec<u32>> = parent
             .iter()
             .map(|&p| {
                 let at = v(p0[p as usize]);
-                *singles
-                    .iter()
-                    .min_by(|&&a, &&b| v(p1[a as usize]).distance(at).total_cmp(&v(p1[b as usize]).distance(at)))
-                    .expect("a vertex child per corner")
+                singles.iter().copied().min_by(|&a, &b| {
+                    v(p1[a as usize]).distance(at).total_cmp(&v(p1[b as usize]).distance(at))
+                })
             })
             .collect();
-        let holder = |x: u32| faces.iter().find(|f| f.contains(&x)).expect("child face of a corner");
+        let Some(corner_child) = corner_child else {
+            skipped += 1;
+            continue;
+        };
+        let holder = |x: u32| faces.iter().find(|f| f.contains(&x));
+        let mut edge_samples = Vec::with_capacity(n);
         for j in 0..n {
             let (a, b) = (parent[j], parent[(j + 1) % n]);
-            if !seen_edges.insert((a.min(b), a.max(b))) {
-                continue;
+            let shared = holder(corner_child[j])
+                .zip(holder(corner_child[(j + 1) % n]))
+                .and_then(|(fa, fb)| fa.iter().copied().find(|x| Some(*x) != face_child && fb.contains(x)));
+            match shared {
+                Some(edge_child) => edge_samples.push((a, b, edge_child)),
+                None => break,
             }
-            let (fa, fb) = (holder(corner_child[j]), holder(corner_child[(j + 1) % n]));
-            let Some(&edge_child) = fa.iter().find(|x| Some(**x) != face_child && fb.contains(x)) else {
-                bail!("no shared edge child between the children at {a} and {b}");
-            };
-            sample((v(p0[a as usize]) + v(p0[b as usize])) / 2.0, v(p1[edge_child as usize]));
+        }
+        if edge_samples.len() != n {
+            skipped += 1;
+            continue;
+        }
+        for (a, b, edge_child) in edge_samples {
+            if seen_edges.insert((a.min(b), a.max(b))) {
+                sample((v(p0[a as usize]) + v(p0[b as usize])) / 2.0, v(p1[edge_child as usize]));
+            }
         }
         if let (4, Some(centre)) = (n, face_child) {
             // The flat quad's centre lies on the diagonal it was split along (the shorter one,
             // as `subdiv::tessellate` splits).
             let q = parent.iter().map(|&p| v(p0[p as usize])).collect::<Vec<_>>();
-            let mid = if q[0].distance(q[2]) <= q[1].distance(q[3]) { (q[0] + q[2]) / 2.0 } else { (q[1] + q[3]) / 2.0 };
+            let mid = if q[0].distance(q[2]) <= q[1].distance(q[3]) {
+                (q[0] + q[2]) / 2.0
+            } else {
+                (q[1] + q[3]) / 2.0
+            };
             sample(mid, v(p1[centre as usize]));
         }
     }
+    stats.skipped_faces = skipped;
     Ok(stats)
 }
 
@@ -231,10 +262,15 @@ pub fn run(assets: &[Asset], out: &Path) -> anyhow::Result<()> {
         // Errors per (mesh, level), shared by every run that picks that level for that mesh.
         let mut cache: HashMap<(usize, u32), ErrorStats> = HashMap::new();
         let mut modes: Vec<(String, SubdivOptions)> = (0..=asset.max_level)
-            .map(|l| (format!("level {l}"), SubdivOptions { forced_level: Some(l), ..SubdivOptions::default() }))
+            .map(|l| {
+                (format!("level {l}"), SubdivOptions { forced_level: Some(l), ..SubdivOptions::default() })
+            })
             .collect();
         modes.extend(RATES.iter().map(|&r| {
-            (format!("rate {r} px"), SubdivOptions { dicing_rate: r, max_level: asset.max_level, ..SubdivOptions::default() })
+            (
+                format!("rate {r} px"),
+                SubdivOptions { dicing_rate: r, max_level: asset.max_level, ..SubdivOptions::default() },
+            )
         }));
         for (mode, subdiv) in modes {
             let options = ingest::usd::LoadOptions { subdiv, ..ingest::usd::LoadOptions::default() };
@@ -251,7 +287,7 @@ pub fn run(assets: &[Asset], out: &Path) -> anyhow::Result<()> {
                     Some(stats) => *stats,
                     None => {
                         let stats = chordal_error(s, s.level, &camera)
-                            .with_context(|| format!("{}", scene.meshes[s.mesh].path))?;
+                            .with_context(|| scene.meshes[s.mesh].path.clone())?;
                         cache.insert((k, s.level), stats);
                         stats
                     }
@@ -283,6 +319,7 @@ pub fn run(assets: &[Asset], out: &Path) -> anyhow::Result<()> {
                 "subdivision_meshes": r.levels.len(), "triangles": r.triangles,
                 "ingest_seconds": r.seconds, "blob_bytes": r.blob_bytes,
                 "error_max_px": r.error.max, "error_rms_px": r.error.rms(), "error_samples": r.error.samples,
+                "skipped_faces": r.error.skipped_faces,
             })
         }).collect::<Vec<_>>(),
     });
@@ -312,8 +349,10 @@ fn chart(rows: &[Row], path: &Path) -> anyhow::Result<()> {
     let root = SVGBackend::new(path, (820, 520)).into_drawing_area();
     root.fill(&WHITE)?;
     let finite: Vec<&Row> = rows.iter().filter(|r| r.error.max > 0.0 && r.seconds > 0.0).collect();
-    let (t0, t1) = finite.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r.seconds), hi.max(r.seconds)));
-    let (e0, e1) = finite.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r.error.max), hi.max(r.error.max)));
+    let (t0, t1) =
+        finite.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r.seconds), hi.max(r.seconds)));
+    let (e0, e1) =
+        finite.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r.error.max), hi.max(r.error.max)));
     let mut chart = ChartBuilder::on(&root)
         .caption("Subdivision: max chordal error (px) vs ingest seconds", ("sans-serif", 18))
         .margin(12)
@@ -334,7 +373,8 @@ fn chart(rows: &[Row], path: &Path) -> anyhow::Result<()> {
                 .draw_series(LineSeries::new(pts.iter().map(|r| (r.seconds, r.error.max)), style))?
                 .label(format!("{asset}: {}", if dashed { "dicing rate" } else { "uniform level" }))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-            chart.draw_series(pts.iter().map(|r| Circle::new((r.seconds, r.error.max), 3, colour.filled())))?;
+            chart
+                .draw_series(pts.iter().map(|r| Circle::new((r.seconds, r.error.max), 3, colour.filled())))?;
             chart.draw_series(pts.iter().map(|r| {
                 let label = r.mode.replace("level ", "L").replace("rate ", "").replace(" px", "px");
                 Text::new(label, (r.seconds, r.error.max * 1.12), ("sans-serif", 11).into_font())

@@ -118,7 +118,8 @@ impl DicingCamera {
         } else {
             (centre + DVec3::Z * distance, DVec3::X, DVec3::Y, DVec3::Z)
         };
-        let world_from_camera = DMat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), eye.extend(1.0));
+        let world_from_camera =
+            DMat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), eye.extend(1.0));
         let camera = Camera {
             path: String::new(),
             world_from_camera: world_from_camera.as_mat4(),
@@ -155,13 +156,11 @@ impl DicingCamera {
         let [x_min, x_max, y_min, y_max] = self.window;
         // Signed distances that are negative outside each plane (the camera looks down −Z).
         let planes: [&dyn Fn(DVec3) -> f64; 5] = match self.projection {
-            Projection::Perspective { .. } => [
-                &|p| -p.z,
-                &|p| p.x + x_min * p.z,
-                &|p| -x_max * p.z - p.x,
-                &|p| p.y + y_min * p.z,
-                &|p| -y_max * p.z - p.y,
-            ],
+            Projection::Perspective { .. } => {
+                [&|p| -p.z, &|p| p.x + x_min * p.z, &|p| -x_max * p.z - p.x, &|p| p.y + y_min * p.z, &|p| {
+                    -y_max * p.z - p.y
+                }]
+            }
             Projection::Orthographic { .. } => {
                 [&|p| -p.z, &|p| p.x - x_min, &|p| x_max - p.x, &|p| p.y - y_min, &|p| y_max - p.y]
             }

@@ -285,7 +285,10 @@ int osd_refine_fvar(const OsdRefiner *r, int channel, const double *src, int wid
             cur.swap(next);
         }
 
-        if (!limit) {
+        // An unrefined refiner (level 0) has no face-varying crease topology for the limit masks:
+        // LimitFaceVarying dereferences it and crashes (seen on testUsdImagingGLFaceVaryingLinearInterp).
+        // The cage values are what level 0 shows, so they are returned as they are.
+        if (!limit || max_level == 0) {
             std::memcpy(dst, cur.data(), cur.size() * sizeof(double));
         } else {
             Rows s{cur.data(), width}, d{dst, width};

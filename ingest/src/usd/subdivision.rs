@@ -42,8 +42,14 @@ pub(super) struct QueuedSubdivision {
     slot: usize,
     path: String,
     topology: Topology,
-    /// Cage points, local space.
+    /// Cage points in the space the surface is refined in: local, or world under a projective
+    /// transform.
     points: Vec<[f32; 3]>,
+    /// Transform from that space to world.
+    world_from_points: DMat4,
+    /// The refined space is mirrored relative to the cage's orientation (a projective transform
+    /// with negative determinant): flip the triangles and normals.
+    mirrored: bool,
     uv: UvInput,
     /// The polygon cage: per-face materials, and the fallback if refinement fails.
     cage: PolygonCage,
@@ -66,7 +72,9 @@ fn to_i32(v: i64) -> i32 {
 impl Reader<'_> {
     fn floats(&self, prim: &str, attr: &str) -> Result<Vec<f32>, UsdError> {
         Ok(match self.stage.attr(prim, attr)? {
-            Some(super::stage::Value::Array { data, arity: 1 }) => data.into_iter().map(|x| x as f32).collect(),
+            Some(super::stage::Value::Array { data, arity: 1 }) => {
+                data.into_iter().map(|x| x as f32).collect()
+            }
             Some(super::stage::Value::Scalar(x)) => vec![x as f32],
             _ => Vec::new(),
         })
@@ -108,14 +116,30 @@ impl Reader<'_> {
                     double_sided: cage.double_sided,
                     ..Mesh::default()
                 });
+                // Subdivision commutes with affine maps, so the surface is refined in local space
+                // and transformed. A projective transform (points divided through, as for
+                // polygon meshes) does not commute: the cage is projected first and refined in
+                // world space, which keeps the surface inside the projected cage.
+                let m = state.world_from_local;
+                let projective = m.row(3) != glam::DVec4::W;
+                let (points, world_from_points) = if projective {
+                    (
+                        cage.points.iter().map(|&p| m.project_point3(p).as_vec3().to_array()).collect(),
+                        DMat4::IDENTITY,
+                    )
+                } else {
+                    (cage.points.iter().map(|p| p.as_vec3().to_array()).collect(), m)
+                };
                 self.subdivisions.push(QueuedSubdivision {
                     slot,
                     path: path.to_string(),
                     topology,
-                    points: cage.points.iter().map(|p| p.as_vec3().to_array()).collect(),
+                    points,
+                    world_from_points,
+                    mirrored: projective && m.determinant() < 0.0,
                     uv,
                     cage,
-                    world_from_local: state.world_from_local,
+                    world_from_local: m,
                 });
                 Ok(None)
             }
@@ -180,7 +204,9 @@ impl Reader<'_> {
                 match p.interpolation {
                     Interpolation::Constant => (UvInput::Constant(p.values[value(0)].as_vec2()), Vec::new()),
                     Interpolation::Vertex => (
-                        UvInput::Vertex((0..cage.points.len()).map(|pt| f32x2(p.values[value(pt)])).collect()),
+                        UvInput::Vertex(
+                            (0..cage.points.len()).map(|pt| f32x2(p.values[value(pt)])).collect(),
+                        ),
                         Vec::new(),
                     ),
                     Interpolation::FaceVarying | Interpolation::Uniform => {
@@ -237,7 +263,9 @@ impl Reader<'_> {
             None => {
                 // `render` frames the whole scene; the cages bound their limit surfaces.
                 let cages = queued.iter().flat_map(|q| {
-                    q.points.iter().map(|p| q.world_from_local.project_point3(glam::Vec3::from_array(*p).as_dvec3()))
+                    q.points
+                        .iter()
+                        .map(|p| q.world_from_points.transform_point3(glam::Vec3::from_array(*p).as_dvec3()))
                 });
                 let meshes = self.scene.meshes.iter().flat_map(|m| m.positions.iter().map(|p| p.as_dvec3()));
                 let (lo, hi) = cages
@@ -254,18 +282,21 @@ impl Reader<'_> {
                     if let Some(note) = d.note {
                         self.warn(&q.path, note);
                     }
-                    self.scene.meshes[q.slot] = world_mesh(&q.path, d.local, q.world_from_local);
+                    self.scene.meshes[q.slot] = world_mesh(&q.path, d.local, q.world_from_points);
                     self.scene.subdivisions.push(Subdivision {
                         mesh: q.slot,
                         topology: q.topology,
                         points: q.points,
-                        world_from_local: q.world_from_local,
+                        world_from_local: q.world_from_points,
                         level: d.level,
                         triangles_at_max_level: d.triangles_at_max_level,
                     });
                 }
                 Err(e) => {
-                    self.warn(&q.path, format!("cannot subdivide: {e}; rendering the triangulated cage instead"));
+                    self.warn(
+                        &q.path,
+                        format!("cannot subdivide: {e}; rendering the triangulated cage instead"),
+                    );
                     let (local, _) = q.cage.triangulate();
                     self.scene.meshes[q.slot] = world_mesh(&q.path, local, q.world_from_local);
                 }
@@ -283,18 +314,29 @@ fn bounds(points: &[[f32; 3]]) -> (DVec3, DVec3) {
 }
 
 /// Chooses the level of one queued mesh and tessellates it (local space).
-fn dice(q: &QueuedSubdivision, options: &SubdivOptions, camera: Option<&DicingCamera>) -> subdiv::Result<Diced> {
+fn dice(
+    q: &QueuedSubdivision,
+    options: &SubdivOptions,
+    camera: Option<&DicingCamera>,
+) -> subdiv::Result<Diced> {
     let world: Vec<[f32; 3]> = q
         .points
         .iter()
-        .map(|p| q.world_from_local.project_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array())
+        .map(|p| {
+            q.world_from_points.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array()
+        })
         .collect();
     let (lo, hi) = bounds(&world);
     let longest = q.topology.longest_edge(&world)?;
     let all_quads = q.cage.counts.iter().all(|&n| n == 4);
     let scheme = q.topology.options().scheme;
     let surface_faces = || {
-        q.cage.counts.iter().enumerate().filter(|(f, _)| !q.cage.holes.contains(&(*f as i64))).map(|(_, &n)| n)
+        q.cage
+            .counts
+            .iter()
+            .enumerate()
+            .filter(|(f, _)| !q.cage.holes.contains(&(*f as i64)))
+            .map(|(_, &n)| n)
     };
     let level = choose_level(options, camera, longest.into(), lo, hi, |l| {
         triangles_at_level(scheme, surface_faces(), all_quads, l)
@@ -334,7 +376,7 @@ fn dice(q: &QueuedSubdivision, options: &SubdivOptions, camera: Option<&DicingCa
         triangles_at_level(refiner.scheme(), drawn_sizes, all_quads, options.max_level);
 
     let f64x3 = |p: &[f32; 3]| glam::Vec3::from_array(*p).as_dvec3();
-    let local = LocalMesh {
+    let mut local = LocalMesh {
         positions: tess.positions.iter().map(f64x3).collect(),
         normals: tess.normals.iter().map(f64x3).collect(),
         uvs,
@@ -342,5 +384,9 @@ fn dice(q: &QueuedSubdivision, options: &SubdivOptions, camera: Option<&DicingCa
         triangles: tess.triangles,
         double_sided: q.cage.double_sided,
     };
+    if q.mirrored {
+        local.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        local.normals.iter_mut().for_each(|n| *n = -*n);
+    }
     Ok(Diced { local, level: refiner.level(), triangles_at_max_level, note })
 }

@@ -102,7 +102,11 @@ fn cube_cage_quadruples_triangles_per_level_with_smooth_unit_normals() {
         }
         // Smooth: normals at shared positions agree (no faceted splits), and on the face centres
         // they are the face normals.
-        let top = m.positions.iter().zip(&m.normals).filter(|(p, _)| (p.x - 0.5).abs() < 1e-4 && (p.y - 0.5).abs() < 1e-4);
+        let top = m
+            .positions
+            .iter()
+            .zip(&m.normals)
+            .filter(|(p, _)| (p.x - 0.5).abs() < 1e-4 && (p.y - 0.5).abs() < 1e-4);
         for (p, n) in top {
             let expected = if p.z > 0.5 { Vec3::Z } else { -Vec3::Z };
             assert!((*n - expected).length() < 1e-4, "{p} {n}");
@@ -114,7 +118,12 @@ fn cube_cage_quadruples_triangles_per_level_with_smooth_unit_normals() {
 #[test]
 fn infinitely_sharp_corner_and_crease_keep_the_cage_corner() {
     // Corner 0 tagged infinitely sharp (USD: sharpness 10).
-    let corner = cube_prim("Corner", &CUBE_POINTS, &CUBE_INDICES, "int[] cornerIndices = [0]\n    float[] cornerSharpnesses = [10]");
+    let corner = cube_prim(
+        "Corner",
+        &CUBE_POINTS,
+        &CUBE_INDICES,
+        "int[] cornerIndices = [0]\n    float[] cornerSharpnesses = [10]",
+    );
     // The three edges at corner 0 creased: a vertex with three sharp edges is a corner.
     let crease = cube_prim(
         "Crease",
@@ -209,7 +218,9 @@ fn left_handed_normals_point_outwards_like_the_right_handed_mirror() {
     let flip = Vec3::new(-1.0, 1.0, 1.0);
     for (p, n) in l.positions.iter().zip(&l.normals) {
         let i = (0..r.positions.len())
-            .min_by(|&a, &b| (r.positions[a] * flip).distance(*p).total_cmp(&(r.positions[b] * flip).distance(*p)))
+            .min_by(|&a, &b| {
+                (r.positions[a] * flip).distance(*p).total_cmp(&(r.positions[b] * flip).distance(*p))
+            })
             .unwrap();
         assert!((r.positions[i] * flip).distance(*p) < 1e-5, "{p} has no mirror");
         assert!((r.normals[i] * flip).distance(*n) < 1e-4, "{p}: {n} vs mirrored {}", r.normals[i] * flip);
@@ -323,10 +334,8 @@ fn face_varying_and_vertex_uvs_are_refined() {
             [(u, 0.0), (u + 1.0, 0.0), (u + 1.0, 1.0), (u, 1.0)].map(|(a, b)| format!("({a}, {b})"))
         })
         .collect();
-    let face_varying = format!(
-        "texCoord2f[] primvars:st = [{}] (interpolation = \"faceVarying\")",
-        fv.join(", ")
-    );
+    let face_varying =
+        format!("texCoord2f[] primvars:st = [{}] (interpolation = \"faceVarying\")", fv.join(", "));
     let vertex_st: Vec<String> = CUBE_POINTS.iter().map(|p| format!("({}, {})", p[0], p[1])).collect();
     let vertex =
         format!("texCoord2f[] primvars:st = [{}] (interpolation = \"vertex\")", vertex_st.join(", "));
@@ -345,7 +354,10 @@ fn face_varying_and_vertex_uvs_are_refined() {
         let island = (t.map(|i| m.uvs[i as usize].x).iter().sum::<f32>() / 3.0).floor();
         for i in t {
             let uv = m.uvs[i as usize];
-            assert!(uv.x >= island - 1e-5 && uv.x <= island + 1.0 + 1e-5 && (0.0..=1.0).contains(&uv.y), "{uv}");
+            assert!(
+                uv.x >= island - 1e-5 && uv.x <= island + 1.0 + 1e-5 && (0.0..=1.0).contains(&uv.y),
+                "{uv}"
+            );
         }
     }
     let m = mesh(&scene, "/Vertex");

@@ -253,10 +253,11 @@ fn subdivision_mesh_gets_limit_normals_not_authored_ones() {
     normal3f[] normals = [(0, 0, 1), (0, 0, 1), (0, 0, 1)]
 }"#,
     ));
-    // A lone triangle is refined once (Catmull–Clark with a non-quad) and then to the default
-    // level 2: 3 quads · 4 → 24 triangles, with limit normals (a flat cage: ±z, here +z).
+    // A lone triangle is 3 quads after one level, 3·4^(L−1) quads at level L, with limit normals
+    // (a flat cage: ±z, here +z).
     let m = mesh(&scene, "/S");
-    assert_eq!(m.triangles.len(), 24);
+    let level = scene.subdivisions[0].level;
+    assert_eq!(m.triangles.len(), 2 * 3 * 4usize.pow(level - 1));
     assert_eq!(m.normals.len(), m.positions.len());
     assert!(m.normals.iter().all(|n| (*n - Vec3::Z).length() < 1e-5), "{:?}", m.normals);
     assert!(scene.warnings.iter().all(|w| w.prim != "/S"), "{:?}", scene.warnings);
