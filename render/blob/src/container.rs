@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -80,6 +80,11 @@ macro_rules! section_kinds {
             /// Every kind, in table order.
             pub const ALL: &'static [SectionKind] = &[$(SectionKind::$name,)*];
 
+            /// Position of this kind in [`SectionKind::ALL`] (kinds are sparse numbers).
+            pub fn slot(self) -> usize {
+                Self::ALL.iter().position(|&k| k == self).unwrap_or(Self::ALL.len())
+            }
+
             /// The kind for a raw table value.
             pub fn from_u32(value: u32) -> Option<Self> {
                 match value { $($value => Some(SectionKind::$name),)* _ => None }
@@ -113,8 +118,8 @@ section_kinds! {
     Cameras = 11,
     /// [`crate::EmissiveTriangle`].
     EmissiveTriangles = 12,
-    /// [`crate::BvhNode`]; node 0 is the root.
-    BvhNodes = 13,
-    /// `u32` triangle index per BVH primitive slot.
-    BvhPrimitives = 14,
+    /// [`crate::BvhNode`]; node 0 is the root. (Kinds 13 and 14 held the compressed CWBVH of format 1.)
+    BvhNodes = 20,
+    /// [`crate::TriangleBlock`]s of the BVH leaves.
+    BvhTriangleBlocks = 21,
 }
