@@ -1,8 +1,8 @@
 //! BVH construction at ingest time, so render starts without building anything.
 //!
 //! obvhs builds a high-quality binary BVH (PLOC, then reinsertion), one primitive per leaf. We then
-//! 1. choose leaves bottom-up by the surface area heuristic: a subtree of at most [`MAX_LEAF_TRIANGLES`]
-//!    primitives becomes a leaf when testing its [`blob::TriangleBlock`]s is expected to cost less than
+//! 1. choose leaves bottom-up by the surface area heuristic: a subtree of at most
+//!    [`BuildParams::max_leaf_triangles`] primitives becomes a leaf when testing its [`blob::TriangleBlock`]s is expected to cost less than
 //!    descending it (costs below);
 //! 2. collapse the binary tree top-down into 8-wide [`blob::BvhNode`]s: starting from a node's two
 //!    children, repeatedly open the internal child with the largest surface area until there are eight;
@@ -27,25 +27,49 @@ pub struct BuiltBvh {
     pub blocks: Vec<TriangleBlock>,
 }
 
-/// Largest leaf. Two blocks: leaves of 5–8 triangles are still cheaper than a node visit on the
-/// dense chess set meshes (measured, see `render::accel`).
-const MAX_LEAF_TRIANGLES: u32 = 8;
-/// SAH cost of testing one block of four triangles, relative to …
-const BLOCK_COST: f32 = 1.0;
-/// … the cost of one binary node inside an 8-wide node (a wide node visit replaces about seven of
-/// these and costs about one block test).
-const NODE_COST: f32 = 0.3;
-/// Spatial pre-splits of large triangles (obvhs `slow_build`). A split triangle is referenced from
-/// several leaves; the blocks simply repeat it.
-const PRE_SPLIT: bool = true;
+/// Tuning knobs of [`build_with`]; [`BuildParams::default`] is what ingest uses (the values that won
+/// the measurements recorded in `render::accel`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildParams {
+    /// Largest leaf, in triangles.
+    pub max_leaf_triangles: u32,
+    /// SAH cost of testing one block of four triangles, relative to …
+    pub block_cost: f32,
+    /// … the cost of one binary node inside an 8-wide node (a wide node visit replaces about seven
+    /// of these and costs about one block test).
+    pub node_cost: f32,
+    /// Spatial pre-splits of large triangles (obvhs `slow_build`). A split triangle is referenced from
+    /// several leaves; the blocks simply repeat it.
+    pub pre_split: bool,
+    /// Open small subtrees that fit whole before large ones (see `open_children`).
+    pub absorb_small_subtrees: bool,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        BuildParams {
+            max_leaf_triangles: 8,
+            block_cost: 1.0,
+            node_cost: 1.0,
+            pre_split: true,
+            absorb_small_subtrees: true,
+        }
+    }
+}
 
 /// Builds a BVH over world-space triangles given as vertex triples.
 pub fn build(triangles: &[[Vec3; 3]]) -> BuiltBvh {
+    build_with(triangles, &BuildParams::default())
+}
+
+/// [`build`] with explicit parameters (for experiments).
+pub fn build_with(triangles: &[[Vec3; 3]], params: &BuildParams) -> BuiltBvh {
     if triangles.is_empty() {
         return BuiltBvh { nodes: Vec::new(), blocks: Vec::new() };
     }
-    let bvh2 = build_bvh2(triangles);
-    let leaf = choose_leaves(&bvh2);
+    let bvh2 = build_bvh2(triangles, params.pre_split);
+    let leaf = choose_leaves(&bvh2, params);
+    let leaves = leaf_counts(&bvh2, &leaf);
     let mut out = BuiltBvh { nodes: Vec::new(), blocks: Vec::new() };
     let root = &bvh2.nodes[0];
     if leaf[0] {
@@ -59,7 +83,7 @@ pub fn build(triangles: &[[Vec3; 3]]) -> BuiltBvh {
     out.nodes.push(empty_node());
     let mut todo = vec![(0usize, 0usize)];
     while let Some((bin, wide)) = todo.pop() {
-        let children = open_children(&bvh2, &leaf, bin);
+        let children = open_children(&bvh2, &leaf, &leaves, params.absorb_small_subtrees, bin);
         let mut next = out.nodes.len();
         for (slot, &c) in children.iter().enumerate() {
             let r = if leaf[c] {
@@ -79,13 +103,13 @@ pub fn build(triangles: &[[Vec3; 3]]) -> BuiltBvh {
 
 /// PLOC + reinsertion as in obvhs' `build_cwbvh_from_tris` with `slow_build()` parameters, without the
 /// CWBVH conversion (one primitive per leaf).
-fn build_bvh2(triangles: &[[Vec3; 3]]) -> Bvh2 {
+fn build_bvh2(triangles: &[[Vec3; 3]], pre_split: bool) -> Bvh2 {
     let config = BvhBuildParams::slow_build();
     let tris: Vec<Triangle> = triangles
         .iter()
         .map(|[a, b, c]| Triangle { v0: Vec3A::from(*a), v1: Vec3A::from(*b), v2: Vec3A::from(*c) })
         .collect();
-    let mut bvh2 = if PRE_SPLIT {
+    let mut bvh2 = if pre_split {
         let mut aabbs: Vec<Aabb> = tris.iter().map(|t| t.aabb()).collect();
         let largest = aabbs.iter().map(|a| a.half_area()).fold(0.0f32, f32::max);
         let average = aabbs.iter().map(|a| a.half_area()).sum::<f32>() / aabbs.len() as f32;
@@ -107,7 +131,7 @@ fn build_bvh2(triangles: &[[Vec3; 3]]) -> Bvh2 {
             config.search_depth_threshold,
         )
     };
-    bvh2.uses_spatial_splits = PRE_SPLIT;
+    bvh2.uses_spatial_splits = pre_split;
     ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
     bvh2
 }
@@ -131,8 +155,8 @@ fn post_order(bvh2: &Bvh2) -> Vec<usize> {
 }
 
 /// Per binary node: true if its subtree becomes one leaf. Bottom-up SAH (costs scaled by half area):
-/// leaf = area · blocks · BLOCK_COST, interior = area · NODE_COST + cost(left) + cost(right).
-fn choose_leaves(bvh2: &Bvh2) -> Vec<bool> {
+/// leaf = area · blocks · block_cost, interior = area · node_cost + cost(left) + cost(right).
+fn choose_leaves(bvh2: &Bvh2, params: &BuildParams) -> Vec<bool> {
     let n = bvh2.nodes.len();
     let mut count = vec![0u32; n];
     let mut cost = vec![0.0f32; n];
@@ -142,31 +166,39 @@ fn choose_leaves(bvh2: &Bvh2) -> Vec<bool> {
         let area = node.aabb().half_area();
         if node.is_leaf() {
             count[i] = node.prim_count;
-            cost[i] = area * BLOCK_COST * node.prim_count.div_ceil(BLOCK_WIDTH as u32) as f32;
+            cost[i] = area * params.block_cost * node.prim_count.div_ceil(BLOCK_WIDTH as u32) as f32;
             leaf[i] = true;
             continue;
         }
         let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
         count[i] = count[l] + count[r];
-        let interior = area * NODE_COST + cost[l] + cost[r];
-        let as_leaf = area * BLOCK_COST * count[i].div_ceil(BLOCK_WIDTH as u32) as f32;
-        leaf[i] = count[i] <= MAX_LEAF_TRIANGLES && as_leaf <= interior;
+        let interior = area * params.node_cost + cost[l] + cost[r];
+        let as_leaf = area * params.block_cost * count[i].div_ceil(BLOCK_WIDTH as u32) as f32;
+        leaf[i] = count[i] <= params.max_leaf_triangles && as_leaf <= interior;
         cost[i] = if leaf[i] { as_leaf } else { interior };
     }
     leaf
 }
 
 /// The up to eight binary nodes that become the children of the wide node for internal binary node `n`.
-fn open_children(bvh2: &Bvh2, leaf: &[bool], n: usize) -> Vec<usize> {
+///
+/// Greedy: open the internal child with the largest surface area, except that a child whose whole
+/// subtree fits in the remaining slots (`leaves[c]` wide leaves) is opened first, so small subtrees are
+/// absorbed instead of becoming wide nodes of two or three children.
+fn open_children(bvh2: &Bvh2, leaf: &[bool], leaves: &[u32], absorb: bool, n: usize) -> Vec<usize> {
     let first = bvh2.nodes[n].first_index as usize;
     let mut children = vec![first, first + 1];
     while children.len() < BVH_WIDTH {
-        // The internal child with the largest surface area (first one on ties, for determinism).
-        let mut best: Option<(usize, f32)> = None;
+        let free = (BVH_WIDTH - children.len() + 1) as u32;
+        // Highest priority first; the first one on ties, for determinism.
+        let mut best: Option<(usize, (bool, f32))> = None;
         for (slot, &c) in children.iter().enumerate() {
-            let area = bvh2.nodes[c].aabb().half_area();
-            if !leaf[c] && best.is_none_or(|(_, a)| area > a) {
-                best = Some((slot, area));
+            if leaf[c] {
+                continue;
+            }
+            let key = (absorb && leaves[c] <= free, bvh2.nodes[c].aabb().half_area());
+            if best.is_none_or(|(_, k)| key.0 & !k.0 || (key.0 == k.0 && key.1 > k.1)) {
+                best = Some((slot, key));
             }
         }
         let Some((slot, _)) = best else { break };
@@ -176,6 +208,20 @@ fn open_children(bvh2: &Bvh2, leaf: &[bool], n: usize) -> Vec<usize> {
         children.push(first + 1);
     }
     children
+}
+
+/// Number of wide leaves in each binary subtree (leaf choice as given).
+fn leaf_counts(bvh2: &Bvh2, leaf: &[bool]) -> Vec<u32> {
+    let mut leaves = vec![0u32; bvh2.nodes.len()];
+    for i in post_order(bvh2) {
+        let node = &bvh2.nodes[i];
+        leaves[i] = if leaf[i] {
+            1
+        } else {
+            leaves[node.first_index as usize] + leaves[node.first_index as usize + 1]
+        };
+    }
+    leaves
 }
 
 /// Writes the blocks of the leaf rooted at binary node `n` and returns its child reference.
@@ -269,7 +315,7 @@ mod tests {
                 for block in &bvh.blocks[first as usize..(first + count) as usize] {
                     for &t in &block.triangles {
                         reached[t as usize] = true;
-                        if !PRE_SPLIT {
+                        if !BuildParams::default().pre_split {
                             assert!(tris[t as usize].iter().all(|p| p.cmpge(lo).all() && p.cmple(hi).all()));
                         }
                     }

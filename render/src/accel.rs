@@ -27,15 +27,35 @@
 //! walk it spills into a heap vector rather than fail, so no blob, however adversarial, can make a
 //! query index out of bounds, and ordinary rays never allocate.
 //!
-//! Measurements (bench rays, same run against Embree, see `bench/`) and the variants that lost are
-//! recorded in [`EXPERIMENTS`].
+//! # Experiments (chess set, 1.43 M triangles; 2 shared cores, load average 4–8 during all of them)
+//!
+//! Wall-clock timings were too noisy on this machine (the same binary varied by ±20 %), so variants
+//! were compared in Mrays per CPU-second of the tracing thread (`CLOCK_THREAD_CPUTIME_ID`) against
+//! Embree 4 measured the same way on the same rays: Embree primary 19.4, incoherent 1.66.
+//!
+//! * Format 1 (obvhs CWBVH, 80-byte compressed nodes, `obvhs::traverse!`): `bench rays` wall clock
+//!   incoherent 0.39 vs Embree 1.63 (ratio 0.24), primary 6.7 vs 13.5 (0.50).
+//! * This layout with the kernels inlined into the traversal loop: primary 13.7, incoherent ~0.8. The
+//!   generated code was poor: the slab test's far half was split into 4-wide pieces with shuffles and
+//!   no `vmovmskps`, and the triangle test was mostly scalar `ss` code (register pressure in the big
+//!   loop; the same lane loops compiled alone were perfect). Kernels as out-of-line `inherit_target`
+//!   functions: primary 14.3–14.6, and the slab test is 6 sub, 6 mul, 3 max, 3 min, 1 cmp, 1 movmsk.
+//!   A profile then shows the node kernel at 42 % and the block kernel at 29 % of the time, both
+//!   dominated by cache misses on the node and block loads.
+//! * Triangle kernel: the per-lane `if det > 0 { … } else { … }` and a branchy zero-edge check were
+//!   scalarized; rewritten as masks (`&`/`|` on lane booleans, zero lanes collected as a bit mask).
+//! * Tree shape (ingest `BuildParams`): leaves of ≤ 4 vs ≤ 8 vs ≤ 12 triangles, SAH node cost 0.3–2.0,
+//!   with and without obvhs' spatial pre-splits: all within the noise (12–17 primary, 0.75–1.08
+//!   incoherent). The plain largest-area-first collapse gave only 4.2 children per 8-wide node; opening
+//!   first the children whose whole subtree fits in the remaining slots raised it to 5.5 and cut the
+//!   node count from 89 k to 65 k (leaves ≤ 8, node cost 1.0), which is the default now.
+//! * Not tried for lack of time: BVH4 (half the node bytes; nodes are 45 % empty at 5.5 children),
+//!   8-wide triangle blocks, Möller–Trumbore on precomputed edges (not watertight), AVX-512, prefetching
+//!   the second-nearest child, and processing leaf children at once instead of through the stack.
 
 use blob::{child_ref, BvhNode, TriangleBlock, BLOCK_WIDTH, BVH_WIDTH};
 use glam::Vec3;
 use multiversion::multiversion;
-
-/// Experiment log of this module (kept as a doc string so it stays next to the code it explains).
-pub const EXPERIMENTS: &str = "see the module source";
 
 /// A ray for the batch query [`Accel::trace_closest`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -111,7 +131,7 @@ impl<'a> Accel<'a> {
         if self.nodes.is_empty() {
             return None;
         }
-        closest::<Scalar>(self, origin, direction, tmax)
+        closest(self, origin, direction, tmax, Scalar::node, Scalar::block)
     }
 
     /// [`Accel::any_hit`] with the scalar reference kernels (for tests).
@@ -125,7 +145,7 @@ impl<'a> Accel<'a> {
         if self.nodes.is_empty() {
             return false;
         }
-        any::<Scalar, _>(self, origin, direction, tmax, blocks)
+        any(self, origin, direction, tmax, Scalar::node, Scalar::block, blocks)
     }
 
     /// Closest hits for a batch of rays (for benchmarks): one entry per ray, in order.
@@ -147,11 +167,25 @@ impl<'a> Accel<'a> {
     }
 }
 
-// The multiversioned entry points: one clone per target, the CPU check once per query. Everything they
-// call is `#[inline(always)]`, so the lane loops are compiled (and vectorized) for the clone's target.
+// The multiversioned entry points: one clone per target, the CPU checked once per query. The two
+// kernels are nested `inherit_target` functions, compiled for the clone's target and deliberately not
+// inlined: inlined into the traversal loop, LLVM's SLP vectorizer split the 8-wide slab test into
+// 4-wide halves with shuffles and scalarized most of the triangle test (register pressure), and the
+// out-of-line kernels were faster (see the module docs). Closures inherit the target features, so passing
+// the kernels to the generic traversal stays safe.
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn closest_hit_simd(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
-    closest::<Lanes>(accel, origin, direction, tmax)
+    #[multiversion::inherit_target]
+    #[inline(never)]
+    fn node(node: &BvhNode, ray: &NodeRay, tmax: f32) -> (u32, [f32; BVH_WIDTH]) {
+        Lanes::node(node, ray, tmax)
+    }
+    #[multiversion::inherit_target]
+    #[inline(never)]
+    fn block(block: &TriangleBlock, ray: &WatertightRay, tmax: f32) -> BlockHits {
+        Lanes::block(block, ray, tmax)
+    }
+    closest(accel, origin, direction, tmax, |n, r, t| node(n, r, t), |b, r, t| block(b, r, t))
 }
 
 #[multiversion(targets("x86_64+avx2+fma"))]
@@ -162,11 +196,21 @@ fn any_hit_simd<F: FnMut(u32) -> bool>(
     tmax: f32,
     blocks: F,
 ) -> bool {
-    any::<Lanes, F>(accel, origin, direction, tmax, blocks)
+    #[multiversion::inherit_target]
+    #[inline(never)]
+    fn node(node: &BvhNode, ray: &NodeRay, tmax: f32) -> (u32, [f32; BVH_WIDTH]) {
+        Lanes::node(node, ray, tmax)
+    }
+    #[multiversion::inherit_target]
+    #[inline(never)]
+    fn block(block: &TriangleBlock, ray: &WatertightRay, tmax: f32) -> BlockHits {
+        Lanes::block(block, ray, tmax)
+    }
+    any(accel, origin, direction, tmax, |n, r, t| node(n, r, t), |b, r, t| block(b, r, t), blocks)
 }
 
 /// `1 + 2γ₃` with `γₙ = nε/(1 − nε)`, ε = 2⁻²⁴ (Ize 2013): scaling far slab distances by it makes the
-/// box test conservative under rounding.
+/// box test conservative under rounding. (`f32::EPSILON` is 2⁻²³, hence the halving.)
 const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// Per-ray data of the node kernel.
@@ -174,6 +218,9 @@ const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f3
 pub struct NodeRay {
     origin: [f32; 3],
     inv_dir: [f32; 3],
+    /// `inv_dir · (1 + 2γ₃)`, for far planes (one more rounding than Ize's `t · (1 + 2γ₃)`, still
+    /// conservative: 2γ₃ ≈ 6ε exceeds the four roundings involved).
+    inv_dir_far: [f32; 3],
     /// Index into [`BvhNode::bounds`] of the near plane per axis (min for a positive direction).
     near: [usize; 3],
     /// Index of the far plane per axis.
@@ -190,7 +237,14 @@ impl NodeRay {
             near[axis] = axis + 3 * negative;
             far[axis] = axis + 3 * (1 - negative);
         }
-        NodeRay { origin: origin.to_array(), inv_dir: direction.recip().to_array(), near, far }
+        let inv_dir = direction.recip().to_array();
+        NodeRay {
+            origin: origin.to_array(),
+            inv_dir,
+            inv_dir_far: inv_dir.map(|i| i * ROBUST_FAR),
+            near,
+            far,
+        }
     }
 }
 
@@ -284,27 +338,29 @@ impl Kernels for Lanes {
         let mut far = [tmax; BVH_WIDTH];
         for axis in 0..3 {
             let lo = &node.bounds[ray.near[axis]];
-            let hi = &node.bounds[ray.far[axis]];
             let (o, inv) = (ray.origin[axis], ray.inv_dir[axis]);
             for i in 0..BVH_WIDTH {
                 let t0 = (lo[i] - o) * inv;
-                let t1 = (hi[i] - o) * inv * ROBUST_FAR;
                 near[i] = if t0 > near[i] { t0 } else { near[i] };
+            }
+        }
+        for axis in 0..3 {
+            let hi = &node.bounds[ray.far[axis]];
+            let (o, inv) = (ray.origin[axis], ray.inv_dir_far[axis]);
+            for i in 0..BVH_WIDTH {
+                let t1 = (hi[i] - o) * inv;
                 far[i] = if t1 < far[i] { t1 } else { far[i] };
             }
         }
-        let mut mask = 0;
-        for i in 0..BVH_WIDTH {
-            mask |= ((near[i] <= far[i]) as u32) << i;
-        }
-        (mask, near)
+        let bits: [u32; BVH_WIDTH] = std::array::from_fn(|i| ((near[i] <= far[i]) as u32) << i);
+        (bits.iter().fold(0, |a, b| a | b), near)
     }
 
     #[inline(always)]
     fn block(block: &TriangleBlock, ray: &WatertightRay, tmax: f32) -> BlockHits {
         const W: usize = BLOCK_WIDTH;
         let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
-        let (ox, oy, oz) = (ray.origin[kx], ray.origin[ky], ray.origin[kz]);
+        let [ox, oy, oz] = ray.origin_k;
         let [p0, p1, p2] = &block.vertices;
         // Sheared and translated corners, as in `WatertightRay::intersect`.
         let mut ax = [0.0f32; W];
@@ -333,39 +389,43 @@ impl Kernels for Lanes {
         let mut u = [0.0f32; W];
         let mut v = [0.0f32; W];
         let mut w = [0.0f32; W];
-        let mut any_zero = false;
         for i in 0..W {
             u[i] = cx[i] * by[i] - cy[i] * bx[i];
             v[i] = ax[i] * cy[i] - ay[i] * cx[i];
             w[i] = bx[i] * ay[i] - by[i] * ax[i];
-            any_zero |= (u[i] == 0.0) | (v[i] == 0.0) | (w[i] == 0.0);
         }
-        if any_zero {
+        let zero: [u32; W] =
+            std::array::from_fn(|i| (((u[i] == 0.0) | (v[i] == 0.0) | (w[i] == 0.0)) as u32) << i);
+        let mut zero = zero.iter().fold(0, |a, b| a | b);
+        while zero != 0 {
             // Rare: an edge function is exactly zero; redo it in double precision like the scalar test.
-            for i in 0..W {
-                if u[i] == 0.0 || v[i] == 0.0 || w[i] == 0.0 {
-                    [u[i], v[i], w[i]] = edge_functions_f64(ax[i], ay[i], bx[i], by[i], cx[i], cy[i]);
-                }
-            }
+            let i = zero.trailing_zeros() as usize;
+            zero &= zero - 1;
+            [u[i], v[i], w[i]] = edge_functions_f64(ax[i], ay[i], bx[i], by[i], cx[i], cy[i]);
         }
-        let mut hits = BlockHits::default();
+        // Branch-free per lane (so it vectorizes): the scalar test's early returns become one mask.
+        // `(t_scaled > 0) & (t_scaled < tmax·det)` differs from the scalar `!(t_scaled <= 0 | …)` only
+        // for NaN operands, and those make `t` NaN, which the finiteness test rejects in both.
+        let mut t = [0.0f32; W];
+        let mut hit = [false; W];
         for i in 0..W {
             let outside =
                 ((u[i] < 0.0) | (v[i] < 0.0) | (w[i] < 0.0)) & ((u[i] > 0.0) | (v[i] > 0.0) | (w[i] > 0.0));
             let det = u[i] + v[i] + w[i];
             let t_scaled = u[i] * az[i] + v[i] * bz[i] + w[i] * cz[i];
-            let in_range = if det > 0.0 {
-                !((t_scaled <= 0.0) | (t_scaled >= tmax * det))
-            } else {
-                !((t_scaled >= 0.0) | (t_scaled <= tmax * det))
-            };
+            let limit = tmax * det;
+            let front = (det > 0.0) & (t_scaled > 0.0) & (t_scaled < limit);
+            let back = (det < 0.0) & (t_scaled < 0.0) & (t_scaled > limit);
             let inv = 1.0 / det;
-            let t = t_scaled * inv;
-            let hit = !outside & (det != 0.0) & in_range & t.is_finite();
-            hits.mask |= (hit as u32) << i;
-            hits.t[i] = t;
-            hits.b1[i] = v[i] * inv;
-            hits.b2[i] = w[i] * inv;
+            t[i] = t_scaled * inv;
+            hit[i] = !outside & (front | back) & (t[i].abs() < f32::INFINITY);
+            u[i] = inv;
+        }
+        let bits: [u32; W] = std::array::from_fn(|i| (hit[i] as u32) << i);
+        let mut hits = BlockHits { mask: bits.iter().fold(0, |a, b| a | b), t, ..BlockHits::default() };
+        for i in 0..W {
+            hits.b1[i] = v[i] * u[i];
+            hits.b2[i] = w[i] * u[i];
         }
         hits
     }
@@ -382,16 +442,17 @@ impl Kernels for Scalar {
             let (mut near, mut far) = (0.0f32, tmax);
             for axis in 0..3 {
                 let mut t0 = (node.bounds[axis][child] - ray.origin[axis]) * ray.inv_dir[axis];
-                let mut t1 = (node.bounds[3 + axis][child] - ray.origin[axis]) * ray.inv_dir[axis];
+                let mut t1 = (node.bounds[3 + axis][child] - ray.origin[axis]) * ray.inv_dir_far[axis];
                 if ray.inv_dir[axis].is_sign_negative() {
-                    std::mem::swap(&mut t0, &mut t1);
+                    t0 = (node.bounds[3 + axis][child] - ray.origin[axis]) * ray.inv_dir[axis];
+                    t1 = (node.bounds[axis][child] - ray.origin[axis]) * ray.inv_dir_far[axis];
                 }
                 // NaN (origin on the plane of a zero direction component): the slab does not constrain.
                 if t0 > near {
                     near = t0;
                 }
-                if t1 * ROBUST_FAR < far {
-                    far = t1 * ROBUST_FAR;
+                if t1 < far {
+                    far = t1;
                 }
             }
             dist[child] = near;
@@ -419,7 +480,14 @@ impl Kernels for Scalar {
 
 /// Closest-hit traversal: children visited nearest first, subtrees farther than the best hit culled.
 #[inline(always)]
-fn closest<K: Kernels>(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
+fn closest(
+    accel: &Accel,
+    origin: Vec3,
+    direction: Vec3,
+    tmax: f32,
+    node_kernel: impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    block_kernel: impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+) -> Option<Hit> {
     let wray = WatertightRay::new(origin, direction);
     let nray = NodeRay::new(origin, direction);
     let mut tmax = tmax;
@@ -430,7 +498,7 @@ fn closest<K: Kernels>(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32) 
         if current.child & child_ref::LEAF != 0 {
             let (first, count) = child_ref::leaf_range(current.child);
             for block in &accel.blocks[first as usize..(first + count) as usize] {
-                let hits = K::block(block, &wray, tmax);
+                let hits = block_kernel(block, &wray, tmax);
                 if let Some(lane) = hits.nearest() {
                     tmax = hits.t[lane];
                     best = Some(Hit {
@@ -443,7 +511,7 @@ fn closest<K: Kernels>(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32) 
             }
         } else {
             let node = &accel.nodes[current.child as usize];
-            let (mut mask, dist) = K::node(node, &nray, tmax);
+            let (mut mask, dist) = node_kernel(node, &nray, tmax);
             if mask != 0 {
                 if mask & (mask - 1) == 0 {
                     // One child hit: descend without touching the stack.
@@ -490,12 +558,14 @@ fn closest<K: Kernels>(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32) 
 
 /// Any-hit traversal: no ordering (any blocker ends the walk), early exit.
 #[inline(always)]
-fn any<K: Kernels, F: FnMut(u32) -> bool>(
+fn any(
     accel: &Accel,
     origin: Vec3,
     direction: Vec3,
     tmax: f32,
-    mut blocks: F,
+    node_kernel: impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    block_kernel: impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+    mut blocks: impl FnMut(u32) -> bool,
 ) -> bool {
     let wray = WatertightRay::new(origin, direction);
     let nray = NodeRay::new(origin, direction);
@@ -505,7 +575,7 @@ fn any<K: Kernels, F: FnMut(u32) -> bool>(
         if current & child_ref::LEAF != 0 {
             let (first, count) = child_ref::leaf_range(current);
             for block in &accel.blocks[first as usize..(first + count) as usize] {
-                let mut m = K::block(block, &wray, tmax).mask;
+                let mut m = block_kernel(block, &wray, tmax).mask;
                 while m != 0 {
                     let lane = m.trailing_zeros() as usize;
                     m &= m - 1;
@@ -516,7 +586,7 @@ fn any<K: Kernels, F: FnMut(u32) -> bool>(
             }
         } else {
             let node = &accel.nodes[current as usize];
-            let (mut mask, _) = K::node(node, &nray, tmax);
+            let (mut mask, _) = node_kernel(node, &nray, tmax);
             if mask != 0 {
                 current = node.children[mask.trailing_zeros() as usize];
                 mask &= mask - 1;
@@ -546,6 +616,8 @@ fn edge_functions_f64(ax: f32, ay: f32, bx: f32, by: f32, cx: f32, cy: f32) -> [
 #[derive(Clone, Copy, Debug)]
 pub struct WatertightRay {
     origin: Vec3,
+    /// `origin[kx], origin[ky], origin[kz]`, so SIMD code needs no per-block component lookup.
+    origin_k: [f32; 3],
     kx: usize,
     ky: usize,
     kz: usize,
@@ -571,7 +643,16 @@ impl WatertightRay {
             std::mem::swap(&mut kx, &mut ky);
         }
         let dz = direction[kz];
-        WatertightRay { origin, kx, ky, kz, sx: direction[kx] / dz, sy: direction[ky] / dz, sz: 1.0 / dz }
+        WatertightRay {
+            origin,
+            origin_k: [origin[kx], origin[ky], origin[kz]],
+            kx,
+            ky,
+            kz,
+            sx: direction[kx] / dz,
+            sy: direction[ky] / dz,
+            sz: 1.0 / dz,
+        }
     }
 
     /// `(t, b1, b2)` if the ray hits the triangle with `0 < t < tmax`.
