@@ -1,36 +1,347 @@
 //! BVH construction at ingest time, so render starts without building anything.
 //!
-//! obvhs builds a PLOC BVH2 with reinsertion and collapses it into a compressed 8-wide BVH (CWBVH, 80-byte
-//! nodes). The nodes are stored verbatim in the blob as [`blob::BvhNode`], which is bit-identical to
-//! `obvhs::cwbvh::node::CwBvhNode`; a const assertion and a test below pin that.
+//! obvhs builds a high-quality binary BVH (PLOC, then reinsertion), one primitive per leaf. We then
+//! 1. choose leaves bottom-up by the surface area heuristic: a subtree of at most
+//!    [`BuildParams::max_leaf_triangles`] primitives becomes a leaf when testing its [`blob::TriangleBlock`]s is expected to cost less than
+//!    descending it (costs below);
+//! 2. collapse the binary tree top-down into 8-wide [`blob::BvhNode`]s: starting from a node's two
+//!    children, repeatedly open the internal child with the largest surface area until there are eight;
+//! 3. copy each leaf's triangles into blocks of four (SoA vertices and the blob triangle index per lane).
+//!
+//! Nodes are numbered so every child comes after its parent, and siblings are adjacent (all internal
+//! children of a node get consecutive indices). The whole build is deterministic: the same triangles give
+//! the same bytes.
 
-use glam::Vec3A;
-use obvhs::{cwbvh::builder::build_cwbvh_from_tris, triangle::Triangle, BvhBuildParams};
-use std::time::Duration;
+use blob::{child_ref, BvhNode, TriangleBlock, BLOCK_WIDTH, BVH_WIDTH};
+use glam::{Vec3, Vec3A};
+use obvhs::{
+    aabb::Aabb, bvh2::reinsertion::ReinsertionOptimizer, bvh2::Bvh2, ploc::PlocBuilder,
+    splits::split_aabbs_preset, triangle::Triangle, BvhBuildParams,
+};
 
 /// A built BVH in blob records.
 pub struct BuiltBvh {
-    /// Nodes, root first.
-    pub nodes: Vec<blob::BvhNode>,
-    /// Triangle index per primitive slot (a triangle may occupy several slots when pre-split).
-    pub primitives: Vec<u32>,
+    /// Nodes, root first; empty exactly when there are no triangles.
+    pub nodes: Vec<BvhNode>,
+    /// Leaf triangle blocks.
+    pub blocks: Vec<TriangleBlock>,
 }
 
-const _: () =
-    assert!(std::mem::size_of::<blob::BvhNode>() == std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>());
+/// Tuning knobs of [`build_with`]; [`BuildParams::default`] is what ingest uses (the values that won
+/// the measurements recorded in `render::accel`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildParams {
+    /// Largest leaf, in triangles.
+    pub max_leaf_triangles: u32,
+    /// SAH cost of testing one block of four triangles, relative to …
+    pub block_cost: f32,
+    /// … the cost of one binary node inside an 8-wide node (a wide node visit replaces about seven
+    /// of these and costs about one block test).
+    pub node_cost: f32,
+    /// Spatial pre-splits of large triangles (obvhs `slow_build`). A split triangle is referenced from
+    /// several leaves; the blocks simply repeat it.
+    pub pre_split: bool,
+    /// Open small subtrees that fit whole before large ones (see `open_children`).
+    pub absorb_small_subtrees: bool,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        BuildParams {
+            max_leaf_triangles: 8,
+            block_cost: 1.0,
+            node_cost: 1.0,
+            pre_split: true,
+            absorb_small_subtrees: true,
+        }
+    }
+}
 
 /// Builds a BVH over world-space triangles given as vertex triples.
-pub fn build(triangles: &[[glam::Vec3; 3]]) -> BuiltBvh {
+pub fn build(triangles: &[[Vec3; 3]]) -> BuiltBvh {
+    build_with(triangles, &BuildParams::default())
+}
+
+/// [`build`] with explicit parameters (for experiments).
+pub fn build_with(triangles: &[[Vec3; 3]], params: &BuildParams) -> BuiltBvh {
     if triangles.is_empty() {
-        return BuiltBvh { nodes: Vec::new(), primitives: Vec::new() };
+        return BuiltBvh { nodes: Vec::new(), blocks: Vec::new() };
     }
+    let bvh2 = build_bvh2(triangles, params.pre_split);
+    let leaf = choose_leaves(&bvh2, params);
+    let leaves = leaf_counts(&bvh2, &leaf);
+    let mut out = BuiltBvh { nodes: Vec::new(), blocks: Vec::new() };
+    let root = &bvh2.nodes[0];
+    if leaf[0] {
+        // The whole scene is one leaf: a root with a single child.
+        out.nodes.push(empty_node());
+        let r = emit_leaf(&bvh2, 0, triangles, &mut out.blocks);
+        set_child(&mut out.nodes[0], 0, root.aabb(), r);
+        return out;
+    }
+    // (binary node, wide node index) pairs still to fill; LIFO keeps subtrees close in memory.
+    out.nodes.push(empty_node());
+    let mut todo = vec![(0usize, 0usize)];
+    while let Some((bin, wide)) = todo.pop() {
+        let children = open_children(&bvh2, &leaf, &leaves, params.absorb_small_subtrees, bin);
+        let mut next = out.nodes.len();
+        for (slot, &c) in children.iter().enumerate() {
+            let r = if leaf[c] {
+                emit_leaf(&bvh2, c, triangles, &mut out.blocks)
+            } else {
+                out.nodes.push(empty_node());
+                todo.push((c, next));
+                next += 1;
+                (next - 1) as u32
+            };
+            set_child(&mut out.nodes[wide], slot, bvh2.nodes[c].aabb(), r);
+        }
+        // Internal children were appended after `wide`, so child indices always exceed the parent's.
+    }
+    out
+}
+
+/// PLOC + reinsertion as in obvhs' `build_cwbvh_from_tris` with `slow_build()` parameters, without the
+/// CWBVH conversion (one primitive per leaf).
+fn build_bvh2(triangles: &[[Vec3; 3]], pre_split: bool) -> Bvh2 {
+    let config = BvhBuildParams::slow_build();
     let tris: Vec<Triangle> = triangles
         .iter()
         .map(|[a, b, c]| Triangle { v0: Vec3A::from(*a), v1: Vec3A::from(*b), v2: Vec3A::from(*c) })
         .collect();
-    // slow_build: spatial pre-splits and more reinsertion; build time is paid once at ingest, traversal
-    // speed on every ray.
-    let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::slow_build(), &mut Duration::default());
-    let nodes = bvh.nodes.iter().map(|n| bytemuck::cast::<_, blob::BvhNode>(*n)).collect();
-    BuiltBvh { nodes, primitives: bvh.primitive_indices }
+    let mut bvh2 = if pre_split {
+        let mut aabbs: Vec<Aabb> = tris.iter().map(|t| t.aabb()).collect();
+        let largest = aabbs.iter().map(|a| a.half_area()).fold(0.0f32, f32::max);
+        let average = aabbs.iter().map(|a| a.half_area()).sum::<f32>() / aabbs.len() as f32;
+        let mut indices: Vec<u32> = (0..tris.len() as u32).collect();
+        split_aabbs_preset(&mut aabbs, &mut indices, &tris, average, largest);
+        PlocBuilder::with_capacity(aabbs.len()).build(
+            config.ploc_search_distance,
+            &aabbs,
+            indices,
+            config.sort_precision,
+            config.search_depth_threshold,
+        )
+    } else {
+        PlocBuilder::with_capacity(tris.len()).build(
+            config.ploc_search_distance,
+            &tris,
+            (0..tris.len() as u32).collect(),
+            config.sort_precision,
+            config.search_depth_threshold,
+        )
+    };
+    bvh2.uses_spatial_splits = pre_split;
+    ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+    bvh2
+}
+
+/// Binary nodes in post-order (children before parents), without recursion.
+fn post_order(bvh2: &Bvh2) -> Vec<usize> {
+    let mut order = Vec::with_capacity(bvh2.nodes.len());
+    let mut stack = vec![(0usize, false)];
+    while let Some((n, expanded)) = stack.pop() {
+        let node = &bvh2.nodes[n];
+        if expanded || node.is_leaf() {
+            order.push(n);
+        } else {
+            stack.push((n, true));
+            let first = node.first_index as usize;
+            stack.push((first + 1, false));
+            stack.push((first, false));
+        }
+    }
+    order
+}
+
+/// Per binary node: true if its subtree becomes one leaf. Bottom-up SAH (costs scaled by half area):
+/// leaf = area · blocks · block_cost, interior = area · node_cost + cost(left) + cost(right).
+fn choose_leaves(bvh2: &Bvh2, params: &BuildParams) -> Vec<bool> {
+    let n = bvh2.nodes.len();
+    let mut count = vec![0u32; n];
+    let mut cost = vec![0.0f32; n];
+    let mut leaf = vec![false; n];
+    for i in post_order(bvh2) {
+        let node = &bvh2.nodes[i];
+        let area = node.aabb().half_area();
+        if node.is_leaf() {
+            count[i] = node.prim_count;
+            cost[i] = area * params.block_cost * node.prim_count.div_ceil(BLOCK_WIDTH as u32) as f32;
+            leaf[i] = true;
+            continue;
+        }
+        let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
+        count[i] = count[l] + count[r];
+        let interior = area * params.node_cost + cost[l] + cost[r];
+        let as_leaf = area * params.block_cost * count[i].div_ceil(BLOCK_WIDTH as u32) as f32;
+        leaf[i] = count[i] <= params.max_leaf_triangles && as_leaf <= interior;
+        cost[i] = if leaf[i] { as_leaf } else { interior };
+    }
+    leaf
+}
+
+/// The up to eight binary nodes that become the children of the wide node for internal binary node `n`.
+///
+/// Greedy: open the internal child with the largest surface area, except that a child whose whole
+/// subtree fits in the remaining slots (`leaves[c]` wide leaves) is opened first, so small subtrees are
+/// absorbed instead of becoming wide nodes of two or three children.
+fn open_children(bvh2: &Bvh2, leaf: &[bool], leaves: &[u32], absorb: bool, n: usize) -> Vec<usize> {
+    let first = bvh2.nodes[n].first_index as usize;
+    let mut children = vec![first, first + 1];
+    while children.len() < BVH_WIDTH {
+        let free = (BVH_WIDTH - children.len() + 1) as u32;
+        // Highest priority first; the first one on ties, for determinism.
+        let mut best: Option<(usize, (bool, f32))> = None;
+        for (slot, &c) in children.iter().enumerate() {
+            if leaf[c] {
+                continue;
+            }
+            let key = (absorb && leaves[c] <= free, bvh2.nodes[c].aabb().half_area());
+            if best.is_none_or(|(_, k)| key.0 & !k.0 || (key.0 == k.0 && key.1 > k.1)) {
+                best = Some((slot, key));
+            }
+        }
+        let Some((slot, _)) = best else { break };
+        let c = children[slot];
+        let first = bvh2.nodes[c].first_index as usize;
+        children[slot] = first;
+        children.push(first + 1);
+    }
+    children
+}
+
+/// Number of wide leaves in each binary subtree (leaf choice as given).
+fn leaf_counts(bvh2: &Bvh2, leaf: &[bool]) -> Vec<u32> {
+    let mut leaves = vec![0u32; bvh2.nodes.len()];
+    for i in post_order(bvh2) {
+        let node = &bvh2.nodes[i];
+        leaves[i] = if leaf[i] {
+            1
+        } else {
+            leaves[node.first_index as usize] + leaves[node.first_index as usize + 1]
+        };
+    }
+    leaves
+}
+
+/// Writes the blocks of the leaf rooted at binary node `n` and returns its child reference.
+fn emit_leaf(bvh2: &Bvh2, n: usize, triangles: &[[Vec3; 3]], blocks: &mut Vec<TriangleBlock>) -> u32 {
+    let mut tris = Vec::new();
+    let mut stack = vec![n];
+    while let Some(i) = stack.pop() {
+        let node = &bvh2.nodes[i];
+        if node.is_leaf() {
+            let range = node.first_index as usize..(node.first_index + node.prim_count) as usize;
+            tris.extend(bvh2.primitive_indices[range].iter().copied());
+        } else {
+            stack.push(node.first_index as usize + 1);
+            stack.push(node.first_index as usize);
+        }
+    }
+    // A pre-split triangle may reach the same leaf twice; once is enough.
+    tris.sort_unstable();
+    tris.dedup();
+    let first = blocks.len() as u32;
+    for chunk in tris.chunks(BLOCK_WIDTH) {
+        let mut block = TriangleBlock::default();
+        for lane in 0..BLOCK_WIDTH {
+            // Unused lanes repeat the chunk's first triangle: a duplicate hit is never closer.
+            let t = chunk.get(lane).copied().unwrap_or(chunk[0]);
+            block.triangles[lane] = t;
+            for (corner, p) in triangles[t as usize].iter().enumerate() {
+                for axis in 0..3 {
+                    block.vertices[corner][axis][lane] = p[axis];
+                }
+            }
+        }
+        blocks.push(block);
+    }
+    let count = blocks.len() as u32 - first;
+    child_ref::leaf(first, count).expect("more BVH leaf blocks than the child reference can address")
+}
+
+fn empty_node() -> BvhNode {
+    let mut node = BvhNode { children: [child_ref::EMPTY; BVH_WIDTH], ..BvhNode::default() };
+    for axis in 0..3 {
+        node.bounds[axis] = [f32::INFINITY; BVH_WIDTH];
+        node.bounds[3 + axis] = [f32::NEG_INFINITY; BVH_WIDTH];
+    }
+    node
+}
+
+fn set_child(node: &mut BvhNode, slot: usize, aabb: &Aabb, r: u32) {
+    for axis in 0..3 {
+        node.bounds[axis][slot] = aabb.min[axis];
+        node.bounds[3 + axis][slot] = aabb.max[axis];
+    }
+    node.children[slot] = r;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn random_triangles(count: usize, mut seed: u64) -> Vec<[Vec3; 3]> {
+        let mut next = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        (0..count)
+            .map(|_| {
+                let c = Vec3::new(next(), next(), next()) * 10.0;
+                [c, c + Vec3::new(next(), next(), 0.0), c + Vec3::new(0.0, next(), next())]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn every_triangle_is_in_a_leaf_inside_its_bounds_and_children_follow_parents() {
+        let tris = random_triangles(5000, 7);
+        let bvh = build(&tris);
+        let mut reached = vec![false; tris.len()];
+        let mut stack = vec![0usize];
+        while let Some(n) = stack.pop() {
+            let node = &bvh.nodes[n];
+            for slot in 0..BVH_WIDTH {
+                let r = node.children[slot];
+                let lo = Vec3::new(node.bounds[0][slot], node.bounds[1][slot], node.bounds[2][slot]);
+                let hi = Vec3::new(node.bounds[3][slot], node.bounds[4][slot], node.bounds[5][slot]);
+                if r & child_ref::LEAF == 0 {
+                    assert!(r as usize > n);
+                    stack.push(r as usize);
+                    continue;
+                }
+                let (first, count) = child_ref::leaf_range(r);
+                for block in &bvh.blocks[first as usize..(first + count) as usize] {
+                    for &t in &block.triangles {
+                        reached[t as usize] = true;
+                        if !BuildParams::default().pre_split {
+                            assert!(tris[t as usize].iter().all(|p| p.cmpge(lo).all() && p.cmple(hi).all()));
+                        }
+                    }
+                }
+            }
+        }
+        assert!(reached.iter().all(|&r| r), "every triangle is reachable");
+    }
+
+    #[test]
+    fn build_is_deterministic() {
+        let tris = random_triangles(20_000, 11);
+        let (a, b) = (build(&tris), build(&tris));
+        assert_eq!(a.nodes, b.nodes);
+        assert_eq!(a.blocks, b.blocks);
+    }
+
+    #[test]
+    fn tiny_scenes_get_a_root_with_one_leaf() {
+        let tris = random_triangles(3, 1);
+        let bvh = build(&tris);
+        assert_eq!(bvh.nodes.len(), 1, "three triangles fit one node");
+        assert_eq!(bvh.nodes[0].children[BVH_WIDTH - 1], child_ref::EMPTY);
+        let one = build(&tris[..1]);
+        assert_eq!(one.nodes.len(), 1);
+        assert_eq!(child_ref::leaf_range(one.nodes[0].children[0]), (0, 1));
+        assert_eq!(one.blocks[0].triangles, [0; BLOCK_WIDTH]);
+    }
 }

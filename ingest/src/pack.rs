@@ -171,7 +171,7 @@ pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
         .collect();
     let bvh = crate::bvh::build(&corners);
     data.bvh_nodes = bvh.nodes;
-    data.bvh_primitives = bvh.primitives;
+    data.bvh_blocks = bvh.blocks;
 
     data.info = rec::SceneInfo {
         bounds_min: bounds_min.to_array(),
@@ -466,7 +466,7 @@ mod tests {
         assert_eq!(view.triangles.len(), 2);
         assert_eq!(view.string(view.meshes[0].name), "/World/Quad");
         assert_eq!(view.meshes[0].flags & blob::MESH_HAS_UVS, blob::MESH_HAS_UVS);
-        let mut slots: Vec<u32> = view.bvh_primitives.to_vec();
+        let mut slots: Vec<u32> = view.bvh_blocks.iter().flat_map(|b| b.triangles).collect();
         slots.sort();
         slots.dedup();
         assert_eq!(slots, vec![0, 1], "every triangle is reachable from the BVH");

@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -123,10 +123,10 @@ section_kinds! {
     Cameras = 11,
     /// [`crate::EmissiveTriangle`].
     EmissiveTriangles = 12,
-    /// [`crate::BvhNode`]; node 0 is the root.
-    BvhNodes = 13,
-    /// `u32` triangle index per BVH primitive slot.
-    BvhPrimitives = 14,
+    /// [`crate::BvhNode`]; node 0 is the root. (Kinds 13 and 14 held the compressed CWBVH of format 1.)
+    BvhNodes = 20,
+    /// [`crate::TriangleBlock`]s of the BVH leaves.
+    BvhTriangleBlocks = 21,
     /// [`crate::TextureRecord`]. Texture kinds start at 30 so that other section kinds can be added
     /// below them without renumbering.
     TextureRecords = 30,

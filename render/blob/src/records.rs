@@ -226,37 +226,75 @@ pub struct EmissiveTriangle {
 }
 const _: () = assert!(std::mem::size_of::<EmissiveTriangle>() == 16);
 
-/// One node of the compressed wide BVH (CWBVH, Ylitie et al. 2017), bit-identical to
-/// `obvhs::cwbvh::CwBvhNode` 0.4 so render can traverse the mapped slice directly. 80 bytes.
+/// Children per [`BvhNode`].
+pub const BVH_WIDTH: usize = 8;
+/// Triangles per [`TriangleBlock`].
+pub const BLOCK_WIDTH: usize = 4;
+
+/// Child references stored in [`BvhNode::children`].
+///
+/// ```text
+/// bit 31      1 = leaf, 0 = internal node
+/// internal    bits 0..31: index of the child node (always greater than the parent's index)
+/// leaf        bits 27..31: number of triangle blocks (0 = empty slot), bits 0..27: first block
+/// ```
+pub mod child_ref {
+    /// Tag bit of a leaf reference.
+    pub const LEAF: u32 = 1 << 31;
+    /// Shift of a leaf's block count.
+    pub const COUNT_SHIFT: u32 = 27;
+    /// Largest block count of one leaf.
+    pub const MAX_BLOCKS: u32 = 0xf;
+    /// Mask of a leaf's first block index.
+    pub const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+    /// An unused child slot: a leaf with no blocks (its bounds are empty, min = +inf, max = −inf).
+    pub const EMPTY: u32 = LEAF;
+
+    /// A leaf of `count` blocks starting at `first`, or `None` if either does not fit.
+    pub const fn leaf(first: u32, count: u32) -> Option<u32> {
+        if first > FIRST_MASK || count > MAX_BLOCKS {
+            None
+        } else {
+            Some(LEAF | count << COUNT_SHIFT | first)
+        }
+    }
+
+    /// `(first block, block count)` of a leaf reference.
+    #[inline(always)]
+    pub const fn leaf_range(r: u32) -> (u32, u32) {
+        (r & FIRST_MASK, (r >> COUNT_SHIFT) & MAX_BLOCKS)
+    }
+}
+
+/// One node of the 8-wide BVH: the uncompressed bounds of up to eight children, stored SoA so one
+/// SIMD lane tests one child, and their [`child_ref`]s. 256 bytes (four cache lines, 64-byte aligned
+/// in the file).
+///
+/// `bounds[axis]` holds the children's minima on `axis` (x, y, z) and `bounds[3 + axis]` their maxima,
+/// so a traversal picks the near and far plane arrays once per ray from the direction's signs.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct BvhNode {
-    /// Min point of the node's bounds.
-    pub p: [f32; 3],
-    /// Exponents of the child-bounds quantization.
-    pub e: [u8; 3],
-    /// Bit per child: 1 = internal node.
-    pub imask: u8,
-    /// First child node index.
-    pub child_base_idx: u32,
-    /// First primitive index into the BVH primitive section.
-    pub primitive_base_idx: u32,
-    /// Per-child meta byte (see obvhs docs).
-    pub child_meta: [u8; 8],
-    /// Quantized child bounds.
-    pub child_min_x: [u8; 8],
-    /// Quantized child bounds.
-    pub child_max_x: [u8; 8],
-    /// Quantized child bounds.
-    pub child_min_y: [u8; 8],
-    /// Quantized child bounds.
-    pub child_max_y: [u8; 8],
-    /// Quantized child bounds.
-    pub child_min_z: [u8; 8],
-    /// Quantized child bounds.
-    pub child_max_z: [u8; 8],
+    /// `[min_x, min_y, min_z, max_x, max_y, max_z]`, each one lane per child.
+    pub bounds: [[f32; BVH_WIDTH]; 6],
+    /// One [`child_ref`] per child.
+    pub children: [u32; BVH_WIDTH],
+    /// Reserved, zero (pads the node to four cache lines).
+    pub reserved: [u32; BVH_WIDTH],
 }
-const _: () = assert!(std::mem::size_of::<BvhNode>() == 80);
+const _: () = assert!(std::mem::size_of::<BvhNode>() == 256);
+
+/// Four triangles of a BVH leaf, vertices copied SoA so one SIMD lane tests one triangle, with the
+/// blob triangle each lane came from. Unused lanes repeat a triangle of the same leaf. 160 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TriangleBlock {
+    /// `vertices[corner][axis][lane]`: corner 0, 1, 2 of the blob triangle, world space.
+    pub vertices: [[[f32; BLOCK_WIDTH]; 3]; 3],
+    /// Index into the triangles section, per lane.
+    pub triangles: [u32; BLOCK_WIDTH],
+}
+const _: () = assert!(std::mem::size_of::<TriangleBlock>() == 160);
 
 /// One baked texture: size, texel format and where each mip level starts in the
 /// [`crate::SectionKind::TextureTexels`] section. 168 bytes, align 8.

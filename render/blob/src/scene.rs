@@ -41,8 +41,8 @@ pub struct SceneData {
     pub emissive_triangles: Vec<EmissiveTriangle>,
     /// BVH nodes (root first).
     pub bvh_nodes: Vec<BvhNode>,
-    /// Triangle index per BVH primitive slot.
-    pub bvh_primitives: Vec<u32>,
+    /// Triangle blocks of the BVH leaves.
+    pub bvh_blocks: Vec<TriangleBlock>,
     /// Baked textures (a UDIM tile is a texture).
     pub texture_records: Vec<TextureRecord>,
     /// UDIM sets.
@@ -80,7 +80,7 @@ impl SceneData {
             section(SectionKind::Cameras, &self.cameras),
             section(SectionKind::EmissiveTriangles, &self.emissive_triangles),
             section(SectionKind::BvhNodes, &self.bvh_nodes),
-            section(SectionKind::BvhPrimitives, &self.bvh_primitives),
+            section(SectionKind::BvhTriangleBlocks, &self.bvh_blocks),
             section(SectionKind::TextureRecords, &self.texture_records),
             section(SectionKind::UdimSets, &self.udim_sets),
             section(SectionKind::UdimTiles, &self.udim_tiles),
@@ -165,10 +165,11 @@ pub struct SceneView<'a> {
     pub cameras: &'a [Camera],
     /// Emissive triangles.
     pub emissive_triangles: &'a [EmissiveTriangle],
-    /// BVH nodes, root first.
+    /// BVH nodes, root first. Every internal child index is greater than its parent's index and in
+    /// range, every leaf's block range is in range.
     pub bvh_nodes: &'a [BvhNode],
-    /// Triangle index per BVH primitive slot.
-    pub bvh_primitives: &'a [u32],
+    /// Triangle blocks of the BVH leaves; every lane's triangle index is in range.
+    pub bvh_blocks: &'a [TriangleBlock],
     /// Baked textures (every level inside `texels`, checked).
     pub texture_records: &'a [TextureRecord],
     /// UDIM sets (tile ranges inside `udim_tiles`, checked).
@@ -216,7 +217,7 @@ impl<'a> SceneView<'a> {
                 SectionKind::EmissiveTriangles,
             )?,
             bvh_nodes: typed(bytes, get(SectionKind::BvhNodes)?, SectionKind::BvhNodes)?,
-            bvh_primitives: typed(bytes, get(SectionKind::BvhPrimitives)?, SectionKind::BvhPrimitives)?,
+            bvh_blocks: typed(bytes, get(SectionKind::BvhTriangleBlocks)?, SectionKind::BvhTriangleBlocks)?,
             texture_records: typed(bytes, get(SectionKind::TextureRecords)?, SectionKind::TextureRecords)?,
             udim_sets: typed(bytes, get(SectionKind::UdimSets)?, SectionKind::UdimSets)?,
             udim_tiles: typed(bytes, get(SectionKind::UdimTiles)?, SectionKind::UdimTiles)?,
@@ -359,27 +360,27 @@ impl<'a> SceneView<'a> {
         {
             return bad(K::SceneInfo, 0, "dome light index does not name a dome light");
         }
-        if let Some(i) = self.bvh_primitives.iter().position(|&t| t as usize >= self.triangles.len()) {
-            return bad(K::BvhPrimitives, i, "triangle index out of range");
+        if let Some(i) = self
+            .bvh_blocks
+            .iter()
+            .position(|b| b.triangles.iter().any(|&t| t as usize >= self.triangles.len()))
+        {
+            return bad(K::BvhTriangleBlocks, i, "triangle index out of range");
         }
         if self.bvh_nodes.is_empty() != self.triangles.is_empty() {
             return bad(K::BvhNodes, 0, "a BVH is required exactly when there are triangles");
         }
+        // Internal children must come after their parent: the node graph is then acyclic, so every
+        // traversal terminates, and every index it follows is in range.
         for (i, node) in self.bvh_nodes.iter().enumerate() {
-            let internal = node.imask.count_ones() as u64;
-            if internal > 0 && node.child_base_idx as u64 + internal > self.bvh_nodes.len() as u64 {
-                return bad(K::BvhNodes, i, "child node range out of bounds");
-            }
-            for (slot, &meta) in node.child_meta.iter().enumerate() {
-                let is_internal = node.imask & (1 << slot) != 0;
-                if meta == 0 || is_internal {
-                    continue;
-                }
-                // Leaf: low 5 bits = first primitive offset, high 3 bits = unary primitive count.
-                let first = node.primitive_base_idx as u64 + (meta & 0b1_1111) as u64;
-                let count = (meta >> 5).count_ones() as u64;
-                if first + count > self.bvh_primitives.len() as u64 {
-                    return bad(K::BvhNodes, i, "leaf primitive range out of bounds");
+            for &r in &node.children {
+                if r & child_ref::LEAF != 0 {
+                    let (first, count) = child_ref::leaf_range(r);
+                    if first as u64 + count as u64 > self.bvh_blocks.len() as u64 {
+                        return bad(K::BvhNodes, i, "leaf block range out of bounds");
+                    }
+                } else if r as usize <= i || r as usize >= self.bvh_nodes.len() {
+                    return bad(K::BvhNodes, i, "child node index not after the parent or out of range");
                 }
             }
         }
@@ -522,7 +523,7 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::Positions | SectionKind::Normals => size_of::<[f32; 3]>(),
         SectionKind::Uvs => size_of::<[f32; 2]>(),
         SectionKind::Triangles => size_of::<Triangle>(),
-        SectionKind::TriangleMaterials | SectionKind::BvhPrimitives | SectionKind::UdimTiles => {
+        SectionKind::TriangleMaterials | SectionKind::UdimTiles => {
             size_of::<u32>()
         }
         SectionKind::TextureRecords => size_of::<TextureRecord>(),
@@ -534,6 +535,7 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::Cameras => size_of::<Camera>(),
         SectionKind::EmissiveTriangles => size_of::<EmissiveTriangle>(),
         SectionKind::BvhNodes => size_of::<BvhNode>(),
+        SectionKind::BvhTriangleBlocks => size_of::<TriangleBlock>(),
     }) as u32
 }
 

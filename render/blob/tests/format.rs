@@ -69,9 +69,22 @@ fn sample_scene() -> SceneData {
     let cname = s.add_string("/Cam");
     s.cameras = vec![Camera { name: cname, focal_length: 50.0, ..Camera::default() }];
     s.emissive_triangles = vec![];
-    s.bvh_nodes =
-        vec![BvhNode { imask: 0, child_meta: [0b0010_0000, 0, 0, 0, 0, 0, 0, 0], ..BvhNode::default() }];
-    s.bvh_primitives = vec![0];
+    let mut node = BvhNode { children: [child_ref::EMPTY; BVH_WIDTH], ..BvhNode::default() };
+    for axis in 0..3 {
+        node.bounds[axis] = [f32::INFINITY; BVH_WIDTH];
+        node.bounds[3 + axis] = [f32::NEG_INFINITY; BVH_WIDTH];
+        node.bounds[axis][0] = 0.0;
+        node.bounds[3 + axis][0] = if axis == 2 { 0.0 } else { 1.0 };
+    }
+    node.children[0] = child_ref::leaf(0, 1).unwrap();
+    s.bvh_nodes = vec![node];
+    let mut block = TriangleBlock::default();
+    for (corner, p) in s.positions.iter().enumerate() {
+        for axis in 0..3 {
+            block.vertices[corner][axis] = [p[axis]; BLOCK_WIDTH];
+        }
+    }
+    s.bvh_blocks = vec![block];
     s.info = SceneInfo {
         bounds_min: [0.0; 3],
         bounds_max: [1.0, 1.0, 0.0],
@@ -102,7 +115,7 @@ fn round_trip_preserves_every_section() {
     assert_eq!(view.lights, &scene.lights[..]);
     assert_eq!(view.cameras, &scene.cameras[..]);
     assert_eq!(view.bvh_nodes, &scene.bvh_nodes[..]);
-    assert_eq!(view.bvh_primitives, &scene.bvh_primitives[..]);
+    assert_eq!(view.bvh_blocks, &scene.bvh_blocks[..]);
     assert_eq!(view.texture_records, &scene.texture_records[..]);
     assert_eq!(view.udim_sets, &scene.udim_sets[..]);
     assert_eq!(view.udim_tiles, &scene.udim_tiles[..]);
@@ -194,9 +207,32 @@ fn bad_indices_are_rejected_even_with_valid_checksums() {
     let mut scene = sample_scene();
     scene.triangle_materials[0] = 3;
     assert!(matches!(parse(&scene.encode()), Err(BlobError::BadIndex { .. })));
+    let bvh_nodes_rejected = |scene: &SceneData| {
+        matches!(parse(&scene.encode()), Err(BlobError::BadIndex { kind: SectionKind::BvhNodes, .. }))
+    };
     let mut scene = sample_scene();
-    scene.bvh_nodes[0].child_meta[0] = 0b1110_0000 | 5;
-    assert!(matches!(parse(&scene.encode()), Err(BlobError::BadIndex { kind: SectionKind::BvhNodes, .. })));
+    scene.bvh_nodes[0].children[0] = child_ref::leaf(0, 2).unwrap();
+    assert!(bvh_nodes_rejected(&scene), "leaf block range past the end");
+    let mut scene = sample_scene();
+    scene.bvh_nodes[0].children[3] = child_ref::leaf(2, 0).unwrap();
+    assert!(bvh_nodes_rejected(&scene), "empty-looking leaf starting past the end");
+    let mut scene = sample_scene();
+    scene.bvh_nodes[0].children[1] = 0;
+    assert!(bvh_nodes_rejected(&scene), "a node that is its own child (a cycle)");
+    let mut scene = sample_scene();
+    scene.bvh_nodes.push(scene.bvh_nodes[0]);
+    scene.bvh_nodes[1].children[1] = 0;
+    scene.bvh_nodes[0].children[1] = 1;
+    assert!(bvh_nodes_rejected(&scene), "a child pointing back to its parent");
+    let mut scene = sample_scene();
+    scene.bvh_nodes[0].children[1] = 1;
+    assert!(bvh_nodes_rejected(&scene), "child node index out of range");
+    let mut scene = sample_scene();
+    scene.bvh_blocks[0].triangles[3] = 1;
+    assert!(matches!(
+        parse(&scene.encode()),
+        Err(BlobError::BadIndex { kind: SectionKind::BvhTriangleBlocks, .. })
+    ));
     let mut scene = sample_scene();
     scene.meshes[0].name.len = 1000;
     assert!(matches!(parse(&scene.encode()), Err(BlobError::BadIndex { .. })));
