@@ -80,8 +80,8 @@ fn sample_scene() -> SceneData {
     s.bvh_nodes = vec![node];
     let mut block = TriangleBlock::default();
     for (corner, p) in s.positions.iter().enumerate() {
-        for axis in 0..3 {
-            block.vertices[corner][axis] = [p[axis]; BLOCK_WIDTH];
+        for (axis, &x) in p.iter().enumerate() {
+            block.vertices[corner][axis] = [x; BLOCK_WIDTH];
         }
     }
     s.bvh_blocks = vec![block];
