@@ -5,13 +5,19 @@
 //! `pack` turns the scene into a [`blob::SceneData`] with a prebuilt BVH (`bvh`) and the emissive-triangle
 //! distribution; [`blob::write_atomic`] writes it.
 //!
-//! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`pack`] (scene → blob records), `bvh`,
+//! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`curves`] (basis conversion, NURBS fitting,
+//! adaptive splitting), [`pack`] (scene → blob records), `bvh`,
 //! [`pipeline`] (the whole step as one call).
 
 mod bvh;
+pub mod curves;
 pub mod pack;
+pub mod pack_curves;
 pub mod pipeline;
 pub mod scene;
 pub mod usd;
 
-pub use scene::{Camera, Light, LightKind, Material, Mesh, Scene, UpAxis, Warning};
+pub use scene::{
+    BezierSegment, Camera, CurveKind, Curves, Light, LightKind, Material, Mesh, PointSphere, Scene, UpAxis,
+    Warning,
+};

@@ -41,6 +41,17 @@ pub struct Args {
     /// Write the run's statistics as JSON.
     #[arg(long)]
     pub stats: Option<PathBuf>,
+    /// Draw all curves as `tube` or `ribbon` (default: tubes, oriented ribbons where normals are authored).
+    #[arg(long, value_parser = parse_curve_shape)]
+    pub curve_shape: Option<crate::curves::CurveShape>,
+}
+
+fn parse_curve_shape(s: &str) -> Result<crate::curves::CurveShape, String> {
+    match s {
+        "tube" => Ok(crate::curves::CurveShape::Tube),
+        "ribbon" => Ok(crate::curves::CurveShape::Ribbon),
+        _ => Err(format!("expected tube or ribbon, got {s:?}")),
+    }
 }
 
 fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
@@ -99,6 +110,7 @@ impl Args {
                 threads: self.threads,
                 seed: self.seed,
                 max_depth: self.max_depth,
+                curve_shape: self.curve_shape,
                 ..RenderOptions::default()
             },
         })

@@ -28,6 +28,8 @@ pub struct RenderOptions {
     pub max_depth: u32,
     /// Tile edge in pixels.
     pub tile_size: u32,
+    /// Draw every curve as this shape (`None`: tubes, or ribbons where normals are authored).
+    pub curve_shape: Option<crate::curves::CurveShape>,
 }
 
 impl Default for RenderOptions {
@@ -40,6 +42,7 @@ impl Default for RenderOptions {
             seed: 0,
             max_depth: 8,
             tile_size: 16,
+            curve_shape: None,
         }
     }
 }
@@ -125,6 +128,11 @@ pub fn render_scene_with_progress(
         return Err(RenderError::InvalidOption(format!("resolution {width}x{height} is out of range")));
     }
     let camera = scene.camera(camera_index, width, height);
+    let mut scene = scene.clone();
+    if options.curve_shape.is_some() {
+        scene.curves.shape = options.curve_shape;
+    }
+    let scene = &scene;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.threads)
         .build()

@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -80,6 +80,11 @@ macro_rules! section_kinds {
             /// Every kind, in table order.
             pub const ALL: &'static [SectionKind] = &[$(SectionKind::$name,)*];
 
+            /// Position of this kind in [`SectionKind::ALL`] (a dense index; kind values have gaps).
+            pub fn slot(self) -> usize {
+                SectionKind::ALL.iter().position(|k| *k == self).unwrap_or(0)
+            }
+
             /// The kind for a raw table value.
             pub fn from_u32(value: u32) -> Option<Self> {
                 match value { $($value => Some(SectionKind::$name),)* _ => None }
@@ -117,4 +122,16 @@ section_kinds! {
     BvhNodes = 13,
     /// `u32` triangle index per BVH primitive slot.
     BvhPrimitives = 14,
+    /// [`crate::CurveGroup`] (curve and point prims; format 2).
+    CurveGroups = 40,
+    /// [`crate::CurveSegment`] (cubic Bézier pieces).
+    CurveSegments = 41,
+    /// [`crate::CurveAttributes`], one per curve segment.
+    CurveAttributes = 42,
+    /// [`crate::PointSphere`].
+    PointSpheres = 43,
+    /// [`crate::BvhNode`] of the curve BVH; node 0 is the root.
+    CurveBvhNodes = 44,
+    /// `u32` segment-or-sphere index per curve BVH primitive slot.
+    CurveBvhPrimitives = 45,
 }

@@ -41,6 +41,8 @@ pub struct SceneData {
     pub bvh_nodes: Vec<BvhNode>,
     /// Triangle index per BVH primitive slot.
     pub bvh_primitives: Vec<u32>,
+    /// Curves and points with their BVH.
+    pub curves: crate::CurveData,
 }
 
 impl SceneData {
@@ -69,6 +71,12 @@ impl SceneData {
             section(SectionKind::EmissiveTriangles, &self.emissive_triangles),
             section(SectionKind::BvhNodes, &self.bvh_nodes),
             section(SectionKind::BvhPrimitives, &self.bvh_primitives),
+            section(SectionKind::CurveGroups, &self.curves.groups),
+            section(SectionKind::CurveSegments, &self.curves.segments),
+            section(SectionKind::CurveAttributes, &self.curves.attributes),
+            section(SectionKind::PointSpheres, &self.curves.spheres),
+            section(SectionKind::CurveBvhNodes, &self.curves.bvh_nodes),
+            section(SectionKind::CurveBvhPrimitives, &self.curves.bvh_primitives),
         ];
         let table_len = sections.len() * std::mem::size_of::<SectionEntry>();
         let mut cursor = align_up(std::mem::size_of::<Header>() + table_len);
@@ -147,13 +155,15 @@ pub struct SceneView<'a> {
     pub bvh_nodes: &'a [BvhNode],
     /// Triangle index per BVH primitive slot.
     pub bvh_primitives: &'a [u32],
+    /// Curves and points with their BVH.
+    pub curves: crate::CurveView<'a>,
 }
 
 impl<'a> SceneView<'a> {
     /// Validates `bytes` completely and returns typed slices into it.
     pub fn parse(bytes: &'a [u8]) -> Result<Self, BlobError> {
         let sections = parse_container(bytes)?;
-        let get = |kind: SectionKind| sections[kind as usize - 1].ok_or(BlobError::MissingSection(kind));
+        let get = |kind: SectionKind| sections[kind.slot()].ok_or(BlobError::MissingSection(kind));
         let info_slice: &[SceneInfo] = typed(bytes, get(SectionKind::SceneInfo)?, SectionKind::SceneInfo)?;
         let [info] = info_slice else {
             return Err(BlobError::BadIndex {
@@ -185,6 +195,18 @@ impl<'a> SceneView<'a> {
             )?,
             bvh_nodes: typed(bytes, get(SectionKind::BvhNodes)?, SectionKind::BvhNodes)?,
             bvh_primitives: typed(bytes, get(SectionKind::BvhPrimitives)?, SectionKind::BvhPrimitives)?,
+            curves: crate::CurveView {
+                groups: typed(bytes, get(SectionKind::CurveGroups)?, SectionKind::CurveGroups)?,
+                segments: typed(bytes, get(SectionKind::CurveSegments)?, SectionKind::CurveSegments)?,
+                attributes: typed(bytes, get(SectionKind::CurveAttributes)?, SectionKind::CurveAttributes)?,
+                spheres: typed(bytes, get(SectionKind::PointSpheres)?, SectionKind::PointSpheres)?,
+                bvh_nodes: typed(bytes, get(SectionKind::CurveBvhNodes)?, SectionKind::CurveBvhNodes)?,
+                bvh_primitives: typed(
+                    bytes,
+                    get(SectionKind::CurveBvhPrimitives)?,
+                    SectionKind::CurveBvhPrimitives,
+                )?,
+            },
         };
         view.validate_indices()?;
         Ok(view)
@@ -279,29 +301,36 @@ impl<'a> SceneView<'a> {
         if self.bvh_nodes.is_empty() != self.triangles.is_empty() {
             return bad(K::BvhNodes, 0, "a BVH is required exactly when there are triangles");
         }
-        for (i, node) in self.bvh_nodes.iter().enumerate() {
-            let internal = node.imask.count_ones() as u64;
-            if internal > 0 && node.child_base_idx as u64 + internal > self.bvh_nodes.len() as u64 {
-                return bad(K::BvhNodes, i, "child node range out of bounds");
-            }
-            for (slot, &meta) in node.child_meta.iter().enumerate() {
-                let is_internal = node.imask & (1 << slot) != 0;
-                if meta == 0 || is_internal {
-                    continue;
-                }
-                // Leaf: low 5 bits = first primitive offset, high 3 bits = unary primitive count.
-                let first = node.primitive_base_idx as u64 + (meta & 0b1_1111) as u64;
-                let count = (meta >> 5).count_ones() as u64;
-                if first + count > self.bvh_primitives.len() as u64 {
-                    return bad(K::BvhNodes, i, "leaf primitive range out of bounds");
-                }
-            }
-        }
-        Ok(())
+        validate_cwbvh(self.bvh_nodes, self.bvh_primitives.len())
+            .or_else(|(i, what)| bad(K::BvhNodes, i, what))?;
+        self.curves.validate(self.materials.len(), strings_ok).or_else(|(kind, i, what)| bad(kind, i, what))
     }
 }
 
-/// Validates header and table; returns each known kind's entry by `kind - 1`.
+/// Checks a CWBVH's child and leaf ranges against its node count and `primitives` slots.
+pub(crate) fn validate_cwbvh(nodes: &[BvhNode], primitives: usize) -> Result<(), (usize, &'static str)> {
+    for (i, node) in nodes.iter().enumerate() {
+        let internal = node.imask.count_ones() as u64;
+        if internal > 0 && node.child_base_idx as u64 + internal > nodes.len() as u64 {
+            return Err((i, "child node range out of bounds"));
+        }
+        for (slot, &meta) in node.child_meta.iter().enumerate() {
+            let is_internal = node.imask & (1 << slot) != 0;
+            if meta == 0 || is_internal {
+                continue;
+            }
+            // Leaf: low 5 bits = first primitive offset, high 3 bits = unary primitive count.
+            let first = node.primitive_base_idx as u64 + (meta & 0b1_1111) as u64;
+            let count = (meta >> 5).count_ones() as u64;
+            if first + count > primitives as u64 {
+                return Err((i, "leaf primitive range out of bounds"));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Validates header and table; returns each known kind's entry by [`SectionKind::slot`].
 fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError> {
     let actual = bytes.len() as u64;
     let header_len = std::mem::size_of::<Header>();
@@ -336,7 +365,7 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
     for raw in table_bytes.chunks_exact(std::mem::size_of::<SectionEntry>()) {
         let entry: SectionEntry = bytemuck::pod_read_unaligned(raw);
         let kind = SectionKind::from_u32(entry.kind).ok_or(BlobError::UnknownSection(entry.kind))?;
-        let slot = &mut found[kind as usize - 1];
+        let slot = &mut found[kind.slot()];
         if slot.is_some() {
             return Err(BlobError::DuplicateSection(kind));
         }
@@ -369,7 +398,8 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
 /// the file can change unnoticed.
 fn check_layout(bytes: &[u8], table_end: usize, found: &[Option<SectionEntry>]) -> Result<(), BlobError> {
     let mut sections: Vec<SectionEntry> = found.iter().flatten().copied().collect();
-    sections.sort_by_key(|e| e.offset);
+    // Empty sections share the offset of the next one; order them first.
+    sections.sort_by_key(|e| (e.offset, e.byte_len));
     let mut cursor = table_end;
     for entry in &sections {
         let start = entry.offset as usize;
@@ -402,7 +432,12 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::Lights => size_of::<Light>(),
         SectionKind::Cameras => size_of::<Camera>(),
         SectionKind::EmissiveTriangles => size_of::<EmissiveTriangle>(),
-        SectionKind::BvhNodes => size_of::<BvhNode>(),
+        SectionKind::BvhNodes | SectionKind::CurveBvhNodes => size_of::<BvhNode>(),
+        SectionKind::CurveGroups => size_of::<crate::CurveGroup>(),
+        SectionKind::CurveSegments => size_of::<crate::CurveSegment>(),
+        SectionKind::CurveAttributes => size_of::<crate::CurveAttributes>(),
+        SectionKind::PointSpheres => size_of::<crate::PointSphere>(),
+        SectionKind::CurveBvhPrimitives => size_of::<u32>(),
     }) as u32
 }
 
