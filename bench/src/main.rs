@@ -5,9 +5,13 @@
 //! - `bench convergence BLOB`: RMSE against a high-spp reference versus render seconds for spp = 1…256,
 //!   charted as SVG.
 //!
+//! - `bench curves`: a generated groom; curve-intersection throughput and image error against segments per
+//!   curve, fixed versus camera-adaptive splitting, charted as SVG.
+//!
 //! Figures go to stdout and to a JSON file.
 
 mod convergence;
+mod curves;
 mod rays;
 
 use anyhow::Context;
@@ -57,6 +61,18 @@ enum Cmd {
         /// Image width (height from the camera).
         #[arg(long, default_value_t = 192)]
         width: u32,
+        /// Work folder for the chart and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+    /// Curves: throughput and image error against segments per curve, adaptive versus fixed splitting.
+    Curves {
+        /// Strands of the generated groom.
+        #[arg(long, default_value_t = 100_000)]
+        strands: usize,
+        /// Image size (square).
+        #[arg(long, default_value_t = 256)]
+        res: u32,
         /// Work folder for the chart and results.
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
@@ -146,6 +162,10 @@ fn main() -> anyhow::Result<()> {
             let view = blob::SceneView::parse(&bytes).with_context(|| format!("{}", path.display()))?;
             std::fs::create_dir_all(&out)?;
             convergence::run(&view, reference_spp, max_spp, width, &out)?;
+        }
+        Cmd::Curves { strands, res, out } => {
+            std::fs::create_dir_all(&out)?;
+            curves::run(strands, res, &out)?;
         }
     }
     Ok(())

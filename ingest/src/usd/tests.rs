@@ -810,3 +810,35 @@ fn dump_list() {
         }
     }
 }
+
+/// Curves and their segments on the shared OpenUSD curve assets, against usd-core 26.11
+/// (`UsdGeomBasisCurves::ComputeSegmentCounts`, curves with at least one segment). Pinned bspline
+/// curves get two more segments each from Hydra's tripled end points.
+#[test]
+fn curve_segment_counts_match_usd_core_on_shared_assets() {
+    let Some(assets) = shared_assets() else {
+        eprintln!("shared assets not found; skipped");
+        return;
+    };
+    let root = assets.join("openusd_curves_points/pxr");
+    // (file, usd-core curves with segments, usd-core segments, extra Hydra pinned-bspline segments)
+    let cases = [
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLCurves/basicCurves.usda", 7, 16, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLCurves/pinnedCurves.usda", 3, 7, 6),
+        ("usd/usdGeom/testenv/testUsdGeomBBoxCache/pointsAndCurves.usda", 3, 3, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLBasicLighting/BasisCurves1.usda", 16, 70, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLBasicLighting/BasisCurves2.usda", 451, 1096, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLBasicLighting/BasisCurves3.usda", 4051, 8102, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLBasisCurvesWithNormals/curve-authored-normals.usd", 1, 3, 0),
+    ];
+    for (file, curves, segments, extra) in cases {
+        let scene = load(&root.join(file), &LoadOptions::default()).unwrap();
+        let basis: Vec<_> =
+            scene.curves.iter().filter(|c| c.kind != crate::scene::CurveKind::Points).collect();
+        let got_segments: usize = basis.iter().map(|c| c.segments.len()).sum();
+        // Curves with segments: segment parameter ranges restart at u = 0 once per curve.
+        let got_curves: usize =
+            basis.iter().map(|c| c.segments.iter().filter(|s| s.u[0] == 0.0).count()).sum();
+        assert_eq!((got_curves, got_segments), (curves, segments + extra), "{file}");
+    }
+}
