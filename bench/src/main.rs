@@ -7,9 +7,13 @@
 //! - `bench subdiv`: subdivision tessellation error (pixels at the render camera) against ingest
 //!   seconds and blob bytes, for uniform levels and dicing rates, charted as SVG.
 //!
+//! - `bench curves`: a generated groom; curve-intersection throughput and image error against segments per
+//!   curve, fixed versus camera-adaptive splitting, charted as SVG.
+//!
 //! Figures go to stdout and to a JSON file.
 
 mod convergence;
+mod curves;
 mod rays;
 mod subdiv;
 mod textures;
@@ -86,6 +90,18 @@ enum Cmd {
         /// set to level 4 from ../shared/assets).
         #[arg(long = "asset", value_name = "NAME=PATH[@MAX]")]
         assets: Vec<String>,
+        /// Work folder for the chart and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+    /// Curves: throughput and image error against segments per curve, adaptive versus fixed splitting.
+    Curves {
+        /// Strands of the generated groom.
+        #[arg(long, default_value_t = 100_000)]
+        strands: usize,
+        /// Image size (square).
+        #[arg(long, default_value_t = 256)]
+        res: u32,
         /// Work folder for the chart and results.
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
@@ -203,6 +219,10 @@ fn main() -> anyhow::Result<()> {
             let assets = assets.iter().map(|a| subdiv_asset(a)).collect::<anyhow::Result<Vec<_>>>()?;
             std::fs::create_dir_all(&out)?;
             subdiv::run(&assets, &out)?;
+        }
+        Cmd::Curves { strands, res, out } => {
+            std::fs::create_dir_all(&out)?;
+            curves::run(strands, res, &out)?;
         }
     }
     Ok(())

@@ -6,13 +6,19 @@
 //! distribution; [`blob::write_atomic`] writes it.
 //!
 //! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`dicing`] (subdivision levels from the
-//! render camera), [`pack`] (scene → blob records), `bvh`, [`pipeline`] (the whole step as one call).
+//! render camera), [`curves`] (basis conversion, NURBS fitting, adaptive splitting), [`pack`]
+//! (scene → blob records), `bvh`, [`pipeline`] (the whole step as one call).
 
 mod bvh;
+pub mod curves;
 pub mod dicing;
 pub mod pack;
+pub mod pack_curves;
 pub mod pipeline;
 pub mod scene;
 pub mod usd;
 
-pub use scene::{Camera, Light, LightKind, Material, Mesh, Scene, Subdivision, UpAxis, Warning};
+pub use scene::{
+    BezierSegment, Camera, CurveKind, Curves, Light, LightKind, Material, Mesh, PointSphere, Scene, Subdivision,
+    UpAxis, Warning,
+};

@@ -20,6 +20,11 @@ pub struct PackError {
 
 /// Packs a scene into blob records.
 pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
+    pack_with(scene, crate::pack_curves::Split::default())
+}
+
+/// [`pack`] with an explicit curve-splitting policy.
+pub fn pack_with(scene: &Scene, split: crate::pack_curves::Split) -> Result<blob::SceneData, PackError> {
     validate(scene)?;
     let mut data = blob::SceneData::default();
     let mut bounds_min = Vec3::splat(f32::INFINITY);
@@ -172,6 +177,9 @@ pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
     let bvh = crate::bvh::build(&corners);
     data.bvh_nodes = bvh.nodes;
     data.bvh_blocks = bvh.blocks;
+    let (curves_min, curves_max) = crate::pack_curves::pack_curves(scene, &mut data, split);
+    bounds_min = bounds_min.min(curves_min);
+    bounds_max = bounds_max.max(curves_max);
 
     data.info = rec::SceneInfo {
         bounds_min: bounds_min.to_array(),
@@ -390,6 +398,16 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
     }
     if scene.positions_total() > u32::MAX as usize || scene.triangle_count() > u32::MAX as usize {
         return fail("/", "more than 2^32 vertices or triangles".into());
+    }
+    for c in &scene.curves {
+        if c.material as usize >= scene.materials.len() {
+            return fail(&c.path, format!("material index {} out of range", c.material));
+        }
+        let finite = c.segments.iter().all(|s| s.p.iter().all(|p| p.is_finite()))
+            && c.spheres.iter().all(|s| s.center.is_finite() && s.radius.is_finite());
+        if !finite {
+            return fail(&c.path, "non-finite curve control point or point".into());
+        }
     }
     if let Some(c) = scene.default_camera.filter(|&c| c >= scene.cameras.len()) {
         return fail("/", format!("default camera {c} out of range"));

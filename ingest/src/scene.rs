@@ -4,13 +4,15 @@
 //! (`crate::usd`) produces it, `crate::pack` turns it into blob records. Nothing in this module knows
 //! about USD or about the blob layout.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 
 /// A composed, world-space, renderable scene.
 #[derive(Clone, Debug, Default)]
 pub struct Scene {
     /// Renderable gprims (Mesh prims), one entry per instance once instancing is flattened.
     pub meshes: Vec<Mesh>,
+    /// Curve and point prims (BasisCurves, NurbsCurves, Points), one entry per instance.
+    pub curves: Vec<Curves>,
     /// Materials; `Mesh::triangle_materials` index into this.
     pub materials: Vec<Material>,
     /// Lights.
@@ -206,6 +208,68 @@ pub struct Subdivision {
     /// Triangles the same surface would have at the level cap (`--max-subdiv-level`), from the
     /// face-count formula.
     pub triangles_at_max_level: u64,
+}
+
+/// How a curve prim is drawn.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CurveKind {
+    /// Round tubes (curves without authored normals).
+    #[default]
+    Tube,
+    /// Flat ribbons oriented by the authored normals.
+    Ribbon,
+    /// A Points prim: one sphere per point.
+    Points,
+}
+
+/// One cubic Bézier piece of a curve in world space, with its shading attributes at both ends.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BezierSegment {
+    /// Control points: `xyz` position, `w` radius (half the USD width).
+    pub p: [Vec4; 4],
+    /// Parameter range along the authored curve, in [0, 1].
+    pub u: [f32; 2],
+    /// Ribbon normals at t = 0 and 1 (zero without authored normals).
+    pub normal: [Vec3; 2],
+    /// Colour at t = 0 and 1.
+    pub color: [Vec3; 2],
+    /// Texture coordinates at t = 0 and 1.
+    pub uv: [Vec2; 2],
+}
+
+/// A sphere of a Points prim.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PointSphere {
+    /// World-space centre.
+    pub center: Vec3,
+    /// World-space radius (half the USD width).
+    pub radius: f32,
+    /// Colour.
+    pub color: Vec3,
+}
+
+/// A BasisCurves, NurbsCurves or Points prim in world space, every basis already converted to exact
+/// cubic Bézier segments (before the camera-dependent splitting done by `pack`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Curves {
+    /// Prim path.
+    pub path: String,
+    /// Tube, ribbon or points.
+    pub kind: CurveKind,
+    /// Bézier segments (curves).
+    pub segments: Vec<BezierSegment>,
+    /// Spheres (points).
+    pub spheres: Vec<PointSphere>,
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// Authored curves (entries of `curveVertexCounts`) or points.
+    pub curve_count: usize,
+    /// Segments carry authored normals.
+    pub has_normals: bool,
+    /// Segments/spheres carry a per-vertex colour that replaces the material's diffuse colour.
+    pub has_colors: bool,
+    /// Segments carry texture coordinates.
+    pub has_uvs: bool,
 }
 
 /// UsdPreviewSurface with constant inputs (fallbacks from the UsdPreviewSurface spec when unauthored).

@@ -45,10 +45,21 @@ pub struct Args {
     /// bilinear, trilinear or ewa (anisotropic).
     #[arg(long, default_value = "moonray", value_parser = parse_filter)]
     pub texture_filter: texture::Filter,
+    /// Draw all curves as `tube` or `ribbon` (default: tubes, oriented ribbons where normals are authored).
+    #[arg(long, value_parser = parse_curve_shape)]
+    pub curve_shape: Option<crate::curves::CurveShape>,
 }
 
 fn parse_filter(s: &str) -> Result<texture::Filter, String> {
     s.parse()
+}
+
+fn parse_curve_shape(s: &str) -> Result<crate::curves::CurveShape, String> {
+    match s {
+        "tube" => Ok(crate::curves::CurveShape::Tube),
+        "ribbon" => Ok(crate::curves::CurveShape::Ribbon),
+        _ => Err(format!("expected tube or ribbon, got {s:?}")),
+    }
 }
 
 fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
@@ -109,6 +120,7 @@ impl Args {
                 max_depth: self.max_depth,
                 texture_filter: self.texture_filter,
                 texture_stats: self.stats.is_some(),
+                curve_shape: self.curve_shape,
                 ..RenderOptions::default()
             },
         })

@@ -36,6 +36,8 @@ pub struct RenderOptions {
     /// Count the texel pages the render reads (`RenderStats::texture_bytes_touched`); off by default
     /// because every texel fetch then also marks a shared bitmap.
     pub texture_stats: bool,
+    /// Draw every curve as this shape (`None`: tubes, or ribbons where normals are authored).
+    pub curve_shape: Option<crate::curves::CurveShape>,
 }
 
 impl Default for RenderOptions {
@@ -51,6 +53,7 @@ impl Default for RenderOptions {
             texture_filter: texture::Filter::default(),
             texture_footprint_scale: 1.0,
             texture_stats: false,
+            curve_shape: None,
         }
     }
 }
@@ -161,6 +164,11 @@ fn render_with_touch<T: texture::Touch + Sync>(
         return Err(RenderError::InvalidOption(format!("resolution {width}x{height} is out of range")));
     }
     let camera = scene.camera(camera_index, width, height);
+    let mut scene = scene.clone();
+    if options.curve_shape.is_some() {
+        scene.curves.shape = options.curve_shape;
+    }
+    let scene = &scene;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.threads)
         .build()

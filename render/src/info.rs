@@ -12,6 +12,14 @@ pub struct SceneSummary {
     pub instances: u32,
     /// Triangles.
     pub triangles: usize,
+    /// Curves after composition (entries of `curveVertexCounts` over all curve prims).
+    pub curves: u64,
+    /// Curve prims (BasisCurves, NurbsCurves) after composition.
+    pub curve_prims: usize,
+    /// Cubic Bézier segments after expansion and splitting.
+    pub curve_segments: usize,
+    /// Points (spheres) of Points prims.
+    pub points: usize,
     /// Materials.
     pub materials: usize,
     /// UsdLux lights.
@@ -30,6 +38,16 @@ pub fn summarize(view: &SceneView) -> SceneSummary {
         meshes: view.info.gprim_count,
         instances: view.info.instance_count,
         triangles: view.triangles.len(),
+        curves: view
+            .curves
+            .groups
+            .iter()
+            .filter(|g| g.kind != blob::curves::CURVE_POINTS)
+            .map(|g| g.curve_count as u64)
+            .sum(),
+        curve_prims: view.curves.groups.iter().filter(|g| g.kind != blob::curves::CURVE_POINTS).count(),
+        curve_segments: view.curves.segments.len(),
+        points: view.curves.spheres.len(),
         materials: view.materials.len(),
         lights: view.lights.len(),
         cameras: view.cameras.len(),
@@ -52,7 +70,7 @@ mod tests {
         assert_eq!(json["meshes"], 1);
         assert_eq!(json["instances"], 0);
         assert_eq!(json["materials"], 1);
-        for key in ["lights", "cameras", "bounds_min", "bounds_max"] {
+        for key in ["lights", "cameras", "bounds_min", "bounds_max", "curves", "curve_segments", "points"] {
             assert!(json.get(key).is_some(), "{key}");
         }
     }

@@ -9,8 +9,10 @@
 //! a pure function of the keys.
 
 use crate::accel::offset_ray_origin;
-use crate::bsdf::{Bsdf, Frame};
+use crate::bsdf::{Bsdf, BsdfSample, Frame};
 use crate::camera::RayCone;
+use crate::curves::CurveHit;
+use crate::hair::HairBsdf;
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
 use crate::scene::Scene;
@@ -99,6 +101,59 @@ pub struct Surface {
     pub dpdu: Vec3,
     /// `dp/dv`.
     pub dpdv: Vec3,
+    /// Triangle hit, or [`blob::NONE`] for curves and points.
+    pub triangle: u32,
+    /// Curve and point hits.
+    curve: Option<CurveSurface>,
+}
+
+/// What a curve or point hit adds to [`Surface`].
+struct CurveSurface {
+    /// Hair BSDF (curves) rather than UsdPreviewSurface (points).
+    hair: Option<HairBsdf>,
+    /// Diffuse colour (points with per-point colours).
+    color: Vec3,
+    /// Rays leave a fibre from `p + w · spawn` (its diameter and then some): a fibre's own hair BSDF
+    /// already accounts for light crossing it, so the ray must not meet the same fibre again. Zero for
+    /// points (offset along the normal like triangles).
+    spawn: f32,
+}
+
+impl Surface {
+    /// Origin for a ray leaving the surface in direction `w`.
+    fn spawn(&self, w: Vec3) -> Vec3 {
+        match &self.curve {
+            Some(c) if c.spawn > 0.0 => self.p + w * c.spawn,
+            _ => offset_ray_origin(self.p, if w.dot(self.ng) >= 0.0 { self.ng } else { -self.ng }),
+        }
+    }
+}
+
+/// The BSDF at a hit: UsdPreviewSurface (triangles, points) or hair (curves).
+enum SurfaceBsdf {
+    Preview(Bsdf),
+    Hair(HairBsdf),
+}
+
+impl SurfaceBsdf {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        match self {
+            SurfaceBsdf::Preview(b) => b.eval(wo, wi),
+            SurfaceBsdf::Hair(h) => h.eval(wo, wi),
+        }
+    }
+    fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
+        match self {
+            SurfaceBsdf::Preview(b) => b.sample(wo, u_lobe, u),
+            SurfaceBsdf::Hair(h) => h.sample(wo, u_lobe, u),
+        }
+    }
+    fn albedo(&self) -> Vec3 {
+        match self {
+            SurfaceBsdf::Preview(b) => b.diffuse_albedo(),
+            SurfaceBsdf::Hair(h) => h.color(),
+        }
+    }
 }
 
 impl<'a> Scene<'a> {
@@ -165,7 +220,66 @@ impl<'a> Scene<'a> {
                 has_uv: true,
             };
         }
-        Some(Surface { p, ng, ns, material: view.triangle_materials[hit.triangle as usize], uv, dpdu, dpdv })
+        Some(Surface {
+            p,
+            ng,
+            ns,
+            material: view.triangle_materials[hit.triangle as usize],
+            uv,
+            dpdu,
+            dpdv,
+            triangle: hit.triangle,
+            curve: None,
+        })
+    }
+
+    /// Surface data at a curve or point hit.
+    fn curve_surface(&self, hit: &CurveHit, wo: Vec3) -> Surface {
+        let curves = self.curves.view();
+        let group = self.curves.group_of(hit.prim);
+        let material = &self.view.materials[group.material as usize];
+        let has_colors = group.flags & blob::curves::CURVE_HAS_COLORS != 0;
+        let segments = curves.segments.len() as u32;
+        let (ns, curve) = if group.kind == blob::curves::CURVE_POINTS {
+            let sphere = &curves.spheres[(hit.prim - segments) as usize];
+            let color =
+                if has_colors { Vec3::from(sphere.color) } else { Vec3::from(material.diffuse_color) };
+            (hit.n, CurveSurface { hair: None, color, spawn: 0.0 })
+        } else {
+            let attr = &curves.attributes[hit.prim as usize];
+            let color = if has_colors {
+                Vec3::from(attr.color[0]).lerp(Vec3::from(attr.color[1]), hit.u)
+            } else {
+                Vec3::from(material.diffuse_color)
+            };
+            let hair = HairBsdf::new(hit.tangent, wo, hit.h, color);
+            let spawn = 2.5 * hit.radius + 1e-5 * hit.p.abs().max_element().max(1.0);
+            (hair.normal(), CurveSurface { hair: Some(hair), color, spawn })
+        };
+        Surface {
+            p: hit.p,
+            ng: hit.n,
+            ns,
+            material: group.material,
+            uv: UvFootprint::default(),
+            dpdu: Vec3::ZERO,
+            dpdv: Vec3::ZERO,
+            triangle: blob::NONE,
+            curve: Some(curve),
+        }
+    }
+
+    /// The BSDF at `s` from its evaluated shading inputs.
+    fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs) -> SurfaceBsdf {
+        match &s.curve {
+            Some(CurveSurface { hair: Some(h), .. }) => SurfaceBsdf::Hair(*h),
+            Some(c) => SurfaceBsdf::Preview(Bsdf::from_inputs(
+                &crate::shading::ShadingInputs { diffuse_color: c.color, ..*inputs },
+                s.ns,
+                s.ng,
+            )),
+            None => SurfaceBsdf::Preview(Bsdf::from_inputs(inputs, s.ns, s.ng)),
+        }
     }
 
     /// The shading sort key of `hit` (UDIM tile, mip level and uv of its material's first texture;
@@ -281,15 +395,23 @@ impl<'a> Scene<'a> {
         rays.camera += 1;
         loop {
             let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
-            let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
+            // Curves and points have their own BVH; only hits closer than the triangle count.
+            let curve_hit = self.curves.closest_hit(origin, dir, hit.map_or(f32::INFINITY, |h| h.t));
+            let t_hit = curve_hit.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
             radiance += beta * self.lights.area_emission(origin, dir, t_hit, prev);
-            let Some(hit) = hit else {
-                radiance += beta * self.lights.escaped_emission(dir, prev.map(|p| p.1));
-                break;
-            };
             let wo = -dir;
-            let footprint = cone.width_at(hit.t);
-            let Some(mut s) = self.surface(&hit, wo, footprint) else { break };
+            let footprint = cone.width_at(t_hit);
+            let mut s = match (curve_hit, hit) {
+                (Some(c), _) => self.curve_surface(&c, wo),
+                (None, Some(h)) => match self.surface(&h, wo, footprint) {
+                    Some(s) => s,
+                    None => break,
+                },
+                (None, None) => {
+                    radiance += beta * self.lights.escaped_emission(dir, prev.map(|p| p.1));
+                    break;
+                }
+            };
             let inputs = self.shade(&s, filter, touch);
 
             // Stochastic transparency: continue straight with probability 1 − opacity.
@@ -299,9 +421,9 @@ impl<'a> Scene<'a> {
                 if vertex > max_depth + MAX_NULL_EVENTS {
                     break;
                 }
-                travelled += hit.t;
+                travelled += t_hit;
                 cone.width = footprint;
-                origin = offset_ray_origin(s.p, -s.ng);
+                origin = s.spawn(dir);
                 rays.bounce += 1;
                 continue;
             }
@@ -309,19 +431,20 @@ impl<'a> Scene<'a> {
                 s.ns = Self::mapped_normal(&s, n, wo);
             }
 
-            let bsdf = Bsdf::from_inputs(&inputs, s.ns, s.ng);
+            let bsdf = self.bsdf(&s, &inputs);
             if result.first_hit.is_none() && bounces == 0 {
                 result.first_hit =
-                    Some(FirstHit { albedo: bsdf.diffuse_albedo(), normal: s.ns, depth: travelled + hit.t });
+                    Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });
             }
 
             let le = inputs.emissive_color.max(Vec3::ZERO);
             if le != Vec3::ZERO {
                 let w = match prev {
-                    None => 1.0,
-                    Some((p, bsdf_pdf)) => {
-                        power_heuristic(bsdf_pdf, self.lights.triangle_pdf(hit.triangle, p, s.p))
+                    // Curves are not sampled as lights: BSDF sampling is their only strategy.
+                    Some((p, bsdf_pdf)) if s.triangle != blob::NONE => {
+                        power_heuristic(bsdf_pdf, self.lights.triangle_pdf(s.triangle, p, s.p))
                     }
+                    _ => 1.0,
                 };
                 radiance += beta * le * w;
             }
@@ -340,15 +463,17 @@ impl<'a> Scene<'a> {
                 let contribution = beta * f * ls.li * (s.ns.dot(ls.wi).abs() / ls.pdf);
                 if contribution.max_element() > 0.0 {
                     let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
-                    let shadow_origin = offset_ray_origin(s.p, s.ng);
+                    let shadow_origin = s.spawn(ls.wi);
                     let tmax = if ls.distance.is_finite() {
                         (ls.distance - (shadow_origin - s.p).length()) * (1.0 - 1e-4)
                     } else {
                         f32::INFINITY
                     };
                     rays.shadow += 1;
-                    if self.shadow_transmits(shadow_origin, ls.wi, tmax, shadow_seed ^ vertex, filter, touch)
-                    {
+                    let transmits =
+                        self.shadow_transmits(shadow_origin, ls.wi, tmax, shadow_seed ^ vertex, filter, touch)
+                            && !self.curves.any_hit(shadow_origin, ls.wi, tmax);
+                    if transmits {
                         radiance += contribution * w;
                     }
                 }
@@ -369,7 +494,7 @@ impl<'a> Scene<'a> {
                 beta /= survive;
             }
             vertex += 1;
-            origin = offset_ray_origin(s.p, s.ng);
+            origin = s.spawn(bs.wi);
             dir = bs.wi;
             travelled = 0.0;
             cone = RayCone { width: footprint, spread: cone.spread + CONE_WIDEN_PER_ALPHA * bs.lobe_alpha };

@@ -23,7 +23,8 @@
 //! directly.
 //!
 //! Modules: [`cli`] (arguments → validated command), [`mapped`] (memory map, `unsafe fn` with its
-//! contract), [`accel`] (CWBVH traversal, watertight triangle test, ray offsets), [`camera`],
+//! contract), [`accel`] (CWBVH traversal, watertight triangle test, ray offsets), [`curves`] (curve and
+//! point BVH, tube/ribbon/sphere tests), [`hair`] (Chiang et al. hair BSDF for curves), [`camera`],
 //! [`sampler`] (stateless Owen-scrambled Sobol), [`bsdf`] (UsdPreviewSurface), [`lights`] (UsdLux +
 //! emissive triangles, MIS), [`integrator`] (the path), [`film`] (tiles, options, image), [`output`]
 //! (EXR/PNG), [`stats`] (summary), [`info`] (`--info`), [`scene`] (view + derived data), [`shading`]
@@ -35,8 +36,10 @@ pub mod accel;
 pub mod bsdf;
 pub mod camera;
 pub mod cli;
+pub mod curves;
 pub mod error;
 pub mod film;
+pub mod hair;
 pub mod info;
 pub mod integrator;
 pub mod lights;

@@ -3,6 +3,7 @@
 
 use crate::accel::Accel;
 use crate::camera::{default_height, Camera};
+use crate::curves::CurveAccel;
 use crate::error::RenderError;
 use crate::lights::Lights;
 use crate::shading::Shading;
@@ -16,6 +17,8 @@ pub struct Scene<'a> {
     pub view: SceneView<'a>,
     /// BVH queries.
     pub accel: Accel<'a>,
+    /// Curve and point queries (their own BVH).
+    pub curves: CurveAccel<'a>,
     /// Lights for sampling and MIS.
     pub lights: Lights<'a>,
     /// Material programs and textures.
@@ -25,7 +28,13 @@ pub struct Scene<'a> {
 impl<'a> Scene<'a> {
     /// Prepares a validated view for rendering.
     pub fn new(view: SceneView<'a>) -> Self {
-        Scene { accel: Accel::new(&view), lights: Lights::new(&view), shading: Shading::new(&view), view }
+        Scene {
+            accel: Accel::new(&view),
+            curves: CurveAccel::new(&view),
+            lights: Lights::new(&view),
+            shading: Shading::new(&view),
+            view,
+        }
     }
 
     /// Index of the camera with prim path `path`, or the default camera when `path` is `None`

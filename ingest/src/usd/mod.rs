@@ -11,6 +11,7 @@
 //!   displayColor fallback for unbound gprims.
 //! - `subdivision`: subdivision surfaces, queued during the walk and diced against the render
 //!   camera after it.
+//! - `curves`: BasisCurves, NurbsCurves and Points (to cubic Bézier segments and spheres).
 //! - `lux`: UsdLux lights, UsdGeomCamera, UsdRender settings.
 //!
 //! The walk itself (`Reader::visit`) carries the inherited state down the hierarchy: the world
@@ -19,6 +20,7 @@
 //!
 //! Schema fallback values live in [`fallback`], in one place.
 
+mod curves;
 mod layer_fix;
 mod lux;
 mod material;
@@ -84,6 +86,14 @@ pub mod fallback {
     pub const SPHERE_SHAPE_RADIUS: f64 = 1.0;
     /// `Cube.size`.
     pub const CUBE_SIZE: f64 = 2.0;
+    /// `BasisCurves.type`.
+    pub const CURVE_TYPE: &str = "cubic";
+    /// `BasisCurves.basis`.
+    pub const CURVE_BASIS: &str = "bezier";
+    /// `BasisCurves.wrap`.
+    pub const CURVE_WRAP: &str = "nonperiodic";
+    /// Width of curves and points without `widths`: usd-core has no schema fallback; Hydra draws 1.
+    pub const CURVE_WIDTH: f32 = 1.0;
 }
 
 /// How to read a stage.
@@ -277,10 +287,7 @@ impl Inherited {
 
 /// Prim types we know to be renderable but do not read yet (warned once per prim).
 const UNSUPPORTED: &[&str] = &[
-    "BasisCurves",
-    "NurbsCurves",
     "HermiteCurves",
-    "Points",
     "NurbsPatch",
     "TetMesh",
     "Cylinder",
@@ -436,6 +443,9 @@ impl<'a> Reader<'a> {
             "Camera" => self.read_camera(path, state),
             "Mesh" if state.drawn() => self.read_mesh(path, state),
             "Sphere" | "Cube" if state.drawn() => self.read_shape(path, ty, state),
+            "BasisCurves" if state.drawn() => self.read_basis_curves(path, state),
+            "NurbsCurves" if state.drawn() => self.read_nurbs_curves(path, state),
+            "Points" if state.drawn() => self.read_points(path, state),
             "PointInstancer" if state.drawn() => self.expand_point_instancer(path, state),
             "DomeLight" | "DomeLight_1" | "DistantLight" | "SphereLight" | "RectLight" | "DiskLight"
                 if state.drawn() =>

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec3, Vec4};
 
 use super::*;
 use crate::scene::{LightKind, Scene};
@@ -657,7 +657,8 @@ fn shapes_and_unsupported_prims() {
     let scene = load_text(&usda(
         r#"def Cube "C" { double size = 4 }
 def Sphere "S" {}
-def BasisCurves "Hair" {}
+def HermiteCurves "Hair" {}
+def BasisCurves "Empty" {}
 def Points "P" {}"#,
     ));
     let c = mesh(&scene, "/C");
@@ -665,8 +666,64 @@ def Points "P" {}"#,
     assert!(c.positions.iter().all(|p| p.abs().max_element() == 2.0));
     let s = mesh(&scene, "/S");
     assert!(s.positions.iter().all(|p| (p.length() - 1.0).abs() < 1e-5));
-    assert!(has_warning(&scene, "/Hair", "BasisCurves"));
-    assert!(has_warning(&scene, "/P", "Points"));
+    assert!(has_warning(&scene, "/Hair", "HermiteCurves"));
+    assert!(scene.curves.is_empty(), "curve and point prims without points draw nothing");
+}
+
+#[test]
+fn basis_curves_points_and_nurbs() {
+    let scene = load_text(&usda(
+        r#"def BasisCurves "Hair" {
+    uniform token basis = "catmullRom"
+    uniform token wrap = "pinned"
+    int[] curveVertexCounts = [4, 3]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 1, 0), (3, 1, 0), (0, 2, 0), (1, 2, 0), (2, 2, 0)]
+    float[] widths = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7] (interpolation = "vertex")
+    color3f[] primvars:displayColor = [(1, 0, 0), (0, 1, 0)] (interpolation = "uniform")
+    double3 xformOp:translate = (0, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def BasisCurves "Lines" {
+    uniform token type = "linear"
+    uniform token wrap = "periodic"
+    int[] curveVertexCounts = [3]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    normal3f[] normals = [(0, 0, 1)] (interpolation = "constant")
+}
+def Points "P" {
+    point3f[] points = [(0, 0, 0), (1, 1, 1)]
+    float[] widths = [0.5]
+}
+def NurbsCurves "N" {
+    int[] curveVertexCounts = [4]
+    int[] order = [4]
+    double[] knots = [0, 0, 0, 0, 1, 1, 1, 1]
+    point3f[] points = [(0, 0, 0), (1, 1, 0), (2, 1, 0), (3, 0, 0)]
+}"#,
+    ));
+    let find = |p: &str| scene.curves.iter().find(|c| c.path == p).unwrap_or_else(|| panic!("{p}"));
+    let hair = find("/Hair");
+    assert_eq!(
+        (hair.curve_count, hair.segments.len()),
+        (2, 5),
+        "catmullRom pinned: n − 1 segments per curve"
+    );
+    let first = &hair.segments[0];
+    assert_eq!(first.p[0], Vec4::new(0.0, 0.0, 10.0, 0.05), "pinned start, translated, radius = width / 2");
+    assert_eq!(hair.segments[2].p[3].truncate(), Vec3::new(3.0, 1.0, 10.0), "pinned end");
+    assert!(hair.has_colors && first.color[0] == Vec3::X && hair.segments[4].color[1] == Vec3::Y);
+    assert_eq!(hair.kind, crate::scene::CurveKind::Tube);
+    let lines = find("/Lines");
+    assert_eq!(lines.segments.len(), 3, "periodic linear closes");
+    assert_eq!(lines.segments[2].p[3], lines.segments[0].p[0]);
+    assert_eq!(lines.kind, crate::scene::CurveKind::Ribbon);
+    assert_eq!(lines.segments[0].p[0].w, 0.5, "unauthored widths are 1 (Hydra)");
+    let points = find("/P");
+    assert_eq!(points.spheres.len(), 2);
+    assert_eq!(points.spheres[1].radius, 0.25);
+    let nurbs = find("/N");
+    assert_eq!(nurbs.segments.len(), 1, "a clamped cubic NURBS span is one Bézier");
+    assert!((nurbs.segments[0].p[1].truncate() - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-5);
 }
 
 /// The shared asset folder beside the checkout (`../shared/assets`), if present.
@@ -760,5 +817,37 @@ fn dump_list() {
             }
             Err(e) => println!("{path} ERROR {e}"),
         }
+    }
+}
+
+/// Curves and their segments on the shared OpenUSD curve assets, against usd-core 26.11
+/// (`UsdGeomBasisCurves::ComputeSegmentCounts`, curves with at least one segment). Pinned bspline
+/// curves get two more segments each from Hydra's tripled end points.
+#[test]
+fn curve_segment_counts_match_usd_core_on_shared_assets() {
+    let Some(assets) = shared_assets() else {
+        eprintln!("shared assets not found; skipped");
+        return;
+    };
+    let root = assets.join("openusd_curves_points/pxr");
+    // (file, usd-core curves with segments, usd-core segments, extra Hydra pinned-bspline segments)
+    let cases = [
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLCurves/basicCurves.usda", 7, 16, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLCurves/pinnedCurves.usda", 3, 7, 6),
+        ("usd/usdGeom/testenv/testUsdGeomBBoxCache/pointsAndCurves.usda", 3, 3, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLBasicLighting/BasisCurves1.usda", 16, 70, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLBasicLighting/BasisCurves2.usda", 451, 1096, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLBasicLighting/BasisCurves3.usda", 4051, 8102, 0),
+        ("usdImaging/usdImagingGL/testenv/testUsdImagingGLBasisCurvesWithNormals/curve-authored-normals.usd", 1, 3, 0),
+    ];
+    for (file, curves, segments, extra) in cases {
+        let scene = load(&root.join(file), &LoadOptions::default()).unwrap();
+        let basis: Vec<_> =
+            scene.curves.iter().filter(|c| c.kind != crate::scene::CurveKind::Points).collect();
+        let got_segments: usize = basis.iter().map(|c| c.segments.len()).sum();
+        // Curves with segments: segment parameter ranges restart at u = 0 once per curve.
+        let got_curves: usize =
+            basis.iter().map(|c| c.segments.iter().filter(|s| s.u[0] == 0.0).count()).sum();
+        assert_eq!((got_curves, got_segments), (curves, segments + extra), "{file}");
     }
 }

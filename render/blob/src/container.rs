@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -138,4 +138,16 @@ section_kinds! {
     TextureTexels = 33,
     /// [`crate::ShaderOp`]: every material's program, concatenated.
     ShaderOps = 34,
+    /// [`crate::CurveGroup`] (curve and point prims; format 2).
+    CurveGroups = 40,
+    /// [`crate::CurveSegment`] (cubic Bézier pieces).
+    CurveSegments = 41,
+    /// [`crate::CurveAttributes`], one per curve segment.
+    CurveAttributes = 42,
+    /// [`crate::PointSphere`].
+    PointSpheres = 43,
+    /// [`crate::CwBvhNode`] of the curve BVH; node 0 is the root.
+    CurveBvhNodes = 44,
+    /// `u32` segment-or-sphere index per curve BVH primitive slot.
+    CurveBvhPrimitives = 45,
 }

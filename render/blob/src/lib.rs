@@ -17,13 +17,14 @@
 //! assert_eq!(view.triangles.len(), 0);
 //! ```
 //!
-//! Modules: [`records`] (the Pod records), `container` (header and section table), `scene` (encode and
+//! Modules: [`records`] (the Pod records), [`curves`] (curve and point records, format 2), `container` (header and section table), `scene` (encode and
 //! parse), `checksum`, `error`, `io` (atomic write, aligned buffers).
 
 #![deny(missing_docs)]
 
 mod checksum;
 mod container;
+pub mod curves;
 mod error;
 mod io;
 pub mod records;
@@ -31,6 +32,7 @@ mod scene;
 
 pub use checksum::checksum;
 pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};
+pub use curves::{CurveAttributes, CurveData, CurveGroup, CurveSegment, CurveView, PointSphere};
 pub use error::BlobError;
 pub use io::{write_atomic, AlignedBytes};
 pub use records::*;

@@ -449,3 +449,35 @@ pub struct ShaderOp {
     pub params: [[f32; 4]; 3],
 }
 const _: () = assert!(std::mem::size_of::<ShaderOp>() == 80);
+
+/// One node of a compressed wide BVH (CWBVH, Ylitie et al. 2017), used for the curve BVH; bit-identical to
+/// `obvhs::cwbvh::CwBvhNode` 0.4 so render can traverse the mapped slice directly. 80 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CwBvhNode {
+    /// Min point of the node's bounds.
+    pub p: [f32; 3],
+    /// Exponents of the child-bounds quantization.
+    pub e: [u8; 3],
+    /// Bit per child: 1 = internal node.
+    pub imask: u8,
+    /// First child node index.
+    pub child_base_idx: u32,
+    /// First primitive index into the BVH primitive section.
+    pub primitive_base_idx: u32,
+    /// Per-child meta byte (see obvhs docs).
+    pub child_meta: [u8; 8],
+    /// Quantized child bounds.
+    pub child_min_x: [u8; 8],
+    /// Quantized child bounds.
+    pub child_max_x: [u8; 8],
+    /// Quantized child bounds.
+    pub child_min_y: [u8; 8],
+    /// Quantized child bounds.
+    pub child_max_y: [u8; 8],
+    /// Quantized child bounds.
+    pub child_min_z: [u8; 8],
+    /// Quantized child bounds.
+    pub child_max_z: [u8; 8],
+}
+const _: () = assert!(std::mem::size_of::<CwBvhNode>() == 80);

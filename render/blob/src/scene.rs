@@ -53,6 +53,8 @@ pub struct SceneData {
     pub texels: Vec<u8>,
     /// Every material's shading program, concatenated.
     pub shader_ops: Vec<ShaderOp>,
+    /// Curves and points with their BVH.
+    pub curves: crate::CurveData,
 }
 
 impl SceneData {
@@ -88,6 +90,12 @@ impl SceneData {
             // Last, so the page padding in front of it is paid once and the small sections stay
             // together at the start of the file.
             (SectionKind::TextureTexels, 1, &self.texels[..]),
+            section(SectionKind::CurveGroups, &self.curves.groups),
+            section(SectionKind::CurveSegments, &self.curves.segments),
+            section(SectionKind::CurveAttributes, &self.curves.attributes),
+            section(SectionKind::PointSpheres, &self.curves.spheres),
+            section(SectionKind::CurveBvhNodes, &self.curves.bvh_nodes),
+            section(SectionKind::CurveBvhPrimitives, &self.curves.bvh_primitives),
         ];
         let table_len = sections.len() * std::mem::size_of::<SectionEntry>();
         let mut cursor = align_up(std::mem::size_of::<Header>() + table_len);
@@ -180,6 +188,8 @@ pub struct SceneView<'a> {
     pub texels: &'a [u8],
     /// Shading programs (kinds, registers, texture and input indices checked).
     pub shader_ops: &'a [ShaderOp],
+    /// Curves and points with their BVH.
+    pub curves: crate::CurveView<'a>,
 }
 
 impl<'a> SceneView<'a> {
@@ -223,6 +233,18 @@ impl<'a> SceneView<'a> {
             udim_tiles: typed(bytes, get(SectionKind::UdimTiles)?, SectionKind::UdimTiles)?,
             texels: typed(bytes, get(SectionKind::TextureTexels)?, SectionKind::TextureTexels)?,
             shader_ops: typed(bytes, get(SectionKind::ShaderOps)?, SectionKind::ShaderOps)?,
+            curves: crate::CurveView {
+                groups: typed(bytes, get(SectionKind::CurveGroups)?, SectionKind::CurveGroups)?,
+                segments: typed(bytes, get(SectionKind::CurveSegments)?, SectionKind::CurveSegments)?,
+                attributes: typed(bytes, get(SectionKind::CurveAttributes)?, SectionKind::CurveAttributes)?,
+                spheres: typed(bytes, get(SectionKind::PointSpheres)?, SectionKind::PointSpheres)?,
+                bvh_nodes: typed(bytes, get(SectionKind::CurveBvhNodes)?, SectionKind::CurveBvhNodes)?,
+                bvh_primitives: typed(
+                    bytes,
+                    get(SectionKind::CurveBvhPrimitives)?,
+                    SectionKind::CurveBvhPrimitives,
+                )?,
+            },
         };
         view.validate_indices()?;
         Ok(view)
@@ -384,11 +406,34 @@ impl<'a> SceneView<'a> {
                 }
             }
         }
-        Ok(())
+        self.curves.validate(self.materials.len(), strings_ok).or_else(|(kind, i, what)| bad(kind, i, what))
     }
 }
 
-/// Validates header and table; returns each known kind's entry by `kind - 1`.
+/// Checks a CWBVH's child and leaf ranges against its node count and `primitives` slots.
+pub(crate) fn validate_cwbvh(nodes: &[CwBvhNode], primitives: usize) -> Result<(), (usize, &'static str)> {
+    for (i, node) in nodes.iter().enumerate() {
+        let internal = node.imask.count_ones() as u64;
+        if internal > 0 && node.child_base_idx as u64 + internal > nodes.len() as u64 {
+            return Err((i, "child node range out of bounds"));
+        }
+        for (slot, &meta) in node.child_meta.iter().enumerate() {
+            let is_internal = node.imask & (1 << slot) != 0;
+            if meta == 0 || is_internal {
+                continue;
+            }
+            // Leaf: low 5 bits = first primitive offset, high 3 bits = unary primitive count.
+            let first = node.primitive_base_idx as u64 + (meta & 0b1_1111) as u64;
+            let count = (meta >> 5).count_ones() as u64;
+            if first + count > primitives as u64 {
+                return Err((i, "leaf primitive range out of bounds"));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Validates header and table; returns each known kind's entry by [`SectionKind::slot`].
 fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError> {
     let actual = bytes.len() as u64;
     let header_len = std::mem::size_of::<Header>();
@@ -461,7 +506,8 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
 /// the file can change unnoticed.
 fn check_layout(bytes: &[u8], table_end: usize, found: &[Option<SectionEntry>]) -> Result<(), BlobError> {
     let mut sections: Vec<SectionEntry> = found.iter().flatten().copied().collect();
-    sections.sort_by_key(|e| e.offset);
+    // Empty sections share the offset of the next one; order them first.
+    sections.sort_by_key(|e| (e.offset, e.byte_len));
     let mut cursor = table_end;
     for entry in &sections {
         let start = entry.offset as usize;
@@ -536,6 +582,12 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::EmissiveTriangles => size_of::<EmissiveTriangle>(),
         SectionKind::BvhNodes => size_of::<BvhNode>(),
         SectionKind::BvhTriangleBlocks => size_of::<TriangleBlock>(),
+        SectionKind::CurveBvhNodes => size_of::<CwBvhNode>(),
+        SectionKind::CurveGroups => size_of::<crate::CurveGroup>(),
+        SectionKind::CurveSegments => size_of::<crate::CurveSegment>(),
+        SectionKind::CurveAttributes => size_of::<crate::CurveAttributes>(),
+        SectionKind::PointSpheres => size_of::<crate::PointSphere>(),
+        SectionKind::CurveBvhPrimitives => size_of::<u32>(),
     }) as u32
 }
 

@@ -309,3 +309,54 @@ proptest! {
         let _ = parse(&bytes);
     }
 }
+
+fn with_curves() -> SceneData {
+    let mut s = sample_scene();
+    let name = s.add_string("/Hair");
+    let p = [[0.0, 0.0, 0.0, 0.1], [1.0, 0.0, 0.0, 0.1], [2.0, 0.0, 0.0, 0.1], [3.0, 0.0, 0.0, 0.1]];
+    s.curves.groups = vec![CurveGroup {
+        name,
+        kind: curves::CURVE_TUBE,
+        first: 0,
+        count: 1,
+        curve_count: 1,
+        ..CurveGroup::default()
+    }];
+    s.curves.segments = vec![CurveSegment { p, group: 0, u: [0.0, 1.0], reserved: 0 }];
+    s.curves.attributes = vec![CurveAttributes::default()];
+    s.curves.bvh_nodes =
+        vec![CwBvhNode { imask: 0, child_meta: [0b0010_0000, 0, 0, 0, 0, 0, 0, 0], ..CwBvhNode::default() }];
+    s.curves.bvh_primitives = vec![0];
+    s
+}
+
+#[test]
+fn curve_sections_round_trip_and_are_validated() {
+    let scene = with_curves();
+    let bytes = AlignedBytes::copy_from(&scene.encode());
+    let view = SceneView::parse(&bytes).unwrap();
+    assert_eq!(view.curves.segments, &scene.curves.segments[..]);
+    assert_eq!(view.curves.groups, &scene.curves.groups[..]);
+    assert_eq!(view.string(view.curves.groups[0].name), "/Hair");
+    let mut bad = with_curves();
+    bad.curves.bvh_primitives[0] = 1;
+    assert!(matches!(
+        parse(&bad.encode()),
+        Err(BlobError::BadIndex { kind: SectionKind::CurveBvhPrimitives, .. })
+    ));
+    let mut bad = with_curves();
+    bad.curves.groups[0].count = 2;
+    assert!(matches!(parse(&bad.encode()), Err(BlobError::BadIndex { kind: SectionKind::CurveGroups, .. })));
+    let mut bad = with_curves();
+    bad.curves.segments[0].p[2][3] = -1.0;
+    assert!(matches!(
+        parse(&bad.encode()),
+        Err(BlobError::BadIndex { kind: SectionKind::CurveSegments, .. })
+    ));
+    let mut bad = with_curves();
+    bad.curves.attributes.clear();
+    assert!(matches!(
+        parse(&bad.encode()),
+        Err(BlobError::BadIndex { kind: SectionKind::CurveAttributes, .. })
+    ));
+}
