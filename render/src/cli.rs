@@ -45,6 +45,9 @@ pub struct Args {
     /// bilinear, trilinear or ewa (anisotropic).
     #[arg(long, default_value = "moonray", value_parser = parse_filter)]
     pub texture_filter: texture::Filter,
+    /// Integrator: scalar (depth first) or wavefront (breadth first, batched); same image.
+    #[arg(long, default_value = "scalar")]
+    pub integrator: crate::film::Integrator,
 }
 
 fn parse_filter(s: &str) -> Result<texture::Filter, String> {
@@ -109,6 +112,7 @@ impl Args {
                 max_depth: self.max_depth,
                 texture_filter: self.texture_filter,
                 texture_stats: self.stats.is_some(),
+                integrator: self.integrator,
                 ..RenderOptions::default()
             },
         })
