@@ -105,7 +105,9 @@ pub fn transpose(cands: &[NeeCandidate]) -> NeeLanes {
     l
 }
 
-/// The lane kernel: [`weigh_scalar`] on eight candidates at once.
+/// The lane kernel: [`weigh_scalar`] on eight candidates at once. The loops run over lanes with the
+/// channel index inside (column form, so LLVM emits one 8-wide op per scalar op).
+#[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn weigh_lanes(l: &NeeLanes, out: &mut NeeOut) {
     let mut c = [[0.0f32; LANES]; 3];
