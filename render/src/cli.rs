@@ -141,6 +141,11 @@ mod tests {
         let Command::Render { options, output, .. } = args.into_command().unwrap() else { panic!() };
         assert_eq!(output, PathBuf::from("o.exr"));
         assert_eq!((options.spp, options.resolution, options.threads), (4, Some([64, 32]), 2));
+        assert_eq!(options.integrator, crate::film::Integrator::Scalar);
+        let wave = Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "wavefront"]).unwrap();
+        let Command::Render { options, .. } = wave.into_command().unwrap() else { panic!() };
+        assert_eq!(options.integrator, crate::film::Integrator::Wavefront);
+        assert!(Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "gpu"]).is_err());
         assert!(Args::try_parse_from(["render", "s.blob"]).is_err(), "-o is required without --info");
         assert!(matches!(
             Args::try_parse_from(["render", "s.blob", "--info"]).unwrap().into_command().unwrap(),

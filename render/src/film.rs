@@ -188,6 +188,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
         return Err(RenderError::InvalidOption(format!("resolution {width}x{height} is out of range")));
     }
     let camera = scene.camera(camera_index, width, height);
+    let total_texel_bytes = scene.shading.textures().texel_bytes();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.threads)
         .build()
@@ -272,6 +273,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
                 height,
                 forward,
                 touch,
+                textured: total_texel_bytes > 0,
             };
             // One Worker (pools and queues) per rayon job, dropped when the job ends: the timers merge
             // then, under a lock taken once per worker, never on the hot path.

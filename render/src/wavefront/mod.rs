@@ -193,6 +193,8 @@ pub struct Context<'s, 'a, T> {
     pub forward: Vec3,
     /// Texel-read reporting.
     pub touch: &'s T,
+    /// The scene has texels (else every texture sort key is 0 and is not computed).
+    pub textured: bool,
 }
 
 fn timed<R>(slot: &mut f64, f: impl FnOnce() -> R) -> R {
