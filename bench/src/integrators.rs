@@ -19,7 +19,8 @@ fn best_of(view: &blob::SceneView, options: &RenderOptions, repeat: usize) -> an
 /// Runs both integrators and writes `out/integrators.json`.
 pub fn run(view: &blob::SceneView, options: &RenderOptions, repeat: usize, out: &Path) -> anyhow::Result<()> {
     let scalar = best_of(view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() }, repeat)?;
-    let wave = best_of(view, &RenderOptions { integrator: Integrator::Wavefront, ..options.clone() }, repeat)?;
+    let wave =
+        best_of(view, &RenderOptions { integrator: Integrator::Wavefront, ..options.clone() }, repeat)?;
     let figures = |i: &Image| {
         let s = i.stats.seconds.max(1e-9);
         (i.stats.samples as f64 / s / 1e6, i.stats.rays.total() as f64 / s / 1e6)

@@ -144,8 +144,12 @@ fn main() -> anyhow::Result<()> {
             let [_, height] = scene.resolution(None, camera);
             let [w0, _] = scene.resolution(None, camera);
             let height = (height as u64 * width as u64 / w0.max(1) as u64).max(1) as u32;
-            let options =
-                render::RenderOptions { spp, resolution: Some([width, height]), threads, ..Default::default() };
+            let options = render::RenderOptions {
+                spp,
+                resolution: Some([width, height]),
+                threads,
+                ..Default::default()
+            };
             std::fs::create_dir_all(&out)?;
             integrators::run(&view, &options, repeat, &out)?;
         }

@@ -142,7 +142,8 @@ mod tests {
         assert_eq!(output, PathBuf::from("o.exr"));
         assert_eq!((options.spp, options.resolution, options.threads), (4, Some([64, 32]), 2));
         assert_eq!(options.integrator, crate::film::Integrator::Scalar);
-        let wave = Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "wavefront"]).unwrap();
+        let wave =
+            Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "wavefront"]).unwrap();
         let Command::Render { options, .. } = wave.into_command().unwrap() else { panic!() };
         assert_eq!(options.integrator, crate::film::Integrator::Wavefront);
         assert!(Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "gpu"]).is_err());

@@ -381,7 +381,14 @@ impl<'a> Scene<'a> {
 
     /// Emitted radiance at barycentrics `(b1, b2)` of emissive triangle `tri` (a light sample), with
     /// a point lookup (a light sample has no pixel footprint).
-    pub(crate) fn emission_at<T: Touch>(&self, tri: u32, b1: f32, b2: f32, filter: Filter, touch: &T) -> Vec3 {
+    pub(crate) fn emission_at<T: Touch>(
+        &self,
+        tri: u32,
+        b1: f32,
+        b2: f32,
+        filter: Filter,
+        touch: &T,
+    ) -> Vec3 {
         let material = self.view.triangle_materials[tri as usize];
         if !self.shading.flags(material).textured_emission {
             return self.lights.triangle_emission(tri);

@@ -46,13 +46,13 @@ pub mod sampler;
 pub mod scene;
 pub mod shading;
 pub mod stats;
-pub mod wavefront;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod testscene;
 #[cfg(test)]
 mod texture_tests;
+pub mod wavefront;
 
 pub use accel::{Accel, Hit, Ray};
 pub use error::RenderError;
@@ -137,8 +137,7 @@ where
             let mut summary =
                 stats::Summary::from_render(&image.stats, image.width, image.height, options.spp);
             summary.load_seconds = load_seconds;
-            summary.integrator =
-                format!("{:?}", options.integrator).to_lowercase();
+            summary.integrator = format!("{:?}", options.integrator).to_lowercase();
             summary.write_seconds = write_start.elapsed().as_secs_f64();
             eprintln!("{}", summary.to_text());
             if let Some(path) = &stats {

@@ -197,12 +197,24 @@ mod wavefront {
     /// and the albedo/normal AOVs.
     pub fn scalar_vs_wavefront(bytes: &[u8], options: &RenderOptions, what: &str) -> (f32, f64) {
         let view = blob::SceneView::parse(bytes).expect("valid blob");
-        let scalar = render_image(&view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() })
-            .expect("scalar render");
-        let wave = render_image(&view, &RenderOptions { integrator: Integrator::Wavefront, ..options.clone() })
-            .expect("wavefront render");
-        let a = scalar.beauty.iter().flatten().chain(scalar.albedo.iter().flatten()).chain(scalar.normal.iter().flatten());
-        let b = wave.beauty.iter().flatten().chain(wave.albedo.iter().flatten()).chain(wave.normal.iter().flatten());
+        let scalar =
+            render_image(&view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() })
+                .expect("scalar render");
+        let wave =
+            render_image(&view, &RenderOptions { integrator: Integrator::Wavefront, ..options.clone() })
+                .expect("wavefront render");
+        let a = scalar
+            .beauty
+            .iter()
+            .flatten()
+            .chain(scalar.albedo.iter().flatten())
+            .chain(scalar.normal.iter().flatten());
+        let b = wave
+            .beauty
+            .iter()
+            .flatten()
+            .chain(wave.albedo.iter().flatten())
+            .chain(wave.normal.iter().flatten());
         let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
         for (x, y) in a.zip(b) {
             let d = (x - y).abs();

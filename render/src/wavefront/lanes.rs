@@ -193,7 +193,8 @@ mod tests {
         let bits = |v: Vec3| v.to_array().map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() });
         let mut got = Vec::new();
         weigh_all(&cands, |c, v| got.push((c.index, bits(v))));
-        let expected: Vec<_> = cands.iter().filter_map(|c| weigh_scalar(c).map(|v| (c.index, bits(v)))).collect();
+        let expected: Vec<_> =
+            cands.iter().filter_map(|c| weigh_scalar(c).map(|v| (c.index, bits(v)))).collect();
         assert!(expected.len() > 3000);
         for (g, e) in got.iter().zip(&expected) {
             assert_eq!(g, e, "{:?}", cands[e.0 as usize]);

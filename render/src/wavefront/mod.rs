@@ -215,7 +215,9 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
     while s0 < spp {
         let samples = per_chunk.min(spp - s0);
         let mut secs = w.seconds;
-        timed(&mut secs.generate, || generate::camera_rays(ctx, tile, s0 as u32, samples as u32, w, &mut rays));
+        timed(&mut secs.generate, || {
+            generate::camera_rays(ctx, tile, s0 as u32, samples as u32, w, &mut rays)
+        });
         while !w.rays.is_empty() {
             timed(&mut secs.intersect, || intersect::closest(ctx, w));
             timed(&mut secs.sort, || sort::shade_queue(ctx.scene, w));
