@@ -6,6 +6,8 @@
 //!   charted as SVG.
 //! - `bench subdiv`: subdivision tessellation error (pixels at the render camera) against ingest
 //!   seconds and blob bytes, for uniform levels and dicing rates, charted as SVG.
+//! - `bench integrators BLOB`: the scalar and wavefront integrators on the same blob, Msamples/s and
+//!   their ratio.
 //!
 //! - `bench curves`: a generated groom; curve-intersection throughput and image error against segments per
 //!   curve, fixed versus camera-adaptive splitting, charted as SVG.
@@ -14,6 +16,7 @@
 
 mod convergence;
 mod curves;
+mod integrators;
 mod rays;
 mod subdiv;
 mod textures;
@@ -44,6 +47,26 @@ enum Cmd {
         #[arg(long, default_value_t = 240)]
         width: u32,
         /// Work folder for the chart and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+    /// Scalar against wavefront integrator: Msamples/s and the ratio.
+    Integrators {
+        /// Scene blob.
+        blob: PathBuf,
+        /// Samples per pixel.
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// Image width (height from the camera).
+        #[arg(long, default_value_t = 320)]
+        width: u32,
+        /// Worker threads (0: one per core).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        /// Best of this many timings.
+        #[arg(long, default_value_t = 2)]
+        repeat: usize,
+        /// Work folder for the results.
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
     },
@@ -128,6 +151,23 @@ fn main() -> anyhow::Result<()> {
         Cmd::Textures { reference_spp, spp, width, out } => {
             std::fs::create_dir_all(&out)?;
             textures::run(reference_spp, spp, width, &out)?;
+        }
+        Cmd::Integrators { blob: path, spp, width, threads, repeat, out } => {
+            let bytes = load(&path)?;
+            let view = blob::SceneView::parse(&bytes).with_context(|| format!("{}", path.display()))?;
+            let scene = render::Scene::new(view);
+            let camera = scene.camera_index(None)?;
+            let [_, height] = scene.resolution(None, camera);
+            let [w0, _] = scene.resolution(None, camera);
+            let height = (height as u64 * width as u64 / w0.max(1) as u64).max(1) as u32;
+            let options = render::RenderOptions {
+                spp,
+                resolution: Some([width, height]),
+                threads,
+                ..Default::default()
+            };
+            std::fs::create_dir_all(&out)?;
+            integrators::run(&view, &options, repeat, &out)?;
         }
         Cmd::Rays { blob: path, res, rays: count, repeat, python, out } => {
             let bytes = load(&path)?;

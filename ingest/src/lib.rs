@@ -19,6 +19,6 @@ pub mod scene;
 pub mod usd;
 
 pub use scene::{
-    BezierSegment, Camera, CurveKind, Curves, Light, LightKind, Material, Mesh, PointSphere, Scene, Subdivision,
-    UpAxis, Warning,
+    BezierSegment, Camera, CurveKind, Curves, Light, LightKind, Material, Mesh, PointSphere, Scene,
+    Subdivision, UpAxis, Warning,
 };

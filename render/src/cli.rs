@@ -48,6 +48,9 @@ pub struct Args {
     /// Draw all curves as `tube` or `ribbon` (default: tubes, oriented ribbons where normals are authored).
     #[arg(long, value_parser = parse_curve_shape)]
     pub curve_shape: Option<crate::curves::CurveShape>,
+    /// Integrator: scalar (depth first) or wavefront (breadth first, batched); same image.
+    #[arg(long, default_value = "scalar")]
+    pub integrator: crate::film::Integrator,
 }
 
 fn parse_filter(s: &str) -> Result<texture::Filter, String> {
@@ -121,6 +124,7 @@ impl Args {
                 texture_filter: self.texture_filter,
                 texture_stats: self.stats.is_some(),
                 curve_shape: self.curve_shape,
+                integrator: self.integrator,
                 ..RenderOptions::default()
             },
         })
@@ -149,6 +153,12 @@ mod tests {
         let Command::Render { options, output, .. } = args.into_command().unwrap() else { panic!() };
         assert_eq!(output, PathBuf::from("o.exr"));
         assert_eq!((options.spp, options.resolution, options.threads), (4, Some([64, 32]), 2));
+        assert_eq!(options.integrator, crate::film::Integrator::Scalar);
+        let wave =
+            Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "wavefront"]).unwrap();
+        let Command::Render { options, .. } = wave.into_command().unwrap() else { panic!() };
+        assert_eq!(options.integrator, crate::film::Integrator::Wavefront);
+        assert!(Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "gpu"]).is_err());
         assert!(Args::try_parse_from(["render", "s.blob"]).is_err(), "-o is required without --info");
         assert!(matches!(
             Args::try_parse_from(["render", "s.blob", "--info"]).unwrap().into_command().unwrap(),

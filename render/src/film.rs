@@ -38,6 +38,30 @@ pub struct RenderOptions {
     pub texture_stats: bool,
     /// Draw every curve as this shape (`None`: tubes, or ribbons where normals are authored).
     pub curve_shape: Option<crate::curves::CurveShape>,
+    /// Which integrator traces the paths (`--integrator`); both give the same image.
+    pub integrator: Integrator,
+}
+
+/// The path-tracing integrator: depth-first scalar or breadth-first wavefront (same estimator, same
+/// sample keys, same image).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Integrator {
+    /// One path at a time ([`crate::integrator`]).
+    #[default]
+    Scalar,
+    /// Stage by stage over batches of paths ([`crate::wavefront`]).
+    Wavefront,
+}
+
+impl std::str::FromStr for Integrator {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "scalar" => Ok(Integrator::Scalar),
+            "wavefront" => Ok(Integrator::Wavefront),
+            _ => Err(format!("unknown integrator {s:?} (scalar or wavefront)")),
+        }
+    }
 }
 
 impl Default for RenderOptions {
@@ -54,6 +78,7 @@ impl Default for RenderOptions {
             texture_footprint_scale: 1.0,
             texture_stats: false,
             curve_shape: None,
+            integrator: Integrator::Scalar,
         }
     }
 }
@@ -75,6 +100,8 @@ pub struct RenderStats {
     pub texture_bytes_total: u64,
     /// Bytes of the 4 KiB texel pages read at least once (0 unless `RenderOptions::texture_stats`).
     pub texture_bytes_touched: u64,
+    /// Wavefront stage timers, summed over workers (zero for the scalar integrator).
+    pub stages: crate::wavefront::StageSeconds,
 }
 
 /// A rendered image with its AOVs, row-major from the top-left pixel.
@@ -104,20 +131,20 @@ impl Image {
     }
 }
 
-struct Tile {
-    x0: u32,
-    y0: u32,
-    x1: u32,
-    y1: u32,
+pub(crate) struct Tile {
+    pub(crate) x0: u32,
+    pub(crate) y0: u32,
+    pub(crate) x1: u32,
+    pub(crate) y1: u32,
 }
 
-struct TileResult {
-    beauty: Vec<[f32; 4]>,
-    albedo: Vec<[f32; 3]>,
-    normal: Vec<[f32; 3]>,
-    depth: Vec<f32>,
-    rays: RayCounts,
-    nonfinite: u64,
+pub(crate) struct TileResult {
+    pub(crate) beauty: Vec<[f32; 4]>,
+    pub(crate) albedo: Vec<[f32; 3]>,
+    pub(crate) normal: Vec<[f32; 3]>,
+    pub(crate) depth: Vec<f32>,
+    pub(crate) rays: RayCounts,
+    pub(crate) nonfinite: u64,
 }
 
 /// Renders a prepared `scene` with `options`.
@@ -169,6 +196,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
         scene.curves.shape = options.curve_shape;
     }
     let scene = &scene;
+    let total_texel_bytes = scene.shading.textures().texel_bytes();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.threads)
         .build()
@@ -240,7 +268,51 @@ fn render_with_touch<T: texture::Touch + Sync>(
         progress(finished, total);
         out
     };
-    let results: Vec<TileResult> = pool.install(|| tiles.par_iter().map(render_tile).collect());
+    let stages = std::sync::Mutex::new(crate::wavefront::StageSeconds::default());
+    // The wavefront stages trace triangles only so far: scenes with curves or points take the scalar
+    // path (same estimator, same image) rather than losing their curves.
+    let integrator = if scene.curves.is_empty() { options.integrator } else { Integrator::Scalar };
+    let results: Vec<TileResult> = match integrator {
+        Integrator::Scalar => pool.install(|| tiles.par_iter().map(render_tile).collect()),
+        Integrator::Wavefront => {
+            let ctx = crate::wavefront::Context {
+                scene,
+                camera: &camera,
+                options,
+                settings,
+                width,
+                height,
+                forward,
+                touch,
+                textured: total_texel_bytes > 0,
+            };
+            // One Worker (pools and queues) per rayon job, dropped when the job ends: the timers merge
+            // then, under a lock taken once per worker, never on the hot path.
+            struct Merge<'m>(crate::wavefront::Worker, &'m std::sync::Mutex<crate::wavefront::StageSeconds>);
+            impl Drop for Merge<'_> {
+                fn drop(&mut self) {
+                    if let Ok(mut s) = self.1.lock() {
+                        s.add(&self.0.seconds);
+                    }
+                }
+            }
+            let materials = scene.view.materials.len();
+            pool.install(|| {
+                tiles
+                    .par_iter()
+                    .map_init(
+                        || Merge(crate::wavefront::Worker::new(ts, materials), &stages),
+                        |m, tile| {
+                            let r = crate::wavefront::render(&ctx, &mut m.0, tile);
+                            let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                            progress(finished, total);
+                            r
+                        },
+                    )
+                    .collect()
+            })
+        }
+    };
     let seconds = start.elapsed().as_secs_f64();
 
     let n = (width * height) as usize;
@@ -255,6 +327,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
             samples: n as u64 * spp as u64,
             seconds,
             threads: pool.current_num_threads(),
+            stages: stages.into_inner().unwrap_or_default(),
             ..RenderStats::default()
         },
     };

@@ -292,7 +292,7 @@ impl<'a> Scene<'a> {
     /// The shading normal with the material's tangent-space normal map applied: tangent from
     /// `dp/du` (Gram-Schmidt against the interpolated normal), bitangent `n × t` flipped to agree with
     /// `dp/dv`. Keeps `s.ns` where there are no uvs or the mapped normal would face away from `wo`.
-    fn mapped_normal(s: &Surface, tangent_normal: Vec3, wo: Vec3) -> Vec3 {
+    pub(crate) fn mapped_normal(s: &Surface, tangent_normal: Vec3, wo: Vec3) -> Vec3 {
         let Some(t) = (s.dpdu - s.ns * s.ns.dot(s.dpdu)).try_normalize() else { return s.ns };
         let mut b = s.ns.cross(t);
         if b.dot(s.dpdv) < 0.0 {
@@ -306,7 +306,7 @@ impl<'a> Scene<'a> {
 
     /// Shading inputs at a surface point.
     #[inline]
-    fn shade<T: Touch>(&self, s: &Surface, filter: Filter, touch: &T) -> ShadingInputs {
+    pub(crate) fn shade<T: Touch>(&self, s: &Surface, filter: Filter, touch: &T) -> ShadingInputs {
         self.shading.evaluate(s.material, &s.uv, filter, touch)
     }
 
@@ -314,7 +314,7 @@ impl<'a> Scene<'a> {
     /// surfaces. Pass-through odds are decided once per triangle by a hash of `seed` (the same odds as
     /// camera and BSDF rays). When some material's opacity is textured, the ray walks closest hits
     /// and evaluates opacity at each; otherwise one any-hit query answers.
-    fn shadow_transmits<T: Touch>(
+    pub(crate) fn shadow_transmits<T: Touch>(
         &self,
         origin: Vec3,
         dir: Vec3,
@@ -470,9 +470,14 @@ impl<'a> Scene<'a> {
                         f32::INFINITY
                     };
                     rays.shadow += 1;
-                    let transmits =
-                        self.shadow_transmits(shadow_origin, ls.wi, tmax, shadow_seed ^ vertex, filter, touch)
-                            && !self.curves.any_hit(shadow_origin, ls.wi, tmax);
+                    let transmits = self.shadow_transmits(
+                        shadow_origin,
+                        ls.wi,
+                        tmax,
+                        shadow_seed ^ vertex,
+                        filter,
+                        touch,
+                    ) && !self.curves.any_hit(shadow_origin, ls.wi, tmax);
                     if transmits {
                         radiance += contribution * w;
                     }
@@ -506,7 +511,14 @@ impl<'a> Scene<'a> {
 
     /// Emitted radiance at barycentrics `(b1, b2)` of emissive triangle `tri` (a light sample), with
     /// a point lookup (a light sample has no pixel footprint).
-    fn emission_at<T: Touch>(&self, tri: u32, b1: f32, b2: f32, filter: Filter, touch: &T) -> Vec3 {
+    pub(crate) fn emission_at<T: Touch>(
+        &self,
+        tri: u32,
+        b1: f32,
+        b2: f32,
+        filter: Filter,
+        touch: &T,
+    ) -> Vec3 {
         let material = self.view.triangle_materials[tri as usize];
         if !self.shading.flags(material).textured_emission {
             return self.lights.triangle_emission(tri);

@@ -26,7 +26,7 @@
 //! contract), [`accel`] (CWBVH traversal, watertight triangle test, ray offsets), [`curves`] (curve and
 //! point BVH, tube/ribbon/sphere tests), [`hair`] (Chiang et al. hair BSDF for curves), [`camera`],
 //! [`sampler`] (stateless Owen-scrambled Sobol), [`bsdf`] (UsdPreviewSurface), [`lights`] (UsdLux +
-//! emissive triangles, MIS), [`integrator`] (the path), [`film`] (tiles, options, image), [`output`]
+//! emissive triangles, MIS), [`integrator`] (the path, depth first), [`wavefront`] (the same paths, breadth first), [`film`] (tiles, options, image), [`output`]
 //! (EXR/PNG), [`stats`] (summary), [`info`] (`--info`), [`scene`] (view + derived data), [`shading`]
 //! (material programs and filtered texture lookups), [`error`].
 
@@ -55,10 +55,11 @@ mod tests;
 mod testscene;
 #[cfg(test)]
 mod texture_tests;
+pub mod wavefront;
 
 pub use accel::{Accel, Hit, Ray};
 pub use error::RenderError;
-pub use film::{render_scene, render_scene_with_progress, Image, RenderOptions, RenderStats};
+pub use film::{render_scene, render_scene_with_progress, Image, Integrator, RenderOptions, RenderStats};
 pub use mapped::{map_blob, parse_blob, read_blob, MappedBlob};
 pub use output::{write_exr, write_png};
 pub use scene::Scene;
@@ -139,6 +140,7 @@ where
             let mut summary =
                 stats::Summary::from_render(&image.stats, image.width, image.height, options.spp);
             summary.load_seconds = load_seconds;
+            summary.integrator = format!("{:?}", options.integrator).to_lowercase();
             summary.write_seconds = write_start.elapsed().as_secs_f64();
             eprintln!("{}", summary.to_text());
             if let Some(path) = &stats {

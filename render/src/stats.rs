@@ -39,6 +39,10 @@ pub struct Summary {
     pub texture_bytes_total: u64,
     /// Bytes of the texel pages the render read (counted only with `--stats`).
     pub texture_bytes_touched: u64,
+    /// Integrator (`scalar` or `wavefront`).
+    pub integrator: String,
+    /// Wavefront CPU-seconds per stage (intersection, shading, sort/queue overhead; zero for scalar).
+    pub stages: crate::wavefront::StageSeconds,
 }
 
 impl Summary {
@@ -60,6 +64,7 @@ impl Summary {
             render_seconds: stats.seconds,
             texture_bytes_total: stats.texture_bytes_total,
             texture_bytes_touched: stats.texture_bytes_touched,
+            stages: stats.stages,
             ..Summary::default()
         }
     }
@@ -69,7 +74,7 @@ impl Summary {
         format!(
             "{}x{} @ {} spp on {} threads\n\
              rays: {} ({} camera, {} bounce, {} shadow), {:.2} Mrays/s, {:.3} Msamples/s\n\
-             time: load {:.3} s, render {:.3} s, write {:.3} s{}{}",
+             time: load {:.3} s, render {:.3} s, write {:.3} s{}{}{}",
             self.width,
             self.height,
             self.spp,
@@ -92,6 +97,25 @@ impl Summary {
                 )
             } else {
                 String::new()
+            },
+            {
+                let s = &self.stages;
+                let total = s.generate + s.intersect + s.sort + s.shade + s.occlusion + s.accumulate;
+                if total > 0.0 {
+                    format!(
+                        "\nwavefront stages (CPU s): intersect {:.3}, occlusion {:.3}, shade {:.3}, \
+                         queues/sort {:.3} (generate {:.3}, sort {:.3}, accumulate {:.3})",
+                        s.intersect,
+                        s.occlusion,
+                        s.shade,
+                        s.generate + s.sort + s.accumulate,
+                        s.generate,
+                        s.sort,
+                        s.accumulate
+                    )
+                } else {
+                    String::new()
+                }
             },
             if self.nonfinite_samples > 0 {
                 format!("\nwarning: {} NaN/inf samples discarded", self.nonfinite_samples)

@@ -6,7 +6,9 @@ use std::ptr::{self, NonNull};
 
 use crate::error::{Error, Result};
 use crate::ffi;
-use crate::topology::{BoundaryInterpolation, FaceVaryingInterpolation, Scheme, Topology, TriangleSubdivision};
+use crate::topology::{
+    BoundaryInterpolation, FaceVaryingInterpolation, Scheme, Topology, TriangleSubdivision,
+};
 
 /// Highest uniform level accepted. OpenSubdiv stores the level in 4 bits (15), but a cube at
 /// level 10 is already 6.3 M quads; anything finer belongs to adaptive tessellation.
@@ -166,7 +168,9 @@ impl Refiner {
         let (mut v, mut f, mut fv, mut values) = (0, 0, 0, 0);
         let channel = channel.map_or(-1, to_c_int);
         // SAFETY: `raw` is a live refiner; the out-pointers are valid locals.
-        check(unsafe { ffi::osd_refiner_counts(self.raw.as_ptr(), channel, &mut v, &mut f, &mut fv, &mut values) })?;
+        check(unsafe {
+            ffi::osd_refiner_counts(self.raw.as_ptr(), channel, &mut v, &mut f, &mut fv, &mut values)
+        })?;
         Ok((v as usize, f as usize, fv as usize, values as usize))
     }
 

@@ -53,7 +53,11 @@ impl Tessellation {
 }
 
 /// Tessellates the surface `refiner` describes, with cage `positions` and optional UVs.
-pub fn tessellate(refiner: &Refiner, positions: &[[f32; 3]], uvs: Option<UvSource<'_>>) -> Result<Tessellation> {
+pub fn tessellate(
+    refiner: &Refiner,
+    positions: &[[f32; 3]],
+    uvs: Option<UvSource<'_>>,
+) -> Result<Tessellation> {
     let limit = refiner.limit(positions)?;
     let faces = refiner.faces(uvs.map(|uv| uv.channel))?;
     let uv_values = match uvs {

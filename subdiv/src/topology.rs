@@ -215,7 +215,10 @@ impl Topology {
             if let Some(face) = counts.iter().position(|&c| c != 3) {
                 return Err(Error::Invalid {
                     attribute: "faceVertexCounts",
-                    reason: format!("the loop scheme needs triangles; face {face} has {} vertices", counts[face]),
+                    reason: format!(
+                        "the loop scheme needs triangles; face {face} has {} vertices",
+                        counts[face]
+                    ),
                 });
             }
         }
@@ -241,11 +244,7 @@ impl Topology {
             if channel.indices.len() != indices.len() {
                 return Err(Error::Invalid {
                     attribute: "face-varying indices",
-                    reason: format!(
-                        "{} indices for {} face-vertices",
-                        channel.indices.len(),
-                        indices.len()
-                    ),
+                    reason: format!("{} indices for {} face-vertices", channel.indices.len(), indices.len()),
                 });
             }
             if channel.value_count > MAX_INDEX {

@@ -187,3 +187,108 @@ mod bad_input {
         assert!(blob::SceneView::parse(&blob::AlignedBytes::copy_from(&bytes[..bytes.len() - 1])).is_err());
     }
 }
+
+/// The wavefront integrator against the scalar one: same sample keys, same paths, same image.
+mod wavefront {
+    use super::*;
+    use render::Integrator;
+
+    /// Renders `bytes` with both integrators and returns (max, mean) absolute difference over the beauty
+    /// and the albedo/normal AOVs.
+    pub fn scalar_vs_wavefront(bytes: &[u8], options: &RenderOptions, what: &str) -> (f32, f64) {
+        let view = blob::SceneView::parse(bytes).expect("valid blob");
+        let scalar =
+            render_image(&view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() })
+                .expect("scalar render");
+        let wave =
+            render_image(&view, &RenderOptions { integrator: Integrator::Wavefront, ..options.clone() })
+                .expect("wavefront render");
+        let a = scalar
+            .beauty
+            .iter()
+            .flatten()
+            .chain(scalar.albedo.iter().flatten())
+            .chain(scalar.normal.iter().flatten());
+        let b = wave
+            .beauty
+            .iter()
+            .flatten()
+            .chain(wave.albedo.iter().flatten())
+            .chain(wave.normal.iter().flatten());
+        let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
+        for (x, y) in a.zip(b) {
+            let d = (x - y).abs();
+            max = max.max(d);
+            sum += d as f64;
+            n += 1;
+        }
+        let mean = sum / n as f64;
+        eprintln!("{what}: wavefront vs scalar: max abs diff {max:e}, mean {mean:e} over {n} values");
+        assert_eq!(scalar.stats.rays, wave.stats.rays, "{what}: same rays traced");
+        assert!(max <= 1e-5, "{what}: max abs diff {max}");
+        assert_eq!(scalar.depth, wave.depth, "{what}: depth AOV");
+        (max, mean)
+    }
+
+    #[test]
+    fn equals_scalar_on_the_analytic_scenes() {
+        let dir = tempfile::tempdir().unwrap();
+        let sphere = [
+            lambert_material("/World/Grey", 0.5),
+            sphere_mesh("Ball", [0.0, 0.0, 0.0], 1.0, 24, 48, "/World/Grey"),
+            camera_prim("Cam", [0.0, 0.0, 5.0], 50.0, 30.0),
+            DOME.to_string(),
+        ]
+        .join("\n");
+        let bytes = ingest_text(dir.path(), &stage(&sphere));
+        let options =
+            RenderOptions { spp: 16, resolution: Some([32, 32]), tile_size: 8, ..RenderOptions::default() };
+        scalar_vs_wavefront(&bytes, &options, "sphere under dome");
+
+        let p = [
+            [-1.0, -1.0, -1.0],
+            [1.0, -1.0, -1.0],
+            [1.0, 1.0, -1.0],
+            [-1.0, 1.0, -1.0],
+            [-1.0, -1.0, 1.0],
+            [1.0, -1.0, 1.0],
+            [1.0, 1.0, 1.0],
+            [-1.0, 1.0, 1.0],
+        ];
+        let faces = [[0, 3, 2, 1], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
+        let indices: Vec<usize> = faces.iter().flatten().copied().collect();
+        let cup = [
+            lambert_material("/World/White", 0.8),
+            mesh_prim("Cup", &p, &[4; 5], &indices, None, "/World/White"),
+            camera_prim("Cam", [0.0, 0.0, 4.0], 50.0, 24.0),
+            DOME.into(),
+            "def DistantLight \"Sun\"\n{\n    float inputs:intensity = 3\n    bool inputs:normalize = true\n}\n"
+                .into(),
+        ]
+        .join("\n");
+        let bytes = ingest_text(dir.path(), &stage(&cup));
+        let options =
+            RenderOptions { spp: 64, resolution: Some([16, 16]), max_depth: 64, ..RenderOptions::default() };
+        scalar_vs_wavefront(&bytes, &options, "cup (furnace-like, deep paths, RR)");
+    }
+
+    #[test]
+    fn equals_scalar_on_the_tractor() {
+        let dir = tempfile::tempdir().unwrap();
+        let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/tractor.usda");
+        let out = dir.path().join("tractor.blob");
+        ingest::pipeline::ingest_file(&example, &out, &Default::default()).expect("ingest the example");
+        let bytes = blob::AlignedBytes::copy_from(&std::fs::read(&out).unwrap());
+        let options = RenderOptions {
+            spp: 8,
+            resolution: Some([64, 48]),
+            threads: 2,
+            seed: 3,
+            ..RenderOptions::default()
+        };
+        scalar_vs_wavefront(&bytes, &options, "tractor");
+        // A tile wider than the path pool splits samples into chunks of one sample per pixel.
+        let big = RenderOptions { tile_size: 80, spp: 3, ..options };
+        scalar_vs_wavefront(&bytes, &big, "tractor, one 80-pixel tile");
+    }
+}

@@ -392,7 +392,11 @@ def Mesh "Mtlx" (prepend apiSchemas = ["MaterialBindingAPI"]) {{{TRI}
         n,
         crate::scene::ShaderNode::Output { input: crate::scene::ShadingInput::EmissiveColor, .. }
     )));
-    assert!(has_warning(&scene, "/Looks/Blue/Tex", "tex.png not found; using its fallback [0.1, 0.2, 0.3, 1.0]"));
+    assert!(has_warning(
+        &scene,
+        "/Looks/Blue/Tex",
+        "tex.png not found; using its fallback [0.1, 0.2, 0.3, 1.0]"
+    ));
 
     assert_eq!(mat("/Subsets", 0).path, "/Looks/Red");
     assert_eq!(mat("/Subsets", 1).path, "/Looks/Blue");

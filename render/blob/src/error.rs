@@ -70,7 +70,9 @@ impl fmt::Display for BlobError {
             }
             BlobError::SectionChecksum(k) => write!(f, "section {k:?} checksum mismatch (corrupted data)"),
             BlobError::Misaligned(k) => write!(f, "section {k:?} is not aligned in memory"),
-            BlobError::Padding { offset } => write!(f, "nonzero padding byte at offset {offset} (corrupted file)"),
+            BlobError::Padding { offset } => {
+                write!(f, "nonzero padding byte at offset {offset} (corrupted file)")
+            }
             BlobError::BadIndex { kind, record, what } => {
                 write!(f, "section {kind:?} record {record}: {what}")
             }

@@ -569,9 +569,7 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::Positions | SectionKind::Normals => size_of::<[f32; 3]>(),
         SectionKind::Uvs => size_of::<[f32; 2]>(),
         SectionKind::Triangles => size_of::<Triangle>(),
-        SectionKind::TriangleMaterials | SectionKind::UdimTiles => {
-            size_of::<u32>()
-        }
+        SectionKind::TriangleMaterials | SectionKind::UdimTiles => size_of::<u32>(),
         SectionKind::TextureRecords => size_of::<TextureRecord>(),
         SectionKind::UdimSets => size_of::<UdimSet>(),
         SectionKind::ShaderOps => size_of::<ShaderOp>(),

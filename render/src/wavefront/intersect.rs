@@ -1,0 +1,29 @@
+//! Stage 2: closest hits for the ray queue. Reads the ray queue; adds the emission each ray finds
+//! (area lights it crosses, and on escape the dome and distant lights) to its path; writes the hit side
+//! table and the shade queue (`key << 32 | index`, unsorted). Escaped paths leave the wave here.
+
+use super::{sort, Context, Worker};
+use texture::Touch;
+
+/// Intersects every queued ray.
+pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
+    let scene = ctx.scene;
+    w.shade.clear();
+    for &i in &w.rays {
+        let st = &mut w.states[i as usize];
+        let hit = scene.accel.closest_hit(st.origin, st.dir, f32::INFINITY);
+        let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
+        let prev = st.prev();
+        st.radiance += st.beta * scene.lights.area_emission(st.origin, st.dir, t_hit, prev);
+        let Some(hit) = hit else {
+            st.radiance += st.beta * scene.lights.escaped_emission(st.dir, prev.map(|p| p.1));
+            continue;
+        };
+        // The texture key costs a second surface reconstruction (shading repeats it rather than carry
+        // ~90 bytes of surface per path); a scene without texels sorts by material alone.
+        let key =
+            if ctx.textured { scene.shading_sort_key(&hit, -st.dir, st.cone().width_at(hit.t)) } else { 0 };
+        w.hits[i as usize] = hit;
+        w.shade.push(sort::entry(sort::shade_key(0, key), i));
+    }
+}

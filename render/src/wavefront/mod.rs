@@ -1,0 +1,233 @@
+//! The breadth-first (wavefront) integrator, after MoonRay (Lee et al., HPG 2017, §4–7): the same
+//! estimator as [`crate::integrator`], computed one *stage* at a time over a batch of paths instead of
+//! one path at a time.
+//!
+//! One worker (one rayon task per tile, each with its own [`Worker`] of preallocated pools and queues:
+//! no locks, no allocation on the hot path) runs, per tile and per chunk of that tile's samples:
+//!
+//! ```text
+//! generate ─► ray queue ─► intersect ─► shade queue ─► sort ─► shade ─┬► NEE records ─► lanes (8-wide MIS) ─► occlusion queue ─► occlusion
+//!                ▲                                                    └► next ray queue ─┐
+//!                └────────────────────────────────────────────────────────────────────────┘   (until empty: drain)
+//! accumulate (radiance per path, summed per pixel in sample order) ─► tile
+//! ```
+//!
+//! Paths are the [`RayState`] pool; queue entries are 32-bit indices into it (the shade queue holds
+//! 64-bit `key << 32 | index` entries, see [`sort`]). Every random number comes from the stateless
+//! sampler keyed by (pixel, sample, vertex, dimension), and each path adds its radiance terms in the
+//! scalar integrator's order (emission found by the ray, emission at the hit, then next-event estimation,
+//! all within one wave), so the image equals the scalar one bit for bit.
+
+mod accumulate;
+mod generate;
+mod intersect;
+pub mod lanes;
+mod occlusion;
+mod shade;
+pub mod sort;
+
+use crate::accel::Hit;
+use crate::camera::{Camera, RayCone};
+use crate::film::{RenderOptions, Tile, TileResult};
+use crate::integrator::{FirstHit, PathSettings, RayCounts};
+use crate::scene::Scene;
+use glam::Vec3;
+use std::time::Instant;
+use texture::Touch;
+
+/// Paths in flight per worker: a tile's samples are processed in chunks of at most this many paths
+/// (a tile wider than this gets one path per pixel per chunk).
+pub const POOL_PATHS: usize = 4096;
+
+/// The state of one path between stages: small, fixed-size, indices and floats only (MoonRay's
+/// RayState grew to ~576 bytes; this one is [`RAY_STATE_BYTES`]). Texture footprint, MIS history and
+/// counters; the hit and the shadow ray live in side tables indexed the same way.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayState {
+    /// Ray origin of the current segment.
+    pub origin: Vec3,
+    /// Unit direction of the current segment.
+    pub dir: Vec3,
+    /// Path throughput.
+    pub beta: Vec3,
+    /// Radiance gathered so far.
+    pub radiance: Vec3,
+    /// Previous scattering vertex (for MIS of emission found by BSDF sampling).
+    pub prev_p: Vec3,
+    /// BSDF pdf at the previous vertex; negative for a camera ray (no previous vertex).
+    pub prev_pdf: f32,
+    /// Ray cone width at the origin.
+    pub cone_width: f32,
+    /// Ray cone spread angle.
+    pub cone_spread: f32,
+    /// Distance from the camera along pass-throughs (for the depth AOV).
+    pub travelled: f32,
+    /// Linear pixel index.
+    pub pixel: u32,
+    /// Sample index within the pixel.
+    pub sample: u32,
+    /// Sampler vertex counter.
+    pub vertex: u32,
+    /// Scattering events so far.
+    pub bounces: u32,
+}
+
+/// Size of [`RayState`] in bytes.
+pub const RAY_STATE_BYTES: usize = 92;
+const _: () = assert!(std::mem::size_of::<RayState>() == RAY_STATE_BYTES);
+
+impl RayState {
+    fn prev(&self) -> Option<(Vec3, f32)> {
+        (self.prev_pdf >= 0.0).then_some((self.prev_p, self.prev_pdf))
+    }
+    fn cone(&self) -> RayCone {
+        RayCone { width: self.cone_width, spread: self.cone_spread }
+    }
+}
+
+/// A shadow ray waiting for the occlusion stage, indexed like its path.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ShadowRay {
+    /// Origin (offset off the surface).
+    pub origin: Vec3,
+    /// Unit direction to the light.
+    pub dir: Vec3,
+    /// Distance to stop short of the light.
+    pub tmax: f32,
+    /// MIS-weighted contribution added to the path if the light is visible.
+    pub contribution: Vec3,
+    /// Seed of the per-triangle pass-through decisions.
+    pub seed: u32,
+}
+
+/// Per-stage wall-clock seconds, summed over workers (so over threads: CPU-seconds).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StageSeconds {
+    /// Camera ray generation.
+    pub generate: f64,
+    /// Closest-hit queries (plus emission found along rays and the sort key).
+    pub intersect: f64,
+    /// Radix sort and per-material bucketing of the shade queue.
+    pub sort: f64,
+    /// Shading, light and BSDF sampling, and the 8-lane MIS kernel.
+    pub shade: f64,
+    /// Any-hit shadow queries.
+    pub occlusion: f64,
+    /// Per-pixel accumulation.
+    pub accumulate: f64,
+}
+
+impl StageSeconds {
+    /// Adds `other` into `self`.
+    pub fn add(&mut self, other: &StageSeconds) {
+        self.generate += other.generate;
+        self.intersect += other.intersect;
+        self.sort += other.sort;
+        self.shade += other.shade;
+        self.occlusion += other.occlusion;
+        self.accumulate += other.accumulate;
+    }
+}
+
+/// One worker's pools and queues, allocated once (before its first tile) and reused.
+pub struct Worker {
+    states: Vec<RayState>,
+    hits: Vec<Hit>,
+    first_hits: Vec<Option<FirstHit>>,
+    shadow: Vec<ShadowRay>,
+    /// Incoherent ray queue being intersected, and the one shade fills for the next wave.
+    rays: Vec<u32>,
+    next_rays: Vec<u32>,
+    /// Shade queue (`key << 32 | index`), its radix scratch, and the per-material buckets.
+    shade: Vec<u64>,
+    scratch: Vec<u64>,
+    material_starts: Vec<u32>,
+    /// Next-event candidates for the lane kernel.
+    nee: Vec<lanes::NeeCandidate>,
+    /// Occlusion queue (path indices with a pending [`ShadowRay`]).
+    occlusion: Vec<u32>,
+    /// Per-pixel running sums of the current tile.
+    pixels: Vec<accumulate::PixelSum>,
+    /// Stage timers.
+    pub seconds: StageSeconds,
+}
+
+impl Worker {
+    /// Pools for tiles of `tile_size²` pixels in a scene with `materials` materials.
+    pub fn new(tile_size: u32, materials: usize) -> Self {
+        let pixels = (tile_size * tile_size) as usize;
+        let paths = POOL_PATHS.max(pixels);
+        Worker {
+            states: Vec::with_capacity(paths),
+            hits: vec![Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0 }; paths],
+            first_hits: vec![None; paths],
+            shadow: vec![ShadowRay::default(); paths],
+            rays: Vec::with_capacity(paths),
+            next_rays: Vec::with_capacity(paths),
+            shade: Vec::with_capacity(paths),
+            scratch: vec![0; paths],
+            material_starts: vec![0; materials + 2],
+            nee: Vec::with_capacity(paths),
+            occlusion: Vec::with_capacity(paths),
+            pixels: Vec::with_capacity(pixels),
+            seconds: StageSeconds::default(),
+        }
+    }
+}
+
+/// What every stage reads: the scene, the camera and the settings.
+pub struct Context<'s, 'a, T> {
+    /// The scene.
+    pub scene: &'s Scene<'a>,
+    /// The camera.
+    pub camera: &'s Camera,
+    /// Options of the render.
+    pub options: &'s RenderOptions,
+    /// Depth and filter.
+    pub settings: PathSettings,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// The camera's viewing direction.
+    pub forward: Vec3,
+    /// Texel-read reporting.
+    pub touch: &'s T,
+    /// The scene has texels (else every texture sort key is 0 and is not computed).
+    pub textured: bool,
+}
+
+fn timed<R>(slot: &mut f64, f: impl FnOnce() -> R) -> R {
+    let start = Instant::now();
+    let r = f();
+    *slot += start.elapsed().as_secs_f64();
+    r
+}
+
+/// Renders one tile breadth-first: the whole wavefront loop, stage by stage.
+pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &Tile) -> TileResult {
+    let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
+    let spp = ctx.options.spp as usize;
+    let per_chunk = (w.states.capacity() / npix).clamp(1, spp);
+    let mut rays = RayCounts::default();
+    accumulate::begin(w, npix);
+    let mut s0 = 0;
+    while s0 < spp {
+        let samples = per_chunk.min(spp - s0);
+        let mut secs = w.seconds;
+        timed(&mut secs.generate, || {
+            generate::camera_rays(ctx, tile, s0 as u32, samples as u32, w, &mut rays)
+        });
+        while !w.rays.is_empty() {
+            timed(&mut secs.intersect, || intersect::closest(ctx, w));
+            timed(&mut secs.sort, || sort::shade_queue(ctx.scene, w));
+            timed(&mut secs.shade, || shade::shade(ctx, w, &mut rays));
+            timed(&mut secs.occlusion, || occlusion::any_hit(ctx, w, &mut rays));
+            std::mem::swap(&mut w.rays, &mut w.next_rays);
+        }
+        timed(&mut secs.accumulate, || accumulate::chunk(w, samples));
+        w.seconds = secs;
+        s0 += samples;
+    }
+    accumulate::finish(w, spp as u32, rays)
+}

@@ -1,0 +1,17 @@
+//! Stage 5: occlusion. Reads the occlusion queue and the shadow-ray side table; adds the contribution of
+//! every unoccluded light sample to its path.
+
+use super::{Context, Worker};
+use crate::integrator::RayCounts;
+use texture::Touch;
+
+/// Traces every queued shadow ray (any-hit, with stochastic pass-through as in the scalar path).
+pub(super) fn any_hit<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, _rays: &mut RayCounts) {
+    let filter = ctx.settings.filter;
+    for &i in &w.occlusion {
+        let r = &w.shadow[i as usize];
+        if ctx.scene.shadow_transmits(r.origin, r.dir, r.tmax, r.seed, filter, ctx.touch) {
+            w.states[i as usize].radiance += r.contribution;
+        }
+    }
+}
