@@ -440,7 +440,7 @@ impl Stage {
         let arc_name = |arc: pcp::ArcType| format!("{arc:?}").to_lowercase();
         match error {
             pcp::Error::UnresolvedLayer { asset_path, arc, introduced_by, site_path } => CompositionIssue {
-                layer: introduced_by,
+                layer: authoring_layer(&asset_path).unwrap_or(introduced_by),
                 prim: Some(site_path.as_str().to_string()),
                 kind: UsdErrorKind::MissingAsset { arc: arc_name(arc), asset: asset_path },
                 fatal: true,
@@ -525,4 +525,24 @@ fn describe_cycle(chain: &pcp::CycleChain) -> String {
     }
     text.push_str(" (the last arc closes the cycle and is dropped)");
     text
+}
+
+/// The text layer that authored the arc to `asset_path`, which the crate reports only as its layer
+/// stack's root. The crate anchors a relative asset path at the authoring layer's folder, so
+/// `asset_path` is `<that folder>/<authored path>`: for each way to split it there, a `.usda`/`.usd`
+/// layer in the folder whose text contains `@<authored path>@` is the author. Only runs on errors.
+fn authoring_layer(asset_path: &str) -> Option<String> {
+    for (i, _) in asset_path.match_indices('/') {
+        let (folder, authored) = (&asset_path[..=i], &asset_path[i + 1..]);
+        let Ok(entries) = std::fs::read_dir(folder) else { continue };
+        let needle = format!("@{authored}@");
+        for entry in entries.flatten() {
+            let path = entry.path();
+            let is_layer = path.extension().is_some_and(|e| e == "usda" || e == "usd");
+            if is_layer && std::fs::read_to_string(&path).is_ok_and(|text| text.contains(&needle)) {
+                return Some(path.to_string_lossy().into_owned());
+            }
+        }
+    }
+    None
 }
