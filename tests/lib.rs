@@ -153,3 +153,21 @@ pub fn mean_where(pixels: &[[f32; 3]], width: usize, keep: impl Fn(usize, usize)
     assert!(n > 0, "no pixels selected");
     sum.map(|s| (s / n as f64) as f32)
 }
+
+/// A 2-unit cube centred on the origin with its +Z face missing (a cup open towards +Z): light entering
+/// it reflects many times before escaping, which makes it a furnace test of interreflection.
+pub fn open_box_mesh(name: &str, material: &str) -> String {
+    let p = [
+        [-1.0, -1.0, -1.0],
+        [1.0, -1.0, -1.0],
+        [1.0, 1.0, -1.0],
+        [-1.0, 1.0, -1.0],
+        [-1.0, -1.0, 1.0],
+        [1.0, -1.0, 1.0],
+        [1.0, 1.0, 1.0],
+        [-1.0, 1.0, 1.0],
+    ];
+    let faces = [[0, 3, 2, 1], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
+    let indices: Vec<usize> = faces.iter().flatten().copied().collect();
+    mesh_prim(name, &p, &[4; 5], &indices, None, material)
+}

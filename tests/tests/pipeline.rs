@@ -86,19 +86,7 @@ mod analytic {
     fn white_furnace_with_interreflections_reads_one() {
         let dir = tempfile::tempdir().unwrap();
         // An open box (a cup) seen from above: its inside reflects light many times before escaping.
-        let p = [
-            [-1.0, -1.0, -1.0],
-            [1.0, -1.0, -1.0],
-            [1.0, 1.0, -1.0],
-            [-1.0, 1.0, -1.0],
-            [-1.0, -1.0, 1.0],
-            [1.0, -1.0, 1.0],
-            [1.0, 1.0, 1.0],
-            [-1.0, 1.0, 1.0],
-        ];
-        let faces = [[0, 3, 2, 1], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
-        let indices: Vec<usize> = faces.iter().flatten().copied().collect();
-        let cup = mesh_prim("Cup", &p, &[4; 5], &indices, None, "/World/White");
+        let cup = open_box_mesh("Cup", "/World/White");
         let body = [
             lambert_material("/World/White", 1.0),
             cup,
@@ -245,21 +233,9 @@ mod wavefront {
             RenderOptions { spp: 16, resolution: Some([32, 32]), tile_size: 8, ..RenderOptions::default() };
         scalar_vs_wavefront(&bytes, &options, "sphere under dome");
 
-        let p = [
-            [-1.0, -1.0, -1.0],
-            [1.0, -1.0, -1.0],
-            [1.0, 1.0, -1.0],
-            [-1.0, 1.0, -1.0],
-            [-1.0, -1.0, 1.0],
-            [1.0, -1.0, 1.0],
-            [1.0, 1.0, 1.0],
-            [-1.0, 1.0, 1.0],
-        ];
-        let faces = [[0, 3, 2, 1], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
-        let indices: Vec<usize> = faces.iter().flatten().copied().collect();
         let cup = [
             lambert_material("/World/White", 0.8),
-            mesh_prim("Cup", &p, &[4; 5], &indices, None, "/World/White"),
+            open_box_mesh("Cup", "/World/White"),
             camera_prim("Cam", [0.0, 0.0, 4.0], 50.0, 24.0),
             DOME.into(),
             "def DistantLight \"Sun\"\n{\n    float inputs:intensity = 3\n    bool inputs:normalize = true\n}\n"
