@@ -88,7 +88,13 @@ impl Summary {
             self.load_seconds,
             self.render_seconds,
             self.write_seconds,
-            if self.texture_bytes_total > 0 {
+            if self.texture_bytes_total > 0 && self.texture_bytes_touched == 0 {
+                // Page counting costs a shared-bitmap mark per texel fetch, so it runs only with --stats.
+                format!(
+                    "\ntextures: {:.1} MiB in the blob (pages touched are counted with --stats)",
+                    self.texture_bytes_total as f64 / 1048576.0
+                )
+            } else if self.texture_bytes_total > 0 {
                 format!(
                     "\ntextures: {:.1} MiB touched of {:.1} MiB ({:.1}%)",
                     self.texture_bytes_touched as f64 / 1048576.0,
