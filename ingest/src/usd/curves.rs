@@ -209,7 +209,7 @@ impl Reader<'_> {
         let widths = self.curve_primvar::<1>(path, &["primvars:widths", "widths"], &topology)?;
         let normals = self.curve_primvar::<3>(path, &["primvars:normals", "normals"], &topology)?;
         let colors = self.curve_primvar::<3>(path, &["primvars:displayColor"], &topology)?;
-        let uvs = match self.curve_st_name(path) {
+        let uvs = match self.st_primvar_name(path) {
             Some(name) => self.curve_primvar::<2>(path, &[name.as_str()], &topology)?,
             None => None,
         };
@@ -315,19 +315,6 @@ impl Reader<'_> {
             self.scene.curves.push(out);
         }
         Ok(())
-    }
-
-    /// The texture-coordinate primvar of a curve prim: `primvars:st`, else the first `texCoord2f[]`.
-    fn curve_st_name(&self, path: &str) -> Option<String> {
-        let names = self.stage.property_names(path);
-        if names.iter().any(|n| n == "primvars:st") {
-            return Some("primvars:st".into());
-        }
-        names.into_iter().find(|n| {
-            n.starts_with("primvars:")
-                && !n.ends_with(":indices")
-                && self.stage.attr_type(path, n).as_deref() == Some("texCoord2f[]")
-        })
     }
 
     /// Reads a Points prim: one sphere of diameter `widths` per point.

@@ -282,8 +282,9 @@ impl Reader<'_> {
         Ok(())
     }
 
-    /// The name of the texture-coordinate primvar: `primvars:st`, else the first `texCoord2f[]`.
-    fn st_primvar_name(&self, path: &str) -> Option<String> {
+    /// The name of the texture-coordinate primvar of a mesh or curve prim: `primvars:st`, else the
+    /// first `texCoord2f[]`.
+    pub(super) fn st_primvar_name(&self, path: &str) -> Option<String> {
         let names = self.stage.property_names(path);
         if names.iter().any(|n| n == "primvars:st") {
             return Some("primvars:st".into());
