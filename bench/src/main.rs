@@ -12,10 +12,14 @@
 //! - `bench curves`: a generated groom; curve-intersection throughput and image error against segments per
 //!   curve, fixed versus camera-adaptive splitting, charted as SVG.
 //!
+//! - `bench ingest [ASSETS]`: seconds to compose a stage and list its gprims, ours against usd-core
+//!   (`Usd.Stage.Open` + the same listing) on the same files, default the three largest shared assets.
+//!
 //! Figures go to stdout and to a JSON file.
 
 mod convergence;
 mod curves;
+mod ingest_speed;
 mod integrators;
 mod rays;
 mod subdiv;
@@ -126,6 +130,20 @@ enum Cmd {
         #[arg(long, default_value_t = 256)]
         res: u32,
         /// Work folder for the chart and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+    /// Ingest speed: compose and list a stage, ours against usd-core on the same files.
+    Ingest {
+        /// Root layers (default: the three largest shared assets).
+        assets: Vec<PathBuf>,
+        /// Python with usd-core.
+        #[arg(long, default_value = ".venv/bin/python")]
+        python: PathBuf,
+        /// Best of this many timings.
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+        /// Work folder for the results.
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
     },
@@ -263,6 +281,15 @@ fn main() -> anyhow::Result<()> {
         Cmd::Curves { strands, res, out } => {
             std::fs::create_dir_all(&out)?;
             curves::run(strands, res, &out)?;
+        }
+        Cmd::Ingest { assets, python, repeat, out } => {
+            let assets = if assets.is_empty() {
+                ingest_speed::LARGEST_ASSETS.iter().map(PathBuf::from).collect()
+            } else {
+                assets
+            };
+            std::fs::create_dir_all(&out)?;
+            ingest_speed::run(&assets, &python, repeat, &out)?;
         }
     }
     Ok(())
