@@ -9,6 +9,7 @@
 //! render camera), [`curves`] (basis conversion, NURBS fitting, adaptive splitting), [`pack`]
 //! (scene → blob records), `bvh`, [`pipeline`] (the whole step as one call).
 
+pub mod alembic;
 mod bvh;
 pub mod curves;
 pub mod dicing;
