@@ -137,6 +137,14 @@ pub(super) struct Object {
     pub properties: Compound,
 }
 
+impl Object {
+    /// File offset of the object's group: Ogawa groups may be shared (instancing), so this
+    /// identifies the stored object, not the path.
+    pub(super) fn offset(&self) -> u64 {
+        self.group.position
+    }
+}
+
 /// An opened archive.
 pub(super) struct Archive {
     bytes: Bytes,
@@ -288,7 +296,7 @@ fn decode_numbers(bytes: &[u8], pod: Pod) -> Result<Vec<f64>, String> {
         return Err("is a string property where numbers were expected".into());
     }
     let size = pod.size();
-    if bytes.len() % size != 0 {
+    if !bytes.len().is_multiple_of(size) {
         return Err(format!("{} bytes is not a whole number of {size}-byte values", bytes.len()));
     }
     let chunks = bytes.chunks_exact(size);

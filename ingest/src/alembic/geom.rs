@@ -91,7 +91,7 @@ impl Translator {
         extent: usize,
         counts: &Counts,
     ) -> Result<(), String> {
-        if param.values.len() % extent != 0 {
+        if !param.values.len().is_multiple_of(extent) {
             return Err(format!("{name}: {} values are not whole {extent}-tuples", param.values.len()));
         }
         let elements = param.indices.as_ref().map_or(param.values.len() / extent, Vec::len);

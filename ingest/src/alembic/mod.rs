@@ -99,9 +99,6 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, AlembicError> {
     translator.run().map_err(|(object, message)| error(Some(object), message))?;
     let warnings = std::mem::take(&mut translator.warnings);
     let (text, paths) = translator.layer.finish();
-    if std::env::var_os("INGEST_ALEMBIC_DEBUG").is_some() {
-        eprintln!("{text}");
-    }
 
     let layer = TempLayer::write(&text)
         .map_err(|e| error(None, format!("cannot write the translated layer: {e}")))?;

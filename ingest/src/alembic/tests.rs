@@ -158,3 +158,28 @@ fn not_an_archive() {
     let e = load(&asset("missing.abc"), &LoadOptions::default()).unwrap_err();
     assert!(e.to_string().contains("missing.abc: cannot read"), "{e}");
 }
+
+#[test]
+fn a_cycle_of_groups_is_an_error_not_a_stack_overflow() {
+    // Point /World/Rig/Arm's first child (Cage) at /World/Rig's own group.
+    let mut bytes = std::fs::read(asset("shapes.abc")).unwrap();
+    let mut archive = Archive::open(bytes.clone()).unwrap();
+    let find = |archive: &mut Archive, parent: &archive::Object, name: &str| {
+        let i = parent.children.iter().position(|c| c.name == name).unwrap();
+        archive.child(parent, i).unwrap()
+    };
+    let top = archive.top().unwrap();
+    let world = find(&mut archive, &top, "World");
+    let rig = find(&mut archive, &world, "Rig");
+    let arm = find(&mut archive, &rig, "Arm");
+    let slot = (arm.offset() + 8 + 8) as usize;
+    bytes[slot..slot + 8].copy_from_slice(&rig.offset().to_le_bytes());
+    let dir = std::env::temp_dir().join(format!("ingest-abc-cycle-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cycle.abc");
+    std::fs::write(&path, &bytes).unwrap();
+    let e = load(&path, &at_level(0)).expect_err("a cycle");
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(e.object.as_deref(), Some("/World/Rig/Arm/Cage"), "{e}");
+    assert!(e.message.contains("cycle"), "{e}");
+}

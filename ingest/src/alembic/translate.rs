@@ -11,6 +11,11 @@ pub(super) const MATERIALS: &str = "_alembic_materials";
 /// The material of faces in no face set.
 pub(super) const DEFAULT_MATERIAL: &str = "default";
 
+/// Deepest object nesting read (a corrupt archive can make a group its own descendant).
+const MAX_DEPTH: usize = 128;
+/// Most objects translated (shared groups can make a small file name exponentially many).
+const MAX_OBJECTS: usize = 1_000_000;
+
 /// An error at one object: (Alembic path, message).
 pub(super) type ObjectError = (String, String);
 
@@ -25,6 +30,10 @@ pub(super) struct Translator {
     material_names: HashMap<String, String>,
     /// Alembic path of the object being written (for warnings).
     pub current: String,
+    /// Group offsets of the objects being written, outermost first.
+    ancestors: Vec<u64>,
+    /// Objects written so far.
+    objects: usize,
 }
 
 impl Translator {
@@ -38,6 +47,8 @@ impl Translator {
             materials: Vec::new(),
             material_names: HashMap::new(),
             current: String::new(),
+            ancestors: Vec::new(),
+            objects: 0,
         };
         t.material(DEFAULT_MATERIAL);
         t
@@ -75,7 +86,22 @@ impl Translator {
                 continue; // written with its mesh
             }
             let child = self.sampler.archive.child(parent, i).map_err(|e| (header.path.clone(), e))?;
+            self.objects += 1;
+            let problem = if self.ancestors.contains(&child.offset()) {
+                Some("the object contains itself (a cycle of Ogawa groups)".to_string())
+            } else if self.ancestors.len() >= MAX_DEPTH {
+                Some(format!("objects nest deeper than {MAX_DEPTH} levels"))
+            } else if self.objects > MAX_OBJECTS {
+                Some(format!("the archive has more than {MAX_OBJECTS} objects"))
+            } else {
+                None
+            };
+            if let Some(problem) = problem {
+                return Err((header.path.clone(), problem));
+            }
+            self.ancestors.push(child.offset());
             self.object(&child)?;
+            self.ancestors.pop();
         }
         Ok(())
     }
