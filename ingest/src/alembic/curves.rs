@@ -97,8 +97,21 @@ impl Translator {
     pub(super) fn nurbs_curves(&mut self, p: &Compound) -> Result<(), String> {
         let (points, counts) = self.curve_points(p)?;
         let orders = as_ints(&self.sampler.held(p, ".orders")?.unwrap_or_default());
-        let knots = self.sampler.held(p, ".knots")?.unwrap_or_default();
+        let mut knots = self.sampler.held(p, ".knots")?.unwrap_or_default();
         finite(".knots", &knots)?;
+        if knots.is_empty() && orders.len() == counts.len() {
+            // Knots are optional in Alembic (Blender writes none): readers take each curve's
+            // clamped uniform vector, 0 (order times), 1, 2, ..., n − order + 1 (order times).
+            for (&n, &k) in counts.iter().zip(&orders) {
+                if k < 1 || n < k {
+                    return Err(format!("a curve of {n} points cannot have order {k}"));
+                }
+                let spans = (n - k + 1) as f64;
+                knots.extend(std::iter::repeat_n(0.0, k as usize));
+                knots.extend((1..n - k + 1).map(|i| i as f64));
+                knots.extend(std::iter::repeat_n(spans, k as usize));
+            }
+        }
         self.layer.attr("int[] order", &ints(&orders), None);
         let knots: Vec<String> = knots.iter().map(|k| format!("{k:?}")).collect();
         self.layer.attr("double[] knots", &format!("[{}]", knots.join(", ")), None);

@@ -51,6 +51,13 @@ fn curves_points_camera_and_visibility() {
     // The first curve starts at USD (0, 0, 3) and ends at (0, 3, 3.5).
     assert!((hair.segments[0].p[0].truncate() - Vec3::new(0.0, 0.0, 3.0)).length() < 1e-5);
     assert!((hair.segments[2].p[3].truncate() - Vec3::new(0.0, 3.0, 3.5)).length() < 1e-5);
+    // A clamped cubic NURBS of 5 points (Blender writes no knots; the clamped uniform vector is
+    // two spans): two Bézier segments from (3, 0, 0) to (7, 0, 0).
+    let arc = scene.curves.iter().find(|c| c.path == "/World/Arc/Arc").expect("NURBS curve");
+    assert_eq!((arc.curve_count, arc.segments.len()), (1, 2));
+    assert!((arc.segments[0].p[0].truncate() - Vec3::new(3.0, 0.0, 0.0)).length() < 1e-5);
+    assert!((arc.segments[1].p[3].truncate() - Vec3::new(7.0, 0.0, 0.0)).length() < 1e-5);
+    assert!(!scene.warnings.iter().any(|w| w.prim.starts_with("/World/Arc")), "{:?}", scene.warnings);
     // Five points along x at y = 3 (Blender writes the particle size 0.05 as the width).
     let dots = scene.curves.iter().find(|c| c.path == "/Dots/Dots").expect("points");
     assert_eq!(dots.spheres.len(), 5);

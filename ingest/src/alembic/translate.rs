@@ -16,6 +16,21 @@ const MAX_DEPTH: usize = 128;
 /// Most objects translated (shared groups can make a small file name exponentially many).
 const MAX_OBJECTS: usize = 1_000_000;
 
+/// The schemas read; any other object is an untyped prim holding its children.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Group,
+    Xform,
+    PolyMesh,
+    SubD,
+    Curves,
+    Points,
+    Camera,
+}
+
+/// `curveBasisAndType[0]` of NURBS curves.
+const VARIABLE_ORDER: u8 = 2;
+
 /// An error at one object: (Alembic path, message).
 pub(super) type ObjectError = (String, String);
 
@@ -110,39 +125,47 @@ impl Translator {
         let path = object.header.path.clone();
         self.current = path.clone();
         let at = |e: String| (path.clone(), e);
-        let schema = schema(&object.header).unwrap_or("");
-        let ty = match schema {
-            "AbcGeom_Xform_v3" => "Xform",
-            "AbcGeom_PolyMesh_v1" | "AbcGeom_SubD_v1" => "Mesh",
-            "AbcGeom_Curve_v2" => "BasisCurves",
-            "AbcGeom_Points_v1" => "Points",
-            "AbcGeom_Camera_v1" => "Camera",
-            "" => "",
-            other => {
+        let kind = match schema(&object.header) {
+            Some("AbcGeom_Xform_v3") => Kind::Xform,
+            Some("AbcGeom_PolyMesh_v1") => Kind::PolyMesh,
+            Some("AbcGeom_SubD_v1") => Kind::SubD,
+            Some("AbcGeom_Curve_v2") => Kind::Curves,
+            Some("AbcGeom_Points_v1") => Kind::Points,
+            Some("AbcGeom_Camera_v1") => Kind::Camera,
+            None => Kind::Group,
+            Some(other) => {
                 self.warnings.push((path.clone(), format!("{other} objects are not supported; ignored")));
-                ""
+                Kind::Group
             }
         };
-        let properties = match ty {
-            "" => None,
+        let properties = match kind {
+            Kind::Group => None,
             _ => Some(self.schema_properties(object).map_err(at)?),
         };
-        // Variable-order curves are NURBS.
-        let ty = match (&properties, ty) {
-            (Some(p), "BasisCurves") if self.curve_kind(p).map_err(at)?[0] == 2 => "NurbsCurves",
-            _ => ty,
+        let nurbs = match (&properties, kind) {
+            (Some(p), Kind::Curves) => self.curve_kind(p).map_err(at)?[0] == VARIABLE_ORDER,
+            _ => false,
         };
-        let binds = ty == "Mesh";
-        self.layer.open(ty, &object.header.name, &path, binds);
+        let ty = match kind {
+            Kind::Group => "",
+            Kind::Xform => "Xform",
+            Kind::PolyMesh | Kind::SubD => "Mesh",
+            Kind::Curves if nurbs => "NurbsCurves",
+            Kind::Curves => "BasisCurves",
+            Kind::Points => "Points",
+            Kind::Camera => "Camera",
+        };
+        self.layer.open(ty, &object.header.name, &path, matches!(kind, Kind::PolyMesh | Kind::SubD));
         if let Some(p) = &properties {
-            match ty {
-                "Xform" => self.xform(p).map_err(at)?,
-                "Mesh" => self.mesh(object, p, schema == "AbcGeom_SubD_v1").map_err(at)?,
-                "BasisCurves" => self.basis_curves(p).map_err(at)?,
-                "NurbsCurves" => self.nurbs_curves(p).map_err(at)?,
-                "Points" => self.points(p).map_err(at)?,
-                "Camera" => self.camera(p).map_err(at)?,
-                _ => {}
+            match kind {
+                Kind::Group => {}
+                Kind::Xform => self.xform(p).map_err(at)?,
+                Kind::PolyMesh => self.mesh(object, p, false).map_err(at)?,
+                Kind::SubD => self.mesh(object, p, true).map_err(at)?,
+                Kind::Curves if nurbs => self.nurbs_curves(p).map_err(at)?,
+                Kind::Curves => self.basis_curves(p).map_err(at)?,
+                Kind::Points => self.points(p).map_err(at)?,
+                Kind::Camera => self.camera(p).map_err(at)?,
             }
         }
         self.visibility(object).map_err(at)?;

@@ -89,6 +89,16 @@ def Xform "World"
         float[] widths = [0.1] (interpolation = "constant")
     }
 
+    def NurbsCurves "Arc"
+    {
+        int[] curveVertexCounts = [5]
+        int[] order = [4]
+        double[] knots = [0, 0, 0, 0, 1, 2, 2, 2, 2]
+        double2[] ranges = [(0, 2)]
+        point3f[] points = [(3, 0, 0), (4, 1, 0), (5, 0, 0), (6, 1, 0), (7, 0, 0)]
+        float[] widths = [0.1] (interpolation = "constant")
+    }
+
     def Points "Dots"
     {
         point3f[] points = [(-2, 3, 0), (-1, 3, 0), (0, 3, 0), (1, 3, 0), (2, 3, 0)]
