@@ -5,10 +5,14 @@
 //! `pack` turns the scene into a [`blob::SceneData`] with a prebuilt BVH (`bvh`) and the emissive-triangle
 //! distribution; [`blob::write_atomic`] writes it.
 //!
-//! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`dicing`] (subdivision levels from the
+//! An Alembic archive (`.abc`) is read by [`alembic`], which translates it into a USD layer for
+//! the same reader.
+//!
+//! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`alembic`] (the Alembic reader), [`dicing`] (subdivision levels from the
 //! render camera), [`curves`] (basis conversion, NURBS fitting, adaptive splitting), [`pack`]
 //! (scene → blob records), `bvh`, [`pipeline`] (the whole step as one call).
 
+pub mod alembic;
 mod bvh;
 pub mod curves;
 pub mod dicing;

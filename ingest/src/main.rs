@@ -8,7 +8,7 @@ use std::process::ExitCode;
 #[derive(Parser, Debug)]
 #[command(version, about)]
 struct Args {
-    /// Root layer (.usda, .usdc, .usdz or .usd).
+    /// Root layer (.usda, .usdc, .usdz or .usd), or an Alembic archive (.abc).
     asset: PathBuf,
     /// Output blob path (written atomically).
     #[arg(short, long)]
@@ -26,7 +26,8 @@ struct Args {
     /// searched in order).
     #[arg(long = "asset-path", value_name = "DIR")]
     asset_paths: Vec<PathBuf>,
-    /// Evaluate time samples at this time code (default: the stage's startTimeCode).
+    /// Evaluate time samples at this time code (default: the stage's startTimeCode); for .abc,
+    /// at F / fps seconds (default: each property's first sample).
     #[arg(long, value_name = "F", allow_negative_numbers = true)]
     frame: Option<f64>,
     /// Refine every subdivision surface to this uniform level, ignoring the camera.

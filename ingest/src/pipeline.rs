@@ -33,14 +33,20 @@ pub struct IngestReport {
     pub triangles_at_fixed_level: u64,
 }
 
-/// Composes `input`, packs it and writes the blob to `output` atomically.
+/// Composes `input` (a USD stage, or an Alembic archive by its `.abc` extension), packs it and
+/// writes the blob to `output` atomically.
 pub fn ingest_file(
     input: &Path,
     output: &Path,
     options: &LoadOptions,
 ) -> anyhow::Result<(Scene, IngestReport)> {
     let start = Instant::now();
-    let scene = usd::load(input, options).with_context(|| format!("cannot ingest {}", input.display()))?;
+    let scene = if crate::alembic::is_alembic(input) {
+        crate::alembic::load(input, options).map_err(anyhow::Error::from)
+    } else {
+        usd::load(input, options).map_err(anyhow::Error::from)
+    }
+    .with_context(|| format!("cannot ingest {}", input.display()))?;
     let load_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
     let data = crate::pack::pack(&scene).with_context(|| format!("cannot pack {}", input.display()))?;
