@@ -33,6 +33,7 @@
 #![deny(missing_docs)]
 
 pub mod accel;
+pub mod instanced;
 pub mod bsdf;
 pub mod camera;
 pub mod cli;
