@@ -89,7 +89,8 @@ pub fn build_boxes(boxes: &[(Vec3, Vec3)]) -> BuiltBoxBvh {
         return BuiltBoxBvh { nodes: Vec::new(), items: Vec::new() };
     }
     let config = BvhBuildParams::slow_build();
-    let aabbs: Vec<Aabb> = boxes.iter().map(|&(lo, hi)| Aabb::new(Vec3A::from(lo), Vec3A::from(hi))).collect();
+    let aabbs: Vec<Aabb> =
+        boxes.iter().map(|&(lo, hi)| Aabb::new(Vec3A::from(lo), Vec3A::from(hi))).collect();
     let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
         config.ploc_search_distance,
         &aabbs,

@@ -95,10 +95,8 @@ pub fn plan(scene: &Scene, emissive: &[bool]) -> Instancing {
         }
         let hash = content_hash(scene, meshes, &canonical);
         let candidates = by_hash.entry(hash).or_default();
-        let found = candidates
-            .iter()
-            .copied()
-            .find(|&g| same_content(scene, &groups[g].0, meshes, &canonical));
+        let found =
+            candidates.iter().copied().find(|&g| same_content(scene, &groups[g].0, meshes, &canonical));
         match found {
             Some(g) => groups[g].1.push(instance as u32),
             None => {
@@ -172,7 +170,10 @@ fn same_content(scene: &Scene, a: &[usize], b: &[usize], canonical: &[u32]) -> b
         let bits = |v: &[glam::Vec3]| v.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
         bits(&lx.positions) == bits(&ly.positions)
             && bits(&lx.normals) == bits(&ly.normals)
-            && x.uvs.iter().map(|u| u.to_array().map(f32::to_bits)).eq(y.uvs.iter().map(|u| u.to_array().map(f32::to_bits)))
+            && x.uvs
+                .iter()
+                .map(|u| u.to_array().map(f32::to_bits))
+                .eq(y.uvs.iter().map(|u| u.to_array().map(f32::to_bits)))
             && lx.triangles == ly.triangles
             && x.double_sided == y.double_sided
             && x.triangle_materials.len() == y.triangle_materials.len()
@@ -225,9 +226,15 @@ mod tests {
     fn identical_instances_share_one_prototype_and_singletons_stay_flat() {
         let grey = |p: &str| Material { path: p.into(), ..Material::default() };
         // Three instances with value-equal displayColor materials, one with a different colour.
-        let red = Material { path: "/I3/Tri.displayColor".into(), diffuse_color: Vec3::X, ..Material::default() };
+        let red =
+            Material { path: "/I3/Tri.displayColor".into(), diffuse_color: Vec3::X, ..Material::default() };
         let s = scene(
-            vec![grey("/I0/Tri.displayColor"), grey("/I1/Tri.displayColor"), grey("/I2/Tri.displayColor"), red],
+            vec![
+                grey("/I0/Tri.displayColor"),
+                grey("/I1/Tri.displayColor"),
+                grey("/I2/Tri.displayColor"),
+                red,
+            ],
             vec![
                 instanced_triangle(0, 0.0, 0),
                 instanced_triangle(1, 1.0, 1),
@@ -253,7 +260,8 @@ mod tests {
             3,
         );
         s.meshes.push(instanced_triangle(3, 0.0, 1));
-        s.instances.push(SceneInstance { path: "/I3".into(), world_from_instance: DMat4::from_scale(DVec3::ZERO) });
+        s.instances
+            .push(SceneInstance { path: "/I3".into(), world_from_instance: DMat4::from_scale(DVec3::ZERO) });
         s.instances[2].world_from_instance.w_axis.x = f64::NAN;
         let plan = plan(&s, &[true, false]);
         assert!(plan.prototypes.is_empty());

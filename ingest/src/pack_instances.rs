@@ -9,7 +9,12 @@ use blob::child_ref;
 use glam::{DVec3, Vec3};
 
 /// Appends the prototypes and instances of `plan` to `data` (whose top-level meshes are packed).
-pub(crate) fn pack_instances(scene: &Scene, plan: &Instancing, layout: &MeshLayout, data: &mut blob::SceneData) {
+pub(crate) fn pack_instances(
+    scene: &Scene,
+    plan: &Instancing,
+    layout: &MeshLayout,
+    data: &mut blob::SceneData,
+) {
     let mut bounds = Vec::with_capacity(plan.prototypes.len());
     for prototype in &plan.prototypes {
         let first_mesh = data.meshes.len() as u32;
@@ -24,14 +29,17 @@ pub(crate) fn pack_instances(scene: &Scene, plan: &Instancing, layout: &MeshLayo
             .iter()
             .map(|t| t.vertices.map(|v| Vec3::from_array(data.positions[v as usize])))
             .collect();
-        let (lo, hi) = corners.iter().flatten().fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-        );
+        let (lo, hi) = corners
+            .iter()
+            .flatten()
+            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
         bounds.push((lo, hi));
         let bvh = crate::bvh::build(&corners);
         let inst = &mut data.instancing;
-        let (first_node, first_block) = (inst.prototype_nodes.len() as u32, inst.prototype_blocks.len() as u32);
+        let (first_node, first_block) =
+            (inst.prototype_nodes.len() as u32, inst.prototype_blocks.len() as u32);
         // The prototype's BVH was built with local indices; the blob stores absolute ones.
         inst.prototype_nodes.extend(bvh.nodes.iter().map(|node| {
             let mut node = *node;
@@ -127,7 +135,13 @@ mod tests {
                 ..Mesh::default()
             })
             .collect();
-        Scene { meshes, instances, materials: vec![Material::default()], meters_per_unit: 1.0, ..Scene::default() }
+        Scene {
+            meshes,
+            instances,
+            materials: vec![Material::default()],
+            meters_per_unit: 1.0,
+            ..Scene::default()
+        }
     }
 
     #[test]

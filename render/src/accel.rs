@@ -244,8 +244,9 @@ fn closest_hit_simd(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32) -> 
     // Not redundant: `#[target_feature]` functions do not implement `Fn`; the closures inherit the
     // features and make the calls safe.
     #[allow(clippy::redundant_closure)]
-    let found =
-        two_level_closest(accel, origin, direction, tmax, &|n, r, t| node(n, r, t), &|b, r, t| block(b, r, t));
+    let found = two_level_closest(accel, origin, direction, tmax, &|n, r, t| node(n, r, t), &|b, r, t| {
+        block(b, r, t)
+    });
     found
 }
 
@@ -284,7 +285,10 @@ fn any_hit_simd<F: FnMut(u32, u32) -> bool>(
 /// Closest hit over the top-level triangles, then over the instances closer than that hit. A scene
 /// without instances takes only the first, single-level query.
 #[inline(always)]
-fn two_level_closest<N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]), B: Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits>(
+fn two_level_closest<
+    N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    B: Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+>(
     accel: &Accel,
     origin: Vec3,
     direction: Vec3,
@@ -306,7 +310,10 @@ fn two_level_closest<N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]), 
 
 /// Any hit over the top-level triangles, then over the instances.
 #[inline(always)]
-fn two_level_any<N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]), B: Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits>(
+fn two_level_any<
+    N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    B: Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+>(
     accel: &Accel,
     origin: Vec3,
     direction: Vec3,
@@ -321,7 +328,8 @@ fn two_level_any<N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]), B: F
             return true;
         }
     }
-    !accel.instances.is_empty() && accel.instances.any(origin, direction, tmax, node_kernel, block_kernel, blocks)
+    !accel.instances.is_empty()
+        && accel.instances.any(origin, direction, tmax, node_kernel, block_kernel, blocks)
 }
 
 /// `1 + 2γ₃` with `γₙ = nε/(1 − nε)`, ε = 2⁻²⁴ (Ize 2013): scaling far slab distances by it makes the
@@ -1117,12 +1125,20 @@ mod tests {
             let fast = accel.closest_hit(origin, dir, f32::INFINITY);
             let slow = accel.closest_hit_brute_force(origin, dir, f32::INFINITY);
             assert_same_closest(fast, slow, "instances");
-            assert_eq!(fast, accel.closest_hit_scalar(origin, dir, f32::INFINITY), "SIMD vs scalar traversal");
+            assert_eq!(
+                fast,
+                accel.closest_hit_scalar(origin, dir, f32::INFINITY),
+                "SIMD vs scalar traversal"
+            );
             if let (Some(f), Some(s)) = (fast, slow) {
                 if f.triangle == s.triangle {
                     assert_eq!(f.instance, s.instance);
                 }
-                if f.instance == blob::NONE { top_hits += 1 } else { instance_hits += 1 }
+                if f.instance == blob::NONE {
+                    top_hits += 1
+                } else {
+                    instance_hits += 1
+                }
                 // The world-space hit point lies on the ray.
                 let [a, b, c] = accel.hit_vertices(&f);
                 let p = a * (1.0 - f.b1 - f.b2) + b * f.b1 + c * f.b2;
@@ -1134,14 +1150,20 @@ mod tests {
             assert_eq!(accel.any_hit_scalar(origin, dir, f32::INFINITY, |_, _| true), slow.is_some());
             // Only instance 3 blocks: the answer is whether some hit along the ray is on it.
             let on_three = (0..accel.instances().len() as u32).any(|i| {
-                i == 3 && accel.instances().prototype_triangles(i).any(|t| {
-                    let hit = Hit { t: 0.0, triangle: t, b1: 0.0, b2: 0.0, instance: i };
-                    WatertightRay::new(origin, dir).intersect(accel.hit_vertices(&hit), f32::INFINITY).is_some()
-                })
+                i == 3
+                    && accel.instances().prototype_triangles(i).any(|t| {
+                        let hit = Hit { t: 0.0, triangle: t, b1: 0.0, b2: 0.0, instance: i };
+                        WatertightRay::new(origin, dir)
+                            .intersect(accel.hit_vertices(&hit), f32::INFINITY)
+                            .is_some()
+                    })
             });
             assert_eq!(accel.any_hit(origin, dir, f32::INFINITY, |_, i| i == 3), on_three);
         }
-        assert!(instance_hits > 1000 && top_hits > 100, "{instance_hits} instance hits, {top_hits} top-level");
+        assert!(
+            instance_hits > 1000 && top_hits > 100,
+            "{instance_hits} instance hits, {top_hits} top-level"
+        );
     }
 
     #[test]
@@ -1154,7 +1176,12 @@ mod tests {
         // transform of the prototype normals must agree with them.
         for (i, mesh) in scene.meshes.iter().enumerate().take(10) {
             let proto = mesh.instance.as_ref().unwrap();
-            let inst = view.instancing.instances.iter().position(|r| view.string(r.name) == format!("/S{i}")).unwrap();
+            let inst = view
+                .instancing
+                .instances
+                .iter()
+                .position(|r| view.string(r.name) == format!("/S{i}"))
+                .unwrap();
             let hit = Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: inst as u32 };
             for (n_local, n_world) in proto.normals.iter().zip(&mesh.normals) {
                 let n = accel.normal_to_world(&hit, *n_local).normalize();

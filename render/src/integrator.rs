@@ -335,7 +335,9 @@ impl<'a> Scene<'a> {
             ShadingInputs::constant(m).effective_opacity()
         };
         if !self.shading.any_textured_opacity() {
-            return !self.accel.any_hit(origin, dir, tmax, |tri, inst| !passes(tri, inst, constant_opacity(tri)));
+            return !self
+                .accel
+                .any_hit(origin, dir, tmax, |tri, inst| !passes(tri, inst, constant_opacity(tri)));
         }
         let end = origin + dir * tmax;
         let mut o = origin;

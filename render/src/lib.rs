@@ -33,7 +33,6 @@
 #![deny(missing_docs)]
 
 pub mod accel;
-pub mod instanced;
 pub mod bsdf;
 pub mod camera;
 pub mod cli;
@@ -42,6 +41,7 @@ pub mod error;
 pub mod film;
 pub mod hair;
 pub mod info;
+pub mod instanced;
 pub mod integrator;
 pub mod lights;
 pub mod mapped;

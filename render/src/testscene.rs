@@ -121,7 +121,11 @@ pub fn dome(radiance: f32) -> Light {
 
 /// `count` random triangles inside [−1, 1]³ with one material and no lights.
 pub fn random_triangles(count: usize, seed: u64) -> SceneData {
-    let scene = Scene { meshes: vec![random_triangles_mesh(count, seed)], materials: vec![lambert(0.5)], ..Scene::default() };
+    let scene = Scene {
+        meshes: vec![random_triangles_mesh(count, seed)],
+        materials: vec![lambert(0.5)],
+        ..Scene::default()
+    };
     pack(&scene)
 }
 

@@ -49,8 +49,8 @@ fn ingest(dir: &Path, name: &str, usda: &str, flatten: bool) -> (ingest::Scene, 
     let input = write(dir, &format!("{name}.usda"), usda);
     let output = dir.join(format!("{name}.blob"));
     let pack = ingest::pack::PackOptions { flatten_instances: flatten, ..Default::default() };
-    let (scene, _) = ingest::pipeline::ingest_file_with(&input, &output, &Default::default(), &pack)
-        .expect("ingest");
+    let (scene, _) =
+        ingest::pipeline::ingest_file_with(&input, &output, &Default::default(), &pack).expect("ingest");
     (scene, blob::AlignedBytes::copy_from(&std::fs::read(&output).expect("read blob")))
 }
 
@@ -68,7 +68,12 @@ fn a_thousand_instances_store_one_sphere() {
     assert_eq!(view.instancing.prototypes.len(), 1);
     let record = std::mem::size_of::<blob::Instance>();
     assert_eq!(record, 112);
-    eprintln!("blob bytes: one sphere {}, 1000 instanced {}, 1000 flattened {}", one.len(), bytes.len(), flat.len());
+    eprintln!(
+        "blob bytes: one sphere {}, 1000 instanced {}, 1000 flattened {}",
+        one.len(),
+        bytes.len(),
+        flat.len()
+    );
     // Per instance: its record, its share of the top-level BVH (8-wide nodes of 256 bytes over
     // one-instance leaves, ~5 children per node: ~50 bytes) and its name (~12 bytes).
     assert!(bytes.len() < 2 * one.len() + 1000 * (record + 64), "{} bytes", bytes.len());
@@ -78,7 +83,10 @@ fn a_thousand_instances_store_one_sphere() {
     assert_eq!((info.instances, info.instanced, info.prototypes), (1000, 1000, 1));
     assert_eq!((info.triangles, info.triangles_stored), (1000 * sphere, sphere));
     let actual_saving = flat.len() as f64 - bytes.len() as f64;
-    assert!((info.bytes_saved as f64 - actual_saving).abs() < 0.05 * actual_saving, "{info:?} vs {actual_saving}");
+    assert!(
+        (info.bytes_saved as f64 - actual_saving).abs() < 0.05 * actual_saving,
+        "{info:?} vs {actual_saving}"
+    );
     // --dump-json still lists every rendered gprim (the instance proxies) with world bounds.
     let dump = ingest::pipeline::dump_json(&scene);
     let gprims = dump["gprims"].as_array().unwrap();
@@ -120,10 +128,12 @@ fn instanced_render_equals_flattened_and_wavefront_equals_scalar() {
     assert!(vf.instancing.instances.is_empty());
     let a = render_image(&vi, &options).expect("instanced render");
     let b = render_image(&vf, &options).expect("flattened render");
-    let mean_radiance = b.beauty.iter().flatten().map(|&v| v as f64).sum::<f64>() / (b.beauty.len() * 4) as f64;
+    let mean_radiance =
+        b.beauty.iter().flatten().map(|&v| v as f64).sum::<f64>() / (b.beauty.len() * 4) as f64;
     let (mean, max) = mean_abs_diff(&a, &b);
-    let signed = a.beauty.iter().flatten().zip(b.beauty.iter().flatten()).map(|(x, y)| (x - y) as f64).sum::<f64>()
-        / (a.beauty.len() * 4) as f64;
+    let signed =
+        a.beauty.iter().flatten().zip(b.beauty.iter().flatten()).map(|(x, y)| (x - y) as f64).sum::<f64>()
+            / (a.beauty.len() * 4) as f64;
     // Monte Carlo noise: the flattened scene against itself with another seed.
     let c = render_image(&vf, &RenderOptions { seed: 99, ..options.clone() }).expect("reseeded render");
     let (noise, _) = mean_abs_diff(&b, &c);
@@ -152,7 +162,14 @@ fn instanced_render_equals_flattened_and_wavefront_equals_scalar() {
 /// both are shared: orientations (float quaternions), non-uniform scales and invisibleIds.
 fn point_instancer_stage() -> String {
     let tri = |name: &str| {
-        mesh_prim(name, &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[3], &[0, 1, 2], None, "/World/Grey")
+        mesh_prim(
+            name,
+            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            &[3],
+            &[0, 1, 2],
+            None,
+            "/World/Grey",
+        )
     };
     let boxy = open_box_mesh("Geo", "/World/Grey");
     let body = format!(
@@ -196,10 +213,14 @@ fn point_instancer_entries_render_where_the_flattened_gprims_are() {
         let flattened = scene
             .meshes
             .iter()
-            .find(|m| m.instance.as_ref().is_some_and(|l| scene.instances[l.instance as usize].path == name) && m.path.ends_with(suffix))
+            .find(|m| {
+                m.instance.as_ref().is_some_and(|l| scene.instances[l.instance as usize].path == name)
+                    && m.path.ends_with(suffix)
+            })
             .expect("flattened gprim of the entry");
         let hit = render::Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: index as u32 };
-        let stored = &view.positions[mesh_record.first_vertex as usize..(mesh_record.first_vertex + mesh_record.vertex_count) as usize];
+        let stored = &view.positions[mesh_record.first_vertex as usize
+            ..(mesh_record.first_vertex + mesh_record.vertex_count) as usize];
         for (p, world) in stored.iter().zip(&flattened.positions) {
             let q = accel.instances().to_world_point(hit.instance, glam::Vec3::from(*p));
             assert!((q - *world).length() < 1e-5, "entry {i}: {q} vs {world}");

@@ -569,7 +569,9 @@ impl<'a> Reader<'a> {
     /// Registers an outermost instance placed by `world_from_instance`.
     fn begin_instance(&mut self, path: &str, world_from_instance: DMat4) -> InstanceFrame {
         let index = self.scene.instances.len() as u32;
-        self.scene.instances.push(crate::scene::SceneInstance { path: path.to_string(), world_from_instance });
+        self.scene
+            .instances
+            .push(crate::scene::SceneInstance { path: path.to_string(), world_from_instance });
         InstanceFrame { index, instance_from_local: DMat4::IDENTITY }
     }
 

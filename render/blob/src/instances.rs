@@ -172,7 +172,11 @@ impl InstanceView<'_> {
                     if r & child_ref::LEAF != 0 {
                         let (first, count) = child_ref::leaf_range(r);
                         if count > 0 && (first < p.first_block || first as u64 + count as u64 > block_end) {
-                            return Err((K::PrototypeBvhNodes, n as usize, "leaf blocks outside the prototype"));
+                            return Err((
+                                K::PrototypeBvhNodes,
+                                n as usize,
+                                "leaf blocks outside the prototype",
+                            ));
                         }
                     } else if r <= n || r as u64 >= node_end {
                         return Err((
@@ -191,7 +195,11 @@ impl InstanceView<'_> {
             }
         }
         if !self.prototypes.is_empty() && next_triangle != triangles as u64 {
-            return Err((K::Prototypes, self.prototypes.len() - 1, "prototypes do not end at the last triangle"));
+            return Err((
+                K::Prototypes,
+                self.prototypes.len() - 1,
+                "prototypes do not end at the last triangle",
+            ));
         }
         for (i, inst) in self.instances.iter().enumerate() {
             if inst.prototype as usize >= self.prototypes.len() {
@@ -212,7 +220,11 @@ impl InstanceView<'_> {
             return Err((K::InstanceBvhItems, i, "instance index out of range"));
         }
         if self.bvh_nodes.is_empty() != self.instances.is_empty() {
-            return Err((K::InstanceBvhNodes, 0, "a top-level BVH is required exactly when there are instances"));
+            return Err((
+                K::InstanceBvhNodes,
+                0,
+                "a top-level BVH is required exactly when there are instances",
+            ));
         }
         for (i, node) in self.bvh_nodes.iter().enumerate() {
             for &r in &node.children {
@@ -222,7 +234,11 @@ impl InstanceView<'_> {
                         return Err((K::InstanceBvhNodes, i, "leaf item range out of bounds"));
                     }
                 } else if r as usize <= i || r as usize >= self.bvh_nodes.len() {
-                    return Err((K::InstanceBvhNodes, i, "child node index not after the parent or out of range"));
+                    return Err((
+                        K::InstanceBvhNodes,
+                        i,
+                        "child node index not after the parent or out of range",
+                    ));
                 }
             }
         }

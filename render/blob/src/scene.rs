@@ -411,10 +411,8 @@ impl<'a> SceneView<'a> {
         {
             return bad(K::SceneInfo, 0, "dome light index does not name a dome light");
         }
-        if let Some(i) = self
-            .bvh_blocks
-            .iter()
-            .position(|b| b.triangles.iter().any(|&t| t as usize >= top_level))
+        if let Some(i) =
+            self.bvh_blocks.iter().position(|b| b.triangles.iter().any(|&t| t as usize >= top_level))
         {
             return bad(K::BvhTriangleBlocks, i, "triangle index out of range or inside a prototype");
         }
