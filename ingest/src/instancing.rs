@@ -7,8 +7,8 @@
 //! 1,000 instances of a mesh store one mesh plus 1,000 transforms.
 //!
 //! Kept in world space ("top level"), with the reason:
-//! - gprims outside instances, and subdivision surfaces (diced per instance against the camera, so
-//!   instances differ) and curves/points (split per instance against the camera; their own BVH);
+//! - gprims outside instances, and curves/points (split per instance against the camera, and
+//!   intersected through their own BVH);
 //! - emissive gprims: light sampling draws from a world-space distribution over emissive
 //!   triangles, which would otherwise need per-instance entries and transforms;
 //! - prototypes used by a single instance: sharing saves nothing and costs a transform per ray;
@@ -16,6 +16,9 @@
 //!
 //! The decision depends only on the scene, never on hash-map iteration order, so packing stays
 //! deterministic.
+//!
+//! Subdivision surfaces inside instances are diced per instance against the camera; instances
+//! diced to the same level have identical instance-space tessellations and share a prototype.
 
 use crate::scene::{Material, Mesh, Scene};
 use glam::DMat4;

@@ -250,3 +250,67 @@ fn point_instancer_entries_render_where_the_flattened_gprims_are() {
     }
     assert!(hits > 150 && mismatched <= 4, "{hits} hits, {mismatched} hit in only one blob");
 }
+
+/// Three instanceable references to `/Proto` (defined by `proto_body`) at x = 0, 5, 10.
+fn three_instances(proto_body: &str, extra_classes: &str) -> String {
+    let instances: String = (0..3)
+        .map(|i| {
+            format!(
+                "def \"I{i}\" (\n    instanceable = true\n    references = </Proto>\n)\n{{\n    \
+                 double3 xformOp:translate = ({}, 0, 0)\n    uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}}\n",
+                5 * i
+            )
+        })
+        .collect();
+    let world = stage(&[lambert_material("/World/Grey", 0.5), instances].join("\n"));
+    let split = world.find("def Xform \"World\"").expect("stage() writes /World");
+    format!(
+        "{}{extra_classes}class Xform \"Proto\"\n{{\n{proto_body}}}\n\n{}",
+        &world[..split],
+        &world[split..]
+    )
+}
+
+#[test]
+fn subdivision_surfaces_diced_alike_share_a_prototype() {
+    let dir = tempfile::tempdir().unwrap();
+    let cube = open_box_mesh("Cup", "/World/Grey").replace("\"none\"", "\"catmullClark\"");
+    let input = write(dir.path(), "subdiv.usda", &three_instances(&cube, ""));
+    let output = dir.path().join("subdiv.blob");
+    let options = ingest::usd::LoadOptions {
+        subdiv: ingest::dicing::SubdivOptions { forced_level: Some(2), ..Default::default() },
+        ..Default::default()
+    };
+    let (scene, report) =
+        ingest::pipeline::ingest_file_with(&input, &output, &options, &Default::default()).expect("ingest");
+    assert_eq!(scene.subdivisions.len(), 3, "each instance proxy is diced");
+    assert_eq!((report.prototypes, report.instances), (1, 3));
+    assert_eq!(report.stored_triangles * 3, report.triangles, "one tessellation stored for three");
+}
+
+#[test]
+fn nested_instances_are_expanded_inside_the_outermost_prototype() {
+    let dir = tempfile::tempdir().unwrap();
+    let tri = mesh_prim(
+        "Tri",
+        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        &[3],
+        &[0, 1, 2],
+        None,
+        "/World/Grey",
+    );
+    let inner = format!("class Xform \"Inner\"\n{{\n{tri}}}\n\n");
+    // The prototype holds two instances of /Inner, one shifted up.
+    let proto = "def \"A\" (\n    instanceable = true\n    references = </Inner>\n)\n{\n}\n\
+                 def \"B\" (\n    instanceable = true\n    references = </Inner>\n)\n{\n    \
+                 double3 xformOp:translate = (0, 2, 0)\n    uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}\n";
+    let (scene, bytes) = ingest(dir.path(), "nested", &three_instances(proto, &inner), false);
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    assert_eq!(scene.meshes.len(), 6, "three outer instances of two inner ones");
+    assert_eq!(scene.instance_count, 9, "3 outer + 6 nested instanceable prims");
+    assert_eq!(scene.instances.len(), 3, "only the outermost instances become records");
+    assert_eq!((view.instancing.prototypes.len(), view.instancing.instances.len()), (1, 3));
+    assert_eq!(view.triangles.len(), 2, "the prototype holds both nested triangles");
+    let info = render::info::summarize(&view);
+    assert_eq!(info.triangles, 6);
+}

@@ -415,18 +415,25 @@ impl Reader<'_> {
         // Inside an instance the gprim is also kept in the instance's space (computed from the
         // authored points, not by inverting the world transform, so identical instances give
         // bit-identical prototype geometry).
-        let instance = state.instance.map(|frame| {
-            let in_instance = world_mesh(path, local.clone(), frame.instance_from_local);
-            crate::scene::InstancedMesh {
-                instance: frame.index,
-                positions: in_instance.positions,
-                normals: in_instance.normals,
-                triangles: in_instance.triangles,
-            }
-        });
+        let instance = state.instance.map(|frame| instanced_copy(path, &local, frame));
         let mut mesh = world_mesh(path, local, state.world_from_local);
         mesh.instance = instance;
         self.scene.meshes.push(mesh);
+    }
+}
+
+/// The instance-space copy of a local mesh inside the instance `frame`.
+pub(super) fn instanced_copy(
+    path: &str,
+    local: &LocalMesh,
+    frame: super::InstanceFrame,
+) -> crate::scene::InstancedMesh {
+    let in_instance = world_mesh(path, local.clone(), frame.instance_from_local);
+    crate::scene::InstancedMesh {
+        instance: frame.index,
+        positions: in_instance.positions,
+        normals: in_instance.normals,
+        triangles: in_instance.triangles,
     }
 }
 
