@@ -97,16 +97,16 @@ fn bytes_saved(view: &SceneView) -> i64 {
             let vertices: usize = meshes.iter().map(|m| m.vertex_count as usize).sum();
             (vertices * vertex_bytes
                 + p.triangle_count as usize * (size_of::<blob::Triangle>() + size_of::<u32>())
-                + meshes.len() * size_of::<blob::Mesh>()
+                + std::mem::size_of_val(meshes)
                 + p.node_count as usize * size_of::<blob::BvhNode>()
                 + p.block_count as usize * size_of::<blob::TriangleBlock>()) as i64
         })
         .collect();
     let flattened: i64 = inst.instances.iter().map(|i| prototype_bytes[i.prototype as usize]).sum();
-    let overhead = (inst.prototypes.len() * size_of::<blob::Prototype>()
-        + inst.instances.len() * size_of::<blob::Instance>()
-        + inst.bvh_nodes.len() * size_of::<blob::BvhNode>()
-        + inst.bvh_items.len() * size_of::<u32>()) as i64;
+    let overhead = (std::mem::size_of_val(inst.prototypes)
+        + std::mem::size_of_val(inst.instances)
+        + std::mem::size_of_val(inst.bvh_nodes)
+        + std::mem::size_of_val(inst.bvh_items)) as i64;
     flattened - prototype_bytes.iter().sum::<i64>() - overhead
 }
 
