@@ -1,8 +1,10 @@
 //! The validated scene model between USD and the blob.
 //!
 //! Everything here is already composed, flattened to world space and triangulated: the USD reader
-//! (`crate::usd`) produces it, `crate::pack` turns it into blob records. Nothing in this module knows
-//! about USD or about the blob layout.
+//! (`crate::usd`) produces it, `crate::pack` turns it into blob records. Gprims inside instances also
+//! keep a copy in their instance's space ([`InstancedMesh`]), from which `crate::instancing` builds
+//! shared prototypes; the world-space copies serve `--dump-json` and `--flatten-instances`. Nothing in
+//! this module knows about USD or about the blob layout.
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
