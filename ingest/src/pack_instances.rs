@@ -166,5 +166,6 @@ mod tests {
         .unwrap();
         assert_eq!(flat.triangles.len(), 100);
         assert!(flat.instancing.instances.is_empty());
+        assert_eq!(data.encode(), crate::pack::pack(&quads(50)).unwrap().encode(), "deterministic bytes");
     }
 }
