@@ -9,6 +9,9 @@
 //! - `bench integrators BLOB`: the scalar and wavefront integrators on the same blob, Msamples/s and
 //!   their ratio.
 //!
+//! - `bench instancing`: 1,000 instanced spheres as one prototype plus instance records versus
+//!   flattened: blob bytes and closest-hit Mrays/s on the same rays.
+//!
 //! - `bench curves`: a generated groom; curve-intersection throughput and image error against segments per
 //!   curve, fixed versus camera-adaptive splitting, charted as SVG.
 //!
@@ -20,6 +23,7 @@
 mod convergence;
 mod curves;
 mod ingest_speed;
+mod instancing;
 mod integrators;
 mod rays;
 mod subdiv;
@@ -121,6 +125,30 @@ enum Cmd {
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
     },
+    /// Instancing: blob bytes and Mrays/s of 1,000 instanced spheres, two-level versus flattened.
+    Instancing {
+        /// Instances.
+        #[arg(long, default_value_t = 1000)]
+        count: usize,
+        /// Sphere rings (triangles per sphere: 2 × rings × segments).
+        #[arg(long, default_value_t = 16)]
+        rings: u32,
+        /// Sphere segments.
+        #[arg(long, default_value_t = 32)]
+        segments: u32,
+        /// Primary rays: res × res.
+        #[arg(long, default_value_t = 512)]
+        res: u32,
+        /// Incoherent (cosine-bounce) rays.
+        #[arg(long, default_value_t = 300_000)]
+        rays: usize,
+        /// Best of this many timings.
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+        /// Work folder for the results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
     /// Curves: throughput and image error against segments per curve, adaptive versus fixed splitting.
     Curves {
         /// Strands of the generated groom.
@@ -190,6 +218,14 @@ fn main() -> anyhow::Result<()> {
         Cmd::Rays { blob: path, res, rays: count, repeat, python, out } => {
             let bytes = load(&path)?;
             let view = blob::SceneView::parse(&bytes).with_context(|| format!("{}", path.display()))?;
+            if !view.instancing.instances.is_empty() {
+                // Embree gets the stored triangles, and incoherent rays start on them: both need
+                // world space.
+                anyhow::bail!(
+                    "{} has instances: ingest it with --flatten-instances for bench rays (bench instancing compares the two)",
+                    path.display()
+                );
+            }
             let accel = render::accel::Accel::new(&view);
             std::fs::create_dir_all(&out)?;
             rays::write_triangles(&view, &out)?;
@@ -277,6 +313,10 @@ fn main() -> anyhow::Result<()> {
             let assets = assets.iter().map(|a| subdiv_asset(a)).collect::<anyhow::Result<Vec<_>>>()?;
             std::fs::create_dir_all(&out)?;
             subdiv::run(&assets, &out)?;
+        }
+        Cmd::Instancing { count, rings, segments, res, rays, repeat, out } => {
+            std::fs::create_dir_all(&out)?;
+            instancing::run(count, rings, segments, res, rays, repeat, &out)?;
         }
         Cmd::Curves { strands, res, out } => {
             std::fs::create_dir_all(&out)?;

@@ -54,6 +54,7 @@ fn plane_scene() -> ingest::Scene {
         triangles: vec![[0, 1, 2], [0, 2, 3]],
         triangle_materials: vec![0, 0],
         double_sided: true,
+        instance: None,
     };
     let mut material =
         ingest::Material { path: "/Looks/Ground".into(), ior: 1.0, ..ingest::Material::default() };

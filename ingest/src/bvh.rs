@@ -68,37 +68,81 @@ pub fn build_with(triangles: &[[Vec3; 3]], params: &BuildParams) -> BuiltBvh {
         return BuiltBvh { nodes: Vec::new(), blocks: Vec::new() };
     }
     let bvh2 = build_bvh2(triangles, params.pre_split);
-    let leaf = choose_leaves(&bvh2, params);
-    let leaves = leaf_counts(&bvh2, &leaf);
-    let mut out = BuiltBvh { nodes: Vec::new(), blocks: Vec::new() };
+    let mut blocks = Vec::new();
+    let nodes = collapse(&bvh2, params, |prims| emit_leaf(prims, triangles, &mut blocks));
+    BuiltBvh { nodes, blocks }
+}
+
+/// A BVH over boxes (the top level over instance world bounds): 8-wide nodes whose leaves
+/// reference ranges of `items` (one box index per slot).
+pub struct BuiltBoxBvh {
+    /// Nodes, root first; empty exactly when there are no boxes.
+    pub nodes: Vec<BvhNode>,
+    /// Box index per leaf slot.
+    pub items: Vec<u32>,
+}
+
+/// Builds a BVH over `(min, max)` boxes with one box per leaf: a leaf visit costs a transform and
+/// a whole prototype traversal, far more than a node test, so leaves never group boxes.
+pub fn build_boxes(boxes: &[(Vec3, Vec3)]) -> BuiltBoxBvh {
+    if boxes.is_empty() {
+        return BuiltBoxBvh { nodes: Vec::new(), items: Vec::new() };
+    }
+    let config = BvhBuildParams::slow_build();
+    let aabbs: Vec<Aabb> =
+        boxes.iter().map(|&(lo, hi)| Aabb::new(Vec3A::from(lo), Vec3A::from(hi))).collect();
+    let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+        config.ploc_search_distance,
+        &aabbs,
+        (0..aabbs.len() as u32).collect(),
+        config.sort_precision,
+        config.search_depth_threshold,
+    );
+    ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+    let params = BuildParams { max_leaf_triangles: 1, pre_split: false, ..BuildParams::default() };
+    let mut items = Vec::new();
+    let nodes = collapse(&bvh2, &params, |prims| {
+        let first = items.len() as u32;
+        items.extend_from_slice(prims);
+        child_ref::leaf(first, prims.len() as u32).expect("more instances than a leaf reference can address")
+    });
+    BuiltBoxBvh { nodes, items }
+}
+
+/// Chooses leaves and collapses the binary tree into 8-wide nodes; `emit` writes one leaf's
+/// primitives (sorted, without duplicates) and returns its child reference.
+fn collapse(bvh2: &Bvh2, params: &BuildParams, mut emit: impl FnMut(&[u32]) -> u32) -> Vec<BvhNode> {
+    let leaf = choose_leaves(bvh2, params);
+    let leaves = leaf_counts(bvh2, &leaf);
+    let mut nodes = Vec::new();
     let root = &bvh2.nodes[0];
     if leaf[0] {
         // The whole scene is one leaf: a root with a single child.
-        out.nodes.push(empty_node());
-        let r = emit_leaf(&bvh2, 0, triangles, &mut out.blocks);
-        set_child(&mut out.nodes[0], 0, root.aabb(), r);
-        return out;
+        nodes.push(empty_node());
+        let r = emit(&leaf_primitives(bvh2, 0));
+        set_child(&mut nodes[0], 0, root.aabb(), r);
+        return nodes;
     }
     // (binary node, wide node index) pairs still to fill; LIFO keeps subtrees close in memory.
-    out.nodes.push(empty_node());
+    nodes.push(empty_node());
     let mut todo = vec![(0usize, 0usize)];
     while let Some((bin, wide)) = todo.pop() {
-        let children = open_children(&bvh2, &leaf, &leaves, params.absorb_small_subtrees, bin);
-        let mut next = out.nodes.len();
+        let children = open_children(bvh2, &leaf, &leaves, params.absorb_small_subtrees, bin);
+        let mut next = nodes.len();
         for (slot, &c) in children.iter().enumerate() {
             let r = if leaf[c] {
-                emit_leaf(&bvh2, c, triangles, &mut out.blocks)
+                emit(&leaf_primitives(bvh2, c))
             } else {
-                out.nodes.push(empty_node());
+                nodes.push(empty_node());
                 todo.push((c, next));
                 next += 1;
                 (next - 1) as u32
             };
-            set_child(&mut out.nodes[wide], slot, bvh2.nodes[c].aabb(), r);
+            set_child(&mut nodes[wide], slot, bvh2.nodes[c].aabb(), r);
         }
         // Internal children were appended after `wide`, so child indices always exceed the parent's.
     }
-    out
+    nodes
 }
 
 /// PLOC + reinsertion as in obvhs' `build_cwbvh_from_tris` with `slow_build()` parameters, without the
@@ -224,8 +268,9 @@ fn leaf_counts(bvh2: &Bvh2, leaf: &[bool]) -> Vec<u32> {
     leaves
 }
 
-/// Writes the blocks of the leaf rooted at binary node `n` and returns its child reference.
-fn emit_leaf(bvh2: &Bvh2, n: usize, triangles: &[[Vec3; 3]], blocks: &mut Vec<TriangleBlock>) -> u32 {
+/// The primitives under binary node `n`, sorted, each once (a pre-split triangle may reach the same
+/// leaf twice; once is enough).
+fn leaf_primitives(bvh2: &Bvh2, n: usize) -> Vec<u32> {
     let mut tris = Vec::new();
     let mut stack = vec![n];
     while let Some(i) = stack.pop() {
@@ -241,6 +286,11 @@ fn emit_leaf(bvh2: &Bvh2, n: usize, triangles: &[[Vec3; 3]], blocks: &mut Vec<Tr
     // A pre-split triangle may reach the same leaf twice; once is enough.
     tris.sort_unstable();
     tris.dedup();
+    tris
+}
+
+/// Writes the blocks of one leaf's triangles and returns its child reference.
+fn emit_leaf(tris: &[u32], triangles: &[[Vec3; 3]], blocks: &mut Vec<TriangleBlock>) -> u32 {
     let first = blocks.len() as u32;
     for chunk in tris.chunks(BLOCK_WIDTH) {
         let mut block = TriangleBlock::default();

@@ -41,6 +41,9 @@ struct Args {
     #[arg(long, value_name = "N", default_value_t = 5,
           value_parser = clap::value_parser!(u32).range(0..=subdiv::MAX_LEVEL as i64))]
     max_subdiv_level: u32,
+    /// Copy every instance into world space instead of storing shared prototypes once.
+    #[arg(long)]
+    flatten_instances: bool,
     /// Print no summary (warnings are still printed).
     #[arg(short, long)]
     quiet: bool,
@@ -71,7 +74,8 @@ fn run(args: Args) -> anyhow::Result<()> {
             max_level: args.max_subdiv_level,
         },
     };
-    let (scene, report) = ingest::pipeline::ingest_file(&args.asset, &args.output, &options)?;
+    let pack = ingest::pack::PackOptions { flatten_instances: args.flatten_instances, ..Default::default() };
+    let (scene, report) = ingest::pipeline::ingest_file_with(&args.asset, &args.output, &options, &pack)?;
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
@@ -92,6 +96,12 @@ fn run(args: Args) -> anyhow::Result<()> {
             report.load_seconds,
             report.pack_seconds
         );
+        if report.instances > 0 {
+            eprintln!(
+                "ingest: {} instances of {} prototypes; {} triangles stored for {} rendered",
+                report.instances, report.prototypes, report.stored_triangles, report.triangles
+            );
+        }
         if report.subdivision_meshes > 0 {
             let saved = report.triangles_at_fixed_level as i64 - report.triangles as i64;
             eprintln!(

@@ -18,68 +18,52 @@ pub struct PackError {
     pub problem: String,
 }
 
+/// How a scene is packed.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PackOptions {
+    /// Curve splitting policy.
+    pub split: crate::pack_curves::Split,
+    /// Copy every instance into world space instead of sharing prototypes (format 4 behaviour;
+    /// `ingest --flatten-instances`).
+    pub flatten_instances: bool,
+}
+
 /// Packs a scene into blob records.
 pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
-    pack_with(scene, crate::pack_curves::Split::default())
+    pack_scene(scene, &PackOptions::default())
 }
 
 /// [`pack`] with an explicit curve-splitting policy.
 pub fn pack_with(scene: &Scene, split: crate::pack_curves::Split) -> Result<blob::SceneData, PackError> {
+    pack_scene(scene, &PackOptions { split, ..PackOptions::default() })
+}
+
+/// [`pack`] with explicit options.
+pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneData, PackError> {
     validate(scene)?;
     let mut data = blob::SceneData::default();
     let mut bounds_min = Vec3::splat(f32::INFINITY);
     let mut bounds_max = Vec3::splat(f32::NEG_INFINITY);
-    let any_normals = scene.meshes.iter().any(|m| !m.normals.is_empty());
-    let any_uvs = scene.meshes.iter().any(|m| !m.uvs.is_empty());
-
-    for (mesh_index, mesh) in scene.meshes.iter().enumerate() {
-        let first_vertex = data.positions.len() as u32;
-        let first_triangle = data.triangles.len() as u32;
-        let name = data.add_string(&mesh.path);
-        for p in &mesh.positions {
-            bounds_min = bounds_min.min(*p);
-            bounds_max = bounds_max.max(*p);
-            data.positions.push(p.to_array());
-        }
-        if any_normals {
-            if mesh.normals.is_empty() {
-                data.normals.extend(std::iter::repeat_n([0.0, 0.0, 1.0], mesh.positions.len()));
-            } else {
-                data.normals.extend(mesh.normals.iter().map(|n| n.normalize_or(Vec3::Z).to_array()));
-            }
-        }
-        if any_uvs {
-            if mesh.uvs.is_empty() {
-                data.uvs.extend(std::iter::repeat_n([0.0, 0.0], mesh.positions.len()));
-            } else {
-                data.uvs.extend(mesh.uvs.iter().map(|uv| uv.to_array()));
-            }
-        }
-        for tri in &mesh.triangles {
-            data.triangles
-                .push(rec::Triangle { vertices: tri.map(|v| v + first_vertex), mesh: mesh_index as u32 });
-        }
-        data.triangle_materials.extend_from_slice(&mesh.triangle_materials);
-        let mut flags = 0;
-        if !mesh.normals.is_empty() {
-            flags |= rec::MESH_HAS_NORMALS;
-        }
-        if !mesh.uvs.is_empty() {
-            flags |= rec::MESH_HAS_UVS;
-        }
-        if mesh.double_sided {
-            flags |= rec::MESH_DOUBLE_SIDED;
-        }
-        data.meshes.push(rec::Mesh {
-            name,
-            first_triangle,
-            triangle_count: mesh.triangles.len() as u32,
-            first_vertex,
-            vertex_count: mesh.positions.len() as u32,
-            flags,
-            reserved: 0,
-        });
+    for p in scene.meshes.iter().flat_map(|m| &m.positions) {
+        bounds_min = bounds_min.min(*p);
+        bounds_max = bounds_max.max(*p);
     }
+    let emission: Vec<Vec3> = scene.materials.iter().map(emission_estimate).collect();
+    let plan = if options.flatten_instances {
+        crate::instancing::Instancing::flattened(scene)
+    } else {
+        let emissive: Vec<bool> = emission.iter().map(|e| luminance(*e) > 0.0).collect();
+        crate::instancing::plan(scene, &emissive)
+    };
+    let layout = MeshLayout {
+        any_normals: scene.meshes.iter().any(|m| !m.normals.is_empty()),
+        any_uvs: scene.meshes.iter().any(|m| !m.uvs.is_empty()),
+    };
+    for &m in &plan.top_level {
+        let mesh = &scene.meshes[m];
+        layout.push(&mut data, mesh, &mesh.positions, &mesh.normals, &mesh.triangles);
+    }
+    let top_level_triangles = data.triangles.len();
 
     let texture_refs = pack_textures(scene, &mut data);
     for m in &scene.materials {
@@ -166,18 +150,17 @@ pub fn pack_with(scene: &Scene, split: crate::pack_curves::Split) -> Result<blob
         });
     }
 
-    let emission: Vec<Vec3> = scene.materials.iter().map(emission_estimate).collect();
     data.emissive_triangles = emissive_distribution(&data, &emission);
 
-    let corners: Vec<[Vec3; 3]> = data
-        .triangles
+    let corners: Vec<[Vec3; 3]> = data.triangles[..top_level_triangles]
         .iter()
         .map(|t| t.vertices.map(|v| Vec3::from_array(data.positions[v as usize])))
         .collect();
     let bvh = crate::bvh::build(&corners);
     data.bvh_nodes = bvh.nodes;
     data.bvh_blocks = bvh.blocks;
-    let (curves_min, curves_max) = crate::pack_curves::pack_curves(scene, &mut data, split);
+    crate::pack_instances::pack_instances(scene, &plan, &layout, &mut data);
+    let (curves_min, curves_max) = crate::pack_curves::pack_curves(scene, &mut data, options.split);
     bounds_min = bounds_min.min(curves_min);
     bounds_max = bounds_max.max(curves_max);
 
@@ -199,8 +182,75 @@ pub fn pack_with(scene: &Scene, split: crate::pack_curves::Split) -> Result<blob
     Ok(data)
 }
 
+/// Which optional vertex sections the blob has (all meshes share them, so a mesh without normals
+/// or uvs gets filler entries when another mesh has them).
+pub(crate) struct MeshLayout {
+    any_normals: bool,
+    any_uvs: bool,
+}
+
+impl MeshLayout {
+    /// Appends one mesh (its vertices given in the space it is stored in) and its mesh record.
+    pub(crate) fn push(
+        &self,
+        data: &mut blob::SceneData,
+        mesh: &crate::scene::Mesh,
+        positions: &[Vec3],
+        normals: &[Vec3],
+        triangles: &[[u32; 3]],
+    ) {
+        let mesh_index = data.meshes.len() as u32;
+        let first_vertex = data.positions.len() as u32;
+        let first_triangle = data.triangles.len() as u32;
+        let name = data.add_string(&mesh.path);
+        data.positions.extend(positions.iter().map(|p| p.to_array()));
+        if self.any_normals {
+            if normals.is_empty() {
+                data.normals.extend(std::iter::repeat_n([0.0, 0.0, 1.0], positions.len()));
+            } else {
+                data.normals.extend(normals.iter().map(|n| n.normalize_or(Vec3::Z).to_array()));
+            }
+        }
+        if self.any_uvs {
+            if mesh.uvs.is_empty() {
+                data.uvs.extend(std::iter::repeat_n([0.0, 0.0], positions.len()));
+            } else {
+                data.uvs.extend(mesh.uvs.iter().map(|uv| uv.to_array()));
+            }
+        }
+        for tri in triangles {
+            data.triangles.push(rec::Triangle { vertices: tri.map(|v| v + first_vertex), mesh: mesh_index });
+        }
+        data.triangle_materials.extend_from_slice(&mesh.triangle_materials);
+        let mut flags = 0;
+        if !normals.is_empty() {
+            flags |= rec::MESH_HAS_NORMALS;
+        }
+        if !mesh.uvs.is_empty() {
+            flags |= rec::MESH_HAS_UVS;
+        }
+        if mesh.double_sided {
+            flags |= rec::MESH_DOUBLE_SIDED;
+        }
+        data.meshes.push(rec::Mesh {
+            name,
+            first_triangle,
+            triangle_count: triangles.len() as u32,
+            first_vertex,
+            vertex_count: positions.len() as u32,
+            flags,
+            reserved: 0,
+        });
+    }
+}
+
+/// Rec. 709 luminance, the weight of emission in the light distribution.
+fn luminance(e: Vec3) -> f32 {
+    e.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
 /// Rows 0..3 of a 4×4 affine matrix (column-vector convention), as stored in the blob.
-fn affine_rows(m: &Mat4) -> [[f32; 4]; 3] {
+pub(crate) fn affine_rows(m: &Mat4) -> [[f32; 4]; 3] {
     let rows = m.transpose().to_cols_array_2d();
     [rows[0], rows[1], rows[2]]
 }
@@ -338,8 +388,7 @@ fn emissive_distribution(data: &blob::SceneData, emission: &[Vec3]) -> Vec<rec::
     let mut entries: Vec<rec::EmissiveTriangle> = Vec::new();
     let mut total = 0.0f64;
     for (i, (tri, &material)) in data.triangles.iter().zip(&data.triangle_materials).enumerate() {
-        let e = emission[material as usize];
-        let luminance = e.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let luminance = luminance(emission[material as usize]);
         if luminance <= 0.0 {
             continue;
         }
@@ -389,6 +438,17 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
         }
         if mesh.positions.iter().any(|p| !p.is_finite()) {
             return fail(&mesh.path, "non-finite point".into());
+        }
+        if let Some(local) = &mesh.instance {
+            let consistent = (local.instance as usize) < scene.instances.len()
+                && local.positions.len() == n
+                && (local.normals.len() == mesh.normals.len())
+                && local.triangles.len() == mesh.triangles.len()
+                && local.triangles.iter().all(|t| t.iter().all(|&v| (v as usize) < n))
+                && local.positions.iter().all(|p| p.is_finite());
+            if !consistent {
+                return fail(&mesh.path, "instance-space copy does not match the mesh".into());
+            }
         }
     }
     for m in &scene.materials {

@@ -1,5 +1,6 @@
 //! The whole ingest step as one library call, used by the binary and by the end-to-end tests.
 
+use crate::pack::PackOptions;
 use crate::scene::Scene;
 use crate::usd::{self, LoadOptions};
 use anyhow::Context;
@@ -11,8 +12,14 @@ use std::time::Instant;
 pub struct IngestReport {
     /// Gprims written.
     pub meshes: usize,
-    /// Triangles written.
+    /// Triangles rendered (every instance counted).
     pub triangles: usize,
+    /// Triangles stored in the blob (each prototype once).
+    pub stored_triangles: usize,
+    /// Prototypes shared by instances.
+    pub prototypes: usize,
+    /// Instances of those prototypes.
+    pub instances: usize,
     /// Materials written.
     pub materials: usize,
     /// Lights written.
@@ -40,6 +47,16 @@ pub fn ingest_file(
     output: &Path,
     options: &LoadOptions,
 ) -> anyhow::Result<(Scene, IngestReport)> {
+    ingest_file_with(input, output, options, &PackOptions::default())
+}
+
+/// [`ingest_file`] with explicit packing options (e.g. `--flatten-instances`).
+pub fn ingest_file_with(
+    input: &Path,
+    output: &Path,
+    options: &LoadOptions,
+    pack: &PackOptions,
+) -> anyhow::Result<(Scene, IngestReport)> {
     let start = Instant::now();
     let scene = if crate::alembic::is_alembic(input) {
         crate::alembic::load(input, options).map_err(anyhow::Error::from)
@@ -49,13 +66,17 @@ pub fn ingest_file(
     .with_context(|| format!("cannot ingest {}", input.display()))?;
     let load_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let data = crate::pack::pack(&scene).with_context(|| format!("cannot pack {}", input.display()))?;
+    let data =
+        crate::pack::pack_scene(&scene, pack).with_context(|| format!("cannot pack {}", input.display()))?;
     let bytes = data.encode();
     let pack_seconds = start.elapsed().as_secs_f64();
     blob::write_atomic(output, &bytes).with_context(|| format!("cannot write {}", output.display()))?;
     let report = IngestReport {
         meshes: scene.meshes.len(),
         triangles: scene.triangle_count(),
+        stored_triangles: data.triangles.len(),
+        prototypes: data.instancing.prototypes.len(),
+        instances: data.instancing.instances.len(),
         materials: scene.materials.len(),
         lights: scene.lights.len(),
         cameras: scene.cameras.len(),

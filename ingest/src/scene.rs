@@ -1,8 +1,10 @@
 //! The validated scene model between USD and the blob.
 //!
 //! Everything here is already composed, flattened to world space and triangulated: the USD reader
-//! (`crate::usd`) produces it, `crate::pack` turns it into blob records. Nothing in this module knows
-//! about USD or about the blob layout.
+//! (`crate::usd`) produces it, `crate::pack` turns it into blob records. Gprims inside instances also
+//! keep a copy in their instance's space ([`InstancedMesh`]), from which `crate::instancing` builds
+//! shared prototypes; the world-space copies serve `--dump-json` and `--flatten-instances`. Nothing in
+//! this module knows about USD or about the blob layout.
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
@@ -29,6 +31,10 @@ pub struct Scene {
     pub up_axis: UpAxis,
     /// Number of instances (instanceable prims / point-instancer entries) expanded.
     pub instance_count: u32,
+    /// The outermost instances (instanceable prims and point-instancer entries not inside another
+    /// instance): what [`Mesh::instance`] refers to. `crate::instancing` turns them into shared
+    /// prototypes when packing.
+    pub instances: Vec<SceneInstance>,
     /// Unsupported features and other non-fatal findings, each naming the prim and the feature.
     pub warnings: Vec<Warning>,
     /// The subdivision surfaces among `meshes`: their cages and the level each was diced at.
@@ -186,6 +192,32 @@ pub struct Mesh {
     pub triangle_materials: Vec<u32>,
     /// `doubleSided`.
     pub double_sided: bool,
+    /// For a gprim inside an instance: the same gprim in the instance's space, so that identical
+    /// instances can share one prototype. `None` for gprims drawn once.
+    pub instance: Option<InstancedMesh>,
+}
+
+/// One outermost instance: an instanceable prim, or one entry of a PointInstancer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneInstance {
+    /// The instance prim path, or `<instancer>[i]` for a point-instancer entry.
+    pub path: String,
+    /// Instance-to-world transform: the instanceable prim's own world transform, or the instancer's
+    /// world transform times the entry's (position, orientation, scale).
+    pub world_from_instance: glam::DMat4,
+}
+
+/// A [`Mesh`] of an instance, in the instance's space (`world = world_from_instance · this`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct InstancedMesh {
+    /// Index into [`Scene::instances`].
+    pub instance: u32,
+    /// Instance-space positions.
+    pub positions: Vec<Vec3>,
+    /// Instance-space unit normals (empty when the mesh has none).
+    pub normals: Vec<Vec3>,
+    /// Triangles wound for the instance-space transform (mirroring may differ from world space).
+    pub triangles: Vec<[u32; 3]>,
 }
 
 /// A subdivision surface as diced: `Scene::meshes[mesh]` holds its triangles.

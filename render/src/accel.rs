@@ -79,15 +79,20 @@ pub struct Hit {
     pub b1: f32,
     /// Barycentric weight of the triangle's vertex 2.
     pub b2: f32,
+    /// Index into the blob's instances when `triangle` is a prototype triangle (then `t`, `b1` and
+    /// `b2` are the same in prototype and world space), or [`blob::NONE`] for a top-level triangle.
+    pub instance: u32,
 }
 
-/// Read-only acceleration structure over mapped blob slices.
+/// Read-only acceleration structure over mapped blob slices: the world BVH over the top-level
+/// triangles and, when the scene has instances, the two-level structure of [`crate::instanced`].
 #[derive(Clone, Copy, Debug)]
 pub struct Accel<'a> {
     nodes: &'a [BvhNode],
     blocks: &'a [TriangleBlock],
     positions: &'a [[f32; 3]],
     triangles: &'a [blob::Triangle],
+    instances: crate::instanced::Instances<'a>,
 }
 
 impl<'a> Accel<'a> {
@@ -98,29 +103,69 @@ impl<'a> Accel<'a> {
             blocks: view.bvh_blocks,
             positions: view.positions,
             triangles: view.triangles,
+            instances: crate::instanced::Instances::new(view),
         }
     }
 
-    /// The three world-space vertices of triangle `index`.
+    /// The three vertices of triangle `index` as stored: world space for a top-level triangle,
+    /// prototype space for a prototype triangle (see [`Accel::hit_vertices`]).
     #[inline]
     pub fn triangle_vertices(&self, index: u32) -> [Vec3; 3] {
         let tri = &self.triangles[index as usize];
         tri.vertices.map(|v| Vec3::from(self.positions[v as usize]))
     }
 
+    /// The world-space vertices of the triangle `hit` found (transformed by its instance).
+    #[inline]
+    pub fn hit_vertices(&self, hit: &Hit) -> [Vec3; 3] {
+        let v = self.triangle_vertices(hit.triangle);
+        if hit.instance == blob::NONE {
+            v
+        } else {
+            v.map(|p| self.instances.to_world_point(hit.instance, p))
+        }
+    }
+
+    /// A normal of the triangle `hit` found, from its stored space to world space (by the inverse
+    /// transpose of the instance transform); unchanged for top-level triangles. Not normalized.
+    #[inline]
+    pub fn normal_to_world(&self, hit: &Hit, n: Vec3) -> Vec3 {
+        if hit.instance == blob::NONE {
+            n
+        } else {
+            self.instances.to_world_normal(hit.instance, n)
+        }
+    }
+
+    /// The instancing tables (empty for a scene without instances).
+    pub fn instances(&self) -> &crate::instanced::Instances<'a> {
+        &self.instances
+    }
+
+    fn is_empty(&self) -> bool {
+        self.nodes.is_empty() && self.instances.is_empty()
+    }
+
     /// Closest hit with `t` in (0, `tmax`).
     pub fn closest_hit(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
-        if self.nodes.is_empty() {
+        if self.is_empty() {
             return None;
         }
         closest_hit_simd(self, origin, direction, tmax)
     }
 
-    /// True if any triangle for which `blocks(triangle)` holds is hit with `t` in (0, `tmax`).
-    /// `blocks` lets the caller make partially transparent triangles stochastically transparent; it must
-    /// be a pure function of the triangle, as a triangle may be visited more than once.
-    pub fn any_hit(&self, origin: Vec3, direction: Vec3, tmax: f32, blocks: impl FnMut(u32) -> bool) -> bool {
-        if self.nodes.is_empty() {
+    /// True if any triangle for which `blocks(triangle, instance)` holds is hit with `t` in
+    /// (0, `tmax`) (`instance` is [`blob::NONE`] for top-level triangles). `blocks` lets the caller
+    /// make partially transparent triangles stochastically transparent; it must be a pure function
+    /// of its arguments, as a triangle may be visited more than once.
+    pub fn any_hit(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        tmax: f32,
+        blocks: impl FnMut(u32, u32) -> bool,
+    ) -> bool {
+        if self.is_empty() {
             return false;
         }
         any_hit_simd(self, origin, direction, tmax, blocks)
@@ -128,10 +173,10 @@ impl<'a> Accel<'a> {
 
     /// [`Accel::closest_hit`] with the scalar reference kernels (for tests).
     pub fn closest_hit_scalar(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
-        if self.nodes.is_empty() {
+        if self.is_empty() {
             return None;
         }
-        closest(self, origin, direction, tmax, Scalar::node, Scalar::block)
+        two_level_closest(self, origin, direction, tmax, &Scalar::node, &Scalar::block)
     }
 
     /// [`Accel::any_hit`] with the scalar reference kernels (for tests).
@@ -140,12 +185,12 @@ impl<'a> Accel<'a> {
         origin: Vec3,
         direction: Vec3,
         tmax: f32,
-        blocks: impl FnMut(u32) -> bool,
+        mut blocks: impl FnMut(u32, u32) -> bool,
     ) -> bool {
-        if self.nodes.is_empty() {
+        if self.is_empty() {
             return false;
         }
-        any(self, origin, direction, tmax, Scalar::node, Scalar::block, blocks)
+        two_level_any(self, origin, direction, tmax, &Scalar::node, &Scalar::block, &mut blocks)
     }
 
     /// Closest hits for a batch of rays (for benchmarks): one entry per ray, in order.
@@ -157,10 +202,21 @@ impl<'a> Accel<'a> {
     pub fn closest_hit_brute_force(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
         let wray = WatertightRay::new(origin, direction);
         let mut best: Option<Hit> = None;
-        for triangle in 0..self.triangles.len() as u32 {
+        let top_level = self.instances.top_level_triangles(self.triangles.len());
+        for triangle in 0..top_level as u32 {
             let limit = best.map_or(tmax, |h| h.t);
             if let Some((t, b1, b2)) = wray.intersect(self.triangle_vertices(triangle), limit) {
-                best = Some(Hit { t, triangle, b1, b2 });
+                best = Some(Hit { t, triangle, b1, b2, instance: blob::NONE });
+            }
+        }
+        // Instances: every prototype triangle moved to world space.
+        for instance in 0..self.instances.len() as u32 {
+            for triangle in self.instances.prototype_triangles(instance) {
+                let limit = best.map_or(tmax, |h| h.t);
+                let hit = Hit { t: 0.0, triangle, b1: 0.0, b2: 0.0, instance };
+                if let Some((t, b1, b2)) = wray.intersect(self.hit_vertices(&hit), limit) {
+                    best = Some(Hit { t, b1, b2, ..hit });
+                }
             }
         }
         best
@@ -188,17 +244,19 @@ fn closest_hit_simd(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32) -> 
     // Not redundant: `#[target_feature]` functions do not implement `Fn`; the closures inherit the
     // features and make the calls safe.
     #[allow(clippy::redundant_closure)]
-    let found = closest(accel, origin, direction, tmax, |n, r, t| node(n, r, t), |b, r, t| block(b, r, t));
+    let found = two_level_closest(accel, origin, direction, tmax, &|n, r, t| node(n, r, t), &|b, r, t| {
+        block(b, r, t)
+    });
     found
 }
 
 #[multiversion(targets("x86_64+avx2+fma"))]
-fn any_hit_simd<F: FnMut(u32) -> bool>(
+fn any_hit_simd<F: FnMut(u32, u32) -> bool>(
     accel: &Accel,
     origin: Vec3,
     direction: Vec3,
     tmax: f32,
-    blocks: F,
+    mut blocks: F,
 ) -> bool {
     #[multiversion::inherit_target]
     #[inline(never)]
@@ -212,9 +270,66 @@ fn any_hit_simd<F: FnMut(u32) -> bool>(
     }
     // Not redundant, see `closest_hit_simd`.
     #[allow(clippy::redundant_closure)]
-    let found =
-        any(accel, origin, direction, tmax, |n, r, t| node(n, r, t), |b, r, t| block(b, r, t), blocks);
+    let found = two_level_any(
+        accel,
+        origin,
+        direction,
+        tmax,
+        &|n, r, t| node(n, r, t),
+        &|b, r, t| block(b, r, t),
+        &mut blocks,
+    );
     found
+}
+
+/// Closest hit over the top-level triangles, then over the instances closer than that hit. A scene
+/// without instances takes only the first, single-level query.
+#[inline(always)]
+fn two_level_closest<
+    N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    B: Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+>(
+    accel: &Accel,
+    origin: Vec3,
+    direction: Vec3,
+    tmax: f32,
+    node_kernel: &N,
+    block_kernel: &B,
+) -> Option<Hit> {
+    let best = if accel.nodes.is_empty() {
+        None
+    } else {
+        closest(accel.nodes, accel.blocks, 0, origin, direction, tmax, node_kernel, block_kernel)
+            .map(|(t, triangle, b1, b2)| Hit { t, triangle, b1, b2, instance: blob::NONE })
+    };
+    if accel.instances.is_empty() {
+        return best;
+    }
+    accel.instances.closest(origin, direction, tmax, best, node_kernel, block_kernel)
+}
+
+/// Any hit over the top-level triangles, then over the instances.
+#[inline(always)]
+fn two_level_any<
+    N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    B: Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+>(
+    accel: &Accel,
+    origin: Vec3,
+    direction: Vec3,
+    tmax: f32,
+    node_kernel: &N,
+    block_kernel: &B,
+    blocks: &mut impl FnMut(u32, u32) -> bool,
+) -> bool {
+    if !accel.nodes.is_empty() {
+        let mut top = |t| blocks(t, blob::NONE);
+        if any(accel.nodes, accel.blocks, 0, origin, direction, tmax, node_kernel, block_kernel, &mut top) {
+            return true;
+        }
+    }
+    !accel.instances.is_empty()
+        && accel.instances.any(origin, direction, tmax, node_kernel, block_kernel, blocks)
 }
 
 /// `1 + 2γ₃` with `γₙ = nε/(1 − nε)`, ε = 2⁻²⁴ (Ize 2013): scaling far slab distances by it makes the
@@ -492,40 +607,56 @@ impl Kernels for Scalar {
     }
 }
 
-/// Closest-hit traversal: children visited nearest first, subtrees farther than the best hit culled.
+/// Closest-hit traversal of the triangle BVH rooted at node `root` of `nodes`: `(t, triangle, b1, b2)`.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn closest(
-    accel: &Accel,
+pub(crate) fn closest(
+    nodes: &[BvhNode],
+    blocks: &[TriangleBlock],
+    root: u32,
     origin: Vec3,
     direction: Vec3,
     tmax: f32,
-    node_kernel: impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
-    block_kernel: impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
-) -> Option<Hit> {
+    node_kernel: &impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    block_kernel: &impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+) -> Option<(f32, u32, f32, f32)> {
     let wray = WatertightRay::new(origin, direction);
     let nray = NodeRay::new(origin, direction);
-    let mut tmax = tmax;
     let mut best = None;
+    walk_closest(nodes, root, &nray, tmax, node_kernel, |leaf, mut tmax| {
+        let (first, count) = child_ref::leaf_range(leaf);
+        for block in &blocks[first as usize..(first + count) as usize] {
+            let hits = block_kernel(block, &wray, tmax);
+            if let Some(lane) = hits.nearest() {
+                tmax = hits.t[lane];
+                best = Some((tmax, block.triangles[lane], hits.b1[lane], hits.b2[lane]));
+            }
+        }
+        tmax
+    });
+    best
+}
+
+/// The node walk of a closest-hit query: children visited nearest first, subtrees farther than the
+/// best hit culled. `leaf(child_ref, tmax)` tests one leaf and returns the (possibly shortened) `tmax`.
+#[inline(always)]
+pub(crate) fn walk_closest(
+    nodes: &[BvhNode],
+    root: u32,
+    nray: &NodeRay,
+    tmax: f32,
+    node_kernel: &impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    mut leaf: impl FnMut(u32, f32) -> f32,
+) {
+    let mut tmax = tmax;
     let mut stack = Stack::new();
-    let mut current = Entry { child: 0, t: 0.0 };
+    let mut current = Entry { child: root, t: 0.0 };
     loop {
         if current.child & child_ref::LEAF != 0 {
-            let (first, count) = child_ref::leaf_range(current.child);
-            for block in &accel.blocks[first as usize..(first + count) as usize] {
-                let hits = block_kernel(block, &wray, tmax);
-                if let Some(lane) = hits.nearest() {
-                    tmax = hits.t[lane];
-                    best = Some(Hit {
-                        t: tmax,
-                        triangle: block.triangles[lane],
-                        b1: hits.b1[lane],
-                        b2: hits.b2[lane],
-                    });
-                }
-            }
+            tmax = leaf(current.child, tmax);
         } else {
-            let node = &accel.nodes[current.child as usize];
-            let (mut mask, dist) = node_kernel(node, &nray, tmax);
+            let node = &nodes[current.child as usize];
+            let (mut mask, dist) = node_kernel(node, nray, tmax);
             if mask != 0 {
                 if mask & (mask - 1) == 0 {
                     // One child hit: descend without touching the stack.
@@ -558,7 +689,7 @@ fn closest(
         }
         loop {
             match stack.pop() {
-                None => return best,
+                None => return,
                 // Entirely behind the best hit so far.
                 Some(e) if e.t > tmax => {}
                 Some(e) => {
@@ -570,37 +701,60 @@ fn closest(
     }
 }
 
-/// Any-hit traversal: no ordering (any blocker ends the walk), early exit.
+/// Any-hit traversal of the triangle BVH rooted at node `root`: true when a triangle for which
+/// `blocks(triangle)` holds is hit.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn any(
-    accel: &Accel,
+pub(crate) fn any(
+    nodes: &[BvhNode],
+    blocks: &[TriangleBlock],
+    root: u32,
     origin: Vec3,
     direction: Vec3,
     tmax: f32,
-    node_kernel: impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
-    block_kernel: impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
-    mut blocks: impl FnMut(u32) -> bool,
+    node_kernel: &impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    block_kernel: &impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+    blocker: &mut impl FnMut(u32) -> bool,
 ) -> bool {
     let wray = WatertightRay::new(origin, direction);
     let nray = NodeRay::new(origin, direction);
-    let mut stack = Stack::new();
-    let mut current = 0u32;
-    loop {
-        if current & child_ref::LEAF != 0 {
-            let (first, count) = child_ref::leaf_range(current);
-            for block in &accel.blocks[first as usize..(first + count) as usize] {
-                let mut m = block_kernel(block, &wray, tmax).mask;
-                while m != 0 {
-                    let lane = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    if blocks(block.triangles[lane]) {
-                        return true;
-                    }
+    walk_any(nodes, root, &nray, tmax, node_kernel, |leaf| {
+        let (first, count) = child_ref::leaf_range(leaf);
+        for block in &blocks[first as usize..(first + count) as usize] {
+            let mut m = block_kernel(block, &wray, tmax).mask;
+            while m != 0 {
+                let lane = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if blocker(block.triangles[lane]) {
+                    return true;
                 }
             }
+        }
+        false
+    })
+}
+
+/// The node walk of an any-hit query: no ordering (any blocker ends the walk), early exit when
+/// `leaf(child_ref)` returns true.
+#[inline(always)]
+pub(crate) fn walk_any(
+    nodes: &[BvhNode],
+    root: u32,
+    nray: &NodeRay,
+    tmax: f32,
+    node_kernel: &impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    mut leaf: impl FnMut(u32) -> bool,
+) -> bool {
+    let mut stack = Stack::new();
+    let mut current = root;
+    loop {
+        if current & child_ref::LEAF != 0 {
+            if leaf(current) {
+                return true;
+            }
         } else {
-            let node = &accel.nodes[current as usize];
-            let (mut mask, _) = node_kernel(node, &nray, tmax);
+            let node = &nodes[current as usize];
+            let (mut mask, _) = node_kernel(node, nray, tmax);
             if mask != 0 {
                 current = node.children[mask.trailing_zeros() as usize];
                 mask &= mask - 1;
@@ -822,12 +976,12 @@ mod tests {
                 accel.closest_hit_scalar(origin, dir, f32::INFINITY),
                 "SIMD vs scalar traversal"
             );
-            let occluded = accel.any_hit(origin, dir, f32::INFINITY, |_| true);
+            let occluded = accel.any_hit(origin, dir, f32::INFINITY, |_, _| true);
             assert_eq!(occluded, slow.is_some());
-            assert_eq!(occluded, accel.any_hit_scalar(origin, dir, f32::INFINITY, |_| true));
+            assert_eq!(occluded, accel.any_hit_scalar(origin, dir, f32::INFINITY, |_, _| true));
             // A finite tmax just before and after the brute-force hit.
             if let Some(h) = slow {
-                assert!(accel.any_hit(origin, dir, h.t * 1.001, |_| true));
+                assert!(accel.any_hit(origin, dir, h.t * 1.001, |_, _| true));
                 assert_same_closest(accel.closest_hit(origin, dir, h.t * 1.001), slow, "tmax after hit");
                 let before = accel.closest_hit(origin, dir, h.t * 0.999);
                 assert!(before.is_none_or(|b| b.t < h.t * 0.999), "tmax respected: {before:?}");
@@ -849,8 +1003,8 @@ mod tests {
             let wray = WatertightRay::new(origin, dir);
             let expected = (0..view.triangles.len() as u32)
                 .any(|t| t % 2 == 0 && wray.intersect(accel.triangle_vertices(t), f32::INFINITY).is_some());
-            assert_eq!(accel.any_hit(origin, dir, f32::INFINITY, |t| t % 2 == 0), expected);
-            assert_eq!(accel.any_hit_scalar(origin, dir, f32::INFINITY, |t| t % 2 == 0), expected);
+            assert_eq!(accel.any_hit(origin, dir, f32::INFINITY, |t, _| t % 2 == 0), expected);
+            assert_eq!(accel.any_hit_scalar(origin, dir, f32::INFINITY, |t, _| t % 2 == 0), expected);
         }
     }
 
@@ -952,9 +1106,88 @@ mod tests {
                 accel.closest_hit_scalar(origin, dir, f32::INFINITY),
                 "SIMD vs scalar traversal"
             );
-            assert_eq!(accel.any_hit(origin, dir, f32::INFINITY, |_| true), slow.is_some());
+            assert_eq!(accel.any_hit(origin, dir, f32::INFINITY, |_, _| true), slow.is_some());
         }
         assert!(hits > 1000, "the test should exercise many hits, got {hits}");
+    }
+
+    #[test]
+    fn two_level_bvh_agrees_with_brute_force_and_scalar_on_transformed_instances() {
+        let scene = testscene::instanced_spheres(40, 0xbeef);
+        let bytes = testscene::bytes(&scene);
+        let view = blob::SceneView::parse(&bytes).unwrap();
+        let accel = Accel::new(&view);
+        assert_eq!((accel.instances().len(), accel.instances().prototype_count()), (40, 1));
+        let mut rng = testscene::Rng(31337);
+        let (mut instance_hits, mut top_hits) = (0, 0);
+        for _ in 0..6000 {
+            let (origin, dir) = random_ray(&mut rng, 6.0);
+            let fast = accel.closest_hit(origin, dir, f32::INFINITY);
+            let slow = accel.closest_hit_brute_force(origin, dir, f32::INFINITY);
+            assert_same_closest(fast, slow, "instances");
+            assert_eq!(
+                fast,
+                accel.closest_hit_scalar(origin, dir, f32::INFINITY),
+                "SIMD vs scalar traversal"
+            );
+            if let (Some(f), Some(s)) = (fast, slow) {
+                if f.triangle == s.triangle {
+                    assert_eq!(f.instance, s.instance);
+                }
+                if f.instance == blob::NONE {
+                    top_hits += 1
+                } else {
+                    instance_hits += 1
+                }
+                // The world-space hit point lies on the ray.
+                let [a, b, c] = accel.hit_vertices(&f);
+                let p = a * (1.0 - f.b1 - f.b2) + b * f.b1 + c * f.b2;
+                assert!((p - (origin + dir * f.t)).length() < 1e-4, "{p} vs {}", origin + dir * f.t);
+                assert!(accel.any_hit(origin, dir, f.t * 1.001, |_, _| true));
+                assert!(!accel.any_hit(origin, dir, f.t * 0.999, |_, _| true));
+            }
+            assert_eq!(accel.any_hit(origin, dir, f32::INFINITY, |_, _| true), slow.is_some());
+            assert_eq!(accel.any_hit_scalar(origin, dir, f32::INFINITY, |_, _| true), slow.is_some());
+            // Only instance 3 blocks: the answer is whether some hit along the ray is on it.
+            let on_three = (0..accel.instances().len() as u32).any(|i| {
+                i == 3
+                    && accel.instances().prototype_triangles(i).any(|t| {
+                        let hit = Hit { t: 0.0, triangle: t, b1: 0.0, b2: 0.0, instance: i };
+                        WatertightRay::new(origin, dir)
+                            .intersect(accel.hit_vertices(&hit), f32::INFINITY)
+                            .is_some()
+                    })
+            });
+            assert_eq!(accel.any_hit(origin, dir, f32::INFINITY, |_, i| i == 3), on_three);
+        }
+        assert!(
+            instance_hits > 1000 && top_hits > 100,
+            "{instance_hits} instance hits, {top_hits} top-level"
+        );
+    }
+
+    #[test]
+    fn instance_normals_use_the_inverse_transpose() {
+        let scene = testscene::instanced_spheres(10, 7);
+        let bytes = testscene::bytes(&scene);
+        let view = blob::SceneView::parse(&bytes).unwrap();
+        let accel = Accel::new(&view);
+        // The flattened mesh of each instance holds the ingest-computed world normals: the render
+        // transform of the prototype normals must agree with them.
+        for (i, mesh) in scene.meshes.iter().enumerate().take(10) {
+            let proto = mesh.instance.as_ref().unwrap();
+            let inst = view
+                .instancing
+                .instances
+                .iter()
+                .position(|r| view.string(r.name) == format!("/S{i}"))
+                .unwrap();
+            let hit = Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: inst as u32 };
+            for (n_local, n_world) in proto.normals.iter().zip(&mesh.normals) {
+                let n = accel.normal_to_world(&hit, *n_local).normalize();
+                assert!((n - *n_world).length() < 1e-5, "{n} vs {n_world}");
+            }
+        }
     }
 
     #[test]

@@ -162,7 +162,8 @@ impl<'a> Scene<'a> {
     pub fn surface(&self, hit: &crate::accel::Hit, wo: Vec3, footprint: f32) -> Option<Surface> {
         let view = &self.view;
         let tri = &view.triangles[hit.triangle as usize];
-        let [p0, p1, p2] = self.accel.triangle_vertices(hit.triangle);
+        // World space, also for a prototype triangle (moved by its instance).
+        let [p0, p1, p2] = self.accel.hit_vertices(hit);
         let b0 = 1.0 - hit.b1 - hit.b2;
         let p = p0 * b0 + p1 * hit.b1 + p2 * hit.b2;
         let mut ng = (p1 - p0).cross(p2 - p0).try_normalize()?;
@@ -173,7 +174,8 @@ impl<'a> Scene<'a> {
         let mut ns = ng;
         if mesh.flags & blob::MESH_HAS_NORMALS != 0 {
             let [n0, n1, n2] = tri.vertices.map(|v| Vec3::from(view.normals[v as usize]));
-            if let Some(n) = (n0 * b0 + n1 * hit.b1 + n2 * hit.b2).try_normalize() {
+            let n = self.accel.normal_to_world(hit, n0 * b0 + n1 * hit.b1 + n2 * hit.b2);
+            if let Some(n) = n.try_normalize() {
                 ns = if n.dot(ng) < 0.0 { -n } else { n };
                 // A shading normal facing away from the viewer would make the BSDF black; fall back to
                 // the true surface there.
@@ -323,15 +325,19 @@ impl<'a> Scene<'a> {
         filter: Filter,
         touch: &T,
     ) -> bool {
-        let passes = |tri: u32, opacity: f32| {
-            opacity < 1.0 && (hash_combine(seed, tri) >> 8) as f32 * (1.0 / 16_777_216.0) >= opacity
+        // Instances of one prototype triangle decide independently (the instance joins the hash).
+        let passes = |tri: u32, instance: u32, opacity: f32| {
+            let h = if instance == blob::NONE { seed } else { hash_combine(seed, instance) };
+            opacity < 1.0 && (hash_combine(h, tri) >> 8) as f32 * (1.0 / 16_777_216.0) >= opacity
         };
         let constant_opacity = |tri: u32| {
             let m = &self.view.materials[self.view.triangle_materials[tri as usize] as usize];
             ShadingInputs::constant(m).effective_opacity()
         };
         if !self.shading.any_textured_opacity() {
-            return !self.accel.any_hit(origin, dir, tmax, |tri| !passes(tri, constant_opacity(tri)));
+            return !self
+                .accel
+                .any_hit(origin, dir, tmax, |tri, inst| !passes(tri, inst, constant_opacity(tri)));
         }
         let end = origin + dir * tmax;
         let mut o = origin;
@@ -347,7 +353,7 @@ impl<'a> Scene<'a> {
             } else {
                 constant_opacity(hit.triangle)
             };
-            if !passes(hit.triangle, opacity) {
+            if !passes(hit.triangle, hit.instance, opacity) {
                 return false;
             }
             o = offset_ray_origin(s.p, -s.ng);
@@ -526,7 +532,8 @@ impl<'a> Scene<'a> {
         let [p0, p1, p2] = self.accel.triangle_vertices(tri);
         // Any direction off the surface will do: emission is two-sided and only uv matters here.
         let wo = (p1 - p0).cross(p2 - p0).normalize_or_zero();
-        let hit = crate::accel::Hit { t: 0.0, triangle: tri, b1, b2 };
+        // Emissive triangles are always top level (ingest never instances them).
+        let hit = crate::accel::Hit { t: 0.0, triangle: tri, b1, b2, instance: blob::NONE };
         self.surface(&hit, wo, 0.0)
             .map_or(Vec3::ZERO, |s| self.shade(&s, filter, touch).emissive_color.max(Vec3::ZERO))
     }

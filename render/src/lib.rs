@@ -23,7 +23,8 @@
 //! directly.
 //!
 //! Modules: [`cli`] (arguments → validated command), [`mapped`] (memory map, `unsafe fn` with its
-//! contract), [`accel`] (CWBVH traversal, watertight triangle test, ray offsets), [`curves`] (curve and
+//! contract), [`accel`] (8-wide BVH traversal, watertight triangle test, ray offsets), [`instanced`]
+//! (the top-level BVH over instances and the move into prototype space), [`curves`] (curve and
 //! point BVH, tube/ribbon/sphere tests), [`hair`] (Chiang et al. hair BSDF for curves), [`camera`],
 //! [`sampler`] (stateless Owen-scrambled Sobol), [`bsdf`] (UsdPreviewSurface), [`lights`] (UsdLux +
 //! emissive triangles, MIS), [`integrator`] (the path, depth first), [`wavefront`] (the same paths, breadth first), [`film`] (tiles, options, image), [`output`]
@@ -41,6 +42,7 @@ pub mod error;
 pub mod film;
 pub mod hair;
 pub mod info;
+pub mod instanced;
 pub mod integrator;
 pub mod lights;
 pub mod mapped;

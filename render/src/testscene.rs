@@ -89,6 +89,7 @@ pub fn card(z: f32, half: f32, material: u32) -> Mesh {
         triangles: vec![[0, 1, 2], [0, 2, 3]],
         triangle_materials: vec![material; 2],
         double_sided: false,
+        instance: None,
     }
 }
 
@@ -120,6 +121,16 @@ pub fn dome(radiance: f32) -> Light {
 
 /// `count` random triangles inside [−1, 1]³ with one material and no lights.
 pub fn random_triangles(count: usize, seed: u64) -> SceneData {
+    let scene = Scene {
+        meshes: vec![random_triangles_mesh(count, seed)],
+        materials: vec![lambert(0.5)],
+        ..Scene::default()
+    };
+    pack(&scene)
+}
+
+/// The mesh of [`random_triangles`] (material 0).
+pub fn random_triangles_mesh(count: usize, seed: u64) -> Mesh {
     let mut rng = Rng(seed);
     let mut mesh = Mesh { path: "/random".into(), ..Mesh::default() };
     for i in 0..count {
@@ -132,8 +143,55 @@ pub fn random_triangles(count: usize, seed: u64) -> SceneData {
         mesh.triangles.push([b, b + 1, b + 2]);
         mesh.triangle_materials.push(0);
     }
-    let scene = Scene { meshes: vec![mesh], materials: vec![lambert(0.5)], ..Scene::default() };
-    pack(&scene)
+    mesh
+}
+
+/// `count` instances of a smooth sphere plus one random-triangle cloud in world space, under
+/// random rotations, non-uniform scales (some mirrored) and translations inside [−3, 3]³: every
+/// gprim carries its instance-space copy, as the USD reader writes it.
+pub fn instanced_spheres(count: usize, seed: u64) -> Scene {
+    let mut rng = Rng(seed);
+    let local = sphere(Vec3::ZERO, 0.4, 6, 10, 0, false);
+    let mut scene = Scene { materials: vec![lambert(0.5)], ..Scene::default() };
+    for i in 0..count {
+        let axis = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(0.1, 1.0)).normalize();
+        let mut scale = Vec3::new(rng.range(0.5, 1.5), rng.range(0.5, 1.5), rng.range(0.5, 1.5));
+        if i % 5 == 0 {
+            scale.x = -scale.x;
+        }
+        let translation = Vec3::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(-3.0, 3.0));
+        let m = glam::DMat4::from_scale_rotation_translation(
+            scale.as_dvec3(),
+            glam::DQuat::from_axis_angle(axis.as_dvec3(), rng.range(0.0, 6.0) as f64),
+            translation.as_dvec3(),
+        );
+        let normal_from_local = glam::DMat3::from_mat4(m).inverse().transpose();
+        let mut triangles = local.triangles.clone();
+        if m.determinant() < 0.0 {
+            triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        }
+        scene.instances.push(ingest::scene::SceneInstance { path: format!("/S{i}"), world_from_instance: m });
+        scene.meshes.push(Mesh {
+            path: format!("/S{i}/Mesh"),
+            positions: local.positions.iter().map(|p| m.transform_point3(p.as_dvec3()).as_vec3()).collect(),
+            normals: local
+                .normals
+                .iter()
+                .map(|n| (normal_from_local * n.as_dvec3()).normalize().as_vec3())
+                .collect(),
+            triangles,
+            instance: Some(ingest::scene::InstancedMesh {
+                instance: i as u32,
+                positions: local.positions.clone(),
+                normals: local.normals.clone(),
+                triangles: local.triangles.clone(),
+            }),
+            ..local.clone()
+        });
+    }
+    let cloud = random_triangles_mesh(60, seed ^ 0x77);
+    scene.meshes.push(cloud);
+    scene
 }
 
 /// Scene → blob records through ingest's packer (the same path as the `ingest` binary).

@@ -67,7 +67,7 @@ struct Topology {
 }
 
 /// A triangulated mesh in its local space, before the world transform.
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub(super) struct LocalMesh {
     pub positions: Vec<DVec3>,
     pub normals: Vec<DVec3>,
@@ -412,7 +412,28 @@ impl Reader<'_> {
 
     /// Transforms a local mesh to world space and adds it to the scene.
     pub(super) fn push_mesh(&mut self, path: &str, local: LocalMesh, state: &Inherited) {
-        self.scene.meshes.push(world_mesh(path, local, state.world_from_local));
+        // Inside an instance the gprim is also kept in the instance's space (computed from the
+        // authored points, not by inverting the world transform, so identical instances give
+        // bit-identical prototype geometry).
+        let instance = state.instance.map(|frame| instanced_copy(path, &local, frame));
+        let mut mesh = world_mesh(path, local, state.world_from_local);
+        mesh.instance = instance;
+        self.scene.meshes.push(mesh);
+    }
+}
+
+/// The instance-space copy of a local mesh inside the instance `frame`.
+pub(super) fn instanced_copy(
+    path: &str,
+    local: &LocalMesh,
+    frame: super::InstanceFrame,
+) -> crate::scene::InstancedMesh {
+    let in_instance = world_mesh(path, local.clone(), frame.instance_from_local);
+    crate::scene::InstancedMesh {
+        instance: frame.index,
+        positions: in_instance.positions,
+        normals: in_instance.normals,
+        triangles: in_instance.triangles,
     }
 }
 
@@ -442,6 +463,7 @@ pub(super) fn world_mesh(path: &str, local: LocalMesh, world_from_local: DMat4) 
         triangles,
         triangle_materials: local.triangle_materials,
         double_sided: local.double_sided,
+        instance: None,
     }
 }
 

@@ -272,11 +272,30 @@ struct Inherited {
     world_from_local: DMat4,
     invisible: bool,
     purpose: Purpose,
+    /// The outermost instance this prim is inside, if any.
+    instance: Option<InstanceFrame>,
+}
+
+/// Where a prim sits inside its outermost instance: gprims record their geometry in the instance's
+/// space as well, so that `crate::instancing` can share identical instances. Nested instances
+/// (instanceable prims or instancers inside a prototype) are expanded inside the outermost one:
+/// the blob has two levels, world and prototype.
+#[derive(Clone, Copy, Debug)]
+struct InstanceFrame {
+    /// Index into `Scene::instances`.
+    index: u32,
+    /// Local-to-instance transform.
+    instance_from_local: DMat4,
 }
 
 impl Inherited {
     fn root() -> Self {
-        Inherited { world_from_local: DMat4::IDENTITY, invisible: false, purpose: Purpose::Default }
+        Inherited {
+            world_from_local: DMat4::IDENTITY,
+            invisible: false,
+            purpose: Purpose::Default,
+            instance: None,
+        }
     }
 
     /// Gprims and lights are drawn when visible with purpose default or render.
@@ -403,7 +422,8 @@ impl<'a> Reader<'a> {
                 return Ok(());
             }
             // A PointInstancer prototype root reached through its instancer is counted there.
-            if !via_instancer && self.stage.is_instance(path) {
+            let is_instance = !via_instancer && self.stage.is_instance(path);
+            if is_instance {
                 self.scene.instance_count += 1;
             }
             let mut warnings = Vec::new();
@@ -413,6 +433,17 @@ impl<'a> Reader<'a> {
             }
             state.world_from_local =
                 if local.resets { local.matrix } else { parent.world_from_local * local.matrix };
+            state.instance = match parent.instance {
+                // resetXformStack inside an instance leaves the instance's frame: such gprims are
+                // drawn in world space (rare; the instance's other gprims are still shared).
+                Some(_) if local.resets => None,
+                Some(frame) => Some(InstanceFrame {
+                    instance_from_local: frame.instance_from_local * local.matrix,
+                    ..frame
+                }),
+                None if is_instance => Some(self.begin_instance(path, state.world_from_local)),
+                None => None,
+            };
             if self.token(path, "visibility")?.as_deref() == Some("invisible") {
                 state.invisible = true;
             }
@@ -517,16 +548,31 @@ impl<'a> Reader<'a> {
             let scale = scales.as_ref().map_or(DVec3::ONE, |s| s[i]);
             let instancer_from_instance =
                 DMat4::from_scale_rotation_translation(scale, rotation, positions[i]);
-            let instance = Inherited {
-                world_from_local: state.world_from_local * instancer_from_instance,
-                ..state.clone()
+            let world_from_instance = state.world_from_local * instancer_from_instance;
+            let frame = match state.instance {
+                Some(frame) => InstanceFrame {
+                    instance_from_local: frame.instance_from_local * instancer_from_instance,
+                    ..frame
+                },
+                None => self.begin_instance(&format!("{path}[{i}]"), world_from_instance),
             };
+            let instance =
+                Inherited { world_from_local: world_from_instance, instance: Some(frame), ..state.clone() };
             let proto = proto.clone();
             self.visit(&proto, &instance, true)?;
             expanded += 1;
         }
         self.scene.instance_count += expanded;
         Ok(())
+    }
+
+    /// Registers an outermost instance placed by `world_from_instance`.
+    fn begin_instance(&mut self, path: &str, world_from_instance: DMat4) -> InstanceFrame {
+        let index = self.scene.instances.len() as u32;
+        self.scene
+            .instances
+            .push(crate::scene::SceneInstance { path: path.to_string(), world_from_instance });
+        InstanceFrame { index, instance_from_local: DMat4::IDENTITY }
     }
 
     /// Resolves the default camera and resolution once every prim has been read.

@@ -19,7 +19,7 @@ use subdiv::{
     Options, Refiner, Scheme, Topology, TriangleSubdivision, UvSource,
 };
 
-use super::mesh::{world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
+use super::mesh::{instanced_copy, world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
 use super::{Inherited, Reader, UsdError};
 use crate::dicing::{choose_level, triangles_at_level, DicingCamera, SubdivOptions};
 use crate::scene::{Mesh, Subdivision};
@@ -51,6 +51,9 @@ pub(super) struct QueuedSubdivision {
     /// with negative determinant): flip the triangles and normals.
     mirrored: bool,
     uv: UvInput,
+    /// The instance the mesh is inside, when its points are in local space (not projective):
+    /// instances diced to the same level share a prototype.
+    instance: Option<super::InstanceFrame>,
     /// The polygon cage: per-face materials, and the fallback if refinement fails.
     cage: PolygonCage,
     world_from_local: DMat4,
@@ -138,6 +141,7 @@ impl Reader<'_> {
                     world_from_points,
                     mirrored: projective && m.determinant() < 0.0,
                     uv,
+                    instance: if projective { None } else { state.instance },
                     cage,
                     world_from_local: m,
                 });
@@ -282,7 +286,9 @@ impl Reader<'_> {
                     if let Some(note) = d.note {
                         self.warn(&q.path, note);
                     }
+                    let instance = q.instance.map(|frame| instanced_copy(&q.path, &d.local, frame));
                     self.scene.meshes[q.slot] = world_mesh(&q.path, d.local, q.world_from_points);
+                    self.scene.meshes[q.slot].instance = instance;
                     self.scene.subdivisions.push(Subdivision {
                         mesh: q.slot,
                         topology: q.topology,
@@ -298,7 +304,9 @@ impl Reader<'_> {
                         format!("cannot subdivide: {e}; rendering the triangulated cage instead"),
                     );
                     let (local, _) = q.cage.triangulate();
+                    let instance = q.instance.map(|frame| instanced_copy(&q.path, &local, frame));
                     self.scene.meshes[q.slot] = world_mesh(&q.path, local, q.world_from_local);
+                    self.scene.meshes[q.slot].instance = instance;
                 }
             }
         }

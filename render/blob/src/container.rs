@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -123,7 +123,7 @@ section_kinds! {
     Cameras = 11,
     /// [`crate::EmissiveTriangle`].
     EmissiveTriangles = 12,
-    /// [`crate::BvhNode`]; node 0 is the root. (Kinds 13 and 14 held the compressed CWBVH of format 1.)
+    /// [`crate::BvhNode`] over the top-level (world-space) triangles; node 0 is the root. (Kinds 13 and 14 held the compressed CWBVH of format 1.)
     BvhNodes = 20,
     /// [`crate::TriangleBlock`]s of the BVH leaves.
     BvhTriangleBlocks = 21,
@@ -150,4 +150,16 @@ section_kinds! {
     CurveBvhNodes = 44,
     /// `u32` segment-or-sphere index per curve BVH primitive slot.
     CurveBvhPrimitives = 45,
+    /// [`crate::Prototype`] (two-level instancing; format 5). Kinds 50–55 are instancing.
+    Prototypes = 50,
+    /// [`crate::Instance`].
+    Instances = 51,
+    /// [`crate::BvhNode`] of the top-level BVH over instances; node 0 is the root.
+    InstanceBvhNodes = 52,
+    /// `u32` instance index per top-level BVH leaf slot.
+    InstanceBvhItems = 53,
+    /// [`crate::BvhNode`] of every prototype's BVH, concatenated (absolute child indices).
+    PrototypeBvhNodes = 54,
+    /// [`crate::TriangleBlock`] of every prototype's BVH, vertices in prototype space.
+    PrototypeBvhBlocks = 55,
 }

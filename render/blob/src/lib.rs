@@ -17,7 +17,8 @@
 //! assert_eq!(view.triangles.len(), 0);
 //! ```
 //!
-//! Modules: [`records`] (the Pod records), [`curves`] (curve and point records, format 2), `container` (header and section table), `scene` (encode and
+//! Modules: [`records`] (the Pod records), [`curves`] (curve and point records, format 2), [`instances`] (prototypes, instances and
+//! the top-level BVH, format 5), `container` (header and section table), `scene` (encode and
 //! parse), `checksum`, `error`, `io` (atomic write, aligned buffers).
 
 #![deny(missing_docs)]
@@ -26,6 +27,7 @@ mod checksum;
 mod container;
 pub mod curves;
 mod error;
+pub mod instances;
 mod io;
 pub mod records;
 mod scene;
@@ -34,6 +36,7 @@ pub use checksum::checksum;
 pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};
 pub use curves::{CurveAttributes, CurveData, CurveGroup, CurveSegment, CurveView, PointSphere};
 pub use error::BlobError;
+pub use instances::{Instance, InstanceData, InstanceView, Prototype};
 pub use io::{write_atomic, AlignedBytes};
 pub use records::*;
 pub use scene::{SceneData, SceneView};

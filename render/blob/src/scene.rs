@@ -55,6 +55,8 @@ pub struct SceneData {
     pub shader_ops: Vec<ShaderOp>,
     /// Curves and points with their BVH.
     pub curves: crate::CurveData,
+    /// Prototypes, instances and the top-level BVH.
+    pub instancing: crate::InstanceData,
 }
 
 impl SceneData {
@@ -96,6 +98,12 @@ impl SceneData {
             section(SectionKind::PointSpheres, &self.curves.spheres),
             section(SectionKind::CurveBvhNodes, &self.curves.bvh_nodes),
             section(SectionKind::CurveBvhPrimitives, &self.curves.bvh_primitives),
+            section(SectionKind::Prototypes, &self.instancing.prototypes),
+            section(SectionKind::Instances, &self.instancing.instances),
+            section(SectionKind::InstanceBvhNodes, &self.instancing.bvh_nodes),
+            section(SectionKind::InstanceBvhItems, &self.instancing.bvh_items),
+            section(SectionKind::PrototypeBvhNodes, &self.instancing.prototype_nodes),
+            section(SectionKind::PrototypeBvhBlocks, &self.instancing.prototype_blocks),
         ];
         let table_len = sections.len() * std::mem::size_of::<SectionEntry>();
         let mut cursor = align_up(std::mem::size_of::<Header>() + table_len);
@@ -190,6 +198,8 @@ pub struct SceneView<'a> {
     pub shader_ops: &'a [ShaderOp],
     /// Curves and points with their BVH.
     pub curves: crate::CurveView<'a>,
+    /// Prototypes, instances and the top-level BVH.
+    pub instancing: crate::InstanceView<'a>,
 }
 
 impl<'a> SceneView<'a> {
@@ -243,6 +253,22 @@ impl<'a> SceneView<'a> {
                     bytes,
                     get(SectionKind::CurveBvhPrimitives)?,
                     SectionKind::CurveBvhPrimitives,
+                )?,
+            },
+            instancing: crate::InstanceView {
+                prototypes: typed(bytes, get(SectionKind::Prototypes)?, SectionKind::Prototypes)?,
+                instances: typed(bytes, get(SectionKind::Instances)?, SectionKind::Instances)?,
+                bvh_nodes: typed(bytes, get(SectionKind::InstanceBvhNodes)?, SectionKind::InstanceBvhNodes)?,
+                bvh_items: typed(bytes, get(SectionKind::InstanceBvhItems)?, SectionKind::InstanceBvhItems)?,
+                prototype_nodes: typed(
+                    bytes,
+                    get(SectionKind::PrototypeBvhNodes)?,
+                    SectionKind::PrototypeBvhNodes,
+                )?,
+                prototype_blocks: typed(
+                    bytes,
+                    get(SectionKind::PrototypeBvhBlocks)?,
+                    SectionKind::PrototypeBvhBlocks,
                 )?,
             },
         };
@@ -367,9 +393,12 @@ impl<'a> SceneView<'a> {
                 return bad(K::Cameras, i, "bad name or unknown projection");
             }
         }
+        // Emissive triangles and the world BVH address only the top-level triangles: prototype
+        // triangles are in prototype space and reached through their instances.
+        let top_level = self.instancing.top_level_triangles(self.triangles.len());
         let mut previous_cdf = 0.0f32;
         for (i, e) in self.emissive_triangles.iter().enumerate() {
-            if e.triangle as usize >= self.triangles.len() || !(e.cdf >= previous_cdf && e.cdf <= 1.0) {
+            if e.triangle as usize >= top_level || !(e.cdf >= previous_cdf && e.cdf <= 1.0) {
                 return bad(K::EmissiveTriangles, i, "triangle out of range or cdf not increasing in [0, 1]");
             }
             previous_cdf = e.cdf;
@@ -382,15 +411,13 @@ impl<'a> SceneView<'a> {
         {
             return bad(K::SceneInfo, 0, "dome light index does not name a dome light");
         }
-        if let Some(i) = self
-            .bvh_blocks
-            .iter()
-            .position(|b| b.triangles.iter().any(|&t| t as usize >= self.triangles.len()))
+        if let Some(i) =
+            self.bvh_blocks.iter().position(|b| b.triangles.iter().any(|&t| t as usize >= top_level))
         {
-            return bad(K::BvhTriangleBlocks, i, "triangle index out of range");
+            return bad(K::BvhTriangleBlocks, i, "triangle index out of range or inside a prototype");
         }
-        if self.bvh_nodes.is_empty() != self.triangles.is_empty() {
-            return bad(K::BvhNodes, 0, "a BVH is required exactly when there are triangles");
+        if self.bvh_nodes.is_empty() != (top_level == 0) {
+            return bad(K::BvhNodes, 0, "a BVH is required exactly when there are top-level triangles");
         }
         // Internal children must come after their parent: the node graph is then acyclic, so every
         // traversal terminates, and every index it follows is in range.
@@ -406,6 +433,9 @@ impl<'a> SceneView<'a> {
                 }
             }
         }
+        self.instancing
+            .validate(self.triangles.len(), self.meshes.len(), strings_ok)
+            .or_else(|(kind, i, what)| bad(kind, i, what))?;
         self.curves.validate(self.materials.len(), strings_ok).or_else(|(kind, i, what)| bad(kind, i, what))
     }
 }
@@ -585,7 +615,11 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::CurveSegments => size_of::<crate::CurveSegment>(),
         SectionKind::CurveAttributes => size_of::<crate::CurveAttributes>(),
         SectionKind::PointSpheres => size_of::<crate::PointSphere>(),
-        SectionKind::CurveBvhPrimitives => size_of::<u32>(),
+        SectionKind::CurveBvhPrimitives | SectionKind::InstanceBvhItems => size_of::<u32>(),
+        SectionKind::Prototypes => size_of::<crate::Prototype>(),
+        SectionKind::Instances => size_of::<crate::Instance>(),
+        SectionKind::InstanceBvhNodes | SectionKind::PrototypeBvhNodes => size_of::<BvhNode>(),
+        SectionKind::PrototypeBvhBlocks => size_of::<TriangleBlock>(),
     }) as u32
 }
 

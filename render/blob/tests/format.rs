@@ -360,3 +360,170 @@ fn curve_sections_round_trip_and_are_validated() {
         Err(BlobError::BadIndex { kind: SectionKind::CurveAttributes, .. })
     ));
 }
+
+/// The sample scene plus a one-triangle prototype (the same triangle, second mesh) placed by two
+/// instances, with its own BVH and a top-level BVH over the instances.
+fn with_instances() -> SceneData {
+    let mut s = sample_scene();
+    let name = s.add_string("/Proto/Tri");
+    s.positions.extend_from_within(0..3);
+    s.normals.extend_from_within(0..3);
+    s.uvs.extend_from_within(0..3);
+    s.triangles.push(Triangle { vertices: [3, 4, 5], mesh: 1 });
+    s.triangle_materials.push(0);
+    s.meshes.push(Mesh { name, first_triangle: 1, first_vertex: 3, ..s.meshes[0] });
+    let mut node = s.bvh_nodes[0];
+    let mut block = s.bvh_blocks[0];
+    block.triangles = [1; BLOCK_WIDTH];
+    s.instancing.prototype_nodes = vec![node];
+    s.instancing.prototype_blocks = vec![block];
+    s.instancing.prototypes = vec![Prototype {
+        first_triangle: 1,
+        triangle_count: 1,
+        first_node: 0,
+        node_count: 1,
+        first_block: 0,
+        block_count: 1,
+        first_mesh: 1,
+        mesh_count: 1,
+        bounds_min: [0.0; 3],
+        bounds_max: [1.0, 1.0, 0.0],
+        reserved: [0; 2],
+    }];
+    let iname = s.add_string("/I0");
+    let translate = |x: f32| [[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]];
+    s.instancing.instances = (0..2)
+        .map(|i| Instance {
+            world_from_object: translate(2.0 * i as f32),
+            object_from_world: translate(-2.0 * i as f32),
+            prototype: 0,
+            name: iname,
+            reserved: 0,
+        })
+        .collect();
+    node.children[0] = child_ref::leaf(0, 2).unwrap();
+    s.instancing.bvh_nodes = vec![node];
+    s.instancing.bvh_items = vec![0, 1];
+    s
+}
+
+#[test]
+fn instance_sections_round_trip() {
+    let scene = with_instances();
+    let bytes = AlignedBytes::copy_from(&scene.encode());
+    let view = SceneView::parse(&bytes).unwrap();
+    assert_eq!(view.instancing.instances, &scene.instancing.instances[..]);
+    assert_eq!(view.instancing.prototypes, &scene.instancing.prototypes[..]);
+    assert_eq!(view.instancing.bvh_items, &[0, 1]);
+    assert_eq!(view.instancing.top_level_triangles(view.triangles.len()), 1);
+    assert_eq!(std::mem::size_of::<Instance>(), 112);
+    assert_eq!(std::mem::size_of::<Prototype>(), 64);
+}
+
+#[test]
+fn corrupted_instance_records_are_rejected_with_valid_checksums() {
+    let rejects = |what: &str, edit: &dyn Fn(&mut SceneData), kind: SectionKind, message: &str| {
+        let mut scene = with_instances();
+        edit(&mut scene);
+        // `encode` recomputes every checksum: only validation can catch these.
+        match parse(&scene.encode()) {
+            Err(e @ BlobError::BadIndex { kind: k, .. }) if k == kind => {
+                assert!(e.to_string().contains(message), "{what}: {e}");
+            }
+            other => panic!("{what}: {other:?}"),
+        }
+    };
+    use SectionKind as K;
+    rejects(
+        "bad prototype index",
+        &|s| s.instancing.instances[1].prototype = 1,
+        K::Instances,
+        "prototype index out of range",
+    );
+    rejects(
+        "NaN transform",
+        &|s| s.instancing.instances[0].world_from_object[1][2] = f32::NAN,
+        K::Instances,
+        "non-finite transform",
+    );
+    rejects(
+        "infinite inverse",
+        &|s| s.instancing.instances[1].object_from_world[0][3] = f32::INFINITY,
+        K::Instances,
+        "non-finite",
+    );
+    rejects(
+        "inverse that is not",
+        &|s| s.instancing.instances[1].object_from_world[0][3] = 5.0,
+        K::Instances,
+        "not the inverse",
+    );
+    rejects("instance name", &|s| s.instancing.instances[0].name.len = 999, K::Instances, "name");
+    rejects(
+        "item out of range",
+        &|s| s.instancing.bvh_items[1] = 2,
+        K::InstanceBvhItems,
+        "instance index out of range",
+    );
+    rejects(
+        "top leaf past the items",
+        &|s| s.instancing.bvh_nodes[0].children[0] = child_ref::leaf(1, 2).unwrap(),
+        K::InstanceBvhNodes,
+        "leaf item range",
+    );
+    rejects(
+        "top child cycle",
+        &|s| s.instancing.bvh_nodes[0].children[1] = 0,
+        K::InstanceBvhNodes,
+        "child node index",
+    );
+    rejects("no top-level BVH", &|s| s.instancing.bvh_nodes.clear(), K::InstanceBvhNodes, "required");
+    rejects(
+        "prototype block leaves its prototype",
+        &|s| s.instancing.prototype_blocks[0].triangles[2] = 0,
+        K::PrototypeBvhBlocks,
+        "outside its prototype",
+    );
+    rejects(
+        "prototype leaf past the blocks",
+        &|s| s.instancing.prototype_nodes[0].children[0] = child_ref::leaf(0, 2).unwrap(),
+        K::PrototypeBvhNodes,
+        "leaf blocks outside",
+    );
+    rejects(
+        "prototype node range",
+        &|s| s.instancing.prototypes[0].node_count = 2,
+        K::Prototypes,
+        "node range",
+    );
+    rejects(
+        "prototype past the triangles",
+        &|s| s.instancing.prototypes[0].triangle_count = 2,
+        K::Prototypes,
+        "outside the triangles section",
+    );
+    rejects(
+        "overlapping prototypes",
+        &|s| s.instancing.prototypes.push(s.instancing.prototypes[0]),
+        K::Prototypes,
+        "contiguous",
+    );
+    rejects(
+        "prototype mesh range",
+        &|s| s.instancing.prototypes[0].mesh_count = 2,
+        K::Prototypes,
+        "mesh range",
+    );
+    rejects(
+        "world BVH reaches a prototype triangle",
+        &|s| s.bvh_blocks[0].triangles[1] = 1,
+        K::BvhTriangleBlocks,
+        "prototype",
+    );
+    rejects(
+        "emitter inside a prototype",
+        &|s| s.emissive_triangles = vec![EmissiveTriangle { triangle: 1, area: 0.5, cdf: 1.0, pmf: 1.0 }],
+        K::EmissiveTriangles,
+        "",
+    );
+}

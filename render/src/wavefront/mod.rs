@@ -159,7 +159,7 @@ impl Worker {
         let paths = POOL_PATHS.max(pixels);
         Worker {
             states: Vec::with_capacity(paths),
-            hits: vec![Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0 }; paths],
+            hits: vec![Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: blob::NONE }; paths],
             first_hits: vec![None; paths],
             shadow: vec![ShadowRay::default(); paths],
             rays: Vec::with_capacity(paths),

@@ -1,0 +1,273 @@
+//! Which gprims become shared prototypes and which are drawn in world space.
+//!
+//! The USD reader records, for every gprim inside an instance (an instanceable prim or a
+//! PointInstancer entry), its geometry in the instance's space ([`crate::scene::InstancedMesh`]).
+//! Here the instances whose gprims are identical — same instance-space points, normals, uvs,
+//! triangles, double-sidedness and materials equal in value — are grouped into one prototype, so
+//! 1,000 instances of a mesh store one mesh plus 1,000 transforms.
+//!
+//! Kept in world space ("top level"), with the reason:
+//! - gprims outside instances, and curves/points (split per instance against the camera, and
+//!   intersected through their own BVH);
+//! - emissive gprims: light sampling draws from a world-space distribution over emissive
+//!   triangles, which would otherwise need per-instance entries and transforms;
+//! - prototypes used by a single instance: sharing saves nothing and costs a transform per ray;
+//! - instances with a non-invertible or non-finite transform (e.g. a PointInstancer scale of 0).
+//!
+//! The decision depends only on the scene, never on hash-map iteration order, so packing stays
+//! deterministic.
+//!
+//! Subdivision surfaces inside instances are diced per instance against the camera; instances
+//! diced to the same level have identical instance-space tessellations and share a prototype.
+
+use crate::scene::{Material, Mesh, Scene};
+use glam::DMat4;
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+
+/// The split of a scene's meshes into world-space meshes and instanced prototypes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Instancing {
+    /// Indices into `Scene::meshes` drawn in world space, in scene order.
+    pub top_level: Vec<usize>,
+    /// Shared mesh sets.
+    pub prototypes: Vec<Prototype>,
+    /// Placements of the prototypes.
+    pub instances: Vec<Instance>,
+}
+
+/// A set of meshes shared by several instances.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Prototype {
+    /// Indices into `Scene::meshes` of the first instance's gprims; their
+    /// [`crate::scene::InstancedMesh`] data is the prototype geometry.
+    pub meshes: Vec<usize>,
+}
+
+/// One placement of a prototype.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into [`Instancing::prototypes`].
+    pub prototype: u32,
+    /// Instance prim path (or `<instancer>[i]`).
+    pub path: String,
+    /// Prototype-to-world transform.
+    pub world_from_prototype: DMat4,
+}
+
+impl Instancing {
+    /// Every mesh in world space (the `--flatten-instances` behaviour).
+    pub fn flattened(scene: &Scene) -> Self {
+        Instancing { top_level: (0..scene.meshes.len()).collect(), ..Instancing::default() }
+    }
+
+    /// Triangles the blob stores for meshes (top level plus one copy of each prototype).
+    pub fn stored_triangles(&self, scene: &Scene) -> usize {
+        let top: usize = self.top_level.iter().map(|&m| scene.meshes[m].triangles.len()).sum();
+        let shared: usize =
+            self.prototypes.iter().flat_map(|p| &p.meshes).map(|&m| scene.meshes[m].triangles.len()).sum();
+        top + shared
+    }
+}
+
+/// Groups the scene's instances into prototypes (see the module docs for what stays in world space).
+/// `emissive[material]` says whether a material emits.
+pub fn plan(scene: &Scene, emissive: &[bool]) -> Instancing {
+    let canonical = canonical_materials(&scene.materials);
+    let usable: Vec<bool> = scene.instances.iter().map(|i| invertible(&i.world_from_instance)).collect();
+    // Instanced meshes per scene instance, in scene order.
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); scene.instances.len()];
+    let mut top_level = Vec::new();
+    for (index, mesh) in scene.meshes.iter().enumerate() {
+        let shareable = mesh.instance.as_ref().is_some_and(|i| {
+            usable[i.instance as usize]
+                && !mesh.triangles.is_empty()
+                && !mesh.triangle_materials.iter().any(|&m| emissive[m as usize])
+        });
+        match &mesh.instance {
+            Some(i) if shareable => members[i.instance as usize].push(index),
+            _ => top_level.push(index),
+        }
+    }
+    // Prototype candidates by content hash; equal hashes are confirmed by comparing content.
+    let mut by_hash: HashMap<u64, Vec<usize>> = HashMap::new();
+    let mut groups: Vec<(Vec<usize>, Vec<u32>)> = Vec::new(); // (representative meshes, scene instances)
+    for (instance, meshes) in members.iter().enumerate() {
+        if meshes.is_empty() {
+            continue;
+        }
+        let hash = content_hash(scene, meshes, &canonical);
+        let candidates = by_hash.entry(hash).or_default();
+        let found =
+            candidates.iter().copied().find(|&g| same_content(scene, &groups[g].0, meshes, &canonical));
+        match found {
+            Some(g) => groups[g].1.push(instance as u32),
+            None => {
+                candidates.push(groups.len());
+                groups.push((meshes.clone(), vec![instance as u32]));
+            }
+        }
+    }
+    let mut out = Instancing::default();
+    for (meshes, instances) in groups {
+        if instances.len() < 2 {
+            top_level.extend(instances.iter().flat_map(|&i| members[i as usize].iter().copied()));
+            continue;
+        }
+        let prototype = out.prototypes.len() as u32;
+        out.prototypes.push(Prototype { meshes });
+        for i in instances {
+            let source = &scene.instances[i as usize];
+            out.instances.push(Instance {
+                prototype,
+                path: source.path.clone(),
+                world_from_prototype: source.world_from_instance,
+            });
+        }
+    }
+    top_level.sort_unstable();
+    out.top_level = top_level;
+    out
+}
+
+/// A transform an instance can use: finite, and invertible in `f32` as the renderer stores it.
+fn invertible(m: &DMat4) -> bool {
+    let f = m.as_mat4();
+    m.is_finite() && f.is_finite() && f.determinant().abs() > 1e-12 && f.inverse().is_finite()
+}
+
+/// Per material, the index of the first material with the same content except the path: gprims
+/// without a bound material get a `<gprim>.displayColor` material each, and instances of the same
+/// prototype must still match.
+fn canonical_materials(materials: &[Material]) -> Vec<u32> {
+    let mut first: HashMap<String, u32> = HashMap::new();
+    materials
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            // Debug prints floats exactly (shortest round trip), so equal keys mean equal values.
+            let key = format!("{:?}", Material { path: String::new(), ..m.clone() });
+            *first.entry(key).or_insert(i as u32)
+        })
+        .collect()
+}
+
+fn content_hash(scene: &Scene, meshes: &[usize], canonical: &[u32]) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for &m in meshes {
+        let mesh = &scene.meshes[m];
+        let Some(local) = &mesh.instance else { continue };
+        local.positions.iter().for_each(|p| p.to_array().map(f32::to_bits).hash(&mut h));
+        local.normals.iter().for_each(|n| n.to_array().map(f32::to_bits).hash(&mut h));
+        mesh.uvs.iter().for_each(|uv| uv.to_array().map(f32::to_bits).hash(&mut h));
+        local.triangles.hash(&mut h);
+        mesh.triangle_materials.iter().for_each(|&t| canonical[t as usize].hash(&mut h));
+        mesh.double_sided.hash(&mut h);
+    }
+    h.finish()
+}
+
+fn same_content(scene: &Scene, a: &[usize], b: &[usize], canonical: &[u32]) -> bool {
+    let same_mesh = |x: &Mesh, y: &Mesh| {
+        let (Some(lx), Some(ly)) = (&x.instance, &y.instance) else { return false };
+        let bits = |v: &[glam::Vec3]| v.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+        bits(&lx.positions) == bits(&ly.positions)
+            && bits(&lx.normals) == bits(&ly.normals)
+            && x.uvs
+                .iter()
+                .map(|u| u.to_array().map(f32::to_bits))
+                .eq(y.uvs.iter().map(|u| u.to_array().map(f32::to_bits)))
+            && lx.triangles == ly.triangles
+            && x.double_sided == y.double_sided
+            && x.triangle_materials.len() == y.triangle_materials.len()
+            && x.triangle_materials
+                .iter()
+                .zip(&y.triangle_materials)
+                .all(|(&p, &q)| canonical[p as usize] == canonical[q as usize])
+    };
+    a.len() == b.len() && a.iter().zip(b).all(|(&x, &y)| same_mesh(&scene.meshes[x], &scene.meshes[y]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{InstancedMesh, SceneInstance};
+    use glam::{DVec3, Vec3};
+
+    fn instanced_triangle(instance: u32, offset: f32, material: u32) -> Mesh {
+        let local = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        Mesh {
+            path: format!("/I{instance}/Tri"),
+            positions: local.iter().map(|p| *p + Vec3::splat(offset)).collect(),
+            triangles: vec![[0, 1, 2]],
+            triangle_materials: vec![material],
+            instance: Some(InstancedMesh {
+                instance,
+                positions: local,
+                triangles: vec![[0, 1, 2]],
+                ..InstancedMesh::default()
+            }),
+            ..Mesh::default()
+        }
+    }
+
+    fn scene(materials: Vec<Material>, meshes: Vec<Mesh>, instances: usize) -> Scene {
+        Scene {
+            materials,
+            meshes,
+            instances: (0..instances)
+                .map(|i| SceneInstance {
+                    path: format!("/I{i}"),
+                    world_from_instance: DMat4::from_translation(DVec3::splat(i as f64)),
+                })
+                .collect(),
+            ..Scene::default()
+        }
+    }
+
+    #[test]
+    fn identical_instances_share_one_prototype_and_singletons_stay_flat() {
+        let grey = |p: &str| Material { path: p.into(), ..Material::default() };
+        // Three instances with value-equal displayColor materials, one with a different colour.
+        let red =
+            Material { path: "/I3/Tri.displayColor".into(), diffuse_color: Vec3::X, ..Material::default() };
+        let s = scene(
+            vec![
+                grey("/I0/Tri.displayColor"),
+                grey("/I1/Tri.displayColor"),
+                grey("/I2/Tri.displayColor"),
+                red,
+            ],
+            vec![
+                instanced_triangle(0, 0.0, 0),
+                instanced_triangle(1, 1.0, 1),
+                instanced_triangle(2, 2.0, 2),
+                instanced_triangle(3, 3.0, 3),
+                Mesh { path: "/Ground".into(), triangles: vec![[0, 0, 0]], ..Mesh::default() },
+            ],
+            4,
+        );
+        let plan = plan(&s, &[false; 4]);
+        assert_eq!(plan.prototypes, vec![Prototype { meshes: vec![0] }]);
+        assert_eq!(plan.instances.iter().map(|i| i.path.as_str()).collect::<Vec<_>>(), ["/I0", "/I1", "/I2"]);
+        assert_eq!(plan.top_level, vec![3, 4], "the red singleton and the ground stay in world space");
+        assert_eq!(plan.stored_triangles(&s), 3);
+    }
+
+    #[test]
+    fn emissive_and_degenerate_instances_stay_flat() {
+        let lamp = Material { path: "/Lamp".into(), emissive_color: Vec3::ONE, ..Material::default() };
+        let mut s = scene(
+            vec![lamp, Material::default()],
+            vec![instanced_triangle(0, 0.0, 0), instanced_triangle(1, 1.0, 0), instanced_triangle(2, 0.0, 1)],
+            3,
+        );
+        s.meshes.push(instanced_triangle(3, 0.0, 1));
+        s.instances
+            .push(SceneInstance { path: "/I3".into(), world_from_instance: DMat4::from_scale(DVec3::ZERO) });
+        s.instances[2].world_from_instance.w_axis.x = f64::NAN;
+        let plan = plan(&s, &[true, false]);
+        assert!(plan.prototypes.is_empty());
+        assert_eq!(plan.top_level, vec![0, 1, 2, 3]);
+    }
+}

@@ -1,0 +1,180 @@
+//! The second level of the acceleration structure: instances of prototypes.
+//!
+//! A ray first walks the top-level BVH over the instances' world bounds (the same 8-wide node
+//! layout and kernels as the triangle BVH); at each instance it is moved into prototype space with
+//! the instance's `object_from_world` and walks that prototype's own BVH. The direction is
+//! transformed but not renormalized, so the ray parameter `t` — and with it `tmax`, the culling of
+//! farther subtrees and the barycentrics — is the same in both spaces, and a hit needs no
+//! conversion beyond recording the instance. Shading moves the hit triangle's vertices to world
+//! space ([`crate::Accel::hit_vertices`]) and its normals by the inverse transpose
+//! ([`crate::Accel::normal_to_world`]), so everything downstream sees world-space geometry.
+//!
+//! Instance leaves hold one instance each (a leaf visit is a transform plus a whole prototype
+//! walk, so grouping instances in leaves would only add work).
+
+use crate::accel::{self, BlockHits, Hit, NodeRay, WatertightRay};
+use blob::{child_ref, BvhNode, Instance, TriangleBlock, BVH_WIDTH};
+use glam::Vec3;
+
+/// The validated instancing tables of a blob, ready for queries.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Instances<'a> {
+    instances: &'a [Instance],
+    prototypes: &'a [blob::Prototype],
+    top_nodes: &'a [BvhNode],
+    top_items: &'a [u32],
+    prototype_nodes: &'a [BvhNode],
+    prototype_blocks: &'a [TriangleBlock],
+}
+
+/// `rows · (x, y, z, w)` of a row-major 3×4 affine matrix (`w` = 1 for points, 0 for vectors).
+#[inline(always)]
+fn apply(rows: &[[f32; 4]; 3], v: Vec3, w: f32) -> Vec3 {
+    Vec3::from_array(std::array::from_fn(|r| {
+        rows[r][0] * v.x + rows[r][1] * v.y + rows[r][2] * v.z + rows[r][3] * w
+    }))
+}
+
+impl<'a> Instances<'a> {
+    /// Wraps the validated view's instancing sections.
+    pub fn new(view: &blob::SceneView<'a>) -> Self {
+        let v = &view.instancing;
+        Instances {
+            instances: v.instances,
+            prototypes: v.prototypes,
+            top_nodes: v.bvh_nodes,
+            top_items: v.bvh_items,
+            prototype_nodes: v.prototype_nodes,
+            prototype_blocks: v.prototype_blocks,
+        }
+    }
+
+    /// True when the scene has no instances (the single-level fast path).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.instances.is_empty()
+    }
+
+    /// Number of instances.
+    pub fn len(&self) -> usize {
+        self.instances.len()
+    }
+
+    /// Number of prototypes.
+    pub fn prototype_count(&self) -> usize {
+        self.prototypes.len()
+    }
+
+    /// Triangles before the first prototype: the top-level, world-space ones.
+    pub fn top_level_triangles(&self, triangles: usize) -> usize {
+        self.prototypes.first().map_or(triangles, |p| p.first_triangle as usize)
+    }
+
+    /// The triangle range of `instance`'s prototype.
+    pub fn prototype_triangles(&self, instance: u32) -> std::ops::Range<u32> {
+        let p = &self.prototypes[self.instances[instance as usize].prototype as usize];
+        p.first_triangle..p.first_triangle + p.triangle_count
+    }
+
+    /// Triangles drawn through instances (each instance counts its prototype's triangles).
+    pub fn instanced_triangles(&self) -> u64 {
+        self.instances.iter().map(|i| self.prototypes[i.prototype as usize].triangle_count as u64).sum()
+    }
+
+    /// A prototype-space point of `instance` in world space.
+    #[inline]
+    pub fn to_world_point(&self, instance: u32, p: Vec3) -> Vec3 {
+        apply(&self.instances[instance as usize].world_from_object, p, 1.0)
+    }
+
+    /// A prototype-space normal of `instance` in world space: `object_from_worldᵀ · n` (the inverse
+    /// transpose of `world_from_object`), not normalized.
+    #[inline]
+    pub fn to_world_normal(&self, instance: u32, n: Vec3) -> Vec3 {
+        let m = &self.instances[instance as usize].object_from_world;
+        Vec3::new(
+            m[0][0] * n.x + m[1][0] * n.y + m[2][0] * n.z,
+            m[0][1] * n.x + m[1][1] * n.y + m[2][1] * n.z,
+            m[0][2] * n.x + m[1][2] * n.y + m[2][2] * n.z,
+        )
+    }
+
+    /// The ray in `instance`'s prototype space (same `t`).
+    #[inline(always)]
+    fn object_ray(inst: &Instance, origin: Vec3, direction: Vec3) -> (Vec3, Vec3) {
+        (apply(&inst.object_from_world, origin, 1.0), apply(&inst.object_from_world, direction, 0.0))
+    }
+
+    /// The closest instance hit nearer than `best` (or `tmax` without one); `best` otherwise.
+    #[inline(always)]
+    pub(crate) fn closest(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        tmax: f32,
+        mut best: Option<Hit>,
+        node_kernel: &impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+        block_kernel: &impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+    ) -> Option<Hit> {
+        let nray = NodeRay::new(origin, direction);
+        let start = best.map_or(tmax, |h| h.t);
+        accel::walk_closest(self.top_nodes, 0, &nray, start, node_kernel, |leaf, mut tmax| {
+            let (first, count) = child_ref::leaf_range(leaf);
+            for &instance in &self.top_items[first as usize..(first + count) as usize] {
+                let inst = &self.instances[instance as usize];
+                let root = self.prototypes[inst.prototype as usize].first_node;
+                let (o, d) = Self::object_ray(inst, origin, direction);
+                let found = accel::closest(
+                    self.prototype_nodes,
+                    self.prototype_blocks,
+                    root,
+                    o,
+                    d,
+                    tmax,
+                    node_kernel,
+                    block_kernel,
+                );
+                if let Some((t, triangle, b1, b2)) = found {
+                    tmax = t;
+                    best = Some(Hit { t, triangle, b1, b2, instance });
+                }
+            }
+            tmax
+        });
+        best
+    }
+
+    /// True when a prototype triangle for which `blocks(triangle, instance)` holds is hit in (0, `tmax`).
+    #[inline(always)]
+    pub(crate) fn any(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        tmax: f32,
+        node_kernel: &impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+        block_kernel: &impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+        blocks: &mut impl FnMut(u32, u32) -> bool,
+    ) -> bool {
+        let nray = NodeRay::new(origin, direction);
+        accel::walk_any(self.top_nodes, 0, &nray, tmax, node_kernel, |leaf| {
+            let (first, count) = child_ref::leaf_range(leaf);
+            self.top_items[first as usize..(first + count) as usize].iter().any(|&instance| {
+                let inst = &self.instances[instance as usize];
+                let root = self.prototypes[inst.prototype as usize].first_node;
+                let (o, d) = Self::object_ray(inst, origin, direction);
+                let mut blocker = |triangle| blocks(triangle, instance);
+                accel::any(
+                    self.prototype_nodes,
+                    self.prototype_blocks,
+                    root,
+                    o,
+                    d,
+                    tmax,
+                    node_kernel,
+                    block_kernel,
+                    &mut blocker,
+                )
+            })
+        })
+    }
+}
