@@ -47,6 +47,7 @@
 
 #![deny(missing_docs)]
 
+mod adaptive;
 mod error;
 mod ffi;
 mod limit;
@@ -54,6 +55,9 @@ mod refine;
 mod tessellate;
 mod topology;
 
+pub use adaptive::{
+    level_for_rate, rate_for_dicing_rate, AdaptiveRefiner, AdaptiveTessellation, AdaptiveUv, MAX_RATE,
+};
 pub use error::{Error, Result};
 pub use limit::{normal_from_tangents, LimitSurface};
 pub use refine::{Evaluation, RefinedFaces, Refiner, MAX_LEVEL};
@@ -63,5 +67,7 @@ pub use topology::{
     TriangleSubdivision, UnknownToken,
 };
 
+#[cfg(test)]
+mod adaptive_tests;
 #[cfg(test)]
 mod tests;
