@@ -24,8 +24,8 @@
 //! One level per mesh is set by its largest on-screen faces, so a dense cage, or a mesh that
 //! recedes from the camera or leaves the frame, is refined everywhere as finely as its nearest
 //! big face needs. [`SubdivMode::Adaptive`] instead gives every cage *edge* its own number of
-//! segments ([`choose_edge_rates`]): the edge's length placed at the point of its own bounding
-//! box nearest to the camera, divided by the dicing rate, capped at `2^max_level`. Edges whose
+//! segments ([`choose_edge_rates`]): the edge's length at the depth of its nearer end
+//! ([`DicingCamera::segment_pixels`]), divided by the dicing rate, capped at `2^max_level`. Edges whose
 //! faces are all outside the view get at most `2^OFF_SCREEN_LEVEL`. The same triangle budget
 //! holds: while the mesh would exceed it, every edge's pixel length is scaled down by 3/4.
 //! Rates live on edges, so the two faces of an edge split it alike and the tessellation is
@@ -213,6 +213,22 @@ impl DicingCamera {
         }
     }
 
+    /// On-screen length, in pixels, of the world segment `a`–`b` if it lay parallel to the
+    /// image at its nearest depth: `|a − b| · focal_px / min depth` (at least the near
+    /// distance). The perspective scale of a point is set by its depth, not its distance: at the
+    /// corner of a 53° view the distance overstates the depth by 22 %, and the segments of a
+    /// rate chosen from the distance came out 2.2 px long for a 2 px rate.
+    pub fn segment_pixels(&self, a: DVec3, b: DVec3) -> f64 {
+        let length = a.distance(b);
+        match self.projection {
+            Projection::Orthographic { px_per_unit } => length * px_per_unit,
+            Projection::Perspective { focal_px } => {
+                let depth = |p: DVec3| -self.camera_from_world.transform_point3(p).z;
+                length * focal_px / depth(a).min(depth(b)).max(self.near)
+            }
+        }
+    }
+
     /// Pixels per world unit at world point `p` (for error measurements): perspective scale at
     /// its depth (at least the near distance).
     pub fn pixels_per_unit_at(&self, p: DVec3) -> f64 {
@@ -268,9 +284,8 @@ pub fn choose_edge_rates(
     let rate_of_level = |level: u32| 1u32 << level.min(max_level);
     let edges = refiner.edges();
     let Some(camera) = camera else { return vec![rate_of_level(DEFAULT_LEVEL); edges.len()] };
-    let (lo, hi) = world
-        .iter()
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let (lo, hi) =
+        world.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     let off_screen = rate_of_level(OFF_SCREEN_LEVEL);
     if camera.outside(lo, hi) {
         return vec![off_screen; edges.len()];
@@ -290,13 +305,8 @@ pub fn choose_edge_rates(
             face_edges.iter().for_each(|&e| visible[e as usize] = true);
         }
     }
-    let pixels: Vec<f64> = edges
-        .iter()
-        .map(|&[a, b]| {
-            let (a, b) = (world[a as usize], world[b as usize]);
-            camera.pixels(a.distance(b), a.min(b), a.max(b))
-        })
-        .collect();
+    let pixels: Vec<f64> =
+        edges.iter().map(|&[a, b]| camera.segment_pixels(world[a as usize], world[b as usize])).collect();
     let max_rate = rate_of_level(max_level);
     let rates_at = |scale: f64| -> Vec<u32> {
         pixels
@@ -392,6 +402,20 @@ mod tests {
         assert_eq!(choose_level(&options, Some(&cam), 1.0, lo, hi, |_| 0), 2);
         // The camera inside the box: the near distance.
         assert!((cam.pixels(1.0, -DVec3::ONE, DVec3::ONE) / (1000.0 / 0.1) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn segment_pixels_use_depth() {
+        let cam = DicingCamera::new(&camera(Vec3::ZERO, false), Some([1000, 1000]));
+        // A unit segment 10 deep is 100 px on the axis and at the edge of the view alike.
+        let px = |a: [f64; 3], b: [f64; 3]| cam.segment_pixels(DVec3::from(a), DVec3::from(b));
+        assert!((px([0.0, 0.0, -10.0], [1.0, 0.0, -10.0]) - 100.0).abs() < 1e-9);
+        assert!((px([4.0, 4.0, -10.0], [4.0, 5.0, -10.0]) - 100.0).abs() < 1e-9);
+        // Receding: the nearer end's depth; behind the camera: the near distance (0.1).
+        assert!((px([0.0, 0.0, -10.0], [0.0, 0.0, -20.0]) - 1000.0).abs() < 1e-9);
+        assert!((px([0.0, 0.0, 5.0], [1.0, 0.0, 5.0]) / 10_000.0 - 1.0).abs() < 1e-6);
+        let ortho = DicingCamera::new(&camera(Vec3::ZERO, true), Some([1000, 1000]));
+        assert!((ortho.segment_pixels(DVec3::ZERO, DVec3::X) - 1000.0 / 3.6).abs() < 1e-9);
     }
 
     #[test]

@@ -86,7 +86,9 @@ impl AdaptiveRefiner {
         let mut face_edges = vec![0 as c_int; topology.face_vertex_indices.len()];
         // SAFETY: the buffers hold 2 ints per base edge and one per face-vertex, as the shim
         // writes.
-        check(unsafe { ffi::osd_base_edges(base.raw(), edge_vertices.as_mut_ptr(), face_edges.as_mut_ptr()) })?;
+        check(unsafe {
+            ffi::osd_base_edges(base.raw(), edge_vertices.as_mut_ptr(), face_edges.as_mut_ptr())
+        })?;
         let mut face_start = Vec::with_capacity(topology.face_count() + 1);
         face_start.push(0);
         for &n in &topology.face_vertex_counts {
@@ -151,7 +153,11 @@ impl AdaptiveRefiner {
 
     fn check_rates(&self, rates: &[u32]) -> Result<Vec<c_int>> {
         if rates.len() != self.edges.len() {
-            return Err(Error::PrimvarSize { what: "edge rates", expected: self.edges.len(), got: rates.len() });
+            return Err(Error::PrimvarSize {
+                what: "edge rates",
+                expected: self.edges.len(),
+                got: rates.len(),
+            });
         }
         if let Some(at) = rates.iter().position(|&r| r == 0 || r > MAX_RATE) {
             return Err(Error::Invalid {
@@ -190,7 +196,11 @@ impl AdaptiveRefiner {
         let (vertex_data, width) = match uvs {
             Some(AdaptiveUv::Vertex(uv)) => {
                 if uv.len() != positions.len() {
-                    return Err(Error::PrimvarSize { what: "vertex UVs", expected: positions.len(), got: uv.len() });
+                    return Err(Error::PrimvarSize {
+                        what: "vertex UVs",
+                        expected: positions.len(),
+                        got: uv.len(),
+                    });
                 }
                 let data = positions
                     .iter()
@@ -206,7 +216,11 @@ impl AdaptiveRefiner {
             Some(AdaptiveUv::FaceVarying(source)) => {
                 let expected = self.base.base_fvar_value_count(source.channel)?;
                 if source.values.len() != expected {
-                    return Err(Error::PrimvarSize { what: "face-varying UVs", expected, got: source.values.len() });
+                    return Err(Error::PrimvarSize {
+                        what: "face-varying UVs",
+                        expected,
+                        got: source.values.len(),
+                    });
                 }
                 (to_c_int(source.channel), flatten_f64(source.values))
             }
@@ -229,7 +243,8 @@ impl AdaptiveRefiner {
                 &mut raw,
             )
         })?;
-        let raw = RawAdaptive(NonNull::new(raw).ok_or_else(|| Error::OpenSubdiv("null tessellation".into()))?);
+        let raw =
+            RawAdaptive(NonNull::new(raw).ok_or_else(|| Error::OpenSubdiv("null tessellation".into()))?);
         let (mut vertex_count, mut triangle_count) = (0, 0);
         // SAFETY: `raw` is live; the out-pointers are valid locals.
         unsafe { ffi::osd_adaptive_counts(raw.0.as_ptr(), &mut vertex_count, &mut triangle_count) };
@@ -257,16 +272,19 @@ impl AdaptiveRefiner {
         };
         drop(raw);
 
-        let xyz = |buf: &[f64]| -> Vec<[f64; 3]> { buf.chunks_exact(width).map(|c| [c[0], c[1], c[2]]).collect() };
+        let xyz =
+            |buf: &[f64]| -> Vec<[f64; 3]> { buf.chunks_exact(width).map(|c| [c[0], c[1], c[2]]).collect() };
         let (positions, du, dv) = (xyz(&data), xyz(&du), xyz(&dv));
-        let triangles: Vec<[u32; 3]> = triangles.chunks_exact(3).map(|t| [t[0], t[1], t[2]].map(|i| i as u32)).collect();
-        let normals =
-            oriented_normals(&positions, &du, &dv, triangles.iter().map(|t| t.map(|i| i as usize)));
+        let triangles: Vec<[u32; 3]> =
+            triangles.chunks_exact(3).map(|t| [t[0], t[1], t[2]].map(|i| i as u32)).collect();
+        let normals = oriented_normals(&positions, &du, &dv, triangles.iter().map(|t| t.map(|i| i as usize)));
         let uvs = match uvs {
             Some(AdaptiveUv::FaceVarying(_)) => {
                 Some(fvar.chunks_exact(2).map(|c| [c[0] as f32, c[1] as f32]).collect())
             }
-            Some(AdaptiveUv::Vertex(_)) => Some(data.chunks_exact(width).map(|c| [c[3] as f32, c[4] as f32]).collect()),
+            Some(AdaptiveUv::Vertex(_)) => {
+                Some(data.chunks_exact(width).map(|c| [c[3] as f32, c[4] as f32]).collect())
+            }
             None => None,
         };
         let to_f32 = |a: &[f64; 3]| a.map(|x| x as f32);

@@ -65,8 +65,13 @@ fn cube_with_varying_edge_rates_is_watertight() {
     // The cage edges are split as asked: the boundary of cage face f has Σ rates points.
     for face in 0..6u32 {
         let (_, edges) = refiner.face(face as usize);
-        let tris: Vec<[u32; 3]> =
-            mesh.triangles.iter().zip(&mesh.coarse_face).filter(|(_, &c)| c == face).map(|(t, _)| *t).collect();
+        let tris: Vec<[u32; 3]> = mesh
+            .triangles
+            .iter()
+            .zip(&mesh.coarse_face)
+            .filter(|(_, &c)| c == face)
+            .map(|(t, _)| *t)
+            .collect();
         let boundary = edge_uses(&tris, |v| v).values().filter(|&&(a, b)| a + b == 1).count();
         let expected: u32 = edges.iter().map(|&e| rates[e as usize]).sum();
         assert_eq!(boundary as u32, expected, "face {face}");
@@ -152,13 +157,18 @@ fn adaptive_points_lie_on_the_uniform_limit_surface() {
         let mesh = refiner.tessellate(points, None, &rates, false).unwrap().mesh;
         let uniform = refine(&cage, 6).limit(points).unwrap().positions;
         let size = {
-            let (lo, hi) = uniform.iter().fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), p| {
-                (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k])))
-            });
+            let (lo, hi) =
+                uniform.iter().fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), p| {
+                    (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k])))
+                });
             dist(lo, hi)
         };
         let worst = nearest_distances(&mesh.positions, &uniform).into_iter().fold(0.0, f64::max);
-        eprintln!("{name}: {} points, worst distance to the level-6 limit {:.2e} of the size", mesh.positions.len(), worst / size);
+        eprintln!(
+            "{name}: {} points, worst distance to the level-6 limit {:.2e} of the size",
+            mesh.positions.len(),
+            worst / size
+        );
         assert!(worst < 1e-3 * size, "{name}: {worst}");
         assert_unit_normals(&mesh);
 

@@ -82,7 +82,11 @@ extern "C" {
         dst: *mut f64,
     ) -> c_int;
     pub(crate) fn osd_base_edge_count(r: *const OsdRefiner, num_edges: *mut c_int) -> c_int;
-    pub(crate) fn osd_base_edges(r: *const OsdRefiner, edge_vertices: *mut c_int, face_edges: *mut c_int) -> c_int;
+    pub(crate) fn osd_base_edges(
+        r: *const OsdRefiner,
+        edge_vertices: *mut c_int,
+        face_edges: *mut c_int,
+    ) -> c_int;
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn osd_tessellate_adaptive(
         r: *const OsdRefiner,
@@ -96,7 +100,11 @@ extern "C" {
         out: *mut *mut OsdAdaptive,
     ) -> c_int;
     pub(crate) fn osd_adaptive_free(a: *mut OsdAdaptive);
-    pub(crate) fn osd_adaptive_counts(a: *const OsdAdaptive, num_vertices: *mut c_int, num_triangles: *mut c_int);
+    pub(crate) fn osd_adaptive_counts(
+        a: *const OsdAdaptive,
+        num_vertices: *mut c_int,
+        num_triangles: *mut c_int,
+    );
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn osd_adaptive_copy(
         a: *const OsdAdaptive,

@@ -16,7 +16,8 @@ pub(crate) const CUBE_POINTS: [[f32; 3]; 8] = [
     [-1.0, 1.0, 1.0],
 ];
 pub(crate) const CUBE_COUNTS: [i32; 6] = [4; 6];
-pub(crate) const CUBE_INDICES: [i32; 24] = [0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7];
+pub(crate) const CUBE_INDICES: [i32; 24] =
+    [0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7];
 
 pub(crate) fn cube() -> Cage<'static> {
     Cage {

@@ -16,7 +16,8 @@ use glam::{DMat4, DVec3, Vec2};
 use rayon::prelude::*;
 use subdiv::{
     tessellate, AdaptiveRefiner, AdaptiveUv, BoundaryInterpolation, Cage, Evaluation, FaceVaryingChannel,
-    FaceVaryingInterpolation, Options, Refiner, Scheme, Tessellation, Topology, TriangleSubdivision, UvSource,
+    FaceVaryingInterpolation, Options, Refiner, Scheme, Tessellation, Topology, TriangleSubdivision,
+    UvSource,
 };
 
 use super::mesh::{world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
@@ -323,10 +324,16 @@ fn dice(
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
 ) -> subdiv::Result<Diced> {
-    let world: Vec<DVec3> =
-        q.points.iter().map(|p| q.world_from_points.transform_point3(glam::Vec3::from_array(*p).as_dvec3())).collect();
-    let (tess, uvs, level, edge_rates, note) =
-        if options.adaptive() { dice_adaptive(q, options, camera, &world)? } else { dice_uniform(q, options, camera, &world)? };
+    let world: Vec<DVec3> = q
+        .points
+        .iter()
+        .map(|p| q.world_from_points.transform_point3(glam::Vec3::from_array(*p).as_dvec3()))
+        .collect();
+    let (tess, uvs, level, edge_rates, note) = if options.adaptive() {
+        dice_adaptive(q, options, camera, &world)?
+    } else {
+        dice_uniform(q, options, camera, &world)?
+    };
 
     // Faces that made it to the surface (not holes, not dropped by interpolateBoundary = none),
     // for the triangle count at the level cap.
