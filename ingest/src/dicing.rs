@@ -168,6 +168,11 @@ impl DicingCamera {
         DicingCamera::new(&camera, Some([DEFAULT_WIDTH, DEFAULT_WIDTH]))
     }
 
+    /// Image size in pixels.
+    pub fn resolution(&self) -> [u32; 2] {
+        self.resolution
+    }
+
     /// The most triangles worth dicing one mesh into at `rate_px`: `2·W·H / rate²`.
     pub fn triangle_budget(&self, rate_px: f32) -> u64 {
         let pixels = f64::from(self.resolution[0]) * f64::from(self.resolution[1]);
