@@ -5,10 +5,10 @@
 //! primvar; left-handed faces reversed) and reserves the mesh's slot in `Scene::meshes`, so the
 //! mesh order stays the traversal order. Dicing needs the render camera, which is only known
 //! once the walk has ended (RenderSettings may name a camera anywhere on the stage), so
-//! `tessellate_subdivisions` runs after the walk: it picks each mesh's level
-//! (`crate::dicing`), refines and tessellates the queued cages in parallel, and fills the slots
-//! with world-space limit surfaces. A cage OpenSubdiv rejects is rendered as its triangulated
-//! cage, with one warning naming the problem.
+//! `tessellate_subdivisions` runs after the walk: it picks each mesh's edge rates (adaptive, the
+//! default) or level (uniform) (`crate::dicing`), tessellates the queued cages in parallel, and
+//! fills the slots with world-space limit surfaces. A cage OpenSubdiv rejects is rendered as its
+//! triangulated cage, with one warning naming the problem.
 
 use std::str::FromStr;
 
