@@ -138,7 +138,8 @@ impl AdaptiveRefiner {
             .filter(|&f| !self.is_hole[f])
             .map(|f| {
                 let (_, edges) = self.face(f);
-                let r = |i: usize| u64::from(rates[edges[i] as usize].max(1));
+                // Missing rates count as 1 (`tessellate` refuses a short list before estimating).
+                let r = |i: usize| u64::from(rates.get(edges[i] as usize).copied().unwrap_or(1).max(1));
                 let n = edges.len() as u64;
                 let max = (0..edges.len()).map(r).max().unwrap_or(1);
                 match (self.scheme, edges.len()) {
@@ -191,7 +192,16 @@ impl AdaptiveRefiner {
         want_coords: bool,
     ) -> Result<AdaptiveTessellation> {
         self.check_points(positions)?;
-        let rates = self.check_rates(rates)?;
+        let checked = self.check_rates(rates)?;
+        let estimate = self.triangle_estimate(rates);
+        let rates = checked;
+        // The shim counts triangle corners in `int`.
+        if estimate > i32::MAX as u64 / 3 {
+            return Err(Error::Invalid {
+                attribute: "edge rates",
+                reason: format!("about {estimate} triangles, more than 32-bit indices can address"),
+            });
+        }
         // Vertex UVs ride along with the positions on the vertex surface.
         let (vertex_data, width) = match uvs {
             Some(AdaptiveUv::Vertex(uv)) => {

@@ -335,6 +335,23 @@ fn bad_rates_and_samples_are_errors() {
     assert!(matches!(tess(&rates), Err(Error::Invalid { attribute: "edge rates", .. })));
     rates[3] = MAX_RATE + 1;
     assert!(matches!(tess(&rates), Err(Error::Invalid { attribute: "edge rates", .. })));
+    // 400 quads at the highest rate would be 400·2·2^20 = 839 M triangles, beyond the shim's
+    // 32-bit corner indices: refused before any work.
+    let points: Vec<[f32; 3]> = (0..21 * 21).map(|i| [(i % 21) as f32, (i / 21) as f32, 0.0]).collect();
+    let indices: Vec<i32> = (0..20 * 20)
+        .flat_map(|q| [q % 20 + 21 * (q / 20)])
+        .flat_map(|v| [v, v + 1, v + 22, v + 21])
+        .collect();
+    let grid = adaptive(&Cage {
+        face_vertex_counts: &[4; 400],
+        face_vertex_indices: &indices,
+        vertex_count: points.len(),
+        ..Default::default()
+    });
+    let rates = vec![MAX_RATE; grid.edges().len()];
+    assert_eq!(grid.triangle_estimate(&rates), 400 * 2 << 20);
+    let err = grid.tessellate(&points, None, &rates, false).unwrap_err();
+    assert!(matches!(err, Error::Invalid { attribute: "edge rates", .. }), "{err}");
     assert!(matches!(
         refiner.tessellate(&CUBE_POINTS[..7], None, &[2; 12], false),
         Err(Error::PrimvarSize { what: "points", .. })
