@@ -349,7 +349,7 @@ fn bad_rates_and_samples_are_errors() {
         ..Default::default()
     });
     let rates = vec![MAX_RATE; grid.edges().len()];
-    assert_eq!(grid.triangle_estimate(&rates), 400 * 2 << 20);
+    assert_eq!(grid.triangle_estimate(&rates), (400 * 2) << 20);
     let err = grid.tessellate(&points, None, &rates, false).unwrap_err();
     assert!(matches!(err, Error::Invalid { attribute: "edge rates", .. }), "{err}");
     assert!(matches!(
