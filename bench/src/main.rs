@@ -117,9 +117,10 @@ enum Cmd {
     },
     /// Subdivision: chordal error in pixels against ingest seconds and blob bytes.
     Subdiv {
-        /// NAME=ROOT_LAYER[@MAX_LEVEL] (repeatable; default: the teapot to level 5 and the chess
-        /// set to level 4 from ../shared/assets).
-        #[arg(long = "asset", value_name = "NAME=PATH[@MAX]")]
+        /// NAME=ROOT_LAYER[@MAX_LEVEL[/FORCED_MAX]]: the level cap of dicing and the highest forced
+        /// uniform level run (repeatable; default: the teapot to level 5 and the chess set capped
+        /// at 2, forced levels to 1, from ../shared/assets).
+        #[arg(long = "asset", value_name = "NAME=PATH[@MAX[/FORCED]]")]
         assets: Vec<String>,
         /// Work folder for the chart and results.
         #[arg(long, default_value = "out/bench")]
@@ -177,14 +178,19 @@ enum Cmd {
     },
 }
 
-/// Parses `NAME=PATH[@MAX_LEVEL]`.
+/// Parses `NAME=PATH[@MAX_LEVEL[/FORCED_MAX]]`.
 fn subdiv_asset(spec: &str) -> anyhow::Result<subdiv::Asset> {
-    let (name, rest) = spec.split_once('=').context("expected NAME=PATH[@MAX_LEVEL]")?;
-    let (path, max_level) = match rest.rsplit_once('@') {
-        Some((path, max)) => (path, max.parse().context("MAX_LEVEL")?),
-        None => (rest, 5),
+    let (name, rest) = spec.split_once('=').context("expected NAME=PATH[@MAX_LEVEL[/FORCED_MAX]]")?;
+    let (path, max_level, forced_max) = match rest.rsplit_once('@') {
+        Some((path, max)) => match max.split_once('/') {
+            Some((max, forced)) => {
+                (path, max.parse().context("MAX_LEVEL")?, forced.parse().context("FORCED_MAX")?)
+            }
+            None => (path, max.parse().context("MAX_LEVEL")?, max.parse().context("MAX_LEVEL")?),
+        },
+        None => (rest, 5, 5),
     };
-    Ok(subdiv::Asset { name: name.into(), path: path.into(), max_level })
+    Ok(subdiv::Asset { name: name.into(), path: path.into(), max_level, forced_max })
 }
 
 fn load(path: &PathBuf) -> anyhow::Result<blob::AlignedBytes> {
@@ -304,7 +310,7 @@ fn main() -> anyhow::Result<()> {
             let assets = if assets.is_empty() {
                 vec![
                     "teapot=../shared/assets/teapot/full_assets/Teapot/Teapot.usd@5".to_string(),
-                    "chess=../shared/assets/open_chess_set/full_assets/OpenChessSet/chess_set.usda@4"
+                    "chess=../shared/assets/open_chess_set/full_assets/OpenChessSet/chess_set.usda@2/1"
                         .to_string(),
                 ]
             } else {

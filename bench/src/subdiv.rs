@@ -1,8 +1,10 @@
 //! `bench subdiv`: subdivision tessellation error against ingest time and blob size.
 //!
 //! For each asset, the whole ingest (USD → diced limit surfaces → BVH → blob) runs once per
-//! uniform level 0…max and once per dicing rate (4, 2, 1, 0.5 px), and the tessellation's
-//! chordal error is measured in pixels at the render camera. Assets without a camera get one:
+//! uniform level 0…max and, per dicing rate (4, 2, 1, 0.5 px), once with uniform dicing (one
+//! level per mesh) and once with adaptive dicing (segments per cage edge, Bfr), and the
+//! tessellation's chordal error is measured in pixels at the render camera. The machine's load
+//! average is recorded beside the figures (timings on a shared machine are contended). Assets without a camera get one:
 //! a wrapper layer sublayers the asset and adds the camera `render` would frame it with (45°
 //! horizontal field of view, 512 × 512), so dicing and error see the same view as the image.
 //!
@@ -20,6 +22,13 @@
 //! interior of a triangle, by a bounded factor). Each sample's world distance is scaled by the
 //! camera's pixels per unit at its depth; samples outside the view are left out.
 //!
+//! An adaptive tessellation is measured the same way, at the parametric midpoint of every
+//! triangle edge (which, for the uniform grid, are exactly the level-(N+1) edge children and the
+//! quad centres on the split diagonals): the cage is re-tessellated with the recorded edge rates,
+//! keeping each triangle corner's (u, v) in its face, and Bfr evaluates the limit at the midpoint
+//! of each edge's (u, v). Triangles of faces Bfr splits into quadrilateral sub-faces
+//! (Catmull–Clark non-quads) have no single (u, v) chart and are left out (counted).
+//!
 //! The level-(N+1) children of a level-N face are found topologically, without relying on
 //! OpenSubdiv's vertex numbering: child faces are contiguous per parent (Vtr refines face by
 //! face; checked against the `coarse_face` ancestry), the face child is the vertex every child
@@ -30,20 +39,22 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use ::subdiv::{Refiner, Scheme};
+use ::subdiv::{AdaptiveRefiner, Refiner, Scheme};
 use anyhow::{bail, Context};
 use glam::DVec3;
-use ingest::dicing::{DicingCamera, SubdivOptions};
+use ingest::dicing::{DicingCamera, SubdivMode, SubdivOptions};
 use plotters::prelude::*;
 
 /// Dicing rates of the sweep, in pixels.
 const RATES: [f32; 4] = [4.0, 2.0, 1.0, 0.5];
 
-/// One asset of the sweep: a name and its root layer; `max_level` caps its uniform levels.
+/// One asset of the sweep: a name and its root layer; `max_level` caps dicing (both modes) and
+/// `forced_max` is the highest forced uniform level run.
 pub struct Asset {
     pub name: String,
     pub path: PathBuf,
     pub max_level: u32,
+    pub forced_max: u32,
 }
 
 /// Chordal error statistics, in pixels.
@@ -75,15 +86,45 @@ impl ErrorStats {
     }
 }
 
+/// How the meshes of one ingest were diced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// A forced uniform level (`--subdiv-level`).
+    Level,
+    /// Uniform dicing from the camera at a rate.
+    Uniform,
+    /// Adaptive (per-edge) dicing from the camera at a rate.
+    Adaptive,
+}
+
+impl Kind {
+    fn name(self) -> &'static str {
+        match self {
+            Kind::Level => "level",
+            Kind::Uniform => "uniform",
+            Kind::Adaptive => "adaptive",
+        }
+    }
+}
+
 /// One ingest of the sweep.
 struct Row {
     asset: String,
     mode: String,
+    kind: Kind,
+    /// Dicing rate in pixels (rate rows).
+    rate: Option<f32>,
     levels: Vec<u32>,
+    /// Smallest and largest segments per cage edge (adaptive rows).
+    edge_rates: Option<(u32, u32)>,
+    /// Pixels of the render camera's image.
+    pixels: u64,
     triangles: usize,
     seconds: f64,
     blob_bytes: usize,
     error: ErrorStats,
+    /// 1-minute load average after the ingest.
+    load: Option<f64>,
 }
 
 /// A root layer that adds `render`'s framing camera to an asset without one.
@@ -253,26 +294,89 @@ fn chordal_error(s: &ingest::Subdivision, level: u32, camera: &DicingCamera) -> 
     Ok(stats)
 }
 
+/// Chordal error of one adaptively tessellated surface, in pixels at `camera`: the flat
+/// triangle edges against the limit at their parametric midpoints (see the module docs).
+fn adaptive_chordal_error(s: &ingest::Subdivision, camera: &DicingCamera) -> anyhow::Result<ErrorStats> {
+    let world: Vec<[f32; 3]> = s
+        .points
+        .iter()
+        .map(|p| {
+            s.world_from_local.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array()
+        })
+        .collect();
+    let refiner = AdaptiveRefiner::new(&s.topology)?;
+    let tess = refiner.tessellate(&world, None, &s.edge_rates, true)?;
+    let mesh = &tess.mesh;
+    // Faces Bfr parameterizes with quadrilateral sub-faces: no single chart for midpoints.
+    let sub_faces = |f: u32| {
+        let n = refiner.face(f as usize).0.len();
+        n != 4 && !(n == 3 && s.topology.options().scheme == Scheme::Loop)
+    };
+    let mut skipped = HashSet::new();
+    let mut seen = HashSet::new();
+    let (mut samples, mut chords) = (Vec::new(), Vec::new());
+    for ((t, corners), &face) in mesh.triangles.iter().zip(&tess.corner_coords).zip(&mesh.coarse_face) {
+        if sub_faces(face) {
+            skipped.insert(face);
+            continue;
+        }
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if !seen.insert((a.min(b), a.max(b))) {
+                continue;
+            }
+            let (ca, cb) = (corners[k], corners[(k + 1) % 3]);
+            let uv = [f64::from(ca[0] + cb[0]) / 2.0, f64::from(ca[1] + cb[1]) / 2.0];
+            samples.push((face, uv));
+            let p = |i: u32| glam::Vec3::from_array(mesh.positions[i as usize]).as_dvec3();
+            chords.push((p(a) + p(b)) / 2.0);
+        }
+    }
+    let exact = refiner.evaluate(&world, &samples)?;
+    let mut stats = ErrorStats::default();
+    for (flat, exact) in chords.iter().zip(exact) {
+        let exact = DVec3::from_array(exact);
+        if !camera.outside(exact, exact) {
+            stats.add(flat.distance(exact) * camera.pixels_per_unit_at(exact));
+        }
+    }
+    stats.skipped_faces = skipped.len() as u64;
+    Ok(stats)
+}
+
+/// The 1-minute load average, for the record.
+fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
+}
+
 /// Runs the sweep and writes `subdiv.json` and `subdiv.svg` into `out`.
 pub fn run(assets: &[Asset], out: &Path) -> anyhow::Result<()> {
+    let load_start = load_average();
     let mut rows = Vec::new();
     for asset in assets {
         let root = with_framing_camera(&asset.path, out, &asset.name)?;
         let blob = out.join(format!("subdiv_{}.blob", asset.name));
         // Errors per (mesh, level), shared by every run that picks that level for that mesh.
         let mut cache: HashMap<(usize, u32), ErrorStats> = HashMap::new();
-        let mut modes: Vec<(String, SubdivOptions)> = (0..=asset.max_level)
+        let mut modes: Vec<(String, Kind, Option<f32>, SubdivOptions)> = (0..=asset.forced_max)
             .map(|l| {
-                (format!("level {l}"), SubdivOptions { forced_level: Some(l), ..SubdivOptions::default() })
+                let options = SubdivOptions { forced_level: Some(l), ..SubdivOptions::default() };
+                (format!("level {l}"), Kind::Level, None, options)
             })
             .collect();
-        modes.extend(RATES.iter().map(|&r| {
-            (
-                format!("rate {r} px"),
-                SubdivOptions { dicing_rate: r, max_level: asset.max_level, ..SubdivOptions::default() },
-            )
-        }));
-        for (mode, subdiv) in modes {
+        for &r in &RATES {
+            for (kind, mode) in [(Kind::Uniform, SubdivMode::Uniform), (Kind::Adaptive, SubdivMode::Adaptive)]
+            {
+                let options = SubdivOptions {
+                    dicing_rate: r,
+                    max_level: asset.max_level,
+                    mode,
+                    ..SubdivOptions::default()
+                };
+                modes.push((format!("{} {r} px", kind.name()), kind, Some(r), options));
+            }
+        }
+        for (mode, kind, rate, subdiv) in modes {
             let options = ingest::usd::LoadOptions { subdiv, ..ingest::usd::LoadOptions::default() };
             let start = Instant::now();
             let (scene, report) = ingest::pipeline::ingest_file(&root, &blob, &options)?;
@@ -283,6 +387,12 @@ pub fn run(assets: &[Asset], out: &Path) -> anyhow::Result<()> {
                 .context("no render camera")?;
             let mut error = ErrorStats::default();
             for (k, s) in scene.subdivisions.iter().enumerate() {
+                if !s.edge_rates.is_empty() {
+                    let stats = adaptive_chordal_error(s, &camera)
+                        .with_context(|| scene.meshes[s.mesh].path.clone())?;
+                    error.merge(&stats);
+                    continue;
+                }
                 let stats = match cache.get(&(k, s.level)) {
                     Some(stats) => *stats,
                     None => {
@@ -296,14 +406,22 @@ pub fn run(assets: &[Asset], out: &Path) -> anyhow::Result<()> {
             }
             let mut levels: Vec<u32> = scene.subdivisions.iter().map(|s| s.level).collect();
             levels.sort_unstable();
+            let rates = scene.subdivisions.iter().flat_map(|s| &s.edge_rates);
+            let edge_rates = rates.clone().min().copied().zip(rates.max().copied());
+            let [w, h] = camera.resolution();
             let row = Row {
                 asset: asset.name.clone(),
                 mode,
+                kind,
+                rate,
                 levels,
+                edge_rates,
+                pixels: u64::from(w) * u64::from(h),
                 triangles: report.triangles,
                 seconds,
                 blob_bytes: report.blob_bytes,
                 error,
+                load: load_average(),
             };
             print_row(&row);
             rows.push(row);
@@ -311,12 +429,17 @@ pub fn run(assets: &[Asset], out: &Path) -> anyhow::Result<()> {
         let _ = std::fs::remove_file(&blob);
     }
     let json = serde_json::json!({
-        "error": "chordal error at level-N edge midpoints and quad centres against the level-(N+1) limit points, pixels at the render camera",
+        "error": "chordal error at the parametric midpoints of the tessellation's edges (uniform: level-N edge midpoints and quad centres against the level-(N+1) limit points; adaptive: Bfr limit at the (u, v) midpoint of each triangle edge), pixels at the render camera",
+        "load_average": { "start": load_start, "end": load_average() },
         "rows": rows.iter().map(|r| {
             let (lo, hi) = (r.levels.first().copied(), r.levels.last().copied());
             serde_json::json!({
-                "asset": r.asset, "mode": r.mode, "min_level": lo, "max_level": hi,
+                "asset": r.asset, "mode": r.mode, "kind": r.kind.name(), "dicing_rate_px": r.rate,
+                "min_level": lo, "max_level": hi,
+                "min_edge_rate": r.edge_rates.map(|e| e.0), "max_edge_rate": r.edge_rates.map(|e| e.1),
                 "subdivision_meshes": r.levels.len(), "triangles": r.triangles,
+                "triangles_per_pixel": r.triangles as f64 / r.pixels.max(1) as f64,
+                "load_average": r.load,
                 "ingest_seconds": r.seconds, "blob_bytes": r.blob_bytes,
                 "error_max_px": r.error.max, "error_rms_px": r.error.rms(), "error_samples": r.error.samples,
                 "skipped_faces": r.error.skipped_faces,
@@ -331,57 +454,135 @@ pub fn run(assets: &[Asset], out: &Path) -> anyhow::Result<()> {
 
 fn print_row(r: &Row) {
     let (lo, hi) = (r.levels.first().copied().unwrap_or(0), r.levels.last().copied().unwrap_or(0));
+    let rates = r.edge_rates.map_or(String::new(), |(a, b)| format!(" rates {a}..{b}"));
     println!(
-        "{:<8} {:<12} levels {lo}..{hi}  {:>10} tris  {:>7.2} s  {:>8.1} MiB  err max {:>9.4} px  rms {:>9.4} px",
+        "{:<8} {:<16} levels {lo}..{hi}{rates}  {:>10} tris ({:.2}/px)  {:>7.2} s  {:>8.1} MiB  err max {:>8.4} px  rms {:>8.4} px  load {:.1}",
         r.asset,
         r.mode,
         r.triangles,
+        r.triangles as f64 / r.pixels.max(1) as f64,
         r.seconds,
         r.blob_bytes as f64 / (1 << 20) as f64,
         r.error.max,
-        r.error.rms()
+        r.error.rms(),
+        r.load.unwrap_or(f64::NAN),
     );
 }
 
-/// Max error against ingest seconds, log–log: per asset one line through the uniform levels and
-/// one through the dicing rates.
-fn chart(rows: &[Row], path: &Path) -> anyhow::Result<()> {
-    let root = SVGBackend::new(path, (820, 520)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let finite: Vec<&Row> = rows.iter().filter(|r| r.error.max > 0.0 && r.seconds > 0.0).collect();
-    let (t0, t1) =
-        finite.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r.seconds), hi.max(r.seconds)));
-    let (e0, e1) =
-        finite.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r.error.max), hi.max(r.error.max)));
-    let mut chart = ChartBuilder::on(&root)
-        .caption("Subdivision: max chordal error (px) vs ingest seconds", ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d((t0 * 0.8..t1 * 1.25).log_scale(), (e0 * 0.5..e1 * 2.0).log_scale())?;
-    chart.configure_mesh().x_desc("ingest seconds (USD → blob)").y_desc("max chordal error, px").draw()?;
+/// A log-scaled range around `values` (positive, finite ones), padded by a factor.
+fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    if lo > hi {
+        return 0.1..10.0;
+    }
+    lo / 1.5..hi * 1.5
+}
+
+/// One panel: `y(row)` against `x(row)`, log–log, one line per asset and kind (solid: uniform
+/// dicing, dashed: adaptive, thin: forced levels), labelled with the mode.
+fn panel(
+    area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    rows: &[&Row],
+    caption: &str,
+    (x_desc, x): (&str, &dyn Fn(&Row) -> f64),
+    (y_desc, y): (&str, &dyn Fn(&Row) -> f64),
+    kinds: &[Kind],
+) -> anyhow::Result<()> {
+    let rows: Vec<&Row> =
+        rows.iter().copied().filter(|r| kinds.contains(&r.kind) && x(r) > 0.0 && y(r) > 0.0).collect();
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 15))
+        .margin(8)
+        .x_label_area_size(34)
+        .y_label_area_size(56)
+        .build_cartesian_2d(
+            log_range(rows.iter().map(|r| x(r))).log_scale(),
+            log_range(rows.iter().map(|r| y(r))).log_scale(),
+        )?;
+    chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).label_style(("sans-serif", 11)).draw()?;
     let palette = [BLUE, RED, GREEN, MAGENTA];
     let mut assets: Vec<&str> = rows.iter().map(|r| r.asset.as_str()).collect();
     assets.dedup();
     for (k, asset) in assets.iter().enumerate() {
         let colour = palette[k % palette.len()];
-        for (kind, dashed) in [("level", false), ("rate", true)] {
+        for &kind in kinds {
             let pts: Vec<&Row> =
-                finite.iter().copied().filter(|r| r.asset == *asset && r.mode.starts_with(kind)).collect();
-            let style = if dashed { colour.mix(0.5).stroke_width(2) } else { colour.stroke_width(2) };
-            chart
-                .draw_series(LineSeries::new(pts.iter().map(|r| (r.seconds, r.error.max)), style))?
-                .label(format!("{asset}: {}", if dashed { "dicing rate" } else { "uniform level" }))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-            chart
-                .draw_series(pts.iter().map(|r| Circle::new((r.seconds, r.error.max), 3, colour.filled())))?;
+                rows.iter().copied().filter(|r| r.asset == *asset && r.kind == kind).collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let style = match kind {
+                Kind::Level => colour.mix(0.4).stroke_width(1),
+                Kind::Uniform => colour.stroke_width(2),
+                Kind::Adaptive => colour.mix(0.6).stroke_width(3),
+            };
+            let points: Vec<(f64, f64)> = pts.iter().map(|r| (x(r), y(r))).collect();
+            if kind == Kind::Adaptive {
+                chart
+                    .draw_series(DashedLineSeries::new(points.clone(), 6, 4, style))?
+                    .label(format!("{asset}: {}", kind.name()))
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
+            } else {
+                chart
+                    .draw_series(LineSeries::new(points.clone(), style))?
+                    .label(format!("{asset}: {}", kind.name()))
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
+            }
+            chart.draw_series(points.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
             chart.draw_series(pts.iter().map(|r| {
-                let label = r.mode.replace("level ", "L").replace("rate ", "").replace(" px", "px");
-                Text::new(label, (r.seconds, r.error.max * 1.12), ("sans-serif", 11).into_font())
+                let label = r
+                    .mode
+                    .replace("level ", "L")
+                    .replace("uniform ", "")
+                    .replace("adaptive ", "")
+                    .replace(" px", "");
+                Text::new(label, (x(r), y(r) * 1.1), ("sans-serif", 10).into_font())
             }))?;
         }
     }
-    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 10))
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()?;
+    Ok(())
+}
+
+/// Six panels: max and RMS error, triangles, ingest seconds and blob size against the dicing
+/// rate (uniform vs adaptive), and max error against ingest seconds for every run.
+fn chart(rows: &[Row], path: &Path) -> anyhow::Result<()> {
+    let root = SVGBackend::new(path, (1500, 900)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled("Subdivision: uniform vs adaptive (per-edge) dicing", ("sans-serif", 20))?;
+    let areas = root.split_evenly((2, 3));
+    let rows: Vec<&Row> = rows.iter().collect();
+    let rate_px = |r: &Row| f64::from(r.rate.unwrap_or(0.0));
+    let rate: (&str, &dyn Fn(&Row) -> f64) = ("dicing rate, px", &rate_px);
+    let diced = [Kind::Uniform, Kind::Adaptive];
+    panel(&areas[0], &rows, "max chordal error", rate, ("px", &|r: &Row| r.error.max), &diced)?;
+    panel(&areas[1], &rows, "RMS chordal error", rate, ("px", &|r: &Row| r.error.rms()), &diced)?;
+    panel(&areas[2], &rows, "triangles", rate, ("triangles", &|r: &Row| r.triangles as f64), &diced)?;
+    panel(&areas[3], &rows, "ingest seconds (USD → blob)", rate, ("s", &|r: &Row| r.seconds), &diced)?;
+    panel(
+        &areas[4],
+        &rows,
+        "blob size",
+        rate,
+        ("MiB", &|r: &Row| r.blob_bytes as f64 / f64::from(1 << 20)),
+        &diced,
+    )?;
+    panel(
+        &areas[5],
+        &rows,
+        "max error vs ingest seconds (all runs)",
+        ("ingest seconds", &|r: &Row| r.seconds),
+        ("max error, px", &|r: &Row| r.error.max),
+        &[Kind::Level, Kind::Uniform, Kind::Adaptive],
+    )?;
     root.present()?;
     Ok(())
 }

@@ -37,7 +37,11 @@ struct Args {
     /// resolution.
     #[arg(long, value_name = "PX", default_value_t = 1.0)]
     dicing_rate: f32,
-    /// Highest subdivision level dicing may choose.
+    /// How subdivision surfaces are diced from the camera: `adaptive` (segments per cage edge
+    /// from its on-screen length) or `uniform` (one level per mesh). `--subdiv-level` is uniform.
+    #[arg(long, value_name = "MODE", default_value = "adaptive", value_parser = ["adaptive", "uniform"])]
+    subdiv_mode: String,
+    /// Highest subdivision level dicing may choose (adaptive: at most 2^N segments per cage edge).
     #[arg(long, value_name = "N", default_value_t = 5,
           value_parser = clap::value_parser!(u32).range(0..=subdiv::MAX_LEVEL as i64))]
     max_subdiv_level: u32,
@@ -72,6 +76,11 @@ fn run(args: Args) -> anyhow::Result<()> {
             forced_level: args.subdiv_level,
             dicing_rate: args.dicing_rate,
             max_level: args.max_subdiv_level,
+            mode: if args.subdiv_mode == "uniform" {
+                ingest::dicing::SubdivMode::Uniform
+            } else {
+                ingest::dicing::SubdivMode::Adaptive
+            },
         },
     };
     let pack = ingest::pack::PackOptions { flatten_instances: args.flatten_instances, ..Default::default() };

@@ -99,7 +99,9 @@ pub fn triangles_at_fixed_level(scene: &Scene) -> u64 {
 }
 
 /// The `--dump-json` listing: every rendered gprim with its world bounds, triangle count and
-/// material; subdivision surfaces add their `scheme` and the `subdiv_level` refined to. The top
+/// material; subdivision surfaces add their `scheme`, the `subdiv_level` refined to (adaptive: the
+/// level as fine as the finest edge), `subdiv_mode` and, when adaptive, `min_edge_rate` and
+/// `max_edge_rate` (segments per cage edge). The top
 /// level has the scene's `triangles`, `triangles_at_fixed_level` (every subdivision mesh at the
 /// level cap) and `triangles_saved` (their difference; negative when a forced level exceeds the
 /// cap).
@@ -132,6 +134,12 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
             if let Some(s) = subdivision {
                 entry["scheme"] = crate::dicing::scheme_token(s.topology.options().scheme).into();
                 entry["subdiv_level"] = s.level.into();
+                let adaptive = !s.edge_rates.is_empty();
+                entry["subdiv_mode"] = if adaptive { "adaptive" } else { "uniform" }.into();
+                if adaptive {
+                    entry["min_edge_rate"] = s.edge_rates.iter().min().copied().into();
+                    entry["max_edge_rate"] = s.edge_rates.iter().max().copied().into();
+                }
             }
             entry
         })

@@ -235,8 +235,12 @@ pub struct Subdivision {
     /// Local-to-world transform of the gprim.
     pub world_from_local: glam::DMat4,
     /// Uniform level refined to (what OpenSubdiv used: Catmull–Clark cages with non-quads are
-    /// refined at least once).
+    /// refined at least once); for an adaptive tessellation, the level as fine as its finest
+    /// edge (`ceil(log2(max edge rate))`).
     pub level: u32,
+    /// Adaptive tessellation: segments per cage edge, in `subdiv::AdaptiveRefiner::edges` order
+    /// (empty for uniform refinement).
+    pub edge_rates: Vec<u32>,
     /// Triangles the same surface would have at the level cap (`--max-subdiv-level`), from the
     /// face-count formula.
     pub triangles_at_max_level: u64,

@@ -37,6 +37,12 @@ pub(crate) struct OsdRefiner {
     _private: [u8; 0],
 }
 
+/// Opaque owner of one per-face (Bfr) tessellation's output buffers.
+#[repr(C)]
+pub(crate) struct OsdAdaptive {
+    _private: [u8; 0],
+}
+
 extern "C" {
     pub(crate) fn osd_last_error() -> *const c_char;
     pub(crate) fn osd_refiner_new(desc: *const OsdDesc, out: *mut *mut OsdRefiner) -> c_int;
@@ -74,6 +80,50 @@ extern "C" {
         width: c_int,
         limit: c_int,
         dst: *mut f64,
+    ) -> c_int;
+    pub(crate) fn osd_base_edge_count(r: *const OsdRefiner, num_edges: *mut c_int) -> c_int;
+    pub(crate) fn osd_base_edges(
+        r: *const OsdRefiner,
+        edge_vertices: *mut c_int,
+        face_edges: *mut c_int,
+    ) -> c_int;
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn osd_tessellate_adaptive(
+        r: *const OsdRefiner,
+        vertex_data: *const f64,
+        width: c_int,
+        channel: c_int,
+        fvar_data: *const f64,
+        fvar_width: c_int,
+        edge_rates: *const c_int,
+        want_coords: c_int,
+        out: *mut *mut OsdAdaptive,
+    ) -> c_int;
+    pub(crate) fn osd_adaptive_free(a: *mut OsdAdaptive);
+    pub(crate) fn osd_adaptive_counts(
+        a: *const OsdAdaptive,
+        num_vertices: *mut c_int,
+        num_triangles: *mut c_int,
+    );
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn osd_adaptive_copy(
+        a: *const OsdAdaptive,
+        data: *mut f64,
+        du: *mut f64,
+        dv: *mut f64,
+        fvar: *mut f64,
+        triangles: *mut c_int,
+        coarse_face: *mut c_int,
+        corner_coords: *mut f32,
+    );
+    pub(crate) fn osd_evaluate_limit(
+        r: *const OsdRefiner,
+        vertex_data: *const f64,
+        width: c_int,
+        count: c_int,
+        faces: *const c_int,
+        coords: *const f64,
+        out: *mut f64,
     ) -> c_int;
 }
 

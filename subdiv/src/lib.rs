@@ -16,6 +16,29 @@
 //! 4. [`tessellate`] turns the last level into triangles with limit positions, unit limit
 //!    normals (`du × dv`), limit UVs split along seams, and the cage face of each triangle.
 //!
+//! Or, per face instead of per level: [`AdaptiveRefiner::new`] keeps the cage unrefined and
+//! lists its edges; [`AdaptiveRefiner::tessellate`] takes a number of segments per edge (for
+//! instance from [`rate_for_dicing_rate`]) and evaluates each face's limit surface through
+//! OpenSubdiv's Bfr interface at a `Bfr::Tessellation` of those rates, sharing the points of every
+//! edge and vertex between its faces, so the mesh is watertight:
+//!
+//! ```
+//! use subdiv::{AdaptiveRefiner, Cage, Topology};
+//!
+//! # let points = [
+//! #     [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0],
+//! #     [0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0],
+//! # ];
+//! # let indices = [0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7];
+//! # let cage = Cage { face_vertex_counts: &[4; 6], face_vertex_indices: &indices, vertex_count: 8, ..Default::default() };
+//! let refiner = AdaptiveRefiner::new(&Topology::new(&cage)?)?;
+//! // Four segments on every edge: the triangles of uniform level 2.
+//! let rates = vec![4; refiner.edges().len()];
+//! let mesh = refiner.tessellate(&points, None, &rates, false)?.mesh;
+//! assert_eq!(mesh.triangles.len(), 2 * 6 * 16);
+//! # Ok::<(), subdiv::Error>(())
+//! ```
+//!
 //! ```
 //! use subdiv::{tessellate, Cage, Refiner, Topology};
 //!
@@ -43,10 +66,12 @@
 //!
 //! Modules: `topology` (cage and validation), `refine` (the refiner and primvar refinement),
 //! `limit` (limit positions and tangents), `tessellate` (triangles and the dicing-rate level),
+//! `adaptive` (per-face Bfr tessellation with per-edge rates),
 //! `ffi` (private declarations of the shim in `shim/osd_shim.cpp`).
 
 #![deny(missing_docs)]
 
+mod adaptive;
 mod error;
 mod ffi;
 mod limit;
@@ -54,6 +79,9 @@ mod refine;
 mod tessellate;
 mod topology;
 
+pub use adaptive::{
+    level_for_rate, rate_for_dicing_rate, AdaptiveRefiner, AdaptiveTessellation, AdaptiveUv, MAX_RATE,
+};
 pub use error::{Error, Result};
 pub use limit::{normal_from_tangents, LimitSurface};
 pub use refine::{Evaluation, RefinedFaces, Refiner, MAX_LEVEL};
@@ -63,5 +91,7 @@ pub use topology::{
     TriangleSubdivision, UnknownToken,
 };
 
+#[cfg(test)]
+mod adaptive_tests;
 #[cfg(test)]
 mod tests;

@@ -62,7 +62,7 @@ impl Drop for Refiner {
     }
 }
 
-fn check(status: c_int) -> Result<()> {
+pub(crate) fn check(status: c_int) -> Result<()> {
     if status == 0 {
         Ok(())
     } else {
@@ -70,7 +70,7 @@ fn check(status: c_int) -> Result<()> {
     }
 }
 
-fn to_c_int(n: usize) -> c_int {
+pub(crate) fn to_c_int(n: usize) -> c_int {
     // Topology validation caps every count at i32::MAX.
     c_int::try_from(n).expect("count validated to fit in an int")
 }
@@ -81,9 +81,23 @@ impl Refiner {
     /// Catmull–Clark cages with a non-quad face are refined at least once: the limit masks used
     /// for positions and normals assume an all-quad neighbourhood, which only holds from level 1.
     pub fn new(topology: &Topology, level: u32) -> Result<Self> {
-        let scheme = topology.options.scheme;
         let all_quads = topology.face_vertex_counts.iter().all(|&n| n == 4);
-        let level = if level == 0 && scheme == Scheme::CatmullClark && !all_quads { 1 } else { level };
+        let bump = level == 0 && topology.options.scheme == Scheme::CatmullClark && !all_quads;
+        Self::refined_to(topology, if bump { 1 } else { level })
+    }
+
+    /// The base level only, for Bfr, which builds each face's limit surface from it.
+    pub(crate) fn unrefined(topology: &Topology) -> Result<Self> {
+        Self::refined_to(topology, 0)
+    }
+
+    /// The owned C++ refiner, for the other modules' shim calls.
+    pub(crate) fn raw(&self) -> *const ffi::OsdRefiner {
+        self.raw.as_ptr()
+    }
+
+    fn refined_to(topology: &Topology, level: u32) -> Result<Self> {
+        let scheme = topology.options.scheme;
         // Each level multiplies the face-vertex count by 4 (for every scheme after level 1).
         let fv = topology.face_vertex_indices.len() as u64;
         let max = (0..=MAX_LEVEL).take_while(|&l| fv << (2 * l) <= i32::MAX as u64).last().unwrap_or(0);
@@ -177,6 +191,11 @@ impl Refiner {
     /// Number of vertices at the last level.
     pub fn vertex_count(&self) -> Result<usize> {
         Ok(self.counts(None)?.0)
+    }
+
+    /// Number of cage values of face-varying `channel`, or an error naming the missing channel.
+    pub(crate) fn base_fvar_value_count(&self, channel: usize) -> Result<usize> {
+        self.check_channel(channel)
     }
 
     fn check_channel(&self, channel: usize) -> Result<usize> {

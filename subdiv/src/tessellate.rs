@@ -119,48 +119,59 @@ pub fn tessellate(
         }
     }
 
-    // Area-weighted face normals per refined vertex: the orientation reference for the tangent
-    // normals, and the fallback where the tangents are degenerate.
-    let mut face_normal_sum = vec![[0.0f64; 3]; limit.positions.len()];
-    for t in &triangles {
-        let v = t.map(|c| refined_vertex[c as usize] as usize);
-        let n = cross(
-            sub(limit.positions[v[1]], limit.positions[v[0]]),
-            sub(limit.positions[v[2]], limit.positions[v[0]]),
-        );
-        for &i in &v {
-            let s = &mut face_normal_sum[i];
-            *s = [s[0] + n[0], s[1] + n[1], s[2] + n[2]];
-        }
-    }
-    let normal_of = |v: usize| -> [f64; 3] {
-        let reference = face_normal_sum[v];
-        match normal_from_tangents(limit.du[v], limit.dv[v]) {
-            // OpenSubdiv's du × dv follows the face winding (the tests find no exception at
-            // boundaries, creases, corners, valence 3 and 5); the faces still decide the side, so
-            // that a convention change or a twisted cage cannot turn a shading normal inside out.
-            Some(n) if dot(n, reference) < 0.0 => [-n[0], -n[1], -n[2]],
-            Some(n) => n,
-            None => {
-                let len = length(reference);
-                if len > 0.0 && len.is_finite() {
-                    reference.map(|x| x / len)
-                } else {
-                    [0.0, 0.0, 1.0]
-                }
-            }
-        }
-    };
+    let slot_triangles = triangles.iter().map(|t| t.map(|c| refined_vertex[c as usize] as usize));
+    let normals = oriented_normals(&limit.positions, &limit.du, &limit.dv, slot_triangles);
 
     let to_f32 = |a: [f64; 3]| a.map(|x| x as f32);
     Ok(Tessellation {
         positions: refined_vertex.iter().map(|&v| to_f32(limit.positions[v as usize])).collect(),
-        normals: refined_vertex.iter().map(|&v| to_f32(normal_of(v as usize))).collect(),
+        normals: refined_vertex.iter().map(|&v| to_f32(normals[v as usize])).collect(),
         uvs: uv_values.map(|_| uv_out),
         triangles,
         coarse_face,
         refined_vertex,
     })
+}
+
+/// Unit limit normals at limit samples ("slots": refined vertices, or Bfr points) from their
+/// tangents, on the side the faces' winding points to. `triangles` index the slots.
+pub(crate) fn oriented_normals(
+    positions: &[[f64; 3]],
+    du: &[[f64; 3]],
+    dv: &[[f64; 3]],
+    triangles: impl Iterator<Item = [usize; 3]>,
+) -> Vec<[f64; 3]> {
+    // Area-weighted face normals per slot: the orientation reference for the tangent normals,
+    // and the fallback where the tangents are degenerate.
+    let mut face_normal_sum = vec![[0.0f64; 3]; positions.len()];
+    for v in triangles {
+        let n = cross(sub(positions[v[1]], positions[v[0]]), sub(positions[v[2]], positions[v[0]]));
+        for &i in &v {
+            let s = &mut face_normal_sum[i];
+            *s = [s[0] + n[0], s[1] + n[1], s[2] + n[2]];
+        }
+    }
+    (0..positions.len())
+        .map(|v| {
+            let reference = face_normal_sum[v];
+            match normal_from_tangents(du[v], dv[v]) {
+                // OpenSubdiv's du × dv follows the face winding (the tests find no exception at
+                // boundaries, creases, corners, valence 3 and 5); the faces still decide the side,
+                // so that a convention change or a twisted cage cannot turn a shading normal
+                // inside out.
+                Some(n) if dot(n, reference) < 0.0 => [-n[0], -n[1], -n[2]],
+                Some(n) => n,
+                None => {
+                    let len = length(reference);
+                    if len > 0.0 && len.is_finite() {
+                        reference.map(|x| x / len)
+                    } else {
+                        [0.0, 0.0, 1.0]
+                    }
+                }
+            }
+        })
+        .collect()
 }
 
 /// Refinement level for a dicing rate: `ceil(log2(edge_px / rate_px))` clamped to

@@ -5,7 +5,7 @@ use crate::limit::{cross, dot, length, sub};
 use crate::*;
 
 /// Cube [-1, 1]³, faces wound counter-clockwise seen from outside.
-const CUBE_POINTS: [[f32; 3]; 8] = [
+pub(crate) const CUBE_POINTS: [[f32; 3]; 8] = [
     [-1.0, -1.0, -1.0],
     [1.0, -1.0, -1.0],
     [1.0, 1.0, -1.0],
@@ -15,10 +15,11 @@ const CUBE_POINTS: [[f32; 3]; 8] = [
     [1.0, 1.0, 1.0],
     [-1.0, 1.0, 1.0],
 ];
-const CUBE_COUNTS: [i32; 6] = [4; 6];
-const CUBE_INDICES: [i32; 24] = [0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7];
+pub(crate) const CUBE_COUNTS: [i32; 6] = [4; 6];
+pub(crate) const CUBE_INDICES: [i32; 24] =
+    [0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7];
 
-fn cube() -> Cage<'static> {
+pub(crate) fn cube() -> Cage<'static> {
     Cage {
         face_vertex_counts: &CUBE_COUNTS,
         face_vertex_indices: &CUBE_INDICES,
@@ -27,20 +28,20 @@ fn cube() -> Cage<'static> {
     }
 }
 
-fn refine(cage: &Cage<'_>, level: u32) -> Refiner {
+pub(crate) fn refine(cage: &Cage<'_>, level: u32) -> Refiner {
     Refiner::new(&Topology::new(cage).unwrap(), level).unwrap()
 }
 
-fn f64x3(p: [f32; 3]) -> [f64; 3] {
+pub(crate) fn f64x3(p: [f32; 3]) -> [f64; 3] {
     p.map(f64::from)
 }
 
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     length(sub(a, b))
 }
 
 /// Distance from `p` to the infinite line through `a` and `b`.
-fn distance_to_line(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn distance_to_line(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
     let ab = sub(b, a);
     length(cross(sub(p, a), ab)) / length(ab)
 }
@@ -168,7 +169,7 @@ fn boundary_none_drops_faces_touching_the_boundary() {
 
 /// Per-face UV islands, face `f` on [2f, 2f + 1] × [0, 1]: every cage edge is a UV seam, and
 /// the two sides of a seam never share a UV value by accident.
-fn cube_with_uv_seams() -> (Vec<i32>, Vec<[f32; 2]>) {
+pub(crate) fn cube_with_uv_seams() -> (Vec<i32>, Vec<[f32; 2]>) {
     let indices: Vec<i32> = (0..24).collect();
     let square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
     let values: Vec<[f32; 2]> = (0..6).flat_map(|f| square.map(|[u, v]| [u + 2.0 * f as f32, v])).collect();
@@ -384,7 +385,7 @@ fn chordal_error_shrinks_four_times_per_level_away_from_extraordinary_vertices()
     assert!((extraordinary_ratios.last().unwrap() - expected).abs() < 0.05);
 }
 
-fn assert_unit_normals(mesh: &Tessellation) {
+pub(crate) fn assert_unit_normals(mesh: &Tessellation) {
     for n in &mesh.normals {
         let n = f64x3(*n);
         assert!(n.iter().all(|x| x.is_finite()));

@@ -21,7 +21,9 @@ Conventions shared with the ingest (see ingest/src/usd/mod.rs):
   n-gons at L = 0 are fanned into n - 2 triangles), two triangles per quad; loop makes 4^L
   triangles of a triangle. Holes make nothing, and with `interpolateBoundary = none` neither
   does any face with a vertex on the boundary (OpenSubdiv tags those as holes). A subdivision
-  mesh the ingest could not refine (no `subdiv_level`; it warns) is its triangulated cage.
+  mesh the ingest could not refine (no `subdiv_level`; it warns) is its triangulated cage. A mesh
+  tessellated per edge (`subdiv_mode` adaptive, the default) has between one segment per cage
+  edge and level L's count, L being as fine as its finest edge.
 * bounds: the mesh points transformed by `ComputeLocalToWorldTransform` (not authored extents).
   The limit surface of a subdivision mesh lies inside its cage's convex hull, so there ours must
   be non-empty and inside the cage bounds (within the tolerance) instead of equal to them.
@@ -70,6 +72,13 @@ class Gprim:
         if level == 0:
             return sum(n - 2 for n in self.face_sizes)
         return sum(2 * 4**level if n == 4 else 2 * n * 4 ** (level - 1) for n in self.face_sizes)
+
+    def adaptive_triangle_range(self, level: int) -> tuple[int, int]:
+        """Bounds on the triangles of a per-edge (adaptive) tessellation whose finest edge is as
+        fine as `level`: at least one segment per edge (a quad is 2 triangles, a triangle 1, an
+        n-gon a fan of n), at most uniform `level` (at least 1)."""
+        low = sum(2 if n == 4 else 1 if n == 3 else n for n in self.face_sizes)
+        return low, self.subdiv_triangles(max(level, 1))
 
 
 @dataclass
@@ -322,6 +331,8 @@ def expected_triangles(entry, g: Gprim) -> int | None:
     """The triangles `entry` must have: the cage's, or for a subdivision mesh the count at the
     level the ingest reports (None: not compared)."""
     if g.scheme is not None and "subdiv_level" in entry:
+        if entry.get("subdiv_mode") == "adaptive":
+            return None  # a range, checked in _entry_matches
         return g.subdiv_triangles(entry["subdiv_level"])
     return g.triangles
 
@@ -336,6 +347,10 @@ def _entry_matches(entry, g: Gprim, atol) -> list[str]:
     if want is not None and entry["triangles"] != want:
         level = f" at subdiv_level {entry['subdiv_level']}" if subdivided else ""
         problems.append(f"triangles: ours {entry['triangles']}, usd-core {want}{level}")
+    if subdivided and entry.get("subdiv_mode") == "adaptive":
+        low, high = g.adaptive_triangle_range(entry["subdiv_level"])
+        if not low <= entry["triangles"] <= high:
+            problems.append(f"triangles: ours {entry['triangles']} (adaptive), usd-core {low}..{high}")
     if g.lo is not None:
         lo, hi = np.asarray(entry["bounds_min"]), np.asarray(entry["bounds_max"])
         if subdivided:

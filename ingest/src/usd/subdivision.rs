@@ -5,23 +5,24 @@
 //! primvar; left-handed faces reversed) and reserves the mesh's slot in `Scene::meshes`, so the
 //! mesh order stays the traversal order. Dicing needs the render camera, which is only known
 //! once the walk has ended (RenderSettings may name a camera anywhere on the stage), so
-//! `tessellate_subdivisions` runs after the walk: it picks each mesh's level
-//! (`crate::dicing`), refines and tessellates the queued cages in parallel, and fills the slots
-//! with world-space limit surfaces. A cage OpenSubdiv rejects is rendered as its triangulated
-//! cage, with one warning naming the problem.
+//! `tessellate_subdivisions` runs after the walk: it picks each mesh's edge rates (adaptive, the
+//! default) or level (uniform) (`crate::dicing`), tessellates the queued cages in parallel, and
+//! fills the slots with world-space limit surfaces. A cage OpenSubdiv rejects is rendered as its
+//! triangulated cage, with one warning naming the problem.
 
 use std::str::FromStr;
 
 use glam::{DMat4, DVec3, Vec2};
 use rayon::prelude::*;
 use subdiv::{
-    tessellate, BoundaryInterpolation, Cage, Evaluation, FaceVaryingChannel, FaceVaryingInterpolation,
-    Options, Refiner, Scheme, Topology, TriangleSubdivision, UvSource,
+    tessellate, AdaptiveRefiner, AdaptiveUv, BoundaryInterpolation, Cage, Evaluation, FaceVaryingChannel,
+    FaceVaryingInterpolation, Options, Refiner, Scheme, Tessellation, Topology, TriangleSubdivision,
+    UvSource,
 };
 
 use super::mesh::{instanced_copy, world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
 use super::{Inherited, Reader, UsdError};
-use crate::dicing::{choose_level, triangles_at_level, DicingCamera, SubdivOptions};
+use crate::dicing::{choose_edge_rates, choose_level, triangles_at_level, DicingCamera, SubdivOptions};
 use crate::scene::{Mesh, Subdivision};
 
 /// The st primvar in the form the refiner takes.
@@ -63,6 +64,8 @@ pub(super) struct QueuedSubdivision {
 struct Diced {
     local: LocalMesh,
     level: u32,
+    /// Segments per cage edge (adaptive tessellation; empty for uniform).
+    edge_rates: Vec<u32>,
     triangles_at_max_level: u64,
     note: Option<String>,
 }
@@ -295,6 +298,7 @@ impl Reader<'_> {
                         points: q.points,
                         world_from_local: q.world_from_points,
                         level: d.level,
+                        edge_rates: d.edge_rates,
                         triangles_at_max_level: d.triangles_at_max_level,
                     });
                 }
@@ -321,21 +325,64 @@ fn bounds(points: &[[f32; 3]]) -> (DVec3, DVec3) {
     })
 }
 
-/// Chooses the level of one queued mesh and tessellates it (local space).
+/// Chooses the level (uniform) or edge rates (adaptive) of one queued mesh and tessellates it
+/// (local space).
 fn dice(
     q: &QueuedSubdivision,
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
 ) -> subdiv::Result<Diced> {
-    let world: Vec<[f32; 3]> = q
+    let world: Vec<DVec3> = q
         .points
         .iter()
-        .map(|p| {
-            q.world_from_points.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array()
-        })
+        .map(|p| q.world_from_points.transform_point3(glam::Vec3::from_array(*p).as_dvec3()))
         .collect();
-    let (lo, hi) = bounds(&world);
-    let longest = q.topology.longest_edge(&world)?;
+    let (tess, uvs, level, edge_rates, note) = if options.adaptive() {
+        dice_adaptive(q, options, camera, &world)?
+    } else {
+        dice_uniform(q, options, camera, &world)?
+    };
+
+    // Faces that made it to the surface (not holes, not dropped by interpolateBoundary = none),
+    // for the triangle count at the level cap.
+    let all_quads = q.cage.counts.iter().all(|&n| n == 4);
+    let mut drawn = vec![false; q.cage.counts.len()];
+    for &f in &tess.coarse_face {
+        drawn[f as usize] = true;
+    }
+    let drawn_sizes = q.cage.counts.iter().zip(&drawn).filter(|(_, &d)| d).map(|(&n, _)| n);
+    let triangles_at_max_level =
+        triangles_at_level(q.topology.options().scheme, drawn_sizes, all_quads, options.max_level);
+
+    let f64x3 = |p: &[f32; 3]| glam::Vec3::from_array(*p).as_dvec3();
+    let mut local = LocalMesh {
+        positions: tess.positions.iter().map(f64x3).collect(),
+        normals: tess.normals.iter().map(f64x3).collect(),
+        uvs,
+        triangle_materials: tess.coarse_face.iter().map(|&f| q.cage.face_materials[f as usize]).collect(),
+        triangles: tess.triangles,
+        double_sided: q.cage.double_sided,
+    };
+    if q.mirrored {
+        local.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        local.normals.iter_mut().for_each(|n| *n = -*n);
+    }
+    Ok(Diced { local, level, edge_rates, triangles_at_max_level, note })
+}
+
+/// A tessellation with its UVs, level, edge rates and a note for the log.
+type Tessellated = (Tessellation, Vec<Vec2>, u32, Vec<u32>, Option<String>);
+
+/// One uniform level for the whole mesh (`--subdiv-level`, `--subdiv-mode uniform`).
+fn dice_uniform(
+    q: &QueuedSubdivision,
+    options: &SubdivOptions,
+    camera: Option<&DicingCamera>,
+    world: &[DVec3],
+) -> subdiv::Result<Tessellated> {
+    let world_f32: Vec<[f32; 3]> = world.iter().map(|p| p.as_vec3().to_array()).collect();
+    let (lo, hi) = bounds(&world_f32);
+    let longest = q.topology.longest_edge(&world_f32)?;
     let all_quads = q.cage.counts.iter().all(|&n| n == 4);
     let scheme = q.topology.options().scheme;
     let surface_faces = || {
@@ -372,29 +419,31 @@ fn dice(
         }
         UvInput::Constant(uv) => vec![*uv; tess.positions.len()],
     };
+    Ok((tess, uvs, refiner.level(), Vec::new(), note))
+}
 
-    // Faces that made it to the surface (not holes, not dropped by interpolateBoundary = none),
-    // for the triangle count at the level cap.
-    let mut drawn = vec![false; q.cage.counts.len()];
-    for &f in &tess.coarse_face {
-        drawn[f as usize] = true;
-    }
-    let drawn_sizes = q.cage.counts.iter().zip(&drawn).filter(|(_, &d)| d).map(|(&n, _)| n);
-    let triangles_at_max_level =
-        triangles_at_level(refiner.scheme(), drawn_sizes, all_quads, options.max_level);
-
-    let f64x3 = |p: &[f32; 3]| glam::Vec3::from_array(*p).as_dvec3();
-    let mut local = LocalMesh {
-        positions: tess.positions.iter().map(f64x3).collect(),
-        normals: tess.normals.iter().map(f64x3).collect(),
-        uvs,
-        triangle_materials: tess.coarse_face.iter().map(|&f| q.cage.face_materials[f as usize]).collect(),
-        triangles: tess.triangles,
-        double_sided: q.cage.double_sided,
+/// Segments per cage edge from the camera, each face tessellated on its limit surface.
+fn dice_adaptive(
+    q: &QueuedSubdivision,
+    options: &SubdivOptions,
+    camera: Option<&DicingCamera>,
+    world: &[DVec3],
+) -> subdiv::Result<Tessellated> {
+    let refiner = AdaptiveRefiner::new(&q.topology)?;
+    let rates = choose_edge_rates(options, camera, world, &refiner);
+    let uv = match &q.uv {
+        UvInput::FaceVarying(values) => Some(AdaptiveUv::FaceVarying(UvSource { channel: 0, values })),
+        UvInput::Vertex(values) => Some(AdaptiveUv::Vertex(values)),
+        UvInput::None | UvInput::Constant(_) => None,
     };
-    if q.mirrored {
-        local.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-        local.normals.iter_mut().for_each(|n| *n = -*n);
-    }
-    Ok(Diced { local, level: refiner.level(), triangles_at_max_level, note })
+    let tess = refiner.tessellate(&q.points, uv, &rates, false)?.mesh;
+    let uvs: Vec<Vec2> = match &q.uv {
+        UvInput::None => Vec::new(),
+        UvInput::Constant(uv) => vec![*uv; tess.positions.len()],
+        UvInput::FaceVarying(_) | UvInput::Vertex(_) => {
+            tess.uvs.iter().flatten().map(|&uv| Vec2::from_array(uv)).collect()
+        }
+    };
+    let level = subdiv::level_for_rate(rates.iter().copied().max().unwrap_or(1));
+    Ok((tess, uvs, level, rates, None))
 }

@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use super::*;
-use crate::dicing::SubdivOptions;
+use crate::dicing::{SubdivMode, SubdivOptions};
 use crate::scene::{Mesh, Scene};
 
 /// The unit cube [0, 1]³ as a Catmull–Clark cage (the USD fallback scheme), faces wound
@@ -54,6 +54,11 @@ fn load_with(body: &str, subdiv: SubdivOptions) -> Scene {
 
 fn forced(level: u32) -> SubdivOptions {
     SubdivOptions { forced_level: Some(level), ..SubdivOptions::default() }
+}
+
+/// Camera dicing with one uniform level per mesh (`--subdiv-mode uniform`).
+fn uniform() -> SubdivOptions {
+    SubdivOptions { mode: SubdivMode::Uniform, ..SubdivOptions::default() }
 }
 
 fn mesh<'a>(scene: &'a Scene, path: &str) -> &'a Mesh {
@@ -227,11 +232,9 @@ fn left_handed_normals_point_outwards_like_the_right_handed_mirror() {
     }
 }
 
-#[test]
-fn dicing_follows_distance_frustum_and_cap() {
-    // A camera at the origin looking down −Z, 1000 px wide; the same unit cube 4, 49 and 1999
-    // units in front, and one behind the camera.
-    let camera = r#"def Camera "Cam" {
+/// A camera at the origin looking down −Z, 1000 × 1000 px with a 1000 px focal length (so a
+/// unit length d units away is 1000/d px); its view is |x|, |y| ≤ z/2.
+const CAMERA_1000: &str = r#"def Camera "Cam" {
     float focalLength = 36
     float horizontalAperture = 36
     float verticalAperture = 36
@@ -244,6 +247,11 @@ def Scope "Render" {
     }
 }
 "#;
+
+#[test]
+fn dicing_follows_distance_frustum_and_cap() {
+    // The same unit cube 4, 49 and 1999 units in front of CAMERA_1000, and one behind it.
+    let camera = CAMERA_1000;
     let placed = |name: &str, z: f32| {
         let points: Vec<[f32; 3]> = CUBE_POINTS.iter().map(|p| [p[0] - 0.5, p[1] - 0.5, p[2] + z]).collect();
         cube_prim(name, &points, &CUBE_INDICES, "")
@@ -255,17 +263,17 @@ def Scope "Render" {
         placed("Far", -2000.0),
         placed("Behind", 20.0)
     );
-    let scene = load_with(&body, SubdivOptions::default());
+    let scene = load_with(&body, uniform());
     let level = |p: &str| level_of(&scene, p);
     // Longest edge 1 at distance 4: 1000/4 = 250 px → level 8, capped at 5; at 49: 20.4 px → 5;
     // at 1999: 0.5 px → 0.
     assert_eq!((level("/Near"), level("/Mid"), level("/Far")), (5, 5, 0));
     assert!(level("/Behind") <= 1);
-    let coarse = load_with(&body, SubdivOptions { dicing_rate: 8.0, ..SubdivOptions::default() });
+    let coarse = load_with(&body, SubdivOptions { dicing_rate: 8.0, ..uniform() });
     let coarse_level = |p: &str| level_of(&coarse, p);
     // 250/8 → 5; 20.4/8 → 2; 0.5/8 → 0.
     assert_eq!((coarse_level("/Near"), coarse_level("/Mid"), coarse_level("/Far")), (5, 2, 0));
-    let capped = load_with(&body, SubdivOptions { max_level: 3, ..SubdivOptions::default() });
+    let capped = load_with(&body, SubdivOptions { max_level: 3, ..uniform() });
     assert!(capped.subdivisions.iter().all(|s| s.level <= 3));
     assert_eq!(level_of(&capped, "/Near"), 3);
     // The listing: the saving against level 3 everywhere.
@@ -277,6 +285,8 @@ def Scope "Render" {
     let near = dump["gprims"].as_array().unwrap().iter().find(|g| g["path"] == "/Near").unwrap();
     assert_eq!(near["subdiv_level"], 3);
     assert_eq!(near["scheme"], "catmullClark");
+    assert_eq!(near["subdiv_mode"], "uniform");
+    assert!(near.get("max_edge_rate").is_none());
 }
 
 #[test]
@@ -284,11 +294,11 @@ fn no_camera_dices_for_the_framing_camera_within_the_pixel_budget() {
     // `render` frames the unit cube 1.88 units from its front face with a 618 px focal length
     // (512 px, 45°): a 329 px edge, level 9, capped at 5.
     let body = cube_prim("Cube", &CUBE_POINTS, &CUBE_INDICES, "");
-    let scene = load_with(&body, SubdivOptions::default());
+    let scene = load_with(&body, uniform());
     assert_eq!(level_of(&scene, "/Cube"), 5);
     assert_eq!(mesh(&scene, "/Cube").triangles.len(), 12 * 1024);
     // At 64 px the edge wants level 3, but 2·512²/64² = 128 triangles only pay for level 1.
-    let scene = load_with(&body, SubdivOptions { dicing_rate: 64.0, ..SubdivOptions::default() });
+    let scene = load_with(&body, SubdivOptions { dicing_rate: 64.0, ..uniform() });
     assert_eq!(level_of(&scene, "/Cube"), 1);
 }
 
@@ -364,4 +374,192 @@ fn face_varying_and_vertex_uvs_are_refined() {
     assert_eq!(m.uvs.len(), m.positions.len());
     assert_eq!(m.positions.len(), 6 * 16 + 2);
     assert!(m.uvs.iter().all(|uv| (0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y)));
+}
+
+/// A flat grid Mesh prim of `nx × ny` unit quads with corners `corner(i, j)`.
+fn grid_prim(name: &str, nx: usize, ny: usize, corner: impl Fn(usize, usize) -> [f32; 3]) -> String {
+    let points: Vec<[f32; 3]> =
+        (0..=ny).flat_map(|j| (0..=nx).map(move |i| (i, j))).map(|(i, j)| corner(i, j)).collect();
+    let mut indices = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            let v = (j * (nx + 1) + i) as i32;
+            let w = v + nx as i32 + 1;
+            indices.extend([v, v + 1, w + 1, w]);
+        }
+    }
+    format!(
+        r#"def Mesh "{name}" {{
+    int[] faceVertexCounts = [{}]
+    int[] faceVertexIndices = [{}]
+    point3f[] points = [{}]
+}}
+"#,
+        vec!["4"; nx * ny].join(", "),
+        ints_text(&indices),
+        points_text(&points)
+    )
+}
+
+/// A triangle edge allowed by a 2 px dicing rate: the diagonal of a 2 × 2 px cell (plus f32
+/// rounding of the positions).
+const DIAGONAL_2PX: f32 = 2.0 * std::f32::consts::SQRT_2 * 1.0001;
+
+/// Longest triangle edge of `m` on screen for CAMERA_1000, in pixels.
+fn longest_projected_edge(m: &Mesh) -> f32 {
+    let raster = |p: Vec3| glam::Vec2::new(p.x, p.y) * (1000.0 / -p.z);
+    m.triangles
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+        .map(|(a, b)| raster(m.positions[a as usize]).distance(raster(m.positions[b as usize])))
+        .fold(0.0, f32::max)
+}
+
+fn dump_entry(scene: &Scene, path: &str) -> serde_json::Value {
+    let dump = crate::pipeline::dump_json(scene);
+    dump["gprims"].as_array().unwrap().iter().find(|g| g["path"] == path).unwrap().clone()
+}
+
+#[test]
+fn adaptive_dicing_gives_a_receding_plane_fewer_triangles_at_the_same_pixel_size() {
+    // A floor strip 1 unit wide at y = −0.5, from 10 to 50 units in front of the camera, at 2 px.
+    // Its nearest cross edge is 1000/10 = 100 px → 50 segments (uniform: level ⌈log2 50⌉ = 6,
+    // 40·2·4⁶ triangles); its farthest is 1000/50 = 20 px → 10 segments.
+    let body = format!(
+        "{CAMERA_1000}{}",
+        grid_prim("Floor", 1, 40, |i, j| [i as f32 - 0.5, -0.5, -10.0 - j as f32])
+    );
+    let options = SubdivOptions { dicing_rate: 2.0, max_level: 6, ..SubdivOptions::default() };
+    let adaptive = load_with(&body, options);
+    let uniform = load_with(&body, SubdivOptions { mode: SubdivMode::Uniform, ..options });
+    let (a, u) = (mesh(&adaptive, "/Floor"), mesh(&uniform, "/Floor"));
+    assert_eq!(u.triangles.len(), 40 * 2 * 4096);
+    let entry = dump_entry(&adaptive, "/Floor");
+    assert_eq!(entry["subdiv_mode"], "adaptive");
+    assert_eq!((entry["min_edge_rate"].as_u64(), entry["max_edge_rate"].as_u64()), (Some(10), Some(50)));
+    assert_eq!(entry["subdiv_level"], 6);
+    assert_eq!(entry["triangles"], a.triangles.len());
+    // Both keep every edge within the 2 px rate (a triangle's diagonal within 2√2 px) …
+    let (la, lu) = (longest_projected_edge(a), longest_projected_edge(u));
+    assert!(la <= DIAGONAL_2PX && lu <= DIAGONAL_2PX, "adaptive {la} px, uniform {lu} px");
+    // … with far fewer triangles where the floor recedes: Σ 2·(50·10/d)² over d = 10…49 ≈ 43 k.
+    assert!(a.triangles.len() < u.triangles.len() / 6, "{} vs {}", a.triangles.len(), u.triangles.len());
+    assert!(a.triangles.len() > 35_000, "{}", a.triangles.len());
+    assert!(adaptive.warnings.is_empty(), "{:?}", adaptive.warnings);
+}
+
+#[test]
+fn adaptive_dicing_coarsens_faces_off_screen() {
+    // A wall of 12 unit quads facing the camera 10 units away, x from 0 to 12: the view ends at
+    // x = 5. At 2 px its edges are 100 px → 50 segments on screen; faces wholly outside the view
+    // (grown by half their size: faces 7…11) keep 2 segments per edge, 8 triangles each.
+    let body = format!("{CAMERA_1000}{}", grid_prim("Wall", 12, 1, |i, j| [i as f32, j as f32 - 0.5, -10.0]));
+    let options = SubdivOptions { dicing_rate: 2.0, max_level: 6, ..SubdivOptions::default() };
+    let adaptive = load_with(&body, options);
+    let uniform = load_with(&body, SubdivOptions { mode: SubdivMode::Uniform, ..options });
+    let (a, u) = (mesh(&adaptive, "/Wall"), mesh(&uniform, "/Wall"));
+    assert_eq!(u.triangles.len(), 12 * 2 * 4096);
+    let off_screen = |m: &Mesh| m.triangles.iter().filter(|&&t| centroid(m, t).x > 8.0).count();
+    assert_eq!(off_screen(a), 4 * 8, "faces 8…11");
+    assert_eq!(off_screen(u), 4 * 2 * 4096);
+    let entry = dump_entry(&adaptive, "/Wall");
+    assert_eq!((entry["min_edge_rate"].as_u64(), entry["max_edge_rate"].as_u64()), (Some(2), Some(50)));
+    // On screen the same pixel size: every edge with both ends in view stays within 2√2 px.
+    let in_view = |p: Vec3| p.x <= 5.0;
+    let visible = Mesh {
+        triangles: a
+            .triangles
+            .iter()
+            .copied()
+            .filter(|t| t.iter().all(|&i| in_view(a.positions[i as usize])))
+            .collect(),
+        ..a.clone()
+    };
+    let lv = longest_projected_edge(&visible);
+    assert!(lv <= DIAGONAL_2PX, "{lv} px; rates {:?}", adaptive.subdivisions[0].edge_rates);
+    // The visible half costs what it did, the hidden half almost nothing: ≈ 6 · 2 · 50² + 200.
+    assert!(a.triangles.len() < u.triangles.len() / 3, "{} vs {}", a.triangles.len(), u.triangles.len());
+}
+
+#[test]
+fn adaptive_framing_camera_matches_uniform_when_every_edge_is_capped() {
+    // The framing camera of the uniform test: every cube edge is ≥ 200 px, so all 12 edges take
+    // the cap of 2⁵ segments, exactly level 5's triangles.
+    let body = cube_prim("Cube", &CUBE_POINTS, &CUBE_INDICES, "");
+    let scene = load_with(&body, SubdivOptions::default());
+    assert_eq!(level_of(&scene, "/Cube"), 5);
+    assert_eq!(mesh(&scene, "/Cube").triangles.len(), 12 * 1024);
+    let entry = dump_entry(&scene, "/Cube");
+    assert_eq!((entry["min_edge_rate"].as_u64(), entry["max_edge_rate"].as_u64()), (Some(32), Some(32)));
+    assert_outward(mesh(&scene, "/Cube"), Vec3::splat(0.5));
+    // At 64 px the 2·512²/64² = 128 triangle budget holds per edge too.
+    let scene = load_with(&body, SubdivOptions { dicing_rate: 64.0, ..SubdivOptions::default() });
+    let m = mesh(&scene, "/Cube");
+    assert!(m.triangles.len() <= 128 && m.triangles.len() > 12 * 4, "{}", m.triangles.len());
+}
+
+#[test]
+fn adaptive_tessellation_keeps_corners_creases_holes_seams_and_closes_the_surface() {
+    let corner = cube_prim(
+        "Corner",
+        &CUBE_POINTS,
+        &CUBE_INDICES,
+        "int[] cornerIndices = [0]\n    float[] cornerSharpnesses = [10]",
+    );
+    let crease = cube_prim(
+        "Crease",
+        &CUBE_POINTS,
+        &CUBE_INDICES,
+        "int[] creaseIndices = [0, 1, 0, 3, 0, 4]\n    int[] creaseLengths = [2, 2, 2]\n    float[] creaseSharpnesses = [10, 10, 10]",
+    );
+    let holey = cube_prim("Holey", &CUBE_POINTS, &CUBE_INDICES, "int[] holeIndices = [1]");
+    let fv: Vec<String> = (0..6)
+        .flat_map(|f| {
+            let u = f as f32;
+            [(u, 0.0), (u + 1.0, 0.0), (u + 1.0, 1.0), (u, 1.0)].map(|(a, b)| format!("({a}, {b})"))
+        })
+        .collect();
+    let seams = cube_prim(
+        "Seams",
+        &CUBE_POINTS,
+        &CUBE_INDICES,
+        &format!("texCoord2f[] primvars:st = [{}] (interpolation = \"faceVarying\")", fv.join(", ")),
+    );
+    // Dice coarsely so that edges get different rates around the framing camera.
+    let options = SubdivOptions { dicing_rate: 24.0, ..SubdivOptions::default() };
+    let scene = load_with(&format!("{corner}{crease}{holey}{seams}"), options);
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let nearest = |path: &str| -> f32 {
+        mesh(&scene, path).positions.iter().map(|p| p.length()).fold(f32::INFINITY, f32::min)
+    };
+    assert!(nearest("/Corner") < 1e-5, "corner: nearest vertex {}", nearest("/Corner"));
+    assert!(nearest("/Crease") < 1e-5, "crease: nearest vertex {}", nearest("/Crease"));
+    let m = mesh(&scene, "/Holey");
+    for &t in &m.triangles {
+        let c = centroid(m, t);
+        assert!(!(c.z > 0.8 && (c.x - 0.5).abs() < 0.2 && (c.y - 0.5).abs() < 0.2), "{c}");
+    }
+    // Seams: triangles keep to their face's UV island, and the surface is closed by position.
+    let m = mesh(&scene, "/Seams");
+    let entry = dump_entry(&scene, "/Seams");
+    assert!(entry["min_edge_rate"].as_u64() < entry["max_edge_rate"].as_u64(), "{entry}");
+    for &t in &m.triangles {
+        let island = (t.map(|i| m.uvs[i as usize].x).iter().sum::<f32>() / 3.0).floor();
+        for i in t {
+            let uv = m.uvs[i as usize];
+            assert!(
+                uv.x >= island - 1e-5 && uv.x <= island + 1.0 + 1e-5 && (0.0..=1.0).contains(&uv.y),
+                "{uv}"
+            );
+        }
+    }
+    let key = |i: u32| m.positions[i as usize].to_array().map(f32::to_bits);
+    let mut uses = std::collections::HashMap::new();
+    for t in &m.triangles {
+        for k in 0..3 {
+            let (a, b) = (key(t[k]), key(t[(k + 1) % 3]));
+            *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    assert!(uses.values().all(|&n| n == 2), "an edge of the closed cube is not shared by two triangles");
 }
