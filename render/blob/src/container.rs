@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -138,6 +138,10 @@ section_kinds! {
     TextureTexels = 33,
     /// [`crate::ShaderOp`]: every material's program, concatenated.
     ShaderOps = 34,
+    /// [`crate::PrimvarRecord`]: the primvars material programs read, sorted by (mesh, name id).
+    Primvars = 35,
+    /// `[f32; 4]` primvar values referenced by [`crate::PrimvarRecord`]s.
+    PrimvarValues = 36,
     /// [`crate::CurveGroup`] (curve and point prims; format 2).
     CurveGroups = 40,
     /// [`crate::CurveSegment`] (cubic Bézier pieces).
