@@ -22,7 +22,7 @@ use subdiv::{
 use super::mesh::{world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
 use super::{Inherited, Reader, UsdError};
 use crate::dicing::{choose_level, triangles_at_level, DicingCamera, SubdivOptions};
-use crate::scene::{Mesh, Subdivision};
+use crate::scene::{Mesh, MeshPrimvar, PrimvarLayout, Subdivision};
 
 /// The st primvar in the form the refiner takes.
 enum UvInput {
@@ -110,6 +110,15 @@ impl Reader<'_> {
     ) -> Result<Option<PolygonCage>, UsdError> {
         match self.subdivision_cage(path, scheme, counts, indices, &cage)? {
             Ok((topology, uv)) => {
+                for p in
+                    cage.primvars.iter().filter(|p| p.primvar.interpolation == Interpolation::FaceVarying)
+                {
+                    let name = &p.name;
+                    self.warn(
+                        path,
+                        format!("faceVarying primvar {name} on a subdivision surface is read as its average per cage face"),
+                    );
+                }
                 let slot = self.scene.meshes.len();
                 self.scene.meshes.push(Mesh {
                     path: path.to_string(),
@@ -313,6 +322,50 @@ fn bounds(points: &[[f32; 3]]) -> (DVec3, DVec3) {
     })
 }
 
+/// The primvars the materials read, on the tessellated limit surface: vertex (and varying) primvars
+/// refined like the points, uniform ones per triangle from its cage face, and face-varying ones as
+/// their average over the cage face (OpenSubdiv would need a channel per primvar for better).
+fn refined_primvars(
+    q: &QueuedSubdivision,
+    refiner: &Refiner,
+    tess: &subdiv::Tessellation,
+) -> subdiv::Result<Vec<MeshPrimvar>> {
+    let mut first_corner = Vec::with_capacity(q.cage.counts.len() + 1);
+    first_corner.push(0);
+    for &n in &q.cage.counts {
+        first_corner.push(first_corner.last().copied().unwrap_or(0) + n);
+    }
+    let mut out = Vec::with_capacity(q.cage.primvars.len());
+    for p in &q.cage.primvars {
+        let pv = &p.primvar;
+        let (layout, values) = match pv.interpolation {
+            Interpolation::Constant => (PrimvarLayout::Constant, vec![pv.get(0, 0, 0)]),
+            Interpolation::Uniform => (
+                PrimvarLayout::PerTriangle,
+                tess.coarse_face.iter().map(|&f| pv.get(f as usize, 0, 0)).collect(),
+            ),
+            Interpolation::FaceVarying => {
+                let average = |f: usize| {
+                    let corners = first_corner[f]..first_corner[f + 1];
+                    let n = corners.len().max(1) as f32;
+                    corners.fold([0.0f32; 4], |sum, c| {
+                        let v = pv.get(f, c, q.cage.corners_to_points[c]);
+                        std::array::from_fn(|k| sum[k] + v[k] / n)
+                    })
+                };
+                (PrimvarLayout::PerTriangle, tess.coarse_face.iter().map(|&f| average(f as usize)).collect())
+            }
+            Interpolation::Vertex => {
+                let flat: Vec<f32> = (0..q.cage.points.len()).flat_map(|pt| pv.get(0, 0, pt)).collect();
+                let refined = refiner.vertex_primvar(&flat, 4, Evaluation::Limit)?;
+                (PrimvarLayout::PerVertex, tess.gather::<4>(&refined)?)
+            }
+        };
+        out.push(MeshPrimvar { name: p.name.clone(), layout, components: p.components, values });
+    }
+    Ok(out)
+}
+
 /// Chooses the level of one queued mesh and tessellates it (local space).
 fn dice(
     q: &QueuedSubdivision,
@@ -375,6 +428,7 @@ fn dice(
     let triangles_at_max_level =
         triangles_at_level(refiner.scheme(), drawn_sizes, all_quads, options.max_level);
 
+    let primvars = refined_primvars(q, &refiner, &tess)?;
     let f64x3 = |p: &[f32; 3]| glam::Vec3::from_array(*p).as_dvec3();
     let mut local = LocalMesh {
         positions: tess.positions.iter().map(f64x3).collect(),
@@ -383,6 +437,7 @@ fn dice(
         triangle_materials: tess.coarse_face.iter().map(|&f| q.cage.face_materials[f as usize]).collect(),
         triangles: tess.triangles,
         double_sided: q.cage.double_sided,
+        primvars,
     };
     if q.mirrored {
         local.triangles.iter_mut().for_each(|t| t.swap(1, 2));

@@ -323,7 +323,9 @@ impl<'a> SceneView<'a> {
         };
         let mut previous: Option<(u32, u32)> = None;
         for (i, p) in self.primvars.iter().enumerate() {
-            let Some(mesh) = self.meshes.get(p.mesh as usize) else { return bad(i, "mesh index out of range") };
+            let Some(mesh) = self.meshes.get(p.mesh as usize) else {
+                return bad(i, "mesh index out of range");
+            };
             if !strings_ok(p.name) {
                 return bad(i, "name outside the strings section");
             }

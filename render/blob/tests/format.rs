@@ -232,7 +232,9 @@ fn bad_primvars_are_rejected() {
         s.primvars[0].interpolation = primvar_interpolation::FACE_VARYING;
         s.primvars[0].value_count = 1;
     });
-    rejects("uniform needs 1 per triangle", &|s| s.primvars[0].interpolation = primvar_interpolation::UNIFORM);
+    rejects("uniform needs 1 per triangle", &|s| {
+        s.primvars[0].interpolation = primvar_interpolation::UNIFORM
+    });
     rejects("unknown interpolation", &|s| s.primvars[0].interpolation = primvar_interpolation::COUNT);
     rejects("components", &|s| s.primvars[1].components = 5);
     rejects("not sorted", &|s| s.primvars.swap(0, 1));
