@@ -442,7 +442,13 @@ mod tests {
     #[test]
     fn transform2d_scales_rotates_translates_and_carries_derivatives() {
         let mut regs = Registers::default();
-        let at = UvFootprint { uv: [1.0, 0.0], duv_dx: [0.01, 0.0], duv_dy: [0.0, 0.01], has_uv: true };
+        let at = UvFootprint {
+            uv: [1.0, 0.0],
+            duv_dx: [0.01, 0.0],
+            duv_dy: [0.0, 0.01],
+            has_uv: true,
+            point: None,
+        };
         regs.step(&ShaderOp { kind: op_kind::PRIMVAR_UV, dst: 0, ..Default::default() }, &at);
         // scale (2, 1), rotate 90°, translate (0.5, 0): (1, 0) → (2, 0) → (0, 2) → (0.5, 2).
         let (s, c) = (1.0f32, 0.0f32);

@@ -89,6 +89,7 @@ pub fn card(z: f32, half: f32, material: u32) -> Mesh {
         triangles: vec![[0, 1, 2], [0, 2, 3]],
         triangle_materials: vec![material; 2],
         double_sided: false,
+        primvars: Vec::new(),
     }
 }
 

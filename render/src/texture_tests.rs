@@ -52,6 +52,7 @@ fn quad(corners: [Vec3; 4], uv_max: f32) -> Mesh {
         triangles: vec![[0, 1, 2], [0, 2, 3]],
         triangle_materials: vec![0, 0],
         double_sided: true,
+        primvars: Vec::new(),
     }
 }
 

@@ -693,3 +693,99 @@ fn teapot_ceramic_variants_render_their_display_color() {
         assert!(r.warnings.iter().all(|w| !w.contains("primvar")), "{:?}", r.warnings);
     }
 }
+
+// ---- Textures inside .usdz packages ------------------------------------------------------------------
+
+/// Writes a USDZ package (stored, 64-byte-aligned entries, root layer first) at `path`.
+fn usdz(path: &Path, entries: &[(&str, Vec<u8>)]) {
+    let mut archive = openusd::usdz::ArchiveWriter::create(path).expect("create usdz");
+    for (name, bytes) in entries {
+        archive.add_layer(name, bytes).expect("add entry");
+    }
+    archive.finish().expect("finish usdz");
+}
+
+/// The bytes of a solid `w × h` RGBA PNG.
+fn png_bytes(w: u32, h: u32, rgba: [u8; 4]) -> Vec<u8> {
+    let dir = tempfile::tempdir().unwrap();
+    png(dir.path(), "t.png", w, h, |_, _| rgba);
+    std::fs::read(dir.path().join("t.png")).unwrap()
+}
+
+/// 8-bit sRGB → linear, the exact curve.
+fn srgb(code: u8) -> f32 {
+    let c = code as f32 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// An emissive card whose texture lives inside a `.usdz`: referenced from the package's own layer as
+/// `@textures/a.png@` and `@./textures/a.png@`, and from a layer outside the package as
+/// `@pkg.usdz[textures/a.png]@`. Each reads the texel value (sRGB-decoded) without extracting anything,
+/// and no warning; a texture missing from the package is a warning naming the packaged path.
+#[test]
+fn usdz_textures_resolve_inside_the_package() {
+    let colour = [200u8, 100, 50, 255];
+    let expected = [srgb(200), srgb(100), srgb(50)];
+    let body = |file: &str| {
+        ortho_stage(
+            2.0,
+            2.0,
+            0.0,
+            0.0,
+            &[card([-1.0, 1.0], [-1.0, 1.0], [0.0, 1.0], [0.0, 1.0]), material(EMISSIVE, file, "")]
+                .join("\n"),
+        )
+    };
+    let render_root = |root: &Path| {
+        let dir = tempfile::tempdir().unwrap();
+        let output = dir.path().join("scene.blob");
+        let (_, report) = ingest::pipeline::ingest_file(root, &output, &ingest::usd::LoadOptions::default())
+            .expect("ingest");
+        let bytes = blob::AlignedBytes::copy_from(&std::fs::read(&output).unwrap());
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        let image = render_image(&view, &options(4, 4, 1)).expect("render");
+        (image.beauty.iter().map(|p| [p[0], p[1], p[2]]).collect::<Vec<_>>(), report.warnings)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for file in ["textures/a.png", "./textures/a.png"] {
+        let package = dir.path().join("inside.usdz");
+        usdz(
+            &package,
+            &[("scene.usda", body(file).into_bytes()), ("textures/a.png", png_bytes(4, 4, colour))],
+        );
+        let (pixels, warnings) = render_root(&package);
+        assert!(warnings.is_empty(), "{file}: {warnings:?}");
+        for p in &pixels {
+            assert_rgb(*p, expected, 1e-5, &format!("@{file}@ inside the package"));
+        }
+    }
+    // From outside: a package-relative asset path into a package that holds only the texture.
+    let package = dir.path().join("pkg.usdz");
+    usdz(&package, &[("textures/a.png", png_bytes(2, 2, colour))]);
+    let outside = write_text(dir.path(), "outside.usda", &body("pkg.usdz[textures/a.png]"));
+    let (pixels, warnings) = render_root(&outside);
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_rgb(pixels[5], expected, 1e-5, "@pkg.usdz[textures/a.png]@");
+    // Missing from the package (and not beside it): the fallback, and a warning naming the entry.
+    let package = dir.path().join("missing.usdz");
+    usdz(&package, &[("scene.usda", body("textures/b.png").into_bytes())]);
+    let (pixels, warnings) = render_root(&package);
+    assert_rgb(pixels[5], [0.0; 3], 0.0, "missing packaged texture");
+    eprintln!("missing packaged texture: {warnings:?}");
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("missing.usdz[textures/b.png]") && w.contains("not found in the package")),
+        "{warnings:?}"
+    );
+}
+
+fn write_text(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}

@@ -25,6 +25,8 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use rayon::prelude::*;
 
+use openusd::ar::{self, Resolver};
+
 use super::stage::Value;
 use super::{Reader, UsdError};
 use crate::scene::{Material, SceneTexture, ShaderNode, ShadingInput, TextureData};
@@ -587,13 +589,16 @@ impl Reader<'_> {
         color_space: texture::ColorSpace,
         fallback: [f32; 4],
     ) -> Option<u32> {
+        let requested = path;
+        let located = texture_location(path);
+        let path = located.as_path();
         if let Some(i) =
             self.scene.textures.iter().position(|t| t.path == path && t.color_space == color_space)
         {
             return Some(i as u32);
         }
         let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
-        let bake_one = |p: &Path| texture::decode(p).and_then(|src| texture::bake(&src, &options));
+        let bake_one = |p: &Path| decode_texture(p).and_then(|src| texture::bake(&src, &options));
         let data = if texture::udim::is_udim(path) {
             let tiles = match texture::udim::expand(path) {
                 Ok(tiles) => tiles,
@@ -646,12 +651,17 @@ impl Reader<'_> {
             match bake_one(path) {
                 Ok(b) => TextureData::Image(b),
                 Err(e) => {
-                    let why =
-                        if path.exists() { format!("cannot be read ({e})") } else { "not found".to_string() };
-                    self.warn(
-                        node,
-                        format!("texture file {} {why}; using its fallback {fallback:?}", path.display()),
-                    );
+                    let exists = path.exists() || packaged(path).is_some();
+                    let why = match () {
+                        _ if exists => format!("{} cannot be read ({e})", path.display()),
+                        _ if requested != path => format!(
+                            "{} not found in the package nor beside it ({})",
+                            requested.display(),
+                            path.display()
+                        ),
+                        _ => format!("{} not found", path.display()),
+                    };
+                    self.warn(node, format!("texture file {why}; using its fallback {fallback:?}"));
                     return None;
                 }
             }
@@ -794,14 +804,23 @@ impl Reader<'_> {
 }
 
 /// Resolves a texture asset path against the layer that authored it: absolute paths as they are,
-/// relative ones (`./`, `../` or bare) next to the layer file.
+/// relative ones (`./`, `../` or bare) next to the layer file. Inside a `.usdz` package (a layer
+/// `pkg.usdz[inner.usdc]`, or the package itself as the root layer) and for package-relative assets
+/// (`pkg.usdz[textures/a.png]`) the result is package-relative, `…/pkg.usdz[textures/a.png]`, as
+/// USD's resolver anchors it; [`decode_texture`] reads such an entry from the zip.
 fn resolve_asset(layer: &str, asset: &str) -> Result<PathBuf, String> {
-    if asset.contains(".usdz[")
-        || asset.ends_with(']')
-        || layer.contains(".usdz[")
-        || layer.ends_with(".usdz")
-    {
-        return Err("textures inside .usdz packages are not supported yet".into());
+    let packaged = ar::is_package_relative_path(asset)
+        || ar::is_package_relative_path(layer)
+        || layer.to_ascii_lowercase().ends_with(".usdz");
+    if packaged {
+        let anchor = ar::ResolvedPath::new(layer);
+        let id = ar::DefaultResolver::new().create_identifier(asset, Some(&anchor));
+        if ar::split_package_relative_path_inner(&id)
+            .is_some_and(|(package, _)| ar::is_package_relative_path(&package))
+        {
+            return Err("textures inside nested packages are not supported".into());
+        }
+        return Ok(PathBuf::from(id));
     }
     let asset_path = Path::new(asset);
     if asset_path.is_absolute() {
@@ -810,4 +829,37 @@ fn resolve_asset(layer: &str, asset: &str) -> Result<PathBuf, String> {
     let base = Path::new(layer).parent().unwrap_or(Path::new("."));
     let joined = base.join(asset_path.strip_prefix("./").unwrap_or(asset_path));
     Ok(joined)
+}
+
+/// A package-relative texture path split into the package file and the entry inside it.
+fn packaged(path: &Path) -> Option<(PathBuf, String)> {
+    let text = path.to_str()?;
+    let (package, inner) = ar::split_package_relative_path_outer(text)?;
+    Some((PathBuf::from(package), inner))
+}
+
+/// Where a texture is read from: a package entry stays package-relative when the package holds it;
+/// one the package lacks is looked for beside the package, as a file (a package may ship only its
+/// layer and reference textures next to it, like OpenUSD's `usdUdims.usdz`). `<UDIM>` patterns in
+/// a package are read beside it only (tiles are not listed from the zip).
+fn texture_location(path: &Path) -> PathBuf {
+    let Some((package, inner)) = packaged(path) else { return path.to_path_buf() };
+    let in_package = !texture::udim::is_udim(Path::new(&inner))
+        && path.to_str().is_some_and(|p| ar::DefaultResolver::new().resolve(p).is_some());
+    if in_package {
+        return path.to_path_buf();
+    }
+    package.parent().unwrap_or(Path::new(".")).join(inner)
+}
+
+/// Decodes a texture file, or a package entry in place from the zip (usdz entries are stored
+/// uncompressed, so this is a copy of the entry's bytes, never a file extracted to disk).
+fn decode_texture(path: &Path) -> Result<texture::SourceImage, texture::Error> {
+    let Some((_, inner)) = packaged(path) else { return texture::decode(path) };
+    let io = |e: std::io::Error| texture::Error { path: path.to_path_buf(), kind: texture::ErrorKind::Io(e) };
+    let resolved = ar::ResolvedPath::new(path);
+    let bytes =
+        ar::DefaultResolver::new().open_asset(&resolved).and_then(|mut a| a.read_all()).map_err(io)?;
+    texture::decode_bytes(&bytes, Path::new(&inner))
+        .map_err(|e| texture::Error { path: path.to_path_buf(), ..e })
 }
