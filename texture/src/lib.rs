@@ -80,7 +80,9 @@ pub use decode::{decode, decode_bytes, Samples, SourceImage};
 pub use error::{Error, ErrorKind, Warning};
 pub use format::{ColorSpace, Filter, TexelFormat, Wrap};
 pub use record::{TextureRecord, UdimSetRecord, MAX_DIMENSION, MAX_MIP_LEVELS, NONE};
-pub use sample::{mip_level, sample, sample_with, Lookup, TextureView, EWA_ALPHA, MAX_ANISOTROPY};
+pub use sample::{
+    mip_level, sample, sample_with, Lookup, TextureView, EWA_ALPHA, EWA_FOOTPRINT_SCALE, MAX_ANISOTROPY,
+};
 pub use set::{TextureRef, TextureSet, TextureSetBuilder, TextureSetView};
 pub use sort_key::{shading_sort_key, shading_sort_key_saturating};
 pub use stats::{BytesRead, NoTouch, PageTouches, Touch};

@@ -148,9 +148,10 @@ fn noise_set() -> crate::TextureSet {
     set_of(&[(float_image(64, 64, 1, data), ColorSpace::Raw)])
 }
 
-/// EWA with an isotropic footprint of `r` level-0 texels, `r` a power of two so the level is exactly
-/// `log2 r` with no blend: at that level the ellipse is a circle of radius `√(1 + 1)` texels (one
-/// texel of footprint, widened by the one-texel reconstruction term), and the result is the
+/// EWA with an isotropic footprint of `r` level-0 texels, `r` times [`crate::EWA_FOOTPRINT_SCALE`] a
+/// power of two so the level is exactly `log2(r · scale)` with no blend: at that level the ellipse is a
+/// circle of radius `√(1 + 1)` texels (one texel of footprint, widened by the one-texel
+/// reconstruction term), and the result is the
 /// Gaussian-weighted average `Σ exp(−α d²/R²) texel / Σ exp(−α d²/R²)` over the texel centres with
 /// `d < R` — computed here from the level's texels read one by one with the nearest filter.
 #[test]
@@ -158,15 +159,16 @@ fn ewa_isotropic_footprint_is_a_gaussian_weighted_box() {
     let set = noise_set();
     let view = set.view().unwrap();
     let tex = view.texture(0).unwrap();
-    for (r, uv) in [(2.0f32, [0.31f32, 0.47f32]), (4.0, [0.5, 0.5]), (8.0, [0.02, 0.93])] {
-        let level = r.log2() as u32;
+    for (scaled, uv) in [(2.0f32, [0.31f32, 0.47f32]), (4.0, [0.5, 0.5]), (8.0, [0.02, 0.93])] {
+        let r = scaled / crate::EWA_FOOTPRINT_SCALE;
+        let level = scaled.log2() as u32;
         let n = 64 >> level;
         let texel = |x: i32, y: i32| {
             let (x, y) = (x.rem_euclid(n), y.rem_euclid(n));
             let centre = [(x as f32 + 0.5) / n as f32, (y as f32 + 0.5) / n as f32];
             // A footprint of exactly 2^level texels selects `level` with no blend.
-            let d = [r / 64.0, 0.0];
-            sample(&tex, centre, d, [0.0, r / 64.0], Filter::Moonray, Wrap::Repeat, Wrap::Repeat)[0]
+            let d = [scaled / 64.0, 0.0];
+            sample(&tex, centre, d, [0.0, scaled / 64.0], Filter::Moonray, Wrap::Repeat, Wrap::Repeat)[0]
         };
         let (s, t) = (uv[0] * n as f32 - 0.5, uv[1] * n as f32 - 0.5);
         let radius2 = 1.0f32 + 1.0;
