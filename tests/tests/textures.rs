@@ -606,7 +606,7 @@ fn unbound_display_color_missing_primvar_fallback_and_inheritance() {
     // Inherited: `tint` authored (constant) on the parent Xform of the mesh.
     let body = format!(
         "    def Xform \"Group\"\n    {{\n        color3f primvars:tint = (0.6, 0.3, 0.1) (interpolation = \"constant\")\n{}\n    }}\n{}",
-        two_quads("", true).replace("</World/Looks/M>", "</World/Looks/M>"),
+        two_quads("", true),
         primvar_material("diffuseColor", "UsdPrimvarReader_float3", "tint", "float3 inputs:fallback = (1, 1, 1)"),
     );
     let r = render_card(&body, 4);

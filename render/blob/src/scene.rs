@@ -406,7 +406,7 @@ impl<'a> SceneView<'a> {
             }
         }
         self.validate_textures()?;
-        self.validate_primvars(&strings_ok)?;
+        self.validate_primvars(strings_ok)?;
         for (i, l) in self.lights.iter().enumerate() {
             if !strings_ok(l.name) || l.kind > light_kind::DISK {
                 return bad(K::Lights, i, "bad name or unknown light kind");
