@@ -56,6 +56,7 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
             triangles: triangles.clone(),
             triangle_materials: vec![0; triangles.len()],
             double_sided: false,
+            primvars: Vec::new(),
             instance: Some(InstancedMesh {
                 instance: i as u32,
                 positions: positions.clone(),

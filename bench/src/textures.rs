@@ -55,6 +55,7 @@ fn plane_scene() -> ingest::Scene {
         triangle_materials: vec![0, 0],
         double_sided: true,
         instance: None,
+        primvars: Vec::new(),
     };
     let mut material =
         ingest::Material { path: "/Looks/Ground".into(), ior: 1.0, ..ingest::Material::default() };
@@ -158,7 +159,7 @@ pub fn run(reference_spp: u32, spp: u32, width: u32, out: &Path) -> anyhow::Resu
         resolution[0], resolution[1]
     );
     let scene = render::Scene::new(view);
-    println!("{:<10} {:>5} {:>10} {:>10} {:>14}", "filter", "spp", "seconds", "rmse", "Mlookups/s");
+    println!("{:<12} {:>5} {:>10} {:>10} {:>14}", "filter", "spp", "seconds", "rmse", "Mlookups/s");
     let mut rows = Vec::new();
     let mut unfiltered = None;
     for (name, filter, scale) in [
@@ -166,7 +167,8 @@ pub fn run(reference_spp: u32, spp: u32, width: u32, out: &Path) -> anyhow::Resu
         ("moonray", Filter::Moonray, 1.0),
         ("bilinear", Filter::Bilinear, 1.0),
         ("trilinear", Filter::Trilinear, 1.0),
-        ("ewa", Filter::Anisotropic, 1.0),
+        ("anisotropic", Filter::Anisotropic, 1.0),
+        ("ewa", Filter::Ewa, 1.0),
     ] {
         let options = RenderOptions {
             spp,
@@ -182,7 +184,7 @@ pub fn run(reference_spp: u32, spp: u32, width: u32, out: &Path) -> anyhow::Resu
         } else {
             lookups_per_second(scene.shading.textures(), filter, 2_000_000) / 1e6
         };
-        println!("{name:<10} {spp:>5} {seconds:>10.3} {error:>10.5} {rate:>14.2}");
+        println!("{name:<12} {spp:>5} {seconds:>10.3} {error:>10.5} {rate:>14.2}");
         if scale == 0.0 {
             unfiltered = Some((seconds, error));
         }
@@ -222,7 +224,7 @@ fn chart(
         .y_label_area_size(60)
         .build_cartesian_2d(t0 * 0.9..t1 * 1.1, (e0 * 0.8..e1 * 1.25).log_scale())?;
     chart.configure_mesh().x_desc("render seconds").y_desc("RMSE vs 1024-spp reference").draw()?;
-    let colours = [BLACK, BLUE, GREEN, MAGENTA, RED];
+    let colours = [BLACK, BLUE, GREEN, MAGENTA, RED, CYAN];
     for (r, colour) in rows.iter().zip(colours) {
         chart.draw_series(std::iter::once(Circle::new((r.1, r.2), 5, colour.filled())))?;
         let label = if r.3.is_nan() { r.0.to_string() } else { format!("{} ({:.1} Mlookups/s)", r.0, r.3) };

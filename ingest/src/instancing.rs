@@ -201,6 +201,7 @@ mod tests {
             positions: local.iter().map(|p| *p + Vec3::splat(offset)).collect(),
             triangles: vec![[0, 1, 2]],
             triangle_materials: vec![material],
+            primvars: Vec::new(),
             instance: Some(InstancedMesh {
                 instance,
                 positions: local,

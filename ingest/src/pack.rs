@@ -4,7 +4,7 @@
 //! The output depends only on the scene (no hash-map iteration order, no thread timing), so the same scene
 //! always encodes to the same bytes.
 
-use crate::scene::{LightKind, Scene, ShaderNode, ShadingInput, TextureData, UpAxis};
+use crate::scene::{LightKind, PrimvarLayout, Scene, ShaderNode, ShadingInput, TextureData, UpAxis};
 use blob::records as rec;
 use glam::{Mat4, Vec3};
 
@@ -58,6 +58,7 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
     let layout = MeshLayout {
         any_normals: scene.meshes.iter().any(|m| !m.normals.is_empty()),
         any_uvs: scene.meshes.iter().any(|m| !m.uvs.is_empty()),
+        primvar_ids: primvar_name_ids(scene),
     };
     for &m in &plan.top_level {
         let mesh = &scene.meshes[m];
@@ -69,7 +70,8 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
     for m in &scene.materials {
         let name = data.add_string(&m.path);
         let program_start = data.shader_ops.len() as u32;
-        data.shader_ops.extend(m.program.iter().map(|node| shader_op(node, &texture_refs)));
+        data.shader_ops
+            .extend(m.program.iter().map(|node| shader_op(node, &texture_refs, &layout.primvar_ids)));
         data.materials.push(rec::Material {
             name,
             diffuse_color: m.diffuse_color.to_array(),
@@ -187,6 +189,8 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
 pub(crate) struct MeshLayout {
     any_normals: bool,
     any_uvs: bool,
+    /// Scene-wide id of each primvar name programs read (the `PRIMVAR` op's key).
+    primvar_ids: std::collections::BTreeMap<String, u32>,
 }
 
 impl MeshLayout {
@@ -231,6 +235,42 @@ impl MeshLayout {
         }
         if mesh.double_sided {
             flags |= rec::MESH_DOUBLE_SIDED;
+        }
+        // Primvars do not depend on the space the vertices are stored in, so a prototype carries its
+        // mesh's values unchanged.
+        let mut primvars: Vec<_> = mesh.primvars.iter().map(|p| (self.primvar_ids[&p.name], p)).collect();
+        primvars.sort_by_key(|&(id, _)| id);
+        for (name_id, p) in primvars {
+            let name = data.add_string(&p.name);
+            data.primvars.push(rec::PrimvarRecord {
+                name,
+                name_id,
+                mesh: mesh_index,
+                interpolation: match p.layout {
+                    PrimvarLayout::Constant => rec::primvar_interpolation::CONSTANT,
+                    PrimvarLayout::PerTriangle => rec::primvar_interpolation::UNIFORM,
+                    PrimvarLayout::PerVertex => rec::primvar_interpolation::VERTEX,
+                    PrimvarLayout::PerCorner => rec::primvar_interpolation::FACE_VARYING,
+                },
+                components: p.components,
+                first_value: data.primvar_values.len() as u32,
+                value_count: p.values.len() as u32,
+            });
+            if p.layout == PrimvarLayout::PerCorner {
+                // Corner values follow their triangle's vertex order; a prototype's triangles are wound
+                // for its own space, which may mirror the world's.
+                for (i, (stored, world)) in triangles.iter().zip(&mesh.triangles).enumerate() {
+                    let c = &p.values[3 * i..3 * i + 3];
+                    let swapped = stored != world;
+                    data.primvar_values.extend_from_slice(&if swapped {
+                        [c[0], c[2], c[1]]
+                    } else {
+                        [c[0], c[1], c[2]]
+                    });
+                }
+            } else {
+                data.primvar_values.extend_from_slice(&p.values);
+            }
         }
         data.meshes.push(rec::Mesh {
             name,
@@ -313,11 +353,38 @@ fn input_code(input: ShadingInput) -> u32 {
     }
 }
 
+/// A key per primvar name that any mesh carries or any program reads, in name order (so records
+/// sorted by name within a mesh are sorted by key).
+fn primvar_name_ids(scene: &Scene) -> std::collections::BTreeMap<String, u32> {
+    let mut names = std::collections::BTreeSet::new();
+    for mesh in &scene.meshes {
+        names.extend(mesh.primvars.iter().map(|p| p.name.clone()));
+    }
+    for m in &scene.materials {
+        names.extend(m.program.iter().filter_map(|n| match n {
+            ShaderNode::Primvar { name, .. } => Some(name.clone()),
+            _ => None,
+        }));
+    }
+    names.into_iter().enumerate().map(|(i, n)| (n, i as u32)).collect()
+}
+
 /// One program node as a blob op (see [`rec::op_kind`] for the field meanings).
-fn shader_op(node: &ShaderNode, textures: &[(u32, bool)]) -> rec::ShaderOp {
+fn shader_op(
+    node: &ShaderNode,
+    textures: &[(u32, bool)],
+    primvar_ids: &std::collections::BTreeMap<String, u32>,
+) -> rec::ShaderOp {
     use rec::op_kind;
     let op = rec::ShaderOp::default();
     match *node {
+        ShaderNode::Primvar { dst, ref name, fallback } => rec::ShaderOp {
+            kind: op_kind::PRIMVAR,
+            dst,
+            src: primvar_ids.get(name).copied().unwrap_or(rec::NONE),
+            params: [fallback, [0.0; 4], [0.0; 4]],
+            ..op
+        },
         ShaderNode::Const { dst, value } => {
             rec::ShaderOp { kind: op_kind::CONST, dst, params: [value, [0.0; 4], [0.0; 4]], ..op }
         }
@@ -450,6 +517,24 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
                 return fail(&mesh.path, "instance-space copy does not match the mesh".into());
             }
         }
+        for p in &mesh.primvars {
+            let expected = p.expected_len(n, mesh.triangles.len());
+            if p.values.len() != expected || !(1..=4).contains(&p.components) {
+                let (got, components) = (p.values.len(), p.components);
+                return fail(
+                    &mesh.path,
+                    format!(
+                        "primvar {}: {got} values of {components} components, {:?} needs {expected} of 1..=4",
+                        p.name, p.layout
+                    ),
+                );
+            }
+        }
+        let mut names: Vec<&str> = mesh.primvars.iter().map(|p| p.name.as_str()).collect();
+        names.sort_unstable();
+        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+            return fail(&mesh.path, format!("primvar {} appears twice", w[0]));
+        }
     }
     for m in &scene.materials {
         if let Some(problem) = program_problem(&m.program, scene.textures.len()) {
@@ -480,7 +565,9 @@ fn program_problem(program: &[ShaderNode], textures: usize) -> Option<String> {
     let max = rec::MAX_REGISTERS;
     for node in program {
         let (regs, texture) = match *node {
-            ShaderNode::Const { dst, .. } | ShaderNode::PrimvarUv { dst, .. } => ([dst, 0], None),
+            ShaderNode::Const { dst, .. }
+            | ShaderNode::PrimvarUv { dst, .. }
+            | ShaderNode::Primvar { dst, .. } => ([dst, 0], None),
             ShaderNode::Transform2d { dst, src, .. } => ([dst, src], None),
             ShaderNode::Texture { dst, src, texture, .. } => ([dst, src], texture),
             ShaderNode::Output { src, .. } => ([src, 0], None),

@@ -126,6 +126,7 @@ mod tests {
                 positions: local.iter().map(|p| *p + Vec3::new(2.0 * i as f32, 0.0, 0.0)).collect(),
                 triangles: triangles.clone(),
                 triangle_materials: vec![0; 2],
+                primvars: Vec::new(),
                 instance: Some(InstancedMesh {
                     instance: i as u32,
                     positions: local.clone(),

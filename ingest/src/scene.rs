@@ -109,6 +109,16 @@ pub enum ShaderNode {
         /// `inputs:fallback` of the primvar reader.
         fallback: [f32; 4],
     },
+    /// UsdPrimvarReader_float/float3/float4/int: `r[dst]` = the hit mesh's primvar `name` (see
+    /// [`MeshPrimvar`]), interpolated, or `fallback` where the mesh does not carry it.
+    Primvar {
+        /// Destination register.
+        dst: u32,
+        /// `inputs:varname` (without the `primvars:` prefix).
+        name: String,
+        /// `inputs:fallback` of the reader, widened to a `vec4`.
+        fallback: [f32; 4],
+    },
     /// UsdTransform2d: `r[dst].xy = translation + rotate(rotation_degrees, scale * r[src].xy)`.
     Transform2d {
         /// Destination register.
@@ -195,6 +205,8 @@ pub struct Mesh {
     /// For a gprim inside an instance: the same gprim in the instance's space, so that identical
     /// instances can share one prototype. `None` for gprims drawn once.
     pub instance: Option<InstancedMesh>,
+    /// The primvars the mesh's materials read ([`ShaderNode::Primvar`]), sorted by name.
+    pub primvars: Vec<MeshPrimvar>,
 }
 
 /// One outermost instance: an instanceable prim, or one entry of a PointInstancer.
@@ -218,6 +230,44 @@ pub struct InstancedMesh {
     pub normals: Vec<Vec3>,
     /// Triangles wound for the instance-space transform (mirroring may differ from world space).
     pub triangles: Vec<[u32; 3]>,
+}
+
+/// Where the values of a [`MeshPrimvar`] sit on the triangulated mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrimvarLayout {
+    /// One value.
+    Constant,
+    /// One value per triangle (`uniform`).
+    PerTriangle,
+    /// One value per vertex (`vertex`, `varying`), interpolated.
+    PerVertex,
+    /// Three values per triangle, in its vertex order (`faceVarying`), interpolated.
+    PerCorner,
+}
+
+/// A primvar a material program reads, laid out on the triangulated mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshPrimvar {
+    /// Name without the `primvars:` prefix.
+    pub name: String,
+    /// How `values` map onto the mesh.
+    pub layout: PrimvarLayout,
+    /// Components authored per element, 1..=4.
+    pub components: u32,
+    /// Values widened to `vec4` (scalar `s` → `(s, s, s, 1)`, missing components 0, alpha 1).
+    pub values: Vec<[f32; 4]>,
+}
+
+impl MeshPrimvar {
+    /// The number of values `layout` needs on a mesh of `vertices` vertices and `triangles` triangles.
+    pub fn expected_len(&self, vertices: usize, triangles: usize) -> usize {
+        match self.layout {
+            PrimvarLayout::Constant => 1,
+            PrimvarLayout::PerTriangle => triangles,
+            PrimvarLayout::PerVertex => vertices,
+            PrimvarLayout::PerCorner => 3 * triangles,
+        }
+    }
 }
 
 /// A subdivision surface as diced: `Scene::meshes[mesh]` holds its triangles.

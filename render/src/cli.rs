@@ -42,7 +42,8 @@ pub struct Args {
     #[arg(long)]
     pub stats: Option<PathBuf>,
     /// Texture filter: moonray (two point-sampled levels blended; bilinear when magnifying),
-    /// bilinear, trilinear or ewa (anisotropic).
+    /// bilinear, trilinear, anisotropic (trilinear taps along the footprint) or ewa (elliptical
+    /// Gaussian over the footprint).
     #[arg(long, default_value = "moonray", value_parser = parse_filter)]
     pub texture_filter: texture::Filter,
     /// Draw all curves as `tube` or `ribbon` (default: tubes, oriented ribbons where normals are authored).

@@ -220,8 +220,10 @@ impl<'a> Scene<'a> {
                 duv_dx: to_uv(on_plane(axis1 * footprint)),
                 duv_dy: to_uv(on_plane(axis2 * footprint)),
                 has_uv: true,
+                point: None,
             };
         }
+        uv.point = Some(crate::shading::MeshPoint { triangle: hit.triangle, b1: hit.b1, b2: hit.b2 });
         Some(Surface {
             p,
             ng,

@@ -8,6 +8,9 @@
 //! coordinates, transformed by `TRANSFORM_2D`), so a texture read through a UsdTransform2d picks its mip
 //! level from the transformed footprint.
 //!
+//! `PRIMVAR` ops read the hit mesh's primvar from the blob's primvar tables and interpolate it with
+//! the triangle's barycentrics ([`MeshPoint`]).
+//!
 //! The op kind is matched once per op; programs are a handful of ops, so a per-kind batch (one queue per
 //! op kind, as a wavefront shade stage would run them) would not pay for itself in the scalar
 //! integrator.
@@ -15,6 +18,17 @@
 use blob::{op_kind, shading_input, ShaderOp, MAX_REGISTERS, NONE};
 use glam::Vec3;
 use texture::{Filter, Lookup, TextureSetView, Touch, Wrap};
+
+/// The triangle a hit is on and where inside it: what primvar reads interpolate with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshPoint {
+    /// Index into the triangles section.
+    pub triangle: u32,
+    /// Barycentric weights of the triangle's second and third vertex (the first has `1 − b1 − b2`).
+    pub b1: f32,
+    /// See `b1`.
+    pub b2: f32,
+}
 
 /// Where on a texture a hit is, and how large its pixel footprint is there.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -27,6 +41,8 @@ pub struct UvFootprint {
     pub duv_dy: [f32; 2],
     /// The mesh has texture coordinates (otherwise primvar readers return their fallback).
     pub has_uv: bool,
+    /// The triangle hit (`None` for curves and points: their primvar reads return the fallback).
+    pub point: Option<MeshPoint>,
 }
 
 /// The UsdPreviewSurface inputs at one shading point, after the program ran.
@@ -124,6 +140,7 @@ pub struct ProgramFlags {
 pub struct Shading<'a> {
     materials: &'a [blob::Material],
     ops: &'a [ShaderOp],
+    primvars: Primvars<'a>,
     textures: TextureSetView<'a>,
     flags: Vec<ProgramFlags>,
     any_textured_opacity: bool,
@@ -164,7 +181,20 @@ impl<'a> Shading<'a> {
             })
             .collect();
         let any_textured_opacity = flags.iter().any(|f| f.textured_opacity);
-        Shading { materials: view.materials, ops: view.shader_ops, textures, flags, any_textured_opacity }
+        let primvars = Primvars {
+            records: view.primvars,
+            values: view.primvar_values,
+            triangles: view.triangles,
+            meshes: view.meshes,
+        };
+        Shading {
+            materials: view.materials,
+            ops: view.shader_ops,
+            primvars,
+            textures,
+            flags,
+            any_textured_opacity,
+        }
     }
 
     /// The texture tables.
@@ -212,6 +242,7 @@ impl<'a> Shading<'a> {
                     let value = self.lookup(op, uv, dx, dy, filter, touch);
                     regs.set(op.dst, value, [0.0; 2], [0.0; 2]);
                 }
+                op_kind::PRIMVAR => regs.set(op.dst, self.primvars.read(op, at), [0.0; 2], [0.0; 2]),
                 _ => regs.step(op, at),
             }
         }
@@ -281,10 +312,55 @@ impl<'a> Shading<'a> {
                     // NaN and negative levels (magnification) saturate to 0.
                     return texture::shading_sort_key_saturating(tile, level.round() as u32, uv);
                 }
+                op_kind::PRIMVAR => regs.set(op.dst, self.primvars.read(op, at), [0.0; 2], [0.0; 2]),
                 _ => regs.step(op, at),
             }
         }
         0
+    }
+}
+
+/// The primvar tables of a validated blob, with what a read needs to find the hit's values.
+#[derive(Clone, Copy, Debug)]
+struct Primvars<'a> {
+    records: &'a [blob::PrimvarRecord],
+    values: &'a [[f32; 4]],
+    triangles: &'a [blob::Triangle],
+    meshes: &'a [blob::Mesh],
+}
+
+impl Primvars<'_> {
+    /// A `PRIMVAR` op at `at`: the mesh's primvar `op.src` interpolated with the barycentrics, or the
+    /// op's fallback. Records are sorted by `(mesh, name_id)` (validated), so this is a binary search;
+    /// value ranges were checked against the mesh's triangle and vertex counts by `SceneView::parse`.
+    #[inline]
+    fn read(&self, op: &ShaderOp, at: &UvFootprint) -> [f32; 4] {
+        let fallback = op.params[0];
+        let Some(point) = at.point else { return fallback };
+        let Some(tri) = self.triangles.get(point.triangle as usize) else { return fallback };
+        let key = (tri.mesh, op.src);
+        let Ok(i) = self.records.binary_search_by(|r| (r.mesh, r.name_id).cmp(&key)) else { return fallback };
+        let r = &self.records[i];
+        let values = &self.values[r.first_value as usize..][..r.value_count as usize];
+        let mesh = &self.meshes[tri.mesh as usize];
+        // Ingest puts every triangle inside its mesh's range; the parse does not demand it, so check.
+        let Some(local) =
+            point.triangle.checked_sub(mesh.first_triangle).filter(|&l| l < mesh.triangle_count)
+        else {
+            return fallback;
+        };
+        let local = local as usize;
+        let w = [1.0 - point.b1 - point.b2, point.b1, point.b2];
+        let blend =
+            |v: [[f32; 4]; 3]| std::array::from_fn(|k| v[0][k] * w[0] + v[1][k] * w[1] + v[2][k] * w[2]);
+        match r.interpolation {
+            blob::primvar_interpolation::CONSTANT => values[0],
+            blob::primvar_interpolation::UNIFORM => values[local],
+            blob::primvar_interpolation::VERTEX => {
+                blend(tri.vertices.map(|v| values[(v - mesh.first_vertex) as usize]))
+            }
+            _ => blend([values[3 * local], values[3 * local + 1], values[3 * local + 2]]),
+        }
     }
 }
 
@@ -366,7 +442,13 @@ mod tests {
     #[test]
     fn transform2d_scales_rotates_translates_and_carries_derivatives() {
         let mut regs = Registers::default();
-        let at = UvFootprint { uv: [1.0, 0.0], duv_dx: [0.01, 0.0], duv_dy: [0.0, 0.01], has_uv: true };
+        let at = UvFootprint {
+            uv: [1.0, 0.0],
+            duv_dx: [0.01, 0.0],
+            duv_dy: [0.0, 0.01],
+            has_uv: true,
+            point: None,
+        };
         regs.step(&ShaderOp { kind: op_kind::PRIMVAR_UV, dst: 0, ..Default::default() }, &at);
         // scale (2, 1), rotate 90°, translate (0.5, 0): (1, 0) → (2, 0) → (0, 2) → (0.5, 2).
         let (s, c) = (1.0f32, 0.0f32);

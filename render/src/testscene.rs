@@ -90,6 +90,7 @@ pub fn card(z: f32, half: f32, material: u32) -> Mesh {
         triangle_materials: vec![material; 2],
         double_sided: false,
         instance: None,
+        primvars: Vec::new(),
     }
 }
 
@@ -180,6 +181,7 @@ pub fn instanced_spheres(count: usize, seed: u64) -> Scene {
                 .map(|n| (normal_from_local * n.as_dvec3()).normalize().as_vec3())
                 .collect(),
             triangles,
+            primvars: Vec::new(),
             instance: Some(ingest::scene::InstancedMesh {
                 instance: i as u32,
                 positions: local.positions.clone(),

@@ -109,6 +109,7 @@ const EMISSIVE: &str = "color3f inputs:diffuseColor = (0, 0, 0)\n               
 
 struct Rendered {
     rgb: Vec<[f32; 3]>,
+    alpha: Vec<f32>,
     width: usize,
     warnings: Vec<String>,
     stats: render::RenderStats,
@@ -131,6 +132,7 @@ fn ingest_and_render(dir: &Path, usda: &str, options: &RenderOptions) -> Rendere
     let image = render_image(&view, options).expect("render");
     Rendered {
         rgb: image.beauty.iter().map(|p| [p[0], p[1], p[2]]).collect(),
+        alpha: image.beauty.iter().map(|p| p[3]).collect(),
         width: image.width as usize,
         warnings: report.warnings,
         stats: image.stats,
@@ -422,4 +424,368 @@ fn wavefront_equals_scalar_on_a_textured_card() {
     assert_eq!(a.stats.rays, b.stats.rays);
     let lum: Vec<f32> = a.beauty.iter().map(|p| p[0] + p[1] + p[2]).collect();
     assert!(lum.iter().any(|&l| l > 0.05) && lum.iter().any(|&l| l < lum[0] * 0.5 || l > lum[0] * 2.0));
+}
+
+// ---- Primvar readers ----------------------------------------------------------------------------------
+
+const WHITE_DOME: &str = "    def DomeLight \"Dome\"\n    {\n        float inputs:intensity = 1\n    }\n";
+
+/// `/World/Looks/M`: a rough, IOR-1 PreviewSurface (pure Lambertian: a pixel under the white dome reads
+/// its albedo) whose `input` is connected to a `reader` (`UsdPrimvarReader_*`) of `varname`, with the
+/// reader's `extra` inputs.
+fn primvar_material(input: &str, reader: &str, varname: &str, extra: &str) -> String {
+    let (ty, out) = match reader {
+        "UsdPrimvarReader_float" | "UsdPrimvarReader_int" => ("float", "float"),
+        _ => ("color3f", "float3"),
+    };
+    format!(
+        r#"    def Scope "Looks"
+    {{
+        def Material "M"
+        {{
+            token outputs:surface.connect = </World/Looks/M/Surface.outputs:surface>
+            def Shader "Surface"
+            {{
+                uniform token info:id = "UsdPreviewSurface"
+                float inputs:ior = 1
+                float inputs:roughness = 1
+                color3f inputs:diffuseColor = (0, 0, 0)
+                {ty} inputs:{input}.connect = </World/Looks/M/Reader.outputs:result>
+                token outputs:surface
+            }}
+            def Shader "Reader"
+            {{
+                uniform token info:id = "{reader}"
+                string inputs:varname = "{varname}"
+                {extra}
+                {out} outputs:result
+            }}
+        }}
+    }}
+"#
+    )
+}
+
+/// Two quads side by side spanning `[-1, 1] × [-1, 1]` (shared edge at x = 0), corners counter-clockwise
+/// from the bottom left, with `primvars` authored on the mesh and a binding to `/World/Looks/M` if `bound`.
+fn two_quads(primvars: &str, bound: bool) -> String {
+    let binding = if bound { "rel material:binding = </World/Looks/M>" } else { "" };
+    format!(
+        r#"    def Mesh "Card" (prepend apiSchemas = ["MaterialBindingAPI"])
+    {{
+        uniform token subdivisionScheme = "none"
+        int[] faceVertexCounts = [4, 4]
+        int[] faceVertexIndices = [0, 1, 4, 3, 1, 2, 5, 4]
+        point3f[] points = [(-1, -1, 0), (0, -1, 0), (1, -1, 0), (-1, 1, 0), (0, 1, 0), (1, 1, 0)]
+        {primvars}
+        {binding}
+    }}
+"#
+    )
+}
+
+/// The mean over pixel column `x` of a 2 × 2-unit frame rendered `w × h`.
+fn column_mean(r: &Rendered, x: usize, h: usize) -> [f32; 3] {
+    let mut sum = [0.0f32; 3];
+    for y in 0..h {
+        let p = r.at(x, y);
+        (0..3).for_each(|c| sum[c] += p[c] / h as f32);
+    }
+    sum
+}
+
+/// Asserts `v` within 1% of `expected` (relative, per channel; absolute 0.01 where expected is 0).
+fn assert_within_1_percent(v: [f32; 3], expected: [f32; 3], what: &str) {
+    for c in 0..3 {
+        let tol = 0.01 * expected[c].max(1.0);
+        assert!((v[c] - expected[c]).abs() <= tol, "{what}: reads {v:?}, expected {expected:?} within 1%");
+    }
+}
+
+/// Renders a 2 × 2 frame of `body` under the white dome, `w` pixels square, 256 spp.
+fn render_card(body: &str, w: u32) -> Rendered {
+    let dir = tempfile::tempdir().unwrap();
+    let usda = ortho_stage(2.0, 2.0, 0.0, 0.0, &format!("{body}\n{WHITE_DOME}"));
+    ingest_and_render(dir.path(), &usda, &options(w, w, 256))
+}
+
+/// A vertex displayColor red at x = −1 and green at x = +1 (points at x = 0 halfway), read by a
+/// UsdPrimvarReader_float3 into diffuseColor: under the white dome each column reads the albedo
+/// interpolated at its centre (the mean of a linear ramp over a pixel is its centre value), so the
+/// middle column of a 9-wide image reads (0.5, 0.5, 0) and the others follow the ramp, within 1%.
+#[test]
+fn vertex_display_color_is_interpolated_across_the_card() {
+    let primvars = r#"color3f[] primvars:displayColor = [(1, 0, 0), (0.5, 0.5, 0), (0, 1, 0), (1, 0, 0), (0.5, 0.5, 0), (0, 1, 0)] (interpolation = "vertex")"#;
+    let body = [
+        two_quads(primvars, true),
+        primvar_material("diffuseColor", "UsdPrimvarReader_float3", "displayColor", ""),
+    ]
+    .join("\n");
+    let r = render_card(&body, 9);
+    for x in 0..9 {
+        let t = (x as f32 + 0.5) / 9.0;
+        let v = column_mean(&r, x, 9);
+        eprintln!("vertex displayColor column {x}: {v:?} (expected ({:.4}, {:.4}, 0))", 1.0 - t, t);
+        assert_within_1_percent(v, [1.0 - t, t, 0.0], &format!("column {x}"));
+    }
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+}
+
+/// faceVarying (indexed): the left quad ramps red → green, the right quad is blue at every corner, so
+/// the points on the shared edge carry different values per face, which only per-corner storage keeps.
+#[test]
+fn face_varying_display_color_keeps_per_face_corners() {
+    let primvars = r#"color3f[] primvars:displayColor = [(1, 0, 0), (0, 1, 0), (0, 0, 1)] (interpolation = "faceVarying")
+        int[] primvars:displayColor:indices = [0, 1, 1, 0, 2, 2, 2, 2]"#;
+    let body = [
+        two_quads(primvars, true),
+        primvar_material("diffuseColor", "UsdPrimvarReader_float3", "displayColor", ""),
+    ]
+    .join("\n");
+    let r = render_card(&body, 8);
+    for x in 0..4 {
+        let t = (x as f32 + 0.5) / 4.0;
+        assert_within_1_percent(column_mean(&r, x, 8), [1.0 - t, t, 0.0], &format!("left column {x}"));
+    }
+    for x in 4..8 {
+        assert_within_1_percent(column_mean(&r, x, 8), [0.0, 0.0, 1.0], &format!("right column {x}"));
+    }
+}
+
+/// uniform: one colour per quad, no bleeding across the shared edge (pixel edges fall on it).
+#[test]
+fn uniform_display_color_is_one_value_per_face() {
+    let primvars =
+        r#"color3f[] primvars:displayColor = [(0.8, 0.1, 0.1), (0.1, 0.1, 0.8)] (interpolation = "uniform")"#;
+    let body = [
+        two_quads(primvars, true),
+        primvar_material("diffuseColor", "UsdPrimvarReader_float3", "displayColor", ""),
+    ]
+    .join("\n");
+    let r = render_card(&body, 8);
+    for x in 0..8 {
+        let expected = if x < 4 { [0.8, 0.1, 0.1] } else { [0.1, 0.1, 0.8] };
+        assert_within_1_percent(column_mean(&r, x, 8), expected, &format!("column {x}"));
+    }
+}
+
+/// A mesh without a bound material renders with its displayColor (USD's fallback), interpolated when
+/// it varies (the fallback material is not Lambertian, so each column is compared with a card whose
+/// constant displayColor is the column's expected colour); a bound reader of a primvar the mesh lacks returns its `inputs:fallback`; a constant
+/// primvar authored on an ancestor is inherited.
+#[test]
+fn unbound_display_color_missing_primvar_fallback_and_inheritance() {
+    // Unbound, vertex displayColor: the same ramp as the bound case.
+    let primvars = r#"color3f[] primvars:displayColor = [(1, 0, 0), (0.5, 0.5, 0), (0, 1, 0), (1, 0, 0), (0.5, 0.5, 0), (0, 1, 0)] (interpolation = "vertex")"#;
+    let r = render_card(&two_quads(primvars, false), 9);
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    for x in [0, 4, 7] {
+        let t = (x as f32 + 0.5) / 9.0;
+        let constant = format!("color3f[] primvars:displayColor = [({}, {t}, 0)]", 1.0 - t);
+        let c = render_card(&two_quads(&constant, false), 9);
+        let (v, expected) = (column_mean(&r, x, 9), column_mean(&c, x, 9));
+        eprintln!("unbound column {x}: {v:?}, constant card {expected:?}");
+        assert!(expected[0] + expected[1] > 0.5, "{expected:?}");
+        assert_within_1_percent(v, expected, &format!("unbound column {x}"));
+    }
+
+    // Bound reader of a primvar the mesh does not carry: the fallback.
+    let body = [
+        two_quads("", true),
+        primvar_material(
+            "diffuseColor",
+            "UsdPrimvarReader_float3",
+            "tint",
+            "float3 inputs:fallback = (0.25, 0.5, 0.75)",
+        ),
+    ]
+    .join("\n");
+    let r = render_card(&body, 4);
+    assert_within_1_percent(column_mean(&r, 1, 4), [0.25, 0.5, 0.75], "fallback");
+
+    // Inherited: `tint` authored (constant) on the parent Xform of the mesh.
+    let body = format!(
+        "    def Xform \"Group\"\n    {{\n        color3f primvars:tint = (0.6, 0.3, 0.1) (interpolation = \"constant\")\n{}\n    }}\n{}",
+        two_quads("", true),
+        primvar_material("diffuseColor", "UsdPrimvarReader_float3", "tint", "float3 inputs:fallback = (1, 1, 1)"),
+    );
+    let r = render_card(&body, 4);
+    assert_within_1_percent(column_mean(&r, 2, 4), [0.6, 0.3, 0.1], "inherited");
+}
+
+/// UsdPrimvarReader_float (a vertex `coverage` ramp 0 → 1) and UsdPrimvarReader_int (a uniform `solid`
+/// of 0 and 1) drive `opacity` of a black card: a pixel reads the dome through the card, 1 − opacity.
+#[test]
+fn float_and_int_readers_drive_opacity() {
+    let float = r#"float[] primvars:coverage = [0, 0.5, 1, 0, 0.5, 1] (interpolation = "vertex")"#;
+    let body =
+        [two_quads(float, true), primvar_material("opacity", "UsdPrimvarReader_float", "coverage", "")]
+            .join("\n");
+    let r = render_card(&body, 9);
+    for x in [0, 4, 8] {
+        let t = (x as f32 + 0.5) / 9.0;
+        assert_within_1_percent(column_mean(&r, x, 9), [1.0 - t; 3], &format!("float column {x}"));
+    }
+    let int = r#"int[] primvars:solid = [0, 1] (interpolation = "uniform")"#;
+    let body =
+        [two_quads(int, true), primvar_material("opacity", "UsdPrimvarReader_int", "solid", "")].join("\n");
+    let r = render_card(&body, 4);
+    assert_within_1_percent(column_mean(&r, 0, 4), [1.0; 3], "int 0: transparent");
+    assert_within_1_percent(column_mean(&r, 3, 4), [0.0; 3], "int 1: opaque");
+}
+
+/// A string primvar reader cannot drive a shading input: a warning, and its fallback.
+#[test]
+fn string_reader_reads_its_fallback_with_a_warning() {
+    let body = [
+        two_quads(r#"string primvars:label = "x" (interpolation = "constant")"#, true),
+        primvar_material(
+            "diffuseColor",
+            "UsdPrimvarReader_string",
+            "label",
+            "float3 inputs:fallback = (0.2, 0.4, 0.6)",
+        ),
+    ]
+    .join("\n");
+    let r = render_card(&body, 4);
+    assert_within_1_percent(column_mean(&r, 1, 4), [0.2, 0.4, 0.6], "string fallback");
+    assert!(r.warnings.iter().any(|w| w.contains("UsdPrimvarReader_string")), "{:?}", r.warnings);
+}
+
+/// The Utah teapot of usd-wg/assets (copied to `tests/assets/teapot`), whose Ceramic material drives
+/// diffuseColor from a UsdPrimvarReader_float3 of the constant displayColor authored per shading
+/// variant, under a white dome: the teapot's pixels are that colour. Specular reflection of the dome
+/// adds the same grey to every channel, so `(G − B) / (R − B)` is the authored ratio (interreflection
+/// between lid, body and handle raises it a little).
+#[test]
+fn teapot_ceramic_variants_render_their_display_color() {
+    let teapot = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/teapot/full_assets/Teapot/Teapot.usd");
+    for (variant, color) in
+        [("CeramicLimeGreen", [0.325f32, 0.825, 0.0]), ("CeramicBlue", [0.013679987, 0.19873393, 0.912])]
+    {
+        let dir = tempfile::tempdir().unwrap();
+        // The default variant is CeramicLimeGreen; selecting it explicitly is a no-op.
+        let usda = format!(
+            "#usda 1.0\n(\n    defaultPrim = \"World\"\n    upAxis = \"Y\"\n)\ndef Xform \"World\"\n{{\n    def \"Teapot\" (\n        prepend references = @{}@\n        variants = {{ string shadingVariant = \"{variant}\" }}\n    )\n    {{\n    }}\n{WHITE_DOME}}}\n",
+            teapot.display()
+        );
+        let r = ingest_and_render(dir.path(), &usda, &options(64, 48, 64));
+        let covered: Vec<[f32; 3]> =
+            r.rgb.iter().zip(&r.alpha).filter(|(_, &a)| a > 0.99).map(|(p, _)| *p).collect();
+        assert!(covered.len() > 200, "teapot covers {} pixels", covered.len());
+        let n = covered.len() as f32;
+        let mean: [f32; 3] = std::array::from_fn(|c| covered.iter().map(|p| p[c]).sum::<f32>() / n);
+        eprintln!(
+            "teapot {variant}: mean colour {mean:?} over {} pixels (authored {color:?})",
+            covered.len()
+        );
+        // Channels ordered as authored, and the colour ratio within 10% (specular grey cancels).
+        let order = |v: [f32; 3]| {
+            let mut i = [0, 1, 2];
+            i.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
+            i
+        };
+        assert_eq!(order(mean), order(color), "{variant}: {mean:?}");
+        let [lo, mid, hi] = order(color);
+        let ratio = (mean[hi] - mean[lo]) / (mean[mid] - mean[lo]);
+        let expected = (color[hi] - color[lo]) / (color[mid] - color[lo]);
+        assert!((ratio / expected - 1.0).abs() < 0.1, "{variant}: ratio {ratio}, authored {expected}");
+        assert!(r.warnings.iter().all(|w| !w.contains("primvar")), "{:?}", r.warnings);
+    }
+}
+
+// ---- Textures inside .usdz packages ------------------------------------------------------------------
+
+/// Writes a USDZ package (stored, 64-byte-aligned entries, root layer first) at `path`.
+fn usdz(path: &Path, entries: &[(&str, Vec<u8>)]) {
+    let mut archive = openusd::usdz::ArchiveWriter::create(path).expect("create usdz");
+    for (name, bytes) in entries {
+        archive.add_layer(name, bytes).expect("add entry");
+    }
+    archive.finish().expect("finish usdz");
+}
+
+/// The bytes of a solid `w × h` RGBA PNG.
+fn png_bytes(w: u32, h: u32, rgba: [u8; 4]) -> Vec<u8> {
+    let dir = tempfile::tempdir().unwrap();
+    png(dir.path(), "t.png", w, h, |_, _| rgba);
+    std::fs::read(dir.path().join("t.png")).unwrap()
+}
+
+/// 8-bit sRGB → linear, the exact curve.
+fn srgb(code: u8) -> f32 {
+    let c = code as f32 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// An emissive card whose texture lives inside a `.usdz`: referenced from the package's own layer as
+/// `@textures/a.png@` and `@./textures/a.png@`, and from a layer outside the package as
+/// `@pkg.usdz[textures/a.png]@`. Each reads the texel value (sRGB-decoded) without extracting anything,
+/// and no warning; a texture missing from the package is a warning naming the packaged path.
+#[test]
+fn usdz_textures_resolve_inside_the_package() {
+    let colour = [200u8, 100, 50, 255];
+    let expected = [srgb(200), srgb(100), srgb(50)];
+    let body = |file: &str| {
+        ortho_stage(
+            2.0,
+            2.0,
+            0.0,
+            0.0,
+            &[card([-1.0, 1.0], [-1.0, 1.0], [0.0, 1.0], [0.0, 1.0]), material(EMISSIVE, file, "")]
+                .join("\n"),
+        )
+    };
+    let render_root = |root: &Path| {
+        let dir = tempfile::tempdir().unwrap();
+        let output = dir.path().join("scene.blob");
+        let (_, report) = ingest::pipeline::ingest_file(root, &output, &ingest::usd::LoadOptions::default())
+            .expect("ingest");
+        let bytes = blob::AlignedBytes::copy_from(&std::fs::read(&output).unwrap());
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        let image = render_image(&view, &options(4, 4, 1)).expect("render");
+        (image.beauty.iter().map(|p| [p[0], p[1], p[2]]).collect::<Vec<_>>(), report.warnings)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for file in ["textures/a.png", "./textures/a.png"] {
+        let package = dir.path().join("inside.usdz");
+        usdz(
+            &package,
+            &[("scene.usda", body(file).into_bytes()), ("textures/a.png", png_bytes(4, 4, colour))],
+        );
+        let (pixels, warnings) = render_root(&package);
+        assert!(warnings.is_empty(), "{file}: {warnings:?}");
+        for p in &pixels {
+            assert_rgb(*p, expected, 1e-5, &format!("@{file}@ inside the package"));
+        }
+    }
+    // From outside: a package-relative asset path into a package that holds only the texture.
+    let package = dir.path().join("pkg.usdz");
+    usdz(&package, &[("textures/a.png", png_bytes(2, 2, colour))]);
+    let outside = write_text(dir.path(), "outside.usda", &body("pkg.usdz[textures/a.png]"));
+    let (pixels, warnings) = render_root(&outside);
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_rgb(pixels[5], expected, 1e-5, "@pkg.usdz[textures/a.png]@");
+    // Missing from the package (and not beside it): the fallback, and a warning naming the entry.
+    let package = dir.path().join("missing.usdz");
+    usdz(&package, &[("scene.usda", body("textures/b.png").into_bytes())]);
+    let (pixels, warnings) = render_root(&package);
+    assert_rgb(pixels[5], [0.0; 3], 0.0, "missing packaged texture");
+    eprintln!("missing packaged texture: {warnings:?}");
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("missing.usdz[textures/b.png]") && w.contains("not found in the package")),
+        "{warnings:?}"
+    );
+}
+
+fn write_text(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
 }

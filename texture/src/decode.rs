@@ -57,17 +57,53 @@ impl SourceImage {
 /// Decodes a texture file, choosing the decoder by extension (`.exr`) or by content.
 pub fn decode(path: &Path) -> Result<SourceImage, Error> {
     let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    let img = if is_exr { decode_exr(path)? } else { decode_image(path)? };
+    let img = if is_exr {
+        let image = exr::prelude::read_first_flat_layer_from_file(path)
+            .map_err(|e| Error::new(path, ErrorKind::Exr(e)))?;
+        decode_exr(path, image)?
+    } else {
+        let reader = image::ImageReader::open(path).map_err(|e| Error::new(path, ErrorKind::Io(e)))?;
+        decode_image(path, reader)?
+    };
     img.validate(path)?;
     Ok(img)
 }
 
-fn decode_image(path: &Path) -> Result<SourceImage, Error> {
+/// Decodes a texture already in memory (an entry of a `.usdz` package, read without extracting it);
+/// `name` (the entry's path) picks the decoder by extension like [`decode`] and names errors.
+pub fn decode_bytes(bytes: &[u8], name: &Path) -> Result<SourceImage, Error> {
+    let is_exr = name.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let img = if is_exr {
+        // What `read_first_flat_layer_from_file` reads, from a buffer.
+        use exr::prelude::{ReadChannels, ReadLayers};
+        let image = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(std::io::Cursor::new(bytes))
+            .map_err(|e| Error::new(name, ErrorKind::Exr(e)))?;
+        decode_exr(name, image)?
+    } else {
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
+        // TGA has no signature to guess from: start from the extension, as `ImageReader::open` does.
+        if let Ok(format) = image::ImageFormat::from_path(name) {
+            reader.set_format(format);
+        }
+        decode_image(name, reader)?
+    };
+    img.validate(name)?;
+    Ok(img)
+}
+
+fn decode_image<R: std::io::BufRead + std::io::Seek>(
+    path: &Path,
+    reader: image::ImageReader<R>,
+) -> Result<SourceImage, Error> {
     use image::DynamicImage as D;
     let err = |e| Error::new(path, ErrorKind::Image(e));
-    let mut reader = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .map_err(|e| Error::new(path, ErrorKind::Io(e)))?;
+    let mut reader = reader.with_guessed_format().map_err(|e| Error::new(path, ErrorKind::Io(e)))?;
     // Production textures (16k 16-bit) exceed the default 512 MiB allocation limit.
     reader.no_limits();
     let dynamic = reader.decode().map_err(err)?;
@@ -89,12 +125,13 @@ fn decode_image(path: &Path) -> Result<SourceImage, Error> {
     Ok(SourceImage { width, height, channels, samples })
 }
 
+type ExrImage =
+    exr::prelude::Image<exr::prelude::Layer<exr::prelude::AnyChannels<exr::prelude::FlatSamples>>>;
+
 /// Reads the first valid layer's largest level with all its channels, then picks R, G, B, A or Y by name
 /// (the part after the last `.`, so `diffuse.R` counts as `R`). A layer with a single channel of another
 /// name (`Z`, `mask`) is read as grey.
-fn decode_exr(path: &Path) -> Result<SourceImage, Error> {
-    let image = exr::prelude::read_first_flat_layer_from_file(path)
-        .map_err(|e| Error::new(path, ErrorKind::Exr(e)))?;
+fn decode_exr(path: &Path, image: ExrImage) -> Result<SourceImage, Error> {
     let layer = &image.layer_data;
     let (w, h) = (layer.size.0, layer.size.1);
     let list = &layer.channel_data.list;

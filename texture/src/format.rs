@@ -102,13 +102,18 @@ pub enum Filter {
     /// Bilinear on both mip levels around the footprint, blended.
     Trilinear,
     /// Up to [`crate::MAX_ANISOTROPY`] trilinear taps along the footprint's major axis, level from the
-    /// minor axis. Parsed from `ewa`.
+    /// minor axis.
     Anisotropic,
+    /// Elliptical weighted average (Heckbert 1989, as in pbrt-v3's `MIPMap::EWA`): a Gaussian over the
+    /// ellipse the uv derivatives span, on the two levels around the minor axis (eccentricity clamped
+    /// to [`crate::MAX_ANISOTROPY`]), blended.
+    Ewa,
 }
 
 impl Filter {
     /// All filters, for benchmarks and tests.
-    pub const ALL: [Filter; 4] = [Filter::Moonray, Filter::Bilinear, Filter::Trilinear, Filter::Anisotropic];
+    pub const ALL: [Filter; 5] =
+        [Filter::Moonray, Filter::Bilinear, Filter::Trilinear, Filter::Anisotropic, Filter::Ewa];
 }
 
 impl FromStr for Filter {
@@ -118,10 +123,11 @@ impl FromStr for Filter {
             "moonray" => Ok(Filter::Moonray),
             "bilinear" => Ok(Filter::Bilinear),
             "trilinear" => Ok(Filter::Trilinear),
-            "ewa" | "anisotropic" => Ok(Filter::Anisotropic),
-            other => {
-                Err(format!("unknown texture filter {other:?} (expected moonray|bilinear|trilinear|ewa)"))
-            }
+            "anisotropic" => Ok(Filter::Anisotropic),
+            "ewa" => Ok(Filter::Ewa),
+            other => Err(format!(
+                "unknown texture filter {other:?} (expected moonray|bilinear|trilinear|anisotropic|ewa)"
+            )),
         }
     }
 }
@@ -133,7 +139,8 @@ impl fmt::Display for Filter {
             Filter::Moonray => "moonray",
             Filter::Bilinear => "bilinear",
             Filter::Trilinear => "trilinear",
-            Filter::Anisotropic => "ewa",
+            Filter::Anisotropic => "anisotropic",
+            Filter::Ewa => "ewa",
         })
     }
 }
@@ -145,7 +152,8 @@ mod tests {
     #[test]
     fn parse() {
         assert_eq!("moonray".parse(), Ok(Filter::Moonray));
-        assert_eq!("ewa".parse(), Ok(Filter::Anisotropic));
+        assert_eq!("ewa".parse(), Ok(Filter::Ewa));
+        assert_eq!("anisotropic".parse(), Ok(Filter::Anisotropic));
         for f in Filter::ALL {
             assert_eq!(f.to_string().parse(), Ok(f));
         }

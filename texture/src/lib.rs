@@ -76,11 +76,13 @@ pub mod udim;
 mod tests;
 
 pub use bake::{bake, BakeOptions, BakedTexture};
-pub use decode::{decode, Samples, SourceImage};
+pub use decode::{decode, decode_bytes, Samples, SourceImage};
 pub use error::{Error, ErrorKind, Warning};
 pub use format::{ColorSpace, Filter, TexelFormat, Wrap};
 pub use record::{TextureRecord, UdimSetRecord, MAX_DIMENSION, MAX_MIP_LEVELS, NONE};
-pub use sample::{mip_level, sample, sample_with, Lookup, TextureView, MAX_ANISOTROPY};
+pub use sample::{
+    mip_level, sample, sample_with, Lookup, TextureView, EWA_ALPHA, EWA_FOOTPRINT_SCALE, MAX_ANISOTROPY,
+};
 pub use set::{TextureRef, TextureSet, TextureSetBuilder, TextureSetView};
 pub use sort_key::{shading_sort_key, shading_sort_key_saturating};
 pub use stats::{BytesRead, NoTouch, PageTouches, Touch};

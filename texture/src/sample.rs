@@ -23,6 +23,19 @@ use crate::stats::{NoTouch, Touch};
 /// than this are blurred along the minor axis instead (their level is raised).
 pub const MAX_ANISOTROPY: u32 = 8;
 
+/// Falloff of the EWA Gaussian `exp(−α r²)` over the ellipse `r² < 1` (pbrt-v3's value: the weight at
+/// the ellipse's edge is `e⁻²`, so the Gaussian's σ is half the ellipse's axis).
+pub const EWA_ALPHA: f32 = 2.0;
+
+/// The EWA ellipse's axes are the uv derivatives (one pixel step) times this, `1/√3`, so that the
+/// Gaussian's σ (half the axis) is `1/√12` pixel: the standard deviation of the one-pixel box the
+/// renderer integrates each pixel over. pbrt-v3 uses the derivatives as they are (σ = ½ pixel), which
+/// over-blurs against a box-filtered reference: on `bench textures` (receding checker plane, 4 spp vs
+/// 1024 spp) the RMSE was 0.0342 with scale 1, 0.0323 with 0.75, 0.0311 with `1/√3` and 0.0307 with 0.5
+/// (the multi-tap anisotropic filter: 0.0325). Narrower still trades blur for aliasing with the
+/// sample count; `1/√3` is the choice that does not depend on the benchmark.
+pub const EWA_FOOTPRINT_SCALE: f32 = 0.577_350_3;
+
 /// A validated texture: its record and the whole texel array its offsets point into.
 #[derive(Clone, Copy, Debug)]
 pub struct TextureView<'a> {
@@ -306,6 +319,100 @@ impl<'a, D: Decode, T: Touch> Sampler<'a, D, T> {
             }
             Filter::Trilinear => self.trilinear(mip_level(self.tex.record, q.duv_dx, q.duv_dy), q.uv),
             Filter::Anisotropic => self.anisotropic(q),
+            Filter::Ewa => self.ewa(q),
+        }
+    }
+
+    /// EWA (pbrt-v3 `MIPMap::Lookup` with an ellipse): the axes are `duv_dx`, `duv_dy` scaled by
+    /// [`EWA_FOOTPRINT_SCALE`]; the shorter is
+    /// lengthened to `1 / MAX_ANISOTROPY` of the longer, the level pair comes from its length, and each
+    /// level sums a Gaussian over the texels inside the ellipse. Magnification (the longer axis under a
+    /// texel) is bilinear, as for the other filters; a footprint beyond the coarsest level reads it
+    /// bilinearly, since the coarsest level already averages the whole image.
+    fn ewa(&self, q: &Lookup) -> [f32; 4] {
+        let (w, h) = (self.tex.record.width as f32, self.tex.record.height as f32);
+        let k = EWA_FOOTPRINT_SCALE;
+        let (mut d0, mut d1) = ([q.duv_dx[0] * k, q.duv_dx[1] * k], [q.duv_dy[0] * k, q.duv_dy[1] * k]);
+        let mut major = length(d0[0] * w, d0[1] * h);
+        let mut minor = length(d1[0] * w, d1[1] * h);
+        if minor > major {
+            std::mem::swap(&mut d0, &mut d1);
+            std::mem::swap(&mut major, &mut minor);
+        }
+        if major.is_nan() || major <= 1.0 {
+            return self.bilinear(0, q.uv);
+        }
+        let limit = major / MAX_ANISOTROPY as f32;
+        if minor < limit {
+            // Lengthen the minor axis (or, when it is zero, make one perpendicular to the major).
+            let scale = limit / minor;
+            d1 = if minor > 0.0 && scale.is_finite() {
+                [d1[0] * scale, d1[1] * scale]
+            } else {
+                let dir = [-d0[1] * w / major, d0[0] * h / major]; // ⟂ in texel space, unit length
+                [dir[0] * limit / w, dir[1] * limit / h]
+            };
+            minor = limit;
+        }
+        let lod = minor.log2().max(0.0);
+        let last = self.last_level();
+        if lod >= last as f32 {
+            return self.bilinear(last, q.uv);
+        }
+        let l0 = lod.floor();
+        let t = lod - l0;
+        let near = self.ewa_level(l0 as u32, q.uv, d0, d1);
+        if t == 0.0 {
+            return near;
+        }
+        lerp4(near, self.ewa_level(l0 as u32 + 1, q.uv, d0, d1), t)
+    }
+
+    /// One level of EWA: the Gaussian `exp(−α r²)` (α = [`EWA_ALPHA`]) over the texels whose centres lie
+    /// inside the ellipse `r² < 1` spanned by `d0`, `d1` (uv per pixel) at this level, widened by one
+    /// texel in every direction (the `+ 1` terms: a reconstruction filter, so a footprint under a texel
+    /// still covers one), normalised by the sum of the weights.
+    fn ewa_level(&self, level: u32, uv: [f32; 2], d0: [f32; 2], d1: [f32; 2]) -> [f32; 4] {
+        let lv = LevelLayout::of(self.tex.record, level);
+        let (w, h) = (lv.width as f32, lv.height as f32);
+        let (s, t) = (uv[0] * w - 0.5, uv[1] * h - 0.5);
+        let (a0, a1) = ([d0[0] * w, d0[1] * h], [d1[0] * w, d1[1] * h]);
+        // Implicit ellipse A s² + B s t + C t² = F for the axes a0, a1, scaled so that F = 1.
+        let mut a = a0[1] * a0[1] + a1[1] * a1[1] + 1.0;
+        let mut b = -2.0 * (a0[0] * a0[1] + a1[0] * a1[1]);
+        let mut c = a0[0] * a0[0] + a1[0] * a1[0] + 1.0;
+        let inv_f = 1.0 / (a * c - b * b * 0.25);
+        a *= inv_f;
+        b *= inv_f;
+        c *= inv_f;
+        // Bounding box of the ellipse.
+        let det = 4.0 * a * c - b * b;
+        let inv_det = 1.0 / det;
+        let (u_half, v_half) = (2.0 * inv_det * (det * c).sqrt(), 2.0 * inv_det * (det * a).sqrt());
+        if !(u_half.is_finite() && v_half.is_finite()) {
+            return self.bilinear(level, uv);
+        }
+        let (x0, x1) = ((s - u_half).ceil() as i32, (s + u_half).floor() as i32);
+        let (y0, y1) = ((t - v_half).ceil() as i32, (t + v_half).floor() as i32);
+        let mut sum = [0.0f32; 4];
+        let mut weights = 0.0f32;
+        for y in y0..=y1 {
+            let tt = y as f32 - t;
+            for x in x0..=x1 {
+                let ss = x as f32 - s;
+                let r2 = a * ss * ss + b * ss * tt + c * tt * tt;
+                if r2 < 1.0 {
+                    let weight = (-EWA_ALPHA * r2).exp();
+                    let texel = self.fetch(&lv, x, y);
+                    sum = std::array::from_fn(|k| sum[k] + texel[k] * weight);
+                    weights += weight;
+                }
+            }
+        }
+        if weights > 0.0 {
+            sum.map(|v| v / weights)
+        } else {
+            self.bilinear(level, uv)
         }
     }
 

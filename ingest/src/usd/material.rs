@@ -9,9 +9,12 @@
 //! (warned). GeomSubsets of a mesh carrying a direct binding give per-face materials.
 //!
 //! Inputs connected to shading networks are compiled into the material's program
-//! ([`crate::scene::ShaderNode`]): each reachable node (UsdUVTexture, UsdPrimvarReader_float2,
-//! UsdTransform2d; other readers become their fallback constant) gets one register, in dependency
-//! order, and each connected PreviewSurface input an `Output` reading the connected channel(s).
+//! ([`crate::scene::ShaderNode`]): each reachable node (UsdUVTexture, UsdPrimvarReader_float2 (the
+//! texture coordinates), UsdPrimvarReader_float/float3/float4/int/normal/point/vector (a primvar
+//! the gprim carries into the blob, see [`Reader::program_primvars`]), UsdTransform2d; string readers
+//! and unknown nodes become their fallback constant) gets one register, in dependency order, and each
+//! connected PreviewSurface input an `Output` reading the connected channel(s). An unbound gprim
+//! whose displayColor varies gets a program that reads it per hit.
 //! Texture files resolve against the layer that authored `inputs:file` and are decoded and baked here,
 //! once per (file, colour space), so a missing or unreadable file is a warning on the shader naming the
 //! file and the fallback the lookup will return instead.
@@ -21,6 +24,8 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use rayon::prelude::*;
+
+use openusd::ar::{self, Resolver};
 
 use super::stage::Value;
 use super::{Reader, UsdError};
@@ -473,9 +478,32 @@ impl Reader<'_> {
                 let Some(dst) = program.register() else { return self.too_many(node) };
                 ShaderNode::Transform2d { dst, src, rotation_degrees, scale, translation }
             }
+            "UsdPrimvarReader_float"
+            | "UsdPrimvarReader_float3"
+            | "UsdPrimvarReader_float4"
+            | "UsdPrimvarReader_int"
+            | "UsdPrimvarReader_normal"
+            | "UsdPrimvarReader_point"
+            | "UsdPrimvarReader_vector" => {
+                let fallback =
+                    fallback.as_ref().map_or([0.0, 0.0, 0.0, 1.0], |v| vec4(v, [0.0, 0.0, 0.0, 1.0]));
+                let varname = value(self, "varname")?.and_then(|v| v.as_str().map(str::to_string));
+                let name = varname.as_deref().map(|n| n.strip_prefix("primvars:").unwrap_or(n).to_string());
+                let Some(dst) = program.register() else { return self.too_many(node) };
+                match name.filter(|n| !n.is_empty()) {
+                    Some(name) => ShaderNode::Primvar { dst, name, fallback },
+                    None => {
+                        self.warn(
+                            node,
+                            format!("{id} has no inputs:varname; using its fallback {fallback:?}"),
+                        );
+                        ShaderNode::Const { dst, value: fallback }
+                    }
+                }
+            }
             other => {
                 let what = if other.starts_with("UsdPrimvarReader_") {
-                    format!("{other} reads a primvar the renderer does not carry (only texture coordinates)")
+                    format!("{other} reads a primvar type the renderer does not carry (strings, matrices)")
                 } else {
                     format!("shader {other:?} is not supported")
                 };
@@ -561,13 +589,16 @@ impl Reader<'_> {
         color_space: texture::ColorSpace,
         fallback: [f32; 4],
     ) -> Option<u32> {
+        let requested = path;
+        let located = texture_location(path);
+        let path = located.as_path();
         if let Some(i) =
             self.scene.textures.iter().position(|t| t.path == path && t.color_space == color_space)
         {
             return Some(i as u32);
         }
         let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
-        let bake_one = |p: &Path| texture::decode(p).and_then(|src| texture::bake(&src, &options));
+        let bake_one = |p: &Path| decode_texture(p).and_then(|src| texture::bake(&src, &options));
         let data = if texture::udim::is_udim(path) {
             let tiles = match texture::udim::expand(path) {
                 Ok(tiles) => tiles,
@@ -620,12 +651,17 @@ impl Reader<'_> {
             match bake_one(path) {
                 Ok(b) => TextureData::Image(b),
                 Err(e) => {
-                    let why =
-                        if path.exists() { format!("cannot be read ({e})") } else { "not found".to_string() };
-                    self.warn(
-                        node,
-                        format!("texture file {} {why}; using its fallback {fallback:?}", path.display()),
-                    );
+                    let exists = path.exists() || packaged(path).is_some();
+                    let why = match () {
+                        _ if exists => format!("{} cannot be read ({e})", path.display()),
+                        _ if requested != path => format!(
+                            "{} not found in the package nor beside it ({})",
+                            requested.display(),
+                            path.display()
+                        ),
+                        _ => format!("{} not found", path.display()),
+                    };
+                    self.warn(node, format!("texture file {why}; using its fallback {fallback:?}"));
                     return None;
                 }
             }
@@ -655,28 +691,84 @@ impl Reader<'_> {
     }
 
     /// The material of an unbound gprim: `primvars:displayColor` / `primvars:displayOpacity`,
-    /// named `<gprim>.displayColor`.
+    /// named `<gprim>.displayColor`. A display primvar that varies over the gprim is read per hit by
+    /// a program (as Hydra's fallback material does), its average kept as the constant for curves
+    /// and for whatever reads constants only.
     fn display_color_material(&mut self, gprim: &str) -> Result<u32, UsdError> {
         let name = format!("{gprim}.displayColor");
         if let Some(&index) = self.material_index.get(&name) {
             return Ok(index);
         }
         let mut m = Material { path: name, ..Material::default() };
-        if let Some(values) = self.display_primvar::<3>(gprim, "primvars:displayColor")? {
+        if let Some((values, varies)) = self.display_primvar::<3>(gprim, "primvars:displayColor")? {
             m.diffuse_color = Vec3::new(values[0] as f32, values[1] as f32, values[2] as f32);
+            if varies {
+                let fallback = [m.diffuse_color.x, m.diffuse_color.y, m.diffuse_color.z, 1.0];
+                let dst = m.program.len() as u32;
+                m.program.push(ShaderNode::Primvar { dst, name: "displayColor".into(), fallback });
+                m.program.push(ShaderNode::Output {
+                    input: ShadingInput::DiffuseColor,
+                    src: dst,
+                    swizzle: [0, 1, 2, 3],
+                });
+            }
         }
-        if let Some(values) = self.display_primvar::<1>(gprim, "primvars:displayOpacity")? {
+        if let Some((values, varies)) = self.display_primvar::<1>(gprim, "primvars:displayOpacity")? {
             m.opacity = values[0] as f32;
+            if varies {
+                let dst = m.program.len() as u32;
+                let fallback = [m.opacity, m.opacity, m.opacity, 1.0];
+                m.program.push(ShaderNode::Primvar { dst, name: "displayOpacity".into(), fallback });
+                m.program.push(ShaderNode::Output {
+                    input: ShadingInput::Opacity,
+                    src: dst,
+                    swizzle: [0; 4],
+                });
+            }
         }
         Ok(self.add_material(m))
     }
 
-    /// A display primvar reduced to one value: its only element, or the average with a warning.
+    /// The primvars the programs of `materials` read (sorted by name), as authored on `gprim` or
+    /// inherited; names the gprim does not carry are left out (their readers return the fallback).
+    pub(super) fn program_primvars(
+        &mut self,
+        gprim: &str,
+        materials: &[u32],
+        topology: Option<&super::mesh::Topology>,
+    ) -> Result<Vec<super::mesh::CagePrimvar>, UsdError> {
+        let mut names: Vec<String> = Vec::new();
+        let mut seen_materials: Vec<u32> = Vec::new();
+        for &m in materials {
+            if seen_materials.contains(&m) {
+                continue;
+            }
+            seen_materials.push(m);
+            for node in &self.scene.materials[m as usize].program {
+                if let ShaderNode::Primvar { name, .. } = node {
+                    if !names.contains(name) {
+                        names.push(name.clone());
+                    }
+                }
+            }
+        }
+        names.sort();
+        let mut out = Vec::with_capacity(names.len());
+        for name in names {
+            if let Some(p) = self.program_primvar(gprim, &name, topology)? {
+                out.push(p);
+            }
+        }
+        Ok(out)
+    }
+
+    /// A display primvar reduced to one value (its only element, or the average) and whether its
+    /// elements differ.
     fn display_primvar<const N: usize>(
         &mut self,
         gprim: &str,
         name: &str,
-    ) -> Result<Option<[f64; N]>, UsdError> {
+    ) -> Result<Option<([f64; N], bool)>, UsdError> {
         let values = match self.stage.attr(gprim, name)? {
             None => return Ok(None),
             Some(Value::Scalar(s)) if N == 1 => vec![[s; N]],
@@ -700,29 +792,35 @@ impl Reader<'_> {
         if values.is_empty() {
             return Ok(None);
         }
-        let constant = values.windows(2).all(|w| w[0] == w[1]);
-        if !constant {
-            self.warn(gprim, format!("{name} is not constant; using its average"));
-        }
+        let varies = !values.windows(2).all(|w| w[0] == w[1]);
         let mut sum = [0.0; N];
         for v in &values {
             for (s, c) in sum.iter_mut().zip(v) {
                 *s += c;
             }
         }
-        Ok(Some(sum.map(|s| s / values.len() as f64)))
+        Ok(Some((sum.map(|s| s / values.len() as f64), varies)))
     }
 }
 
 /// Resolves a texture asset path against the layer that authored it: absolute paths as they are,
-/// relative ones (`./`, `../` or bare) next to the layer file.
+/// relative ones (`./`, `../` or bare) next to the layer file. Inside a `.usdz` package (a layer
+/// `pkg.usdz[inner.usdc]`, or the package itself as the root layer) and for package-relative assets
+/// (`pkg.usdz[textures/a.png]`) the result is package-relative, `…/pkg.usdz[textures/a.png]`, as
+/// USD's resolver anchors it; [`decode_texture`] reads such an entry from the zip.
 fn resolve_asset(layer: &str, asset: &str) -> Result<PathBuf, String> {
-    if asset.contains(".usdz[")
-        || asset.ends_with(']')
-        || layer.contains(".usdz[")
-        || layer.ends_with(".usdz")
-    {
-        return Err("textures inside .usdz packages are not supported yet".into());
+    let packaged = ar::is_package_relative_path(asset)
+        || ar::is_package_relative_path(layer)
+        || layer.to_ascii_lowercase().ends_with(".usdz");
+    if packaged {
+        let anchor = ar::ResolvedPath::new(layer);
+        let id = ar::DefaultResolver::new().create_identifier(asset, Some(&anchor));
+        if ar::split_package_relative_path_inner(&id)
+            .is_some_and(|(package, _)| ar::is_package_relative_path(&package))
+        {
+            return Err("textures inside nested packages are not supported".into());
+        }
+        return Ok(PathBuf::from(id));
     }
     let asset_path = Path::new(asset);
     if asset_path.is_absolute() {
@@ -731,4 +829,37 @@ fn resolve_asset(layer: &str, asset: &str) -> Result<PathBuf, String> {
     let base = Path::new(layer).parent().unwrap_or(Path::new("."));
     let joined = base.join(asset_path.strip_prefix("./").unwrap_or(asset_path));
     Ok(joined)
+}
+
+/// A package-relative texture path split into the package file and the entry inside it.
+fn packaged(path: &Path) -> Option<(PathBuf, String)> {
+    let text = path.to_str()?;
+    let (package, inner) = ar::split_package_relative_path_outer(text)?;
+    Some((PathBuf::from(package), inner))
+}
+
+/// Where a texture is read from: a package entry stays package-relative when the package holds it;
+/// one the package lacks is looked for beside the package, as a file (a package may ship only its
+/// layer and reference textures next to it, like OpenUSD's `usdUdims.usdz`). `<UDIM>` patterns in
+/// a package are read beside it only (tiles are not listed from the zip).
+fn texture_location(path: &Path) -> PathBuf {
+    let Some((package, inner)) = packaged(path) else { return path.to_path_buf() };
+    let in_package = !texture::udim::is_udim(Path::new(&inner))
+        && path.to_str().is_some_and(|p| ar::DefaultResolver::new().resolve(p).is_some());
+    if in_package {
+        return path.to_path_buf();
+    }
+    package.parent().unwrap_or(Path::new(".")).join(inner)
+}
+
+/// Decodes a texture file, or a package entry in place from the zip (usdz entries are stored
+/// uncompressed, so this is a copy of the entry's bytes, never a file extracted to disk).
+fn decode_texture(path: &Path) -> Result<texture::SourceImage, texture::Error> {
+    let Some((_, inner)) = packaged(path) else { return texture::decode(path) };
+    let io = |e: std::io::Error| texture::Error { path: path.to_path_buf(), kind: texture::ErrorKind::Io(e) };
+    let resolved = ar::ResolvedPath::new(path);
+    let bytes =
+        ar::DefaultResolver::new().open_asset(&resolved).and_then(|mut a| a.read_all()).map_err(io)?;
+    texture::decode_bytes(&bytes, Path::new(&inner))
+        .map_err(|e| texture::Error { path: path.to_path_buf(), ..e })
 }

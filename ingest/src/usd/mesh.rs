@@ -6,7 +6,7 @@ use glam::{DMat3, DMat4, DVec2, DVec3, Vec2};
 
 use super::stage::Value;
 use super::{fallback, Inherited, Reader, UsdError};
-use crate::scene::Mesh;
+use crate::scene::{Mesh, MeshPrimvar, PrimvarLayout};
 
 /// Primvar interpolation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,7 +45,7 @@ pub(super) struct Primvar<T> {
 impl<T: Copy> Primvar<T> {
     /// The value at face `face`, face-vertex `corner` (running index into faceVertexIndices),
     /// point `point`.
-    fn get(&self, face: usize, corner: usize, point: usize) -> T {
+    pub(super) fn get(&self, face: usize, corner: usize, point: usize) -> T {
         let element = match self.interpolation {
             Interpolation::Constant => 0,
             Interpolation::Uniform => face,
@@ -59,8 +59,48 @@ impl<T: Copy> Primvar<T> {
     }
 }
 
+/// A primvar a material program reads, as authored on the cage (elements widened to `vec4`).
+pub(super) struct CagePrimvar {
+    pub name: String,
+    pub components: u32,
+    pub primvar: Primvar<[f32; 4]>,
+}
+
+impl CagePrimvar {
+    /// The layout of the triangulated values.
+    pub(super) fn layout(&self) -> PrimvarLayout {
+        match self.primvar.interpolation {
+            Interpolation::Constant => PrimvarLayout::Constant,
+            Interpolation::Uniform => PrimvarLayout::PerTriangle,
+            Interpolation::Vertex => PrimvarLayout::PerVertex,
+            Interpolation::FaceVarying => PrimvarLayout::PerCorner,
+        }
+    }
+
+    fn empty(&self) -> MeshPrimvar {
+        MeshPrimvar {
+            name: self.name.clone(),
+            layout: self.layout(),
+            components: self.components,
+            values: Vec::new(),
+        }
+    }
+}
+
+/// Widens `components` numbers to a `vec4` the way the primvar readers read them: a scalar broadcast to
+/// rgb, missing components 0, alpha 1.
+pub(super) fn widen(c: &[f64]) -> [f32; 4] {
+    match *c {
+        [s] => [s as f32, s as f32, s as f32, 1.0],
+        [x, y] => [x as f32, y as f32, 0.0, 1.0],
+        [x, y, z] => [x as f32, y as f32, z as f32, 1.0],
+        [x, y, z, w, ..] => [x as f32, y as f32, z as f32, w as f32],
+        [] => [0.0, 0.0, 0.0, 1.0],
+    }
+}
+
 /// Element counts a primvar must provide per interpolation.
-struct Topology {
+pub(super) struct Topology {
     faces: usize,
     points: usize,
     corners: usize,
@@ -75,6 +115,7 @@ pub(super) struct LocalMesh {
     pub triangles: Vec<[u32; 3]>,
     pub triangle_materials: Vec<u32>,
     pub double_sided: bool,
+    pub primvars: Vec<MeshPrimvar>,
 }
 
 /// A mesh's cage as authored, checked enough to triangulate: the polygon path, and the fallback
@@ -90,6 +131,8 @@ pub(super) struct PolygonCage {
     pub left_handed: bool,
     pub normals: Option<Primvar<DVec3>>,
     pub uvs: Option<Primvar<DVec2>>,
+    /// Primvars the bound materials read.
+    pub primvars: Vec<CagePrimvar>,
     /// Material index per face.
     pub face_materials: Vec<u32>,
     pub double_sided: bool,
@@ -116,6 +159,16 @@ impl PolygonCage {
         let split = normals.as_ref().is_some_and(|p| p.interpolation.splits())
             || uvs.as_ref().is_some_and(|p| p.interpolation.splits());
         let mut out = LocalMesh { double_sided: self.double_sided, ..LocalMesh::default() };
+        let mut primvars: Vec<MeshPrimvar> = self.primvars.iter().map(CagePrimvar::empty).collect();
+        for (cage, mesh) in self.primvars.iter().zip(&mut primvars) {
+            match mesh.layout {
+                PrimvarLayout::Constant => mesh.values.push(cage.primvar.get(0, 0, 0)),
+                PrimvarLayout::PerVertex if !split => {
+                    mesh.values = (0..points.len()).map(|p| cage.primvar.get(0, 0, p)).collect();
+                }
+                _ => {}
+            }
+        }
         if !split {
             out.positions = points.clone();
             if let Some(n) = normals {
@@ -157,6 +210,11 @@ impl PolygonCage {
                     if let Some(uv) = uvs {
                         out.uvs.push(uv.get(face, c, p).as_vec2());
                     }
+                    for (cage, mesh) in self.primvars.iter().zip(&mut primvars) {
+                        if mesh.layout == PrimvarLayout::PerVertex {
+                            mesh.values.push(cage.primvar.get(face, c, p));
+                        }
+                    }
                 }
             }
             for [a, b, c] in triangles {
@@ -165,10 +223,22 @@ impl PolygonCage {
                 } else {
                     [vertex_of(a), vertex_of(b), vertex_of(c)]
                 };
+                let order = if self.left_handed { [a, c, b] } else { [a, b, c] };
                 out.triangles.push(if self.left_handed { [tri[0], tri[2], tri[1]] } else { tri });
                 out.triangle_materials.push(self.face_materials[face]);
+                for (cage, mesh) in self.primvars.iter().zip(&mut primvars) {
+                    match mesh.layout {
+                        PrimvarLayout::PerTriangle => mesh.values.push(cage.primvar.get(face, 0, 0)),
+                        PrimvarLayout::PerCorner => mesh.values.extend(order.map(|k| {
+                            let c = corners.start + k;
+                            cage.primvar.get(face, c, corners_to_points[c])
+                        })),
+                        _ => {}
+                    }
+                }
             }
         }
+        out.primvars = primvars;
         (out, skipped)
     }
 }
@@ -250,6 +320,7 @@ impl Reader<'_> {
             None => None,
         };
         let face_materials = self.mesh_face_materials(path, counts.len())?;
+        let primvars = self.program_primvars(path, &face_materials, Some(&topology))?;
         let double_sided = self.bool(path, "doubleSided")?.unwrap_or(fallback::DOUBLE_SIDED);
         let cage = PolygonCage {
             points,
@@ -259,6 +330,7 @@ impl Reader<'_> {
             left_handed,
             normals,
             uvs,
+            primvars,
             face_materials,
             double_sided,
         };
@@ -322,6 +394,85 @@ impl Reader<'_> {
             self.warn(path, format!("{name} is not an array of {N}-vectors; ignored"));
             return Ok(None);
         };
+        self.checked_primvar(path, name, values, default, topology)
+    }
+
+    /// The primvar `primvars:{name}` a material program reads, with any 1..=4 components (numbers,
+    /// ints, bools), widened to `vec4`. A constant primvar not authored on the gprim is inherited
+    /// from the nearest ancestor that authors it (USD's primvar inheritance). `topology` is `None`
+    /// for implicit shapes, which only take constant primvars. `None` (with a warning where the
+    /// primvar exists but cannot be used) makes the readers return their fallback.
+    pub(super) fn program_primvar(
+        &mut self,
+        path: &str,
+        name: &str,
+        topology: Option<&Topology>,
+    ) -> Result<Option<CagePrimvar>, UsdError> {
+        let attr = format!("primvars:{name}");
+        let mut owner = path.to_string();
+        let value = loop {
+            if let Some(v) = self.stage.attr(&owner, &attr)? {
+                let constant = owner == path
+                    || self.interpolation(&owner, &attr, Interpolation::Constant)
+                        == Some(Interpolation::Constant);
+                if constant {
+                    break v;
+                }
+            }
+            let parent = super::parent_of(&owner);
+            if owner == "/" || parent == "/" || parent.is_empty() {
+                return Ok(None);
+            }
+            owner = parent.to_string();
+        };
+        let (elements, components, array) = match &value {
+            Value::Array { data, arity } if (1..=4).contains(arity) => {
+                (data.chunks_exact(*arity).map(widen).collect::<Vec<_>>(), *arity as u32, true)
+            }
+            Value::Scalar(s) => (vec![widen(&[*s])], 1, false),
+            Value::Tuple(t) if (1..=4).contains(&t.len()) => (vec![widen(t)], t.len() as u32, false),
+            Value::Str(_) | Value::StrArray(_) => {
+                self.warn(path, format!("{attr} is a string primvar; readers of it use their fallback"));
+                return Ok(None);
+            }
+            _ => {
+                self.warn(
+                    path,
+                    format!(
+                        "{attr} is not a numeric primvar of 1 to 4 components; readers use their fallback"
+                    ),
+                );
+                return Ok(None);
+            }
+        };
+        let constant =
+            |values: Vec<[f32; 4]>| Primvar { values, indices: None, interpolation: Interpolation::Constant };
+        let primvar = match topology {
+            // A single value, or an inherited one, is constant whatever its metadata says.
+            _ if !array || owner != path => Some(constant(elements)),
+            Some(t) => self.checked_primvar(path, &attr, elements, Interpolation::Constant, t)?,
+            None => {
+                if self.interpolation(path, &attr, Interpolation::Constant) != Some(Interpolation::Constant) {
+                    self.warn(
+                        path,
+                        format!("{attr} is not constant on an implicit shape; using its first value"),
+                    );
+                }
+                elements.first().map(|&e| constant(vec![e]))
+            }
+        };
+        Ok(primvar.map(|primvar| CagePrimvar { name: name.to_string(), components, primvar }))
+    }
+
+    /// Checks a primvar's element count (or its indices) against its interpolation.
+    fn checked_primvar<T>(
+        &mut self,
+        path: &str,
+        name: &str,
+        values: Vec<T>,
+        default: Interpolation,
+        topology: &Topology,
+    ) -> Result<Option<Primvar<T>>, UsdError> {
         let Some(interpolation) = self.interpolation(path, name, default) else { return Ok(None) };
         let expected = match interpolation {
             Interpolation::Constant => 1,
@@ -405,6 +556,12 @@ impl Reader<'_> {
         };
         let material = self.gprim_material(path)?;
         out.triangle_materials = vec![material; out.triangles.len()];
+        // Implicit shapes have no authored topology: only constant primvars apply.
+        out.primvars = self
+            .program_primvars(path, &[material], None)?
+            .into_iter()
+            .map(|p| MeshPrimvar { values: vec![p.primvar.get(0, 0, 0)], ..p.empty() })
+            .collect();
         out.double_sided = self.bool(path, "doubleSided")?.unwrap_or(fallback::DOUBLE_SIDED);
         self.push_mesh(path, out, state);
         Ok(())
@@ -446,9 +603,14 @@ pub(super) fn world_mesh(path: &str, local: LocalMesh, world_from_local: DMat4) 
     let normal_from_local = DMat3::from_mat4(world_from_local).inverse().transpose();
     let mirrored = world_from_local.determinant() < 0.0;
     let mut triangles = local.triangles;
+    let mut primvars = local.primvars;
     if mirrored {
         for t in &mut triangles {
             t.swap(1, 2);
+        }
+        // Corner values follow their triangle's vertex order.
+        for p in primvars.iter_mut().filter(|p| p.layout == PrimvarLayout::PerCorner) {
+            p.values.chunks_exact_mut(3).for_each(|c| c.swap(1, 2));
         }
     }
     Mesh {
@@ -464,6 +626,7 @@ pub(super) fn world_mesh(path: &str, local: LocalMesh, world_from_local: DMat4) 
         triangle_materials: local.triangle_materials,
         double_sided: local.double_sided,
         instance: None,
+        primvars,
     }
 }
 

@@ -23,7 +23,7 @@ use subdiv::{
 use super::mesh::{instanced_copy, world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
 use super::{Inherited, Reader, UsdError};
 use crate::dicing::{choose_edge_rates, choose_level, triangles_at_level, DicingCamera, SubdivOptions};
-use crate::scene::{Mesh, Subdivision};
+use crate::scene::{Mesh, MeshPrimvar, PrimvarLayout, Subdivision};
 
 /// The st primvar in the form the refiner takes.
 enum UvInput {
@@ -116,6 +116,15 @@ impl Reader<'_> {
     ) -> Result<Option<PolygonCage>, UsdError> {
         match self.subdivision_cage(path, scheme, counts, indices, &cage)? {
             Ok((topology, uv)) => {
+                for p in
+                    cage.primvars.iter().filter(|p| p.primvar.interpolation == Interpolation::FaceVarying)
+                {
+                    let name = &p.name;
+                    self.warn(
+                        path,
+                        format!("faceVarying primvar {name} on a subdivision surface is read as its average per cage face"),
+                    );
+                }
                 let slot = self.scene.meshes.len();
                 self.scene.meshes.push(Mesh {
                     path: path.to_string(),
@@ -325,6 +334,52 @@ fn bounds(points: &[[f32; 3]]) -> (DVec3, DVec3) {
     })
 }
 
+/// The primvars the materials read, on the tessellated limit surface: vertex (and varying) primvars
+/// refined like the points, uniform ones per triangle from its cage face, and face-varying ones as
+/// their average over the cage face (OpenSubdiv would need a channel per primvar for better).
+///
+/// `vertex` refines one value per cage point onto the tessellation's vertices (uniform: the
+/// refiner's limit primvar; adaptive: the per-face limit evaluation).
+fn refined_primvars(
+    q: &QueuedSubdivision,
+    tess: &Tessellation,
+    vertex: &dyn Fn(&[[f32; 4]]) -> subdiv::Result<Vec<[f32; 4]>>,
+) -> subdiv::Result<Vec<MeshPrimvar>> {
+    let mut first_corner = Vec::with_capacity(q.cage.counts.len() + 1);
+    first_corner.push(0);
+    for &n in &q.cage.counts {
+        first_corner.push(first_corner.last().copied().unwrap_or(0) + n);
+    }
+    let mut out = Vec::with_capacity(q.cage.primvars.len());
+    for p in &q.cage.primvars {
+        let pv = &p.primvar;
+        let (layout, values) = match pv.interpolation {
+            Interpolation::Constant => (PrimvarLayout::Constant, vec![pv.get(0, 0, 0)]),
+            Interpolation::Uniform => (
+                PrimvarLayout::PerTriangle,
+                tess.coarse_face.iter().map(|&f| pv.get(f as usize, 0, 0)).collect(),
+            ),
+            Interpolation::FaceVarying => {
+                let average = |f: usize| {
+                    let corners = first_corner[f]..first_corner[f + 1];
+                    let n = corners.len().max(1) as f32;
+                    corners.fold([0.0f32; 4], |sum, c| {
+                        let v = pv.get(f, c, q.cage.corners_to_points[c]);
+                        std::array::from_fn(|k| sum[k] + v[k] / n)
+                    })
+                };
+                (PrimvarLayout::PerTriangle, tess.coarse_face.iter().map(|&f| average(f as usize)).collect())
+            }
+            Interpolation::Vertex => {
+                let cage: Vec<[f32; 4]> = (0..q.cage.points.len()).map(|pt| pv.get(0, 0, pt)).collect();
+                (PrimvarLayout::PerVertex, vertex(&cage)?)
+            }
+        };
+        out.push(MeshPrimvar { name: p.name.clone(), layout, components: p.components, values });
+    }
+    Ok(out)
+}
+
 /// Chooses the level (uniform) or edge rates (adaptive) of one queued mesh and tessellates it
 /// (local space).
 fn dice(
@@ -337,7 +392,7 @@ fn dice(
         .iter()
         .map(|p| q.world_from_points.transform_point3(glam::Vec3::from_array(*p).as_dvec3()))
         .collect();
-    let (tess, uvs, level, edge_rates, note) = if options.adaptive() {
+    let (tess, uvs, primvars, level, edge_rates, note) = if options.adaptive() {
         dice_adaptive(q, options, camera, &world)?
     } else {
         dice_uniform(q, options, camera, &world)?
@@ -362,6 +417,7 @@ fn dice(
         triangle_materials: tess.coarse_face.iter().map(|&f| q.cage.face_materials[f as usize]).collect(),
         triangles: tess.triangles,
         double_sided: q.cage.double_sided,
+        primvars,
     };
     if q.mirrored {
         local.triangles.iter_mut().for_each(|t| t.swap(1, 2));
@@ -370,8 +426,8 @@ fn dice(
     Ok(Diced { local, level, edge_rates, triangles_at_max_level, note })
 }
 
-/// A tessellation with its UVs, level, edge rates and a note for the log.
-type Tessellated = (Tessellation, Vec<Vec2>, u32, Vec<u32>, Option<String>);
+/// A tessellation with its UVs, primvars, level, edge rates and a note for the log.
+type Tessellated = (Tessellation, Vec<Vec2>, Vec<MeshPrimvar>, u32, Vec<u32>, Option<String>);
 
 /// One uniform level for the whole mesh (`--subdiv-level`, `--subdiv-mode uniform`).
 fn dice_uniform(
@@ -419,7 +475,12 @@ fn dice_uniform(
         }
         UvInput::Constant(uv) => vec![*uv; tess.positions.len()],
     };
-    Ok((tess, uvs, refiner.level(), Vec::new(), note))
+    let primvars = refined_primvars(q, &tess, &|cage| {
+        let flat: Vec<f32> = cage.iter().flatten().copied().collect();
+        let refined = refiner.vertex_primvar(&flat, 4, Evaluation::Limit)?;
+        tess.gather::<4>(&refined)
+    })?;
+    Ok((tess, uvs, primvars, refiner.level(), Vec::new(), note))
 }
 
 /// Segments per cage edge from the camera, each face tessellated on its limit surface.
@@ -444,6 +505,20 @@ fn dice_adaptive(
             tess.uvs.iter().flatten().map(|&uv| Vec2::from_array(uv)).collect()
         }
     };
+    // The adaptive tessellator refines two components per point (as UVs); four-component primvars
+    // take two extra passes with the same rates, so their vertices line up with these.
+    let primvars = refined_primvars(q, &tess, &|cage| {
+        let mut out = vec![[0.0f32; 4]; tess.positions.len()];
+        for half in 0..2 {
+            let pairs: Vec<[f32; 2]> = cage.iter().map(|v| [v[2 * half], v[2 * half + 1]]).collect();
+            let pass = refiner.tessellate(&q.points, Some(AdaptiveUv::Vertex(&pairs)), &rates, false)?.mesh;
+            for (o, uv) in out.iter_mut().zip(pass.uvs.iter().flatten()) {
+                o[2 * half] = uv[0];
+                o[2 * half + 1] = uv[1];
+            }
+        }
+        Ok(out)
+    })?;
     let level = subdiv::level_for_rate(rates.iter().copied().max().unwrap_or(1));
-    Ok((tess, uvs, level, rates, None))
+    Ok((tess, uvs, primvars, level, rates, None))
 }

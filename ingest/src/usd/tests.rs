@@ -450,8 +450,18 @@ def Mesh "None" {{{TRI}
     assert_eq!(mat("/Constant").path, "/Constant.displayColor");
     assert_eq!(mat("/Constant").diffuse_color, Vec3::new(0.5, 0.25, 1.0));
     assert_eq!(mat("/Constant").opacity, 0.5);
+    // A varying displayColor keeps its average as the constant and is read per hit by a program; the
+    // mesh carries the primvar per vertex.
     assert!((mat("/Varying").diffuse_color - Vec3::splat(1.0 / 3.0)).length() < 1e-6);
-    assert!(has_warning(&scene, "/Varying", "not constant"));
+    assert!(
+        matches!(&mat("/Varying").program[0], crate::scene::ShaderNode::Primvar { name, .. } if name == "displayColor")
+    );
+    let varying = mesh(&scene, "/Varying");
+    assert_eq!(varying.primvars.len(), 1);
+    assert_eq!(varying.primvars[0].layout, crate::scene::PrimvarLayout::PerVertex);
+    assert_eq!(varying.primvars[0].values.len(), varying.positions.len());
+    assert!(mat("/Constant").program.is_empty());
+    assert!(mesh(&scene, "/Constant").primvars.is_empty());
     assert_eq!(mat("/None").diffuse_color, Vec3::splat(0.18));
 }
 

@@ -138,6 +138,10 @@ section_kinds! {
     TextureTexels = 33,
     /// [`crate::ShaderOp`]: every material's program, concatenated.
     ShaderOps = 34,
+    /// [`crate::PrimvarRecord`]: the primvars material programs read, sorted by (mesh, name id).
+    Primvars = 35,
+    /// `[f32; 4]` primvar values referenced by [`crate::PrimvarRecord`]s.
+    PrimvarValues = 36,
     /// [`crate::CurveGroup`] (curve and point prims; format 2).
     CurveGroups = 40,
     /// [`crate::CurveSegment`] (cubic Bézier pieces).

@@ -380,8 +380,12 @@ pub mod op_kind {
     /// Shading input `dst` (a [`super::shading_input`]) = `swizzle(r[src])`, the swizzle in `flags`
     /// as four 2-bit channel selectors, lowest first.
     pub const OUTPUT: u32 = 4;
+    /// `r[dst] =` the hit mesh's primvar whose [`super::PrimvarRecord::name_id`] is `src`, interpolated
+    /// with the triangle's barycentrics, or `params[0]` (the reader's fallback) where the mesh has no
+    /// such primvar (UsdPrimvarReader_float/float3/float4/int). `src` is a key, not a register.
+    pub const PRIMVAR: u32 = 5;
     /// One past the largest kind.
-    pub const COUNT: u32 = 5;
+    pub const COUNT: u32 = 6;
 }
 
 /// [`op_kind::TEXTURE`] flag: `texture` indexes the UDIM sets, not the textures.
@@ -449,6 +453,47 @@ pub struct ShaderOp {
     pub params: [[f32; 4]; 3],
 }
 const _: () = assert!(std::mem::size_of::<ShaderOp>() == 80);
+
+/// How a [`PrimvarRecord`]'s values map onto its mesh, after triangulation (USD's `varying` is stored
+/// as [`primvar_interpolation::VERTEX`], `uniform` per triangle, `faceVarying` per triangle corner).
+pub mod primvar_interpolation {
+    /// One value for the whole mesh.
+    pub const CONSTANT: u32 = 0;
+    /// One value per triangle of the mesh, in triangle order.
+    pub const UNIFORM: u32 = 1;
+    /// One value per vertex of the mesh (`vertex - first_vertex`), interpolated across triangles.
+    pub const VERTEX: u32 = 2;
+    /// Three values per triangle, in the order of its vertices, interpolated within the triangle.
+    pub const FACE_VARYING: u32 = 3;
+    /// One past the largest code.
+    pub const COUNT: u32 = 4;
+}
+
+/// One primvar of one mesh that some material program reads ([`op_kind::PRIMVAR`]). 32 bytes.
+///
+/// Records are sorted by `(mesh, name_id)` without repeats (checked at parse), so the primvar a
+/// program reads at a hit is a binary search. Values live in the
+/// [`crate::SectionKind::PrimvarValues`] section as `[f32; 4]`, already widened the way the readers
+/// widen them: a scalar `s` as `(s, s, s, 1)`, a 2-vector as `(x, y, 0, 1)`, a 3-vector as `(x, y, z, 1)`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct PrimvarRecord {
+    /// Primvar name without the `primvars:` prefix (`displayColor`).
+    pub name: StrRef,
+    /// The name's key, shared by every mesh and by the ops that read it.
+    pub name_id: u32,
+    /// Index into the meshes section.
+    pub mesh: u32,
+    /// One of [`primvar_interpolation`].
+    pub interpolation: u32,
+    /// Components authored per element, 1..=4.
+    pub components: u32,
+    /// First value in the primvar-values section.
+    pub first_value: u32,
+    /// Values: 1, the mesh's triangle count, its vertex count or three per triangle.
+    pub value_count: u32,
+}
+const _: () = assert!(std::mem::size_of::<PrimvarRecord>() == 32);
 
 /// One node of a compressed wide BVH (CWBVH, Ylitie et al. 2017), used for the curve BVH; bit-identical to
 /// `obvhs::cwbvh::CwBvhNode` 0.4 so render can traverse the mapped slice directly. 80 bytes.

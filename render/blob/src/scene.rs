@@ -53,6 +53,10 @@ pub struct SceneData {
     pub texels: Vec<u8>,
     /// Every material's shading program, concatenated.
     pub shader_ops: Vec<ShaderOp>,
+    /// Primvars the programs read, sorted by `(mesh, name_id)`.
+    pub primvars: Vec<PrimvarRecord>,
+    /// Their values.
+    pub primvar_values: Vec<[f32; 4]>,
     /// Curves and points with their BVH.
     pub curves: crate::CurveData,
     /// Prototypes, instances and the top-level BVH.
@@ -89,6 +93,8 @@ impl SceneData {
             section(SectionKind::UdimSets, &self.udim_sets),
             section(SectionKind::UdimTiles, &self.udim_tiles),
             section(SectionKind::ShaderOps, &self.shader_ops),
+            section(SectionKind::Primvars, &self.primvars),
+            section(SectionKind::PrimvarValues, &self.primvar_values),
             // Last, so the page padding in front of it is paid once and the small sections stay
             // together at the start of the file.
             (SectionKind::TextureTexels, 1, &self.texels[..]),
@@ -196,6 +202,11 @@ pub struct SceneView<'a> {
     pub texels: &'a [u8],
     /// Shading programs (kinds, registers, texture and input indices checked).
     pub shader_ops: &'a [ShaderOp],
+    /// Primvars the programs read: sorted by `(mesh, name_id)` without repeats, mesh in range, value
+    /// range inside `primvar_values` and as long as the interpolation needs for the mesh (checked).
+    pub primvars: &'a [PrimvarRecord],
+    /// Primvar values.
+    pub primvar_values: &'a [[f32; 4]],
     /// Curves and points with their BVH.
     pub curves: crate::CurveView<'a>,
     /// Prototypes, instances and the top-level BVH.
@@ -243,6 +254,8 @@ impl<'a> SceneView<'a> {
             udim_tiles: typed(bytes, get(SectionKind::UdimTiles)?, SectionKind::UdimTiles)?,
             texels: typed(bytes, get(SectionKind::TextureTexels)?, SectionKind::TextureTexels)?,
             shader_ops: typed(bytes, get(SectionKind::ShaderOps)?, SectionKind::ShaderOps)?,
+            primvars: typed(bytes, get(SectionKind::Primvars)?, SectionKind::Primvars)?,
+            primvar_values: typed(bytes, get(SectionKind::PrimvarValues)?, SectionKind::PrimvarValues)?,
             curves: crate::CurveView {
                 groups: typed(bytes, get(SectionKind::CurveGroups)?, SectionKind::CurveGroups)?,
                 segments: typed(bytes, get(SectionKind::CurveSegments)?, SectionKind::CurveSegments)?,
@@ -309,7 +322,7 @@ impl<'a> SceneView<'a> {
         for (i, op) in self.shader_ops.iter().enumerate() {
             let register_ok = |r: u32| r < MAX_REGISTERS;
             let ok = match op.kind {
-                op_kind::CONST | op_kind::PRIMVAR_UV => register_ok(op.dst),
+                op_kind::CONST | op_kind::PRIMVAR_UV | op_kind::PRIMVAR => register_ok(op.dst),
                 op_kind::TRANSFORM_2D => register_ok(op.dst) && register_ok(op.src),
                 op_kind::TEXTURE => {
                     let limit = if op.flags & OP_UDIM != 0 { self.udim_sets.len() } else { textures };
@@ -322,6 +335,42 @@ impl<'a> SceneView<'a> {
             };
             if !ok {
                 return bad(K::ShaderOps, i, "unknown kind, register, texture or input index out of range");
+            }
+        }
+        Ok(())
+    }
+
+    /// Primvar records against the meshes (index, and the value count the interpolation needs) and the
+    /// value section, and their order (strictly increasing `(mesh, name_id)`, which the render-time
+    /// binary search relies on).
+    fn validate_primvars(&self, strings_ok: impl Fn(StrRef) -> bool) -> Result<(), BlobError> {
+        let bad = |record: usize, what| {
+            Err(BlobError::BadIndex { kind: SectionKind::Primvars, record: record as u64, what })
+        };
+        let mut previous: Option<(u32, u32)> = None;
+        for (i, p) in self.primvars.iter().enumerate() {
+            let Some(mesh) = self.meshes.get(p.mesh as usize) else {
+                return bad(i, "mesh index out of range");
+            };
+            if !strings_ok(p.name) {
+                return bad(i, "name outside the strings section");
+            }
+            if previous.is_some_and(|prev| prev >= (p.mesh, p.name_id)) {
+                return bad(i, "records not sorted by (mesh, name id) or repeated");
+            }
+            previous = Some((p.mesh, p.name_id));
+            let expected = match p.interpolation {
+                primvar_interpolation::CONSTANT => 1,
+                primvar_interpolation::UNIFORM => mesh.triangle_count as u64,
+                primvar_interpolation::VERTEX => mesh.vertex_count as u64,
+                primvar_interpolation::FACE_VARYING => 3 * mesh.triangle_count as u64,
+                _ => return bad(i, "unknown interpolation"),
+            };
+            if !(1..=4).contains(&p.components) || p.value_count as u64 != expected {
+                return bad(i, "components outside 1..=4 or value count does not match the mesh");
+            }
+            if p.first_value as u64 + p.value_count as u64 > self.primvar_values.len() as u64 {
+                return bad(i, "value range outside the primvar-value section");
             }
         }
         Ok(())
@@ -383,6 +432,7 @@ impl<'a> SceneView<'a> {
             }
         }
         self.validate_textures()?;
+        self.validate_primvars(strings_ok)?;
         for (i, l) in self.lights.iter().enumerate() {
             if !strings_ok(l.name) || l.kind > light_kind::DISK {
                 return bad(K::Lights, i, "bad name or unknown light kind");
@@ -603,6 +653,8 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::TextureRecords => size_of::<TextureRecord>(),
         SectionKind::UdimSets => size_of::<UdimSet>(),
         SectionKind::ShaderOps => size_of::<ShaderOp>(),
+        SectionKind::Primvars => size_of::<PrimvarRecord>(),
+        SectionKind::PrimvarValues => size_of::<[f32; 4]>(),
         SectionKind::Meshes => size_of::<Mesh>(),
         SectionKind::Materials => size_of::<Material>(),
         SectionKind::Lights => size_of::<Light>(),

@@ -64,6 +64,30 @@ fn sample_scene() -> SceneData {
             ..ShaderOp::default()
         },
     ];
+    // Two primvars of the triangle: a per-vertex colour and a constant float.
+    let pname = s.add_string("displayColor");
+    let fname = s.add_string("weight");
+    s.primvars = vec![
+        PrimvarRecord {
+            name: pname,
+            name_id: 0,
+            mesh: 0,
+            interpolation: primvar_interpolation::VERTEX,
+            components: 3,
+            first_value: 0,
+            value_count: 3,
+        },
+        PrimvarRecord {
+            name: fname,
+            name_id: 1,
+            mesh: 0,
+            interpolation: primvar_interpolation::CONSTANT,
+            components: 1,
+            first_value: 3,
+            value_count: 1,
+        },
+    ];
+    s.primvar_values = vec![[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [0.5; 4]];
     let lname = s.add_string("/Light");
     s.lights = vec![Light { name: lname, kind: light_kind::DOME, radiance: [1.0; 3], ..Light::default() }];
     let cname = s.add_string("/Cam");
@@ -121,6 +145,9 @@ fn round_trip_preserves_every_section() {
     assert_eq!(view.udim_tiles, &scene.udim_tiles[..]);
     assert_eq!(view.texels, &scene.texels[..]);
     assert_eq!(view.shader_ops, &scene.shader_ops[..]);
+    assert_eq!(view.primvars, &scene.primvars[..]);
+    assert_eq!(view.primvar_values, &scene.primvar_values[..]);
+    assert_eq!(view.string(view.primvars[0].name), "displayColor");
     assert_eq!(view.string(view.meshes[0].name), "/World/Tri");
     assert_eq!(view.string(view.cameras[0].name), "/Cam");
 }
@@ -186,6 +213,39 @@ fn bad_texture_and_program_indices_are_rejected() {
     let mut scene = sample_scene();
     scene.shader_ops[1].texture = NONE;
     assert!(parse(&scene.encode()).is_ok());
+}
+
+#[test]
+fn bad_primvars_are_rejected() {
+    let rejects = |what: &str, edit: &dyn Fn(&mut SceneData)| {
+        let mut scene = sample_scene();
+        edit(&mut scene);
+        match parse(&scene.encode()) {
+            Err(BlobError::BadIndex { kind: SectionKind::Primvars, .. }) => {}
+            other => panic!("{what}: {other:?}"),
+        }
+    };
+    rejects("mesh out of range", &|s| s.primvars[1].mesh = 1);
+    rejects("values past the section", &|s| s.primvars[1].first_value = 4);
+    rejects("vertex count mismatch", &|s| s.primvars[0].value_count = 2);
+    rejects("face-varying needs 3 per triangle", &|s| {
+        s.primvars[0].interpolation = primvar_interpolation::FACE_VARYING;
+        s.primvars[0].value_count = 1;
+    });
+    rejects("uniform needs 1 per triangle", &|s| {
+        s.primvars[0].interpolation = primvar_interpolation::UNIFORM
+    });
+    rejects("unknown interpolation", &|s| s.primvars[0].interpolation = primvar_interpolation::COUNT);
+    rejects("components", &|s| s.primvars[1].components = 5);
+    rejects("not sorted", &|s| s.primvars.swap(0, 1));
+    rejects("repeated key", &|s| s.primvars[1].name_id = 0);
+    rejects("name past the strings", &|s| s.primvars[0].name.offset = 10_000);
+    // A primvar op's source is a name key, not a register: any value parses (a lookup finds nothing).
+    let mut scene = sample_scene();
+    scene.shader_ops[0] = ShaderOp { kind: op_kind::PRIMVAR, dst: 0, src: 12345, ..ShaderOp::default() };
+    assert!(parse(&scene.encode()).is_ok());
+    scene.shader_ops[0].dst = MAX_REGISTERS;
+    assert!(matches!(parse(&scene.encode()), Err(BlobError::BadIndex { kind: SectionKind::ShaderOps, .. })));
 }
 
 #[test]

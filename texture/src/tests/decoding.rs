@@ -138,3 +138,28 @@ fn unreadable_file_names_the_path() {
     let err = decode(&path).unwrap_err();
     assert!(err.to_string().contains("broken.png"), "{err}");
 }
+
+/// In-memory decoding (package entries) gives what the file decoder gives, for a format detected
+/// from content (PNG), one only the extension names (TGA has no signature) and EXR.
+#[test]
+fn decode_bytes_matches_decode() {
+    let dir = tempfile::tempdir().unwrap();
+    let rgb = image::RgbImage::from_pixel(8, 4, image::Rgb([10, 128, 255]));
+    for name in ["a.png", "a.tga"] {
+        let path = dir.path().join(name);
+        rgb.save(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let from_memory = crate::decode_bytes(&bytes, Path::new(name)).unwrap();
+        assert_eq!(from_memory, decode(&path).unwrap(), "{name}");
+        assert_eq!(from_memory.samples, Samples::U8([10, 128, 255].repeat(32)));
+    }
+    let exr_path = dir.path().join("light.exr");
+    exr::prelude::write_rgba_file(&exr_path, 4, 4, |_, _| (0.25f32, 1.5f32, 8.0f32, 0.5f32)).unwrap();
+    let bytes = std::fs::read(&exr_path).unwrap();
+    assert_eq!(
+        crate::decode_bytes(&bytes, Path::new("textures/light.exr")).unwrap(),
+        decode(&exr_path).unwrap()
+    );
+    let err = crate::decode_bytes(b"not an image", Path::new("pkg.usdz[t/x.png]")).unwrap_err();
+    assert!(err.to_string().contains("pkg.usdz[t/x.png]"), "{err}");
+}
