@@ -125,11 +125,9 @@ pub fn run(strands: usize, res: u32, out: &Path) -> anyhow::Result<()> {
     let policies: Vec<(String, Split)> = [1u32, 2, 4, 8]
         .iter()
         .map(|&n| (format!("fixed {n}"), Split::Fixed(n)))
-        .chain(
-            [2.0f32, 1.0, 0.5, 0.25, 0.1]
-                .iter()
-                .map(|&p| (format!("adaptive {p}px"), Split::Adaptive { pixels: p, max_depth: 6 })),
-        )
+        .chain([2.0f32, 1.0, 0.5, 0.25, 0.1].iter().map(|&p| {
+            (format!("adaptive {p}px"), Split::Adaptive { pixels: p, width_fraction: 0.1, max_depth: 6 })
+        }))
         .collect();
     for (name, split) in policies {
         let bytes = build(split)?;
