@@ -178,7 +178,7 @@ pub fn pack_with(scene: &Scene, split: crate::pack_curves::Split) -> Result<blob
     data.bvh_nodes = bvh.nodes;
     data.bvh_blocks = bvh.blocks;
     let (curves_min, curves_max) =
-        crate::pack_curves::pack_curves(scene, &mut data, split, (bounds_min, bounds_max));
+        crate::pack_curves::pack_curves(scene, &mut data, split, (bounds_min, bounds_max))?;
     bounds_min = bounds_min.min(curves_min);
     bounds_max = bounds_max.max(curves_max);
 
