@@ -10,6 +10,10 @@
 //! shadows and reflections see them, and the render-time test refines every piece against its
 //! radius anyway. Distance needs no special case: the pixel tolerance grows with it.
 //! [`Split::Fixed`] cuts every segment into equal pieces (for the benchmark).
+//!
+//! The curve BVH then bounds each stored segment by one to eight boxes (BVH slots naming halves,
+//! quarters or eighths, `blob::curves::slot`) where smaller boxes pay ([`PIECE_SPLIT_AREA`]), and
+//! the records are stored in the order its leaves name them.
 
 use crate::curves::{self, Tolerance};
 use crate::dicing::DicingCamera;
@@ -394,6 +398,12 @@ mod tests {
         // need three). Ten times farther, one; fifty times farther or behind the camera, none.
         assert!((2000..2050).contains(&near), "{near}");
         assert_eq!((far, farther, behind), (1000, 500, 500));
+        // No camera: split for the view `render` frames the groom with (512 px over 45°, 6.2 units
+        // from its centre): a pixel there is about as wide as at the near camera, so as many pieces.
+        let mut framed = groom(Vec3::new(0.0, 0.0, -4.0), 500);
+        framed.default_camera = None;
+        let framed = pieces(&framed, split);
+        assert!(framed * 2 > near && framed < 2 * near, "framed {framed}, near {near}");
         // The width criterion alone stops at a tenth of the thinnest width (2e-4 here) at any distance.
         let wide = Split::Adaptive { pixels: 0.0, width_fraction: 0.1, max_depth: 6 };
         assert_eq!(
