@@ -14,7 +14,7 @@
 //! `HdsiPinnedCurveExpandingSceneIndex` does: bspline end points appear three times, catmullRom end
 //! points twice, so the curve starts and ends on its first and last control points.
 
-use glam::{Vec3, Vec4};
+use glam::Vec4;
 
 /// `BasisCurves.type`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,16 +157,16 @@ pub fn flatness(p: &[Vec4; 4]) -> f32 {
     0.75 * d(p[0], p[1], p[2]).max(d(p[1], p[2], p[3]))
 }
 
-/// How finely a segment must be split: the tolerance on the centreline's distance from the chord of
-/// each piece, as a function of the position.
+/// How finely a segment must be split: the largest chord deviation ([`flatness`]) acceptable for
+/// a piece, which may depend on where the piece is and how wide it is (`f32::INFINITY`: no split).
 pub trait Tolerance {
-    /// Largest acceptable chord deviation near world point `p`.
-    fn at(&self, p: Vec3) -> f32;
+    /// Largest acceptable chord deviation of the piece `p` (world units).
+    fn of(&self, p: &[Vec4; 4]) -> f32;
 }
 
-/// Splits `p` into pieces whose chord deviation ([`flatness`]) is within `tolerance` (evaluated at the
-/// piece's midpoint), at most `2^max_depth` pieces; returns the pieces with their parameter ranges in
-/// the input's [0, 1].
+/// Splits `p` in halves (de Casteljau) until each piece's chord deviation ([`flatness`]) is within
+/// `tolerance` of that piece, at most `2^max_depth` pieces; returns the pieces with their parameter
+/// ranges in the input's [0, 1], in curve order.
 pub fn split_adaptive(
     p: &[Vec4; 4],
     tolerance: &dyn Tolerance,
@@ -175,8 +175,7 @@ pub fn split_adaptive(
     let mut out = Vec::new();
     let mut stack = vec![(*p, [0.0f32, 1.0f32], 0u32)];
     while let Some((q, range, depth)) = stack.pop() {
-        let mid = eval(&q, 0.5).truncate();
-        if depth >= max_depth || flatness(&q) <= tolerance.at(mid) {
+        if depth >= max_depth || flatness(&q) <= tolerance.of(&q) {
             out.push((q, range));
             continue;
         }
@@ -387,7 +386,7 @@ mod tests {
         let p = [v(0., 0., 0.), v(1., 3., 0.), v(2., -3., 1.), v(3., 0., 0.)];
         struct Fixed(f32);
         impl Tolerance for Fixed {
-            fn at(&self, _: Vec3) -> f32 {
+            fn of(&self, _: &[Vec4; 4]) -> f32 {
                 self.0
             }
         }

@@ -162,7 +162,8 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
     data.bvh_nodes = bvh.nodes;
     data.bvh_blocks = bvh.blocks;
     crate::pack_instances::pack_instances(scene, &plan, &layout, &mut data);
-    let (curves_min, curves_max) = crate::pack_curves::pack_curves(scene, &mut data, options.split);
+    let (curves_min, curves_max) =
+        crate::pack_curves::pack_curves(scene, &mut data, options.split, (bounds_min, bounds_max))?;
     bounds_min = bounds_min.min(curves_min);
     bounds_max = bounds_max.max(curves_max);
 

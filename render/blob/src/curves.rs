@@ -6,8 +6,16 @@
 //! builds a BVH over the pieces; render intersects them as tubes or ribbons. Points are spheres.
 //!
 //! Sections (kinds 40–45): [`CurveGroup`] per prim, [`CurveSegment`] and [`CurveAttributes`] in
-//! parallel, [`PointSphere`], then the curve BVH ([`crate::CwBvhNode`]) and its primitive slots: a slot
-//! value `v < segments.len()` names segment `v`, otherwise sphere `v − segments.len()`.
+//! parallel, [`PointSphere`], then the curve BVH ([`crate::CwBvhNode`]) and its primitive slots.
+//!
+//! # Primitive slots
+//! A slot is a `u32`: the low 28 bits ([`SLOT_PRIMITIVE_MASK`]) hold a primitive `v` —
+//! `v < segments.len()` names segment `v`, otherwise sphere `v − segments.len()` — and the top 4
+//! bits a *piece* of that segment ([`slot_piece_range`]): 0 is the whole segment, `c` in 1..=14 the
+//! node `c + 1` of a binary heap over the parameter range (2–3 halves, 4–7 quarters, 8–15 eighths).
+//! Long or bent segments have several slots, one per piece, each with its own tight box: the BVH
+//! then bounds a strand as closely as if it had been split into more segments, at 4 bytes per piece
+//! instead of 144. Blobs with only whole-segment slots read the same as before pieces existed.
 
 use crate::records::StrRef;
 use bytemuck::{Pod, Zeroable};
@@ -26,6 +34,42 @@ pub const CURVE_HAS_NORMALS: u32 = 1;
 pub const CURVE_HAS_COLORS: u32 = 2;
 /// The group's attributes carry texture coordinates (`primvars:st`).
 pub const CURVE_HAS_UVS: u32 = 4;
+
+/// Bits of a primitive slot that hold the primitive (see the module docs).
+pub const SLOT_PRIMITIVE_MASK: u32 = (1 << SLOT_PIECE_SHIFT) - 1;
+/// Shift of the piece code in a primitive slot.
+pub const SLOT_PIECE_SHIFT: u32 = 28;
+/// Largest piece code (`c + 1 = 15`: the last eighth).
+pub const SLOT_MAX_PIECE: u32 = 14;
+
+/// A slot naming piece `piece` (0 = whole, else heap node `piece + 1`) of primitive `primitive`
+/// (`None` if either does not fit).
+pub fn slot(primitive: u32, piece: u32) -> Option<u32> {
+    (primitive <= SLOT_PRIMITIVE_MASK && piece <= SLOT_MAX_PIECE)
+        .then_some(primitive | piece << SLOT_PIECE_SHIFT)
+}
+
+/// The primitive a slot names.
+pub fn slot_primitive(slot: u32) -> u32 {
+    slot & SLOT_PRIMITIVE_MASK
+}
+
+/// The piece code of a slot (0 = the whole primitive).
+pub fn slot_piece(slot: u32) -> u32 {
+    slot >> SLOT_PIECE_SHIFT
+}
+
+/// The parameter range `[t0, t1]` of piece code `piece` (heap node `piece + 1`; 0 is `[0, 1]`).
+pub fn slot_piece_range(piece: u32) -> [f32; 2] {
+    if piece == 0 {
+        return [0.0, 1.0];
+    }
+    let node = piece + 1;
+    let level = 31 - node.leading_zeros();
+    let width = 1.0 / (1u32 << level) as f32;
+    let i = (node - (1 << level)) as f32;
+    [i * width, (i + 1.0) * width]
+}
 
 /// One BasisCurves, NurbsCurves or Points prim after composition. 32 bytes.
 #[repr(C)]
@@ -106,7 +150,7 @@ pub struct CurveData {
     pub spheres: Vec<PointSphere>,
     /// CWBVH over segments and spheres, root first.
     pub bvh_nodes: Vec<crate::CwBvhNode>,
-    /// Segment or sphere per BVH primitive slot (see the module docs).
+    /// Segment piece or sphere per BVH primitive slot (see the module docs).
     pub bvh_primitives: Vec<u32>,
 }
 
@@ -123,7 +167,7 @@ pub struct CurveView<'a> {
     pub spheres: &'a [PointSphere],
     /// CWBVH nodes, root first.
     pub bvh_nodes: &'a [crate::CwBvhNode],
-    /// Segment or sphere per slot.
+    /// Segment piece or sphere per slot (see the module docs).
     pub bvh_primitives: &'a [u32],
 }
 
@@ -171,8 +215,11 @@ impl CurveView<'_> {
             }
         }
         let prims = self.segments.len() + self.spheres.len();
-        if let Some(i) = self.bvh_primitives.iter().position(|&p| p as usize >= prims) {
-            return Err((K::CurveBvhPrimitives, i, "primitive index out of range"));
+        if let Some(i) = self.bvh_primitives.iter().position(|&s| {
+            let (p, piece) = (slot_primitive(s) as usize, slot_piece(s));
+            p >= prims || piece > SLOT_MAX_PIECE || (piece != 0 && p >= self.segments.len())
+        }) {
+            return Err((K::CurveBvhPrimitives, i, "primitive index out of range, or a piece of a sphere"));
         }
         if self.bvh_nodes.is_empty() != (prims == 0) {
             return Err((
@@ -183,5 +230,52 @@ impl CurveView<'_> {
         }
         crate::scene::validate_cwbvh(self.bvh_nodes, self.bvh_primitives.len())
             .map_err(|(i, what)| (K::CurveBvhNodes, i, what))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slot_pieces_tile_the_segment_at_each_level() {
+        assert_eq!(slot_piece_range(0), [0.0, 1.0]);
+        assert_eq!(slot_piece_range(1), [0.0, 0.5]);
+        assert_eq!(slot_piece_range(2), [0.5, 1.0]);
+        assert_eq!(slot_piece_range(5), [0.5, 0.75]);
+        assert_eq!(slot_piece_range(6), [0.75, 1.0]);
+        assert_eq!(slot_piece_range(7), [0.0, 0.125]);
+        assert_eq!(slot_piece_range(14), [0.875, 1.0]);
+        let s = slot(123_456, 9).unwrap();
+        assert_eq!((slot_primitive(s), slot_piece(s)), (123_456, 9));
+        assert_eq!(slot(SLOT_PRIMITIVE_MASK + 1, 0), None);
+        assert_eq!(slot(0, 15), None);
+    }
+
+    #[test]
+    fn slots_name_existing_primitives_and_only_segments_have_pieces() {
+        let segments = [CurveSegment::default()];
+        let spheres = [PointSphere { group: 1, ..PointSphere::default() }];
+        let groups = [
+            CurveGroup { kind: CURVE_TUBE, count: 1, ..CurveGroup::default() },
+            CurveGroup { kind: CURVE_POINTS, count: 1, ..CurveGroup::default() },
+        ];
+        let check = |slots: &[u32]| {
+            let view = CurveView {
+                groups: &groups,
+                segments: &segments,
+                attributes: &[CurveAttributes::default()],
+                spheres: &spheres,
+                bvh_nodes: &[],
+                bvh_primitives: slots,
+            };
+            view.validate(1, |_| true).map_err(|(kind, i, _)| (kind, i))
+        };
+        let bad = |i| Err((crate::SectionKind::CurveBvhPrimitives, i));
+        // Index checks come before the BVH shape check (an empty BVH is then the error).
+        assert_eq!(check(&[slot(0, 3).unwrap(), 1]).unwrap_err().0, crate::SectionKind::CurveBvhNodes);
+        assert_eq!(check(&[0, slot(1, 1).unwrap()]), bad(1));
+        assert_eq!(check(&[2]), bad(0));
+        assert_eq!(check(&[15 << SLOT_PIECE_SHIFT]), bad(0));
     }
 }
