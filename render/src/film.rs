@@ -102,6 +102,8 @@ pub struct RenderStats {
     pub texture_bytes_touched: u64,
     /// Wavefront stage timers, summed over workers (zero for the scalar integrator).
     pub stages: crate::wavefront::StageSeconds,
+    /// Wavefront work and lane counters (zero for the scalar integrator).
+    pub counters: crate::wavefront::Counters,
 }
 
 /// A rendered image with its AOVs, row-major from the top-left pixel.
@@ -268,7 +270,10 @@ fn render_with_touch<T: texture::Touch + Sync>(
         progress(finished, total);
         out
     };
-    let stages = std::sync::Mutex::new(crate::wavefront::StageSeconds::default());
+    let stages = std::sync::Mutex::new((
+        crate::wavefront::StageSeconds::default(),
+        crate::wavefront::Counters::default(),
+    ));
     // The wavefront stages trace triangles only so far: scenes with curves or points take the scalar
     // path (same estimator, same image) rather than losing their curves.
     let integrator = if scene.curves.is_empty() { options.integrator } else { Integrator::Scalar };
@@ -288,20 +293,21 @@ fn render_with_touch<T: texture::Touch + Sync>(
             };
             // One Worker (pools and queues) per rayon job, dropped when the job ends: the timers merge
             // then, under a lock taken once per worker, never on the hot path.
-            struct Merge<'m>(crate::wavefront::Worker, &'m std::sync::Mutex<crate::wavefront::StageSeconds>);
+            type Totals = (crate::wavefront::StageSeconds, crate::wavefront::Counters);
+            struct Merge<'m>(crate::wavefront::Worker, &'m std::sync::Mutex<Totals>);
             impl Drop for Merge<'_> {
                 fn drop(&mut self) {
                     if let Ok(mut s) = self.1.lock() {
-                        s.add(&self.0.seconds);
+                        s.0.add(&self.0.seconds);
+                        s.1.add(&self.0.counters);
                     }
                 }
             }
-            let materials = scene.view.materials.len();
             pool.install(|| {
                 tiles
                     .par_iter()
                     .map_init(
-                        || Merge(crate::wavefront::Worker::new(ts, materials), &stages),
+                        || Merge(crate::wavefront::Worker::new(ts, scene), &stages),
                         |m, tile| {
                             let r = crate::wavefront::render(&ctx, &mut m.0, tile);
                             let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
@@ -314,6 +320,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
         }
     };
     let seconds = start.elapsed().as_secs_f64();
+    let (stage_seconds, counters) = stages.into_inner().unwrap_or_default();
 
     let n = (width * height) as usize;
     let mut image = Image {
@@ -327,7 +334,8 @@ fn render_with_touch<T: texture::Touch + Sync>(
             samples: n as u64 * spp as u64,
             seconds,
             threads: pool.current_num_threads(),
-            stages: stages.into_inner().unwrap_or_default(),
+            stages: stage_seconds,
+            counters,
             ..RenderStats::default()
         },
     };

@@ -20,9 +20,13 @@ pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
             continue;
         };
         // The texture key costs a second surface reconstruction (shading repeats it rather than carry
-        // ~90 bytes of surface per path); a scene without texels sorts by material alone.
-        let key =
-            if ctx.textured { scene.shading_sort_key(&hit, -st.dir, st.cone().width_at(hit.t)) } else { 0 };
+        // ~90 bytes of surface per path); hits on untextured materials sort by material alone.
+        let material = scene.view.triangle_materials[hit.triangle as usize] as usize;
+        let key = if ctx.textured && w.textured_materials[material] {
+            scene.shading_sort_key(&hit, -st.dir, st.cone().width_at(hit.t))
+        } else {
+            0
+        };
         w.hits[i as usize] = hit;
         w.shade.push(sort::entry(sort::shade_key(0, key), i));
     }

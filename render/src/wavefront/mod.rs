@@ -19,10 +19,12 @@
 //! all within one wave), so the image equals the scalar one bit for bit.
 
 mod accumulate;
+pub mod bsdf_lanes;
 mod generate;
 mod intersect;
 pub mod lanes;
 mod occlusion;
+pub mod roulette;
 mod shade;
 pub mod sort;
 
@@ -142,19 +144,56 @@ pub struct Worker {
     shade: Vec<u64>,
     scratch: Vec<u64>,
     material_starts: Vec<u32>,
-    /// Next-event candidates for the lane kernel.
-    nee: Vec<lanes::NeeCandidate>,
+    /// Shaded hits of the current chunk, waiting for the lane kernels.
+    scatter: Vec<shade::ScatterPoint>,
+    /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
+    textured_materials: Vec<bool>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
     occlusion: Vec<u32>,
     /// Per-pixel running sums of the current tile.
     pixels: Vec<accumulate::PixelSum>,
     /// Stage timers.
     pub seconds: StageSeconds,
+    /// Work and lane counters.
+    pub counters: Counters,
+}
+
+/// What the wavefront did, for `--stats`: shader evaluations and how full the 8-lane kernels ran.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Counters {
+    /// Material programs evaluated (one per shaded hit).
+    pub shader_evaluations: u64,
+    /// Eight-lane groups run through the BSDF kernels.
+    pub bsdf_lane_groups: u64,
+    /// Lanes of those groups holding a shading point (the rest idle at a chunk's end).
+    pub bsdf_lanes_active: u64,
+    /// Lanes of those groups holding a light sample (the light and MIS kernels' useful lanes).
+    pub light_lanes_active: u64,
+}
+
+impl Counters {
+    /// Adds `other` into `self`.
+    pub fn add(&mut self, other: &Counters) {
+        self.shader_evaluations += other.shader_evaluations;
+        self.bsdf_lane_groups += other.bsdf_lane_groups;
+        self.bsdf_lanes_active += other.bsdf_lanes_active;
+        self.light_lanes_active += other.light_lanes_active;
+    }
 }
 
 impl Worker {
-    /// Pools for tiles of `tile_size²` pixels in a scene with `materials` materials.
-    pub fn new(tile_size: u32, materials: usize) -> Self {
+    /// Pools for tiles of `tile_size²` pixels of `scene`.
+    pub fn new(tile_size: u32, scene: &Scene) -> Self {
+        let view = &scene.view;
+        let materials = view.materials.len();
+        let textured_materials = view
+            .materials
+            .iter()
+            .map(|m| {
+                let program = &view.shader_ops[m.program_start as usize..][..m.program_len as usize];
+                program.iter().any(|op| op.kind == blob::op_kind::TEXTURE)
+            })
+            .collect();
         let pixels = (tile_size * tile_size) as usize;
         let paths = POOL_PATHS.max(pixels);
         Worker {
@@ -167,10 +206,12 @@ impl Worker {
             shade: Vec::with_capacity(paths),
             scratch: vec![0; paths],
             material_starts: vec![0; materials + 2],
-            nee: Vec::with_capacity(paths),
+            scatter: Vec::with_capacity(shade::CHUNK),
+            textured_materials,
             occlusion: Vec::with_capacity(paths),
             pixels: Vec::with_capacity(pixels),
             seconds: StageSeconds::default(),
+            counters: Counters::default(),
         }
     }
 }
