@@ -9,6 +9,7 @@ use texture::Touch;
 pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene = ctx.scene;
     w.shade.clear();
+    w.surfaces.clear();
     for &i in &w.rays {
         let st = &mut w.states[i as usize];
         let hit = scene.accel.closest_hit(st.origin, st.dir, f32::INFINITY);
@@ -19,11 +20,20 @@ pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
             st.radiance += st.beta * scene.lights.escaped_emission(st.dir, prev.map(|p| p.1));
             continue;
         };
-        // The texture key costs a second surface reconstruction (shading repeats it rather than carry
-        // ~90 bytes of surface per path); hits on untextured materials sort by material alone.
+        // The texture key needs the surface (uv and footprint); it is kept for shading, so each hit is
+        // reconstructed once. Hits on untextured materials sort by material alone.
         let material = scene.view.triangle_materials[hit.triangle as usize] as usize;
+        w.surface_slot[i as usize] = u32::MAX;
         let key = if ctx.textured && w.textured_materials[material] {
-            scene.shading_sort_key(&hit, -st.dir, st.cone().width_at(hit.t))
+            match scene.surface(&hit, -st.dir, st.cone().width_at(hit.t)) {
+                Some(s) => {
+                    let key = scene.shading.sort_key(s.material, &s.uv);
+                    w.surface_slot[i as usize] = w.surfaces.len() as u32;
+                    w.surfaces.push(Some(s));
+                    key
+                }
+                None => 0,
+            }
         } else {
             0
         };

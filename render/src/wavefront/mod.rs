@@ -148,6 +148,10 @@ pub struct Worker {
     scatter: Vec<shade::ScatterPoint>,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
     textured_materials: Vec<bool>,
+    /// Surfaces reconstructed by the intersect stage for textured hits (their sort key needs the
+    /// uv footprint), taken by shading instead of being rebuilt; `surface_slot` indexes it per path.
+    surfaces: Vec<Option<crate::integrator::Surface>>,
+    surface_slot: Vec<u32>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
     occlusion: Vec<u32>,
     /// Per-pixel running sums of the current tile.
@@ -208,6 +212,8 @@ impl Worker {
             material_starts: vec![0; materials + 2],
             scatter: Vec::with_capacity(shade::CHUNK),
             textured_materials,
+            surfaces: Vec::with_capacity(paths),
+            surface_slot: vec![u32::MAX; paths],
             occlusion: Vec::with_capacity(paths),
             pixels: Vec::with_capacity(pixels),
             seconds: StageSeconds::default(),

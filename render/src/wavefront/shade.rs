@@ -93,7 +93,9 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, rays: &mu
     let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed };
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
-    let Some(mut s) = scene.surface(&hit, wo, footprint) else { return };
+    let slot = w.surface_slot[i as usize];
+    let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
+    let Some(mut s) = kept.or_else(|| scene.surface(&hit, wo, footprint)) else { return };
     let inputs = scene.shade(&s, filter, touch);
     w.counters.shader_evaluations += 1;
 
