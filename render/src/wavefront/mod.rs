@@ -25,6 +25,7 @@ mod intersect;
 pub mod lanes;
 mod occlusion;
 pub mod roulette;
+pub mod sampler_lanes;
 mod shade;
 pub mod sort;
 
@@ -144,6 +145,8 @@ pub struct Worker {
     shade: Vec<u64>,
     scratch: Vec<u64>,
     material_starts: Vec<u32>,
+    /// Random numbers of the current chunk's vertices, eight paths per entry (`[dimension][lane]`).
+    randoms: Vec<[[f32; lanes::LANES]; sampler_lanes::DIMS]>,
     /// Shaded hits of the current chunk, waiting for the lane kernels.
     scatter: Vec<shade::ScatterPoint>,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
@@ -210,6 +213,7 @@ impl Worker {
             shade: Vec::with_capacity(paths),
             scratch: vec![0; paths],
             material_starts: vec![0; materials + 2],
+            randoms: Vec::with_capacity(shade::CHUNK / lanes::LANES),
             scatter: Vec::with_capacity(shade::CHUNK),
             textured_materials,
             surfaces: Vec::with_capacity(paths),

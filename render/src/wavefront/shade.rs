@@ -2,6 +2,7 @@
 //! writes the occlusion queue, the shadow-ray side table and the next ray queue.
 //!
 //! The queue is shaded in chunks of [`CHUNK`] hits, each in two phases:
+//! 0. eight paths at a time: every random number of the paths' vertices ([`sampler_lanes`]);
 //! 1. per hit (scalar, material by material): stochastic transparency, the material program, the BSDF,
 //!    the first-hit AOVs, emission at the hit, the light sample, and the path's random numbers, into an
 //!    AoS [`ScatterPoint`] (the depth limit ends paths here);
@@ -21,7 +22,8 @@ use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
 use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
-use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
+use super::sampler_lanes::{self, KeyLanes, DIMS};
+use crate::sampler::{dim, hash_combine, hash_u32, SampleKey};
 use crate::scene::Scene;
 use glam::Vec3;
 use texture::Touch;
@@ -46,7 +48,7 @@ pub struct ScatterPoint {
     pub u_lobe: f32,
     /// Direction sample.
     pub u_bsdf: [f32; 2],
-    /// Russian roulette sample (0 when roulette is not played at this bounce).
+    /// Russian roulette sample.
     pub u_rr: f32,
     /// A light sample exists (the fields below are valid).
     pub has_light: bool,
@@ -74,9 +76,10 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     let mut start = 0;
     while start < n {
         let end = (start + CHUNK).min(n);
+        draw(ctx, w, start, end);
         w.scatter.clear();
-        for k in start..end {
-            prepare(ctx, w, sort::index(w.shade[k]), rays);
+        for (pos, k) in (start..end).enumerate() {
+            prepare(ctx, w, sort::index(w.shade[k]), pos, rays);
         }
         scatter(w, rays);
         start = end;
@@ -84,13 +87,30 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     rays.shadow += w.occlusion.len() as u64;
 }
 
-/// Phase 1 for one hit.
-fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, rays: &mut RayCounts) {
+/// Phase 0: the random numbers of every queued path's vertex, eight paths at a time.
+fn draw<T>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
+    let seed_hash = hash_u32(ctx.options.seed);
+    let mut keys = KeyLanes::default();
+    w.randoms.clear();
+    for group in w.shade[start..end].chunks(LANES) {
+        for (k, &e) in group.iter().enumerate() {
+            let st = &w.states[sort::index(e) as usize];
+            (keys.pixel[k], keys.sample[k], keys.vertex[k]) = (st.pixel, st.sample, st.vertex);
+        }
+        let mut out = [[0.0; LANES]; DIMS];
+        sampler_lanes::vertex_lanes(seed_hash, &keys, &mut out);
+        w.randoms.push(out);
+    }
+}
+
+/// Phase 1 for one hit, the `pos`-th of its chunk.
+fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usize, rays: &mut RayCounts) {
     let scene: &Scene = ctx.scene;
     let (max_depth, filter, touch) = (ctx.settings.max_depth, ctx.settings.filter, ctx.touch);
     let hit = w.hits[i as usize];
     let st = &mut w.states[i as usize];
     let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed };
+    let r = |d: u32| w.randoms[pos / LANES][d as usize][pos % LANES];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
     let slot = w.surface_slot[i as usize];
@@ -100,7 +120,7 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, rays: &mu
     w.counters.shader_evaluations += 1;
 
     let opacity = inputs.effective_opacity();
-    if opacity < 1.0 && sample_1d(key, st.vertex, dim::OPACITY) >= opacity {
+    if opacity < 1.0 && r(dim::OPACITY) >= opacity {
         st.vertex += 1;
         if st.vertex > max_depth + MAX_NULL_EVENTS {
             return;
@@ -139,9 +159,9 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, rays: &mu
         wo,
         p: s.p,
         footprint,
-        u_lobe: sample_1d(key, vertex, dim::LOBE),
-        u_bsdf: sample_2d(key, vertex, dim::BSDF_UV),
-        u_rr: 0.0,
+        u_lobe: r(dim::LOBE),
+        u_bsdf: [r(dim::BSDF_UV), r(dim::BSDF_UV + 1)],
+        u_rr: r(dim::RUSSIAN_ROULETTE),
         has_light: false,
         light_wi: Vec3::ZERO,
         light_li: Vec3::ZERO,
@@ -151,12 +171,9 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, rays: &mu
         shadow_tmax: 0.0,
         shadow_seed: 0,
     };
-    if st.bounces + 1 >= RR_START_BOUNCE {
-        point.u_rr = sample_1d(key, vertex, dim::RUSSIAN_ROULETTE);
-    }
     // Next-event estimation: the light sample; the BSDF and the MIS weight follow in lanes.
-    let u_select = sample_1d(key, vertex, dim::LIGHT_SELECT);
-    let u_light = sample_2d(key, vertex, dim::LIGHT_UV);
+    let u_select = r(dim::LIGHT_SELECT);
+    let u_light = [r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1)];
     if let Some(mut ls) = scene.lights.sample(s.p, u_select, u_light) {
         if let Some((tri, [b1, b2])) = ls.emitter {
             ls.li = scene.emission_at(tri, b1, b2, filter, touch);
