@@ -34,6 +34,7 @@ use crate::camera::{Camera, RayCone};
 use crate::film::{RenderOptions, Tile, TileResult};
 use crate::integrator::{FirstHit, PathSettings, RayCounts};
 use crate::scene::Scene;
+use crate::stats::Phase;
 use glam::Vec3;
 use std::time::Instant;
 use texture::Touch;
@@ -163,13 +164,13 @@ pub struct Worker {
     pub seconds: StageSeconds,
     /// Work and lane counters.
     pub counters: Counters,
+    /// Phase timer (`--stats`) and shader evaluation count.
+    pub clock: crate::stats::PhaseClock,
 }
 
 /// What the wavefront did, for `--stats`: shader evaluations and how full the 8-lane kernels ran.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct Counters {
-    /// Material programs evaluated (one per shaded hit).
-    pub shader_evaluations: u64,
     /// Eight-lane groups run through the BSDF kernels.
     pub bsdf_lane_groups: u64,
     /// Lanes of those groups holding a shading point (the rest idle at a chunk's end).
@@ -181,7 +182,6 @@ pub struct Counters {
 impl Counters {
     /// Adds `other` into `self`.
     pub fn add(&mut self, other: &Counters) {
-        self.shader_evaluations += other.shader_evaluations;
         self.bsdf_lane_groups += other.bsdf_lane_groups;
         self.bsdf_lanes_active += other.bsdf_lanes_active;
         self.light_lanes_active += other.light_lanes_active;
@@ -190,7 +190,8 @@ impl Counters {
 
 impl Worker {
     /// Pools for tiles of `tile_size²` pixels of `scene`.
-    pub fn new(tile_size: u32, scene: &Scene) -> Self {
+    /// `phase_stats` times the phases ([`crate::stats::Phase`]).
+    pub fn new(tile_size: u32, scene: &Scene, phase_stats: bool) -> Self {
         let view = &scene.view;
         let materials = view.materials.len();
         let textured_materials = view
@@ -222,6 +223,7 @@ impl Worker {
             pixels: Vec::with_capacity(pixels),
             seconds: StageSeconds::default(),
             counters: Counters::default(),
+            clock: crate::stats::PhaseClock::new(phase_stats),
         }
     }
 }
@@ -266,17 +268,23 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
     while s0 < spp {
         let samples = per_chunk.min(spp - s0);
         let mut secs = w.seconds;
+        w.clock.lap(Phase::Overhead);
         timed(&mut secs.generate, || {
             generate::camera_rays(ctx, tile, s0 as u32, samples as u32, w, &mut rays)
         });
+        w.clock.lap(Phase::Overhead);
         while !w.rays.is_empty() {
             timed(&mut secs.intersect, || intersect::closest(ctx, w));
+            w.clock.lap(Phase::Intersect);
             timed(&mut secs.sort, || sort::shade_queue(ctx.scene, w));
+            w.clock.lap(Phase::Overhead);
             timed(&mut secs.shade, || shade::shade(ctx, w, &mut rays));
             timed(&mut secs.occlusion, || occlusion::any_hit(ctx, w, &mut rays));
+            w.clock.lap(Phase::Intersect);
             std::mem::swap(&mut w.rays, &mut w.next_rays);
         }
         timed(&mut secs.accumulate, || accumulate::chunk(w, samples));
+        w.clock.lap(Phase::Overhead);
         w.seconds = secs;
         s0 += samples;
     }

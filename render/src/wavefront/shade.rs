@@ -25,6 +25,7 @@ use crate::lights::power_heuristic;
 use super::sampler_lanes::{self, KeyLanes, DIMS};
 use crate::sampler::{dim, hash_combine, hash_u32, SampleKey};
 use crate::scene::Scene;
+use crate::stats::Phase;
 use glam::Vec3;
 use texture::Touch;
 
@@ -77,6 +78,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     while start < n {
         let end = (start + CHUNK).min(n);
         draw(ctx, w, start, end);
+        w.clock.lap(Phase::Integration);
         w.scatter.clear();
         for (pos, k) in (start..end).enumerate() {
             prepare(ctx, w, sort::index(w.shade[k]), pos, rays);
@@ -116,8 +118,12 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let slot = w.surface_slot[i as usize];
     let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
     let Some(mut s) = kept.or_else(|| scene.surface(&hit, wo, footprint)) else { return };
+    w.clock.lap(Phase::Shading);
     let inputs = scene.shade(&s, filter, touch);
-    w.counters.shader_evaluations += 1;
+    w.clock.shader_evaluations += 1;
+    if w.clock.enabled() {
+        w.clock.lap(if w.textured_materials[s.material as usize] { Phase::Texturing } else { Phase::Shading });
+    }
 
     let opacity = inputs.effective_opacity();
     if opacity < 1.0 && r(dim::OPACITY) >= opacity {
@@ -195,12 +201,13 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
         point.shadow_seed = shadow_seed ^ vertex;
     }
     w.scatter.push(point);
+    w.clock.lap(Phase::Integration);
 }
 
 /// Phase 2: the lane kernels over the chunk's scatter points.
 #[allow(clippy::needless_range_loop)]
 fn scatter(w: &mut Worker, rays: &mut RayCounts) {
-    let Worker { scatter, states, shadow, occlusion, next_rays, counters, .. } = w;
+    let Worker { scatter, states, shadow, occlusion, next_rays, counters, clock, .. } = w;
     let (mut bl, mut wi, mut u) = (BsdfLanes::default(), Lanes3::default(), SampleInputs::default());
     let (mut ev, mut smp) = (EvalLanes::default(), SampleLanes::default());
     let (mut nl, mut nout) = (NeeLanes::default(), NeeOut::default());
@@ -227,6 +234,7 @@ fn scatter(w: &mut Worker, rays: &mut RayCounts) {
             rl.play[k] = (st.bounces + 1 >= RR_START_BOUNCE) as u32;
             lights += sp.has_light as u64;
         }
+        clock.lap(Phase::Overhead);
         counters.bsdf_lane_groups += 1;
         counters.bsdf_lanes_active += group.len() as u64;
         counters.light_lanes_active += lights;
@@ -281,5 +289,6 @@ fn scatter(w: &mut Worker, rays: &mut RayCounts) {
             rays.bounce += 1;
             next_rays.push(sp.index);
         }
+        clock.lap(Phase::Integration);
     }
 }
