@@ -20,6 +20,7 @@
 
 mod accumulate;
 pub mod bsdf_lanes;
+pub mod emission_lanes;
 mod generate;
 mod intersect;
 pub mod lanes;
@@ -111,7 +112,8 @@ pub struct StageSeconds {
     pub generate: f64,
     /// Closest-hit queries (plus emission found along rays and the sort key).
     pub intersect: f64,
-    /// Radix sort and per-material bucketing of the shade queue.
+    /// Sort keys (the surface reconstruction of textured hits), radix sort and per-material bucketing
+    /// of the shade queue.
     pub sort: f64,
     /// Shading, light and BSDF sampling, and the 8-lane MIS kernel.
     pub shade: f64,
@@ -150,6 +152,8 @@ pub struct Worker {
     randoms: Vec<[[f32; lanes::LANES]; sampler_lanes::DIMS]>,
     /// Shaded hits of the current chunk, waiting for the lane kernels.
     scatter: Vec<shade::ScatterPoint>,
+    /// The area lights, eight per group, for the emission rays pick up.
+    area_lights: emission_lanes::AreaLightLanes,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
     textured_materials: Vec<bool>,
     /// Surfaces reconstructed by the intersect stage for textured hits (their sort key needs the
@@ -217,6 +221,7 @@ impl Worker {
             randoms: Vec::with_capacity(shade::CHUNK / lanes::LANES),
             scatter: Vec::with_capacity(shade::CHUNK),
             textured_materials,
+            area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),
             surface_slot: vec![u32::MAX; paths],
             occlusion: Vec::with_capacity(paths),
@@ -276,6 +281,8 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
         while !w.rays.is_empty() {
             timed(&mut secs.intersect, || intersect::closest(ctx, w));
             w.clock.lap(Phase::Intersect);
+            timed(&mut secs.sort, || intersect::sort_keys(ctx, w));
+            w.clock.lap(Phase::Shading);
             timed(&mut secs.sort, || sort::shade_queue(ctx.scene, w));
             w.clock.lap(Phase::Overhead);
             timed(&mut secs.shade, || shade::shade(ctx, w, &mut rays));

@@ -115,7 +115,7 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let r = |d: u32| w.randoms[pos / LANES][d as usize][pos % LANES];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
-    let slot = w.surface_slot[i as usize];
+    let slot = if ctx.textured { w.surface_slot[i as usize] } else { u32::MAX };
     let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
     let Some(mut s) = kept.or_else(|| scene.surface(&hit, wo, footprint)) else { return };
     w.clock.lap(Phase::Shading);
