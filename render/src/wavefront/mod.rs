@@ -21,6 +21,8 @@
 mod accumulate;
 pub mod bsdf_lanes;
 pub mod emission_lanes;
+#[cfg(test)]
+mod equivalence_tests;
 mod generate;
 mod intersect;
 pub mod lanes;
