@@ -30,7 +30,11 @@ struct Run {
 fn timed_render(view: &blob::SceneView, options: &RenderOptions) -> anyhow::Result<Run> {
     let (wall, cpu) = (Instant::now(), crate::ingest_speed::process_cpu_seconds());
     let image = render_image(view, options)?;
-    Ok(Run { image, cpu: crate::ingest_speed::process_cpu_seconds() - cpu, wall: wall.elapsed().as_secs_f64() })
+    Ok(Run {
+        image,
+        cpu: crate::ingest_speed::process_cpu_seconds() - cpu,
+        wall: wall.elapsed().as_secs_f64(),
+    })
 }
 
 fn best_of(view: &blob::SceneView, options: &RenderOptions, repeat: usize) -> anyhow::Result<Run> {
@@ -60,7 +64,13 @@ struct Figures {
 fn figures(speed: &Run, timed: &Image) -> Figures {
     let s = speed.cpu.max(1e-9);
     let c = &timed.stats.counters;
-    let lanes = |active: u64| if c.bsdf_lane_groups > 0 { 100.0 * active as f64 / (8 * c.bsdf_lane_groups) as f64 } else { 0.0 };
+    let lanes = |active: u64| {
+        if c.bsdf_lane_groups > 0 {
+            100.0 * active as f64 / (8 * c.bsdf_lane_groups) as f64
+        } else {
+            0.0
+        }
+    };
     Figures {
         cpu: speed.cpu,
         wall: speed.wall,
@@ -102,7 +112,12 @@ impl SceneResult {
     }
 }
 
-fn measure(name: &str, view: &blob::SceneView, options: &RenderOptions, repeat: usize) -> anyhow::Result<SceneResult> {
+fn measure(
+    name: &str,
+    view: &blob::SceneView,
+    options: &RenderOptions,
+    repeat: usize,
+) -> anyhow::Result<SceneResult> {
     let with = |integrator, phase_stats| RenderOptions { integrator, phase_stats, ..options.clone() };
     let scalar = best_of(view, &with(Integrator::Scalar, false), repeat)?;
     let wave = best_of(view, &with(Integrator::Wavefront, false), repeat)?;
@@ -199,7 +214,8 @@ fn shading_heavy_scene() -> anyhow::Result<ingest::Scene> {
             [60 + tile * 150 + (h >> 28) as u8, 90 + (h >> 27) as u8, 200 - tile * 120, 40 + (h >> 25) as u8]
         })
         .collect();
-    let src = texture::SourceImage { width: n, height: n, channels: 4, samples: texture::Samples::U8(texels) };
+    let src =
+        texture::SourceImage { width: n, height: n, channels: 4, samples: texture::Samples::U8(texels) };
     let baked = texture::bake(&src, &texture::BakeOptions::default())?;
     let textured = |path: &str, metallic: f32, clearcoat: f32| {
         let mut m = ingest::Material {
@@ -341,6 +357,7 @@ pub fn run(
             .collect::<anyhow::Result<Vec<_>>>()?
     };
     let mut results = Vec::new();
+    let mut trav = Vec::new();
     for (name, bytes) in &scenes {
         let view = blob::SceneView::parse(bytes).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
         let scene = render::Scene::new(view);
@@ -350,6 +367,7 @@ pub fn run(
         let options =
             RenderOptions { spp, resolution: Some([width, height]), threads, ..RenderOptions::default() };
         let r = measure(name, &view, &options, repeat)?;
+        trav.extend(traversal(name, &view, width, height)?);
         eprintln!(
             "{name}: scalar {:.3} CPU s, wavefront {:.3} CPU s: {:.2}× overall, {:.2}× shading+integration; \
              max |Δ| {:e}",
@@ -362,10 +380,14 @@ pub fn run(
         results.push(r);
     }
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
-    std::fs::write(out.join("integrators.md"), table(&results, spp, threads, load.trim()))?;
-    std::fs::write(out.join("integrators.json"), serde_json::to_string_pretty(&json(&results, spp, load.trim()))?)?;
+    let report = table(&results, spp, threads, load.trim()) + &traversal_table(&trav);
+    std::fs::write(out.join("integrators.md"), &report)?;
+    std::fs::write(
+        out.join("integrators.json"),
+        serde_json::to_string_pretty(&json(&results, spp, load.trim()))?,
+    )?;
     chart(&results, &out.join("integrators.svg"))?;
-    println!("{}", table(&results, spp, threads, load.trim()));
+    println!("{report}");
     Ok(())
 }
 
@@ -475,7 +497,13 @@ fn chart(results: &[SceneResult], path: &Path) -> anyhow::Result<()> {
         .y_desc("CPU µs per sample")
         .draw()?;
     let names = ["intersection", "shading", "texturing", "integration", "overhead"];
-    let colours = [RGBColor(70, 110, 200), RGBColor(230, 150, 50), RGBColor(200, 80, 80), RGBColor(90, 170, 90), RGBColor(150, 150, 150)];
+    let colours = [
+        RGBColor(70, 110, 200),
+        RGBColor(230, 150, 50),
+        RGBColor(200, 80, 80),
+        RGBColor(90, 170, 90),
+        RGBColor(150, 150, 150),
+    ];
     for (phase, (name, colour)) in names.iter().zip(colours).enumerate() {
         chart
             .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
@@ -488,4 +516,133 @@ fn chart(results: &[SceneResult], path: &Path) -> anyhow::Result<()> {
     chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
     root.present()?;
     Ok(())
+}
+
+/// Single-ray against packet traversal on one ray set: (name, single Mrays/CPU s, packet Mrays/CPU s,
+/// rays, exact-tie differences).
+struct TraversalRow {
+    scene: String,
+    queue: &'static str,
+    rays: usize,
+    single: f64,
+    packet: f64,
+    ties: usize,
+}
+
+/// Named sets of (origin, unit direction) rays.
+type RaySets = Vec<(&'static str, Vec<(Vec3, Vec3)>)>;
+
+/// Primary rays (packets of 8 neighbouring pixels), diffuse bounce rays and shadow rays (to a point
+/// above the scene) from the primary hits; the last two octant-sorted before packing.
+fn ray_sets(scene: &render::Scene, width: u32, height: u32) -> anyhow::Result<RaySets> {
+    let camera = scene.camera(scene.camera_index(None)?, width, height);
+    let mut primary = Vec::new();
+    for y in 0..height {
+        for x in 0..width {
+            primary
+                .push(camera.generate_ray((x as f32 + 0.5) / width as f32, (y as f32 + 0.5) / height as f32));
+        }
+    }
+    let mut state = 0x9e37_79b9u32;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        (state >> 8) as f32 / 16_777_216.0
+    };
+    let (lo, hi) = (scene.view.info.bounds_min, scene.view.info.bounds_max);
+    let above = Vec3::new(0.5 * (lo[0] + hi[0]), hi[1] + (hi[1] - lo[1]), 0.5 * (lo[2] + hi[2]));
+    let (mut bounce, mut shadow) = (Vec::new(), Vec::new());
+    for &(o, d) in &primary {
+        let Some(hit) = scene.accel.closest_hit(o, d, f32::INFINITY) else { continue };
+        let Some(s) = scene.surface(&hit, -d, 0.0) else { continue };
+        let p = render::accel::offset_ray_origin(s.p, s.ng);
+        let frame = render::bsdf::Frame::new(s.ng);
+        let local = render::bsdf::sample_cosine_hemisphere([next(), next()]);
+        bounce.push((p, frame.to_world(local).normalize()));
+        shadow.push((p, (above - p).normalize()));
+    }
+    for set in [&mut bounce, &mut shadow] {
+        set.sort_by_key(|&(_, d)| render::wavefront::packet::octant(d));
+    }
+    Ok(vec![("primary", primary), ("incoherent (bounce)", bounce), ("occlusion (shadow)", shadow)])
+}
+
+fn traversal(
+    name: &str,
+    view: &blob::SceneView,
+    width: u32,
+    height: u32,
+) -> anyhow::Result<Vec<TraversalRow>> {
+    use render::wavefront::packet::{closest_packet, PACKET};
+    let scene = render::Scene::new(*view);
+    let mut rows = Vec::new();
+    for (queue, rays) in ray_sets(&scene, width, height)? {
+        let (origins, dirs): (Vec<Vec3>, Vec<Vec3>) = rays.iter().copied().unzip();
+        let time = |f: &mut dyn FnMut() -> usize| {
+            let mut best = f64::INFINITY;
+            let mut sink = 0;
+            for _ in 0..3 {
+                let cpu = crate::ingest_speed::process_cpu_seconds();
+                sink += f();
+                best = best.min(crate::ingest_speed::process_cpu_seconds() - cpu);
+            }
+            (best, sink)
+        };
+        let mut single_hits = vec![None; rays.len()];
+        let (single, _) = time(&mut || {
+            for (k, (o, d)) in rays.iter().enumerate() {
+                single_hits[k] = scene.accel.closest_hit(*o, *d, f32::INFINITY);
+            }
+            single_hits.iter().filter(|h| h.is_some()).count()
+        });
+        let mut packet_hits = vec![None; rays.len()];
+        let (packet, _) = time(&mut || {
+            for (k, out) in packet_hits.chunks_mut(PACKET).enumerate() {
+                let r = k * PACKET..(k * PACKET + out.len());
+                closest_packet(&scene.accel, &origins[r.clone()], &dirs[r], f32::INFINITY, out);
+            }
+            packet_hits.iter().filter(|h| h.is_some()).count()
+        });
+        let mut ties = 0;
+        for (a, b) in single_hits.iter().zip(&packet_hits) {
+            match (a, b) {
+                (Some(a), Some(b)) if a.t == b.t && a.triangle != b.triangle => ties += 1,
+                (a, b) if a != b => {
+                    anyhow::bail!("{name} {queue}: packet traversal found {b:?}, single ray {a:?}")
+                }
+                _ => {}
+            }
+        }
+        let m = rays.len() as f64 / 1e6;
+        rows.push(TraversalRow {
+            scene: name.into(),
+            queue,
+            rays: rays.len(),
+            single: m / single.max(1e-9),
+            packet: m / packet.max(1e-9),
+            ties,
+        });
+    }
+    Ok(rows)
+}
+
+fn traversal_table(rows: &[TraversalRow]) -> String {
+    let mut s = String::from(
+        "\n## Traversal: single ray against 8-ray packets (closest hit, one thread, Mrays per CPU second)\n\n\
+         | scene | queue | rays | single | packet | packet/single | exact-tie differences |\n|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        s += &format!(
+            "| {} | {} | {} | {:.3} | {:.3} | {:.2} | {} |\n",
+            r.scene,
+            r.queue,
+            r.rays,
+            r.single,
+            r.packet,
+            r.packet / r.single,
+            r.ties
+        );
+    }
+    s
 }

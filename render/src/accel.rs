@@ -84,8 +84,9 @@ pub struct Hit {
 /// Read-only acceleration structure over mapped blob slices.
 #[derive(Clone, Copy, Debug)]
 pub struct Accel<'a> {
-    nodes: &'a [BvhNode],
-    blocks: &'a [TriangleBlock],
+    // Crate-visible for the wavefront's packet-traversal experiment (`wavefront::packet`).
+    pub(crate) nodes: &'a [BvhNode],
+    pub(crate) blocks: &'a [TriangleBlock],
     positions: &'a [[f32; 3]],
     triangles: &'a [blob::Triangle],
 }

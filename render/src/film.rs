@@ -257,8 +257,8 @@ fn render_with_touch<T: texture::Touch + Sync>(
                     let mut cone = camera.pixel_cone(d.dot(forward));
                     cone.width *= options.texture_footprint_scale;
                     cone.spread *= options.texture_footprint_scale;
-                    let r = scene
-                        .trace_path_timed(o, d, cone, key, &settings, &mut out.rays, touch, &mut clock);
+                    let r =
+                        scene.trace_path_timed(o, d, cone, key, &settings, &mut out.rays, touch, &mut clock);
                     if r.radiance.is_finite() {
                         sum += r.radiance;
                     } else {

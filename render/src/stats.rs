@@ -99,8 +99,14 @@ impl Summary {
             mshaders_per_second: stats.shader_evaluations as f64 / secs / 1e6,
             phases: stats.phases,
             phase_percent: Self::percent(&stats.phases),
-            bsdf_lane_utilisation: lane_percent(stats.counters.bsdf_lanes_active, stats.counters.bsdf_lane_groups),
-            light_lane_utilisation: lane_percent(stats.counters.light_lanes_active, stats.counters.bsdf_lane_groups),
+            bsdf_lane_utilisation: lane_percent(
+                stats.counters.bsdf_lanes_active,
+                stats.counters.bsdf_lane_groups,
+            ),
+            light_lane_utilisation: lane_percent(
+                stats.counters.light_lanes_active,
+                stats.counters.bsdf_lane_groups,
+            ),
             ..Summary::default()
         }
     }

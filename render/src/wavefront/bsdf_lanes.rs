@@ -258,13 +258,14 @@ impl P {
         let spec_fresnel_view = schlick(self.f0, wo.z);
         let one = V { x: 1.0, y: 1.0, z: 1.0 };
         let diffuse = self.diffuse.mul(one.sub(spec_fresnel_view)).scale(FRAC_1_PI);
-        let specular = schlick(self.f0, wo_h)
-            .scale(ggx_d(h.z, self.alpha) * ggx_g2(wo.z, wi.z, self.alpha) / denom);
+        let specular =
+            schlick(self.f0, wo_h).scale(ggx_d(h.z, self.alpha) * ggx_g2(wo.z, wi.z, self.alpha) / denom);
         let f = diffuse.add(specular).scale(1.0 - coat_view);
         let pdf = probs[0] * wi.z * FRAC_1_PI + probs[1] * ggx_pdf(wo.z, h.z, self.alpha);
         let a = self.clearcoat_alpha;
-        let coat = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo_h) * ggx_d(h.z, a) * ggx_g2(wo.z, wi.z, a)
-            / denom;
+        let coat =
+            self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo_h) * ggx_d(h.z, a) * ggx_g2(wo.z, wi.z, a)
+                / denom;
         let coat_pdf = pdf + probs[2] * ggx_pdf(wo.z, h.z, a);
         let has_coat = self.clearcoat > 0.0;
         let f = V::select(has_coat, f.add(V { x: coat, y: coat, z: coat }), f);
@@ -298,7 +299,8 @@ pub fn eval_lanes(l: &BsdfLanes, wi: &Lanes3, out: &mut EvalLanes) {
 }
 
 /// [`Bsdf::sample`] on eight lanes.
-#[allow(clippy::needless_range_loop)]
+// `!(a <= b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn sample_lanes(l: &BsdfLanes, u: &SampleInputs, out: &mut SampleLanes) {
     // Before the trigonometry: the lobe, and the angle whose cosine and sine the lobe needs (the
@@ -310,8 +312,7 @@ pub fn sample_lanes(l: &BsdfLanes, u: &SampleInputs, out: &mut SampleLanes) {
         let wo = to_local(l, k, V::at(&l.wo, k));
         let [p_d, _, _] = p.lobe_probabilities(wo.z);
         let (a, b) = (2.0 * u.u0[k] - 1.0, 2.0 * u.u1[k] - 1.0);
-        let theta =
-            if a.abs() > b.abs() { FRAC_PI_4 * (b / a) } else { FRAC_PI_2 - FRAC_PI_4 * (a / b) };
+        let theta = if a.abs() > b.abs() { FRAC_PI_4 * (b / a) } else { FRAC_PI_2 - FRAC_PI_4 * (a / b) };
         diffuse[k] = u.u_lobe[k] < p_d;
         angle[k] = if diffuse[k] { theta } else { TAU * u.u0[k] };
     }
@@ -362,6 +363,7 @@ pub fn sample_lanes(l: &BsdfLanes, u: &SampleInputs, out: &mut SampleLanes) {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // lane-indexed comparisons read clearest as index loops
 mod tests {
     use super::*;
     use crate::shading::ShadingInputs;

@@ -68,8 +68,10 @@ impl AreaLightLanes {
                         put(&mut g.center, center);
                         g.radius[k] = radius;
                     }
-                    Shape::Rect { center, ex, ey, normal, .. } | Shape::Disk { center, ex, ey, normal, .. } => {
-                        g.kind[k] = if matches!(light.shape, Shape::Rect { .. }) { KIND_RECT } else { KIND_DISK };
+                    Shape::Rect { center, ex, ey, normal, .. }
+                    | Shape::Disk { center, ex, ey, normal, .. } => {
+                        g.kind[k] =
+                            if matches!(light.shape, Shape::Rect { .. }) { KIND_RECT } else { KIND_DISK };
                         put(&mut g.center, center);
                         put(&mut g.ex, ex);
                         put(&mut g.ey, ey);
@@ -93,7 +95,14 @@ impl AreaLightLanes {
 
     /// [`Lights::area_emission`] for a ray from `o` along unit `d` up to `tmax`; `lights` must be
     /// the lights this was built from.
-    pub fn emission(&mut self, lights: &Lights, o: Vec3, d: Vec3, tmax: f32, prev: Option<(Vec3, f32)>) -> Vec3 {
+    pub fn emission(
+        &mut self,
+        lights: &Lights,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        prev: Option<(Vec3, f32)>,
+    ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         if self.groups.is_empty() {
             return sum;
@@ -114,7 +123,14 @@ impl AreaLightLanes {
 
 /// [`hit_lanes`] over every group, one dispatch per ray.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
-fn hit_groups(groups: &[LightGroup], o: [f32; 3], d: [f32; 3], tmax: f32, t: &mut [[f32; LANES]], masks: &mut [u32]) {
+fn hit_groups(
+    groups: &[LightGroup],
+    o: [f32; 3],
+    d: [f32; 3],
+    tmax: f32,
+    t: &mut [[f32; LANES]],
+    masks: &mut [u32],
+) {
     for ((g, t), mask) in groups.iter().zip(t.iter_mut()).zip(masks.iter_mut()) {
         *mask = if g.spheres_only { hit_spheres(g, o, d, tmax, t) } else { hit_lanes(g, o, d, tmax, t) };
     }
@@ -139,6 +155,8 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
 }
 
 /// `ray_sphere` then `t < tmax` for lane `k`, its early returns as selects: (hit, t).
+// `!(a <= b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 fn sphere(g: &LightGroup, k: usize, o: [f32; 3], d: [f32; 3], tmax: f32) -> (bool, f32) {
     let c = [g.center[0][k], g.center[1][k], g.center[2][k]];
@@ -157,7 +175,7 @@ fn sphere(g: &LightGroup, k: usize, o: [f32; 3], d: [f32; 3], tmax: f32) -> (boo
 
 /// Bit `k` set where the ray meets light `k` of `g` at `t[k]` in (0, `tmax`), as
 /// `Light::intersect` decides it.
-#[allow(clippy::needless_range_loop)]
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 pub fn hit_lanes(g: &LightGroup, o: [f32; 3], d: [f32; 3], tmax: f32, t: &mut [f32; LANES]) -> u32 {
     let mut bits = [0u32; LANES];
@@ -172,7 +190,8 @@ pub fn hit_lanes(g: &LightGroup, o: [f32; 3], d: [f32; 3], tmax: f32, t: &mut [f
         let r = [o[0] + d[0] * tp - c[0], o[1] + d[1] * tp - c[1], o[2] + d[2] * tp - c[2]];
         let a = dot(r, ex) / dot(ex, ex);
         let bb = dot(r, ey) / dot(ey, ey);
-        let inside = if g.kind[k] == KIND_RECT { a.abs() <= 1.0 && bb.abs() <= 1.0 } else { a * a + bb * bb <= 1.0 };
+        let inside =
+            if g.kind[k] == KIND_RECT { a.abs() <= 1.0 && bb.abs() <= 1.0 } else { a * a + bb * bb <= 1.0 };
         let planar_hit = !(cos >= 0.0) && tp > 0.0 && tp < tmax && inside;
         let kind = g.kind[k];
         let hit = if kind == KIND_SPHERE { sphere_hit } else { kind != KIND_NONE && planar_hit };

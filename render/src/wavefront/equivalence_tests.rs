@@ -37,7 +37,8 @@ fn scene() -> Scene {
             [(h >> 24) as u8, (h >> 16) as u8, 40 + (h >> 9) as u8 % 200, 10 + (h >> 1) as u8 % 240]
         })
         .collect();
-    let src = texture::SourceImage { width: n, height: n, channels: 4, samples: texture::Samples::U8(texels) };
+    let src =
+        texture::SourceImage { width: n, height: n, channels: 4, samples: texture::Samples::U8(texels) };
     let baked = texture::bake(&src, &texture::BakeOptions::default()).expect("valid image");
     let emitter = Material { emissive_color: Vec3::new(4.0, 3.0, 2.0), ..testscene::lambert(0.2) };
     let mut meshes = vec![card(-1.5, 3.0, 0)];
@@ -49,7 +50,13 @@ fn scene() -> Scene {
     meshes.push(lamp);
     let at = |x: f32, y: f32, z: f32| Mat4::from_translation(Vec3::new(x, y, z));
     let mut lights = vec![
-        Light { path: "/dome".into(), kind: LightKind::Dome, radiance: Vec3::splat(0.3), normalize: false, world_from_light: Mat4::IDENTITY },
+        Light {
+            path: "/dome".into(),
+            kind: LightKind::Dome,
+            radiance: Vec3::splat(0.3),
+            normalize: false,
+            world_from_light: Mat4::IDENTITY,
+        },
         Light {
             path: "/sun".into(),
             kind: LightKind::Distant { angle_degrees: 3.0 },
@@ -95,8 +102,15 @@ fn scene() -> Scene {
 fn wavefront_equals_scalar_with_textures_and_many_area_lights() {
     let bytes = testscene::bytes(&scene());
     let view = blob::SceneView::parse(&bytes).expect("valid blob");
-    let options = RenderOptions { spp: 16, resolution: Some([48, 48]), tile_size: 16, max_depth: 6, ..RenderOptions::default() };
-    let scalar = render_image(&view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() }).unwrap();
+    let options = RenderOptions {
+        spp: 16,
+        resolution: Some([48, 48]),
+        tile_size: 16,
+        max_depth: 6,
+        ..RenderOptions::default()
+    };
+    let scalar =
+        render_image(&view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() }).unwrap();
     let wave = render_image(&view, &RenderOptions { integrator: Integrator::Wavefront, ..options }).unwrap();
     let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
     for (a, b) in scalar.beauty.iter().flatten().zip(wave.beauty.iter().flatten()) {
@@ -104,7 +118,10 @@ fn wavefront_equals_scalar_with_textures_and_many_area_lights() {
         sum += (a - b).abs() as f64;
         n += 1;
     }
-    eprintln!("textures + 12 area lights: wavefront vs scalar: max abs diff {max:e}, mean {:e}", sum / n as f64);
+    eprintln!(
+        "textures + 12 area lights: wavefront vs scalar: max abs diff {max:e}, mean {:e}",
+        sum / n as f64
+    );
     assert_eq!(max, 0.0, "the lane kernels are bit-exact, so the images must be equal");
     assert_eq!(scalar.albedo, wave.albedo);
     assert_eq!(scalar.stats.rays, wave.stats.rays);

@@ -27,6 +27,7 @@ mod generate;
 mod intersect;
 pub mod lanes;
 mod occlusion;
+pub mod packet;
 pub mod roulette;
 pub mod sampler_lanes;
 mod shade;

@@ -53,7 +53,8 @@ pub fn continue_scalar(beta: Vec3, f: Vec3, cos: f32, pdf: f32, play: bool, u: f
 }
 
 /// [`continue_scalar`] on eight lanes.
-#[allow(clippy::needless_range_loop)]
+// `!(a <= b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn continue_lanes(l: &RouletteLanes, out: &mut RouletteOut) {
     for k in 0..LANES {
@@ -103,7 +104,8 @@ mod tests {
                     continue_scalar(at(&l.beta), at(&l.f), l.cos[k], l.pdf[k], l.play[k] != 0, l.u[k]);
                 assert_eq!(out.alive[k] != 0, expected.is_some(), "lane {k}");
                 if let Some(b) = expected {
-                    let bits = |v: Vec3| v.to_array().map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() });
+                    let bits =
+                        |v: Vec3| v.to_array().map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() });
                     assert_eq!(bits(at(&out.beta)), bits(b), "lane {k}");
                     alive += 1;
                 }

@@ -34,7 +34,8 @@ pub fn vertex_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [[f32; LANES]; DI
         for pair in 0..DIMS / 2 {
             let pair_seed = hash_combine(prefix, pair as u32);
             let index = nested_uniform_scramble(keys.sample[k], pair_seed);
-            out[2 * pair][k] = to_unit_float(nested_uniform_scramble(sobol(index, 0), hash_combine(pair_seed, 0)));
+            out[2 * pair][k] =
+                to_unit_float(nested_uniform_scramble(sobol(index, 0), hash_combine(pair_seed, 0)));
             out[2 * pair + 1][k] =
                 to_unit_float(nested_uniform_scramble(sobol(index, 1), hash_combine(pair_seed, 1)));
         }
@@ -42,6 +43,7 @@ pub fn vertex_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [[f32; LANES]; DI
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // lane-indexed comparisons read clearest as index loops
 mod tests {
     use super::*;
     use crate::sampler::{hash_u32, sample_1d, SampleKey};

@@ -17,12 +17,12 @@
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
 use super::roulette::{self, RouletteLanes, RouletteOut};
+use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::{sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
 use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
-use super::sampler_lanes::{self, KeyLanes, DIMS};
 use crate::sampler::{dim, hash_combine, hash_u32, SampleKey};
 use crate::scene::Scene;
 use crate::stats::Phase;
@@ -122,7 +122,11 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let inputs = scene.shade(&s, filter, touch);
     w.clock.shader_evaluations += 1;
     if w.clock.enabled() {
-        w.clock.lap(if w.textured_materials[s.material as usize] { Phase::Texturing } else { Phase::Shading });
+        w.clock.lap(if w.textured_materials[s.material as usize] {
+            Phase::Texturing
+        } else {
+            Phase::Shading
+        });
     }
 
     let opacity = inputs.effective_opacity();
