@@ -317,3 +317,53 @@ fn lane_percent(active: u64, groups: u64) -> f64 {
         100.0 * active as f64 / (8 * groups) as f64
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn laps_charge_elapsed_time_to_their_phase() {
+        let mut clock = PhaseClock::new(true);
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        clock.lap(Phase::Texturing);
+        clock.lap(Phase::Intersect);
+        let s = clock.seconds;
+        assert!(s.texturing >= 0.019 && s.texturing < 1.0, "{s:?}");
+        assert!(s.intersect < 0.005 && s.shading == 0.0 && s.overhead == 0.0, "{s:?}");
+        let mut off = PhaseClock::new(false);
+        off.lap(Phase::Shading);
+        assert_eq!(off.seconds.total(), 0.0);
+        off.merge(&clock);
+        assert_eq!(off.seconds, clock.seconds);
+    }
+
+    #[test]
+    fn summary_reports_percentages_and_lane_use() {
+        let stats = RenderStats {
+            seconds: 2.0,
+            shader_evaluations: 4_000_000,
+            phases: PhaseSeconds {
+                intersect: 1.0,
+                shading: 0.5,
+                texturing: 0.25,
+                integration: 0.25,
+                overhead: 0.0,
+            },
+            counters: crate::wavefront::Counters {
+                bsdf_lane_groups: 10,
+                bsdf_lanes_active: 60,
+                light_lanes_active: 40,
+            },
+            ..RenderStats::default()
+        };
+        let s = Summary::from_render(&stats, 4, 4, 1);
+        assert_eq!(s.mshaders_per_second, 2.0);
+        assert_eq!(s.phase_percent.intersect, 50.0);
+        assert_eq!(s.phase_percent.texturing, 12.5);
+        assert_eq!(s.bsdf_lane_utilisation, 75.0);
+        assert_eq!(s.light_lane_utilisation, 50.0);
+        assert!(s.to_text().contains("intersection 50.0"), "{}", s.to_text());
+        assert!(s.to_text().contains("BSDF 75.0%"), "{}", s.to_text());
+    }
+}

@@ -132,3 +132,42 @@ fn wavefront_equals_scalar_with_textures_and_many_area_lights() {
     assert!(mean > 0.05, "mean luminance {mean}");
     assert!(wave.stats.counters.bsdf_lane_groups > 0);
 }
+
+/// `phase_stats` times every phase for both integrators, and the timers cover the render: their sum
+/// is positive and no more than the render's wall time over all threads.
+#[test]
+fn phase_timers_cover_both_integrators() {
+    let bytes = testscene::bytes(&scene());
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    for integrator in [Integrator::Scalar, Integrator::Wavefront] {
+        let options = RenderOptions {
+            spp: 8,
+            resolution: Some([48, 48]),
+            threads: 1,
+            integrator,
+            phase_stats: true,
+            ..RenderOptions::default()
+        };
+        let image = render_image(&view, &options).unwrap();
+        let p = image.stats.phases;
+        eprintln!("{integrator:?}: {p:?} of {:.4} s", image.stats.seconds);
+        assert!(p.intersect > 0.0 && p.shading > 0.0 && p.texturing > 0.0 && p.integration > 0.0, "{p:?}");
+        assert!(p.total() <= image.stats.seconds * 1.05 + 1e-3, "{} > {}", p.total(), image.stats.seconds);
+        // The rest is thread-pool start-up and tile bookkeeping outside the laps.
+        assert!(p.total() >= image.stats.seconds * 0.25, "{} ≪ {}", p.total(), image.stats.seconds);
+        assert!(image.stats.shader_evaluations > 48 * 48 * 8 / 2, "{}", image.stats.shader_evaluations);
+        let c = image.stats.counters;
+        if integrator == Integrator::Wavefront {
+            // Chunks of 256 hits leave at most one partial group each: lanes are mostly full.
+            assert!(c.bsdf_lanes_active * 10 >= c.bsdf_lane_groups * 8 * 9, "{c:?}");
+            assert!(c.light_lanes_active <= c.bsdf_lanes_active && c.light_lanes_active > 0, "{c:?}");
+        } else {
+            assert_eq!(c, crate::wavefront::Counters::default());
+        }
+    }
+    // Without `phase_stats` nothing is timed.
+    let image =
+        render_image(&view, &RenderOptions { spp: 1, resolution: Some([8, 8]), ..RenderOptions::default() })
+            .unwrap();
+    assert_eq!(image.stats.phases.total(), 0.0);
+}
