@@ -6,8 +6,9 @@
 //!   charted as SVG.
 //! - `bench subdiv`: subdivision tessellation error (pixels at the render camera) against ingest
 //!   seconds and blob bytes, for uniform levels and dicing rates, charted as SVG.
-//! - `bench integrators BLOB`: the scalar and wavefront integrators on the same blob, Msamples/s and
-//!   their ratio.
+//! - `bench integrators [BLOB…]`: the scalar and wavefront integrators side by side (default scenes: the
+//!   tractor, a generated shading-heavy scene, a simple one): speed, phase breakdown, SIMD lane use,
+//!   image difference; table, JSON and stacked-bar SVG.
 //!
 //! - `bench instancing`: 1,000 instanced spheres as one prototype plus instance records versus
 //!   flattened: blob bytes and closest-hit Mrays/s on the same rays.
@@ -58,10 +59,10 @@ enum Cmd {
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
     },
-    /// Scalar against wavefront integrator: Msamples/s and the ratio.
+    /// Scalar against wavefront integrator side by side: speed, phase breakdown, lane use, chart.
     Integrators {
-        /// Scene blob.
-        blob: PathBuf,
+        /// Scene blobs (default: the tractor, a generated shading-heavy scene and a simple one).
+        blobs: Vec<PathBuf>,
         /// Samples per pixel.
         #[arg(long, default_value_t = 16)]
         spp: u32,
@@ -204,22 +205,9 @@ fn main() -> anyhow::Result<()> {
             std::fs::create_dir_all(&out)?;
             textures::run(reference_spp, spp, width, &out)?;
         }
-        Cmd::Integrators { blob: path, spp, width, threads, repeat, out } => {
-            let bytes = load(&path)?;
-            let view = blob::SceneView::parse(&bytes).with_context(|| format!("{}", path.display()))?;
-            let scene = render::Scene::new(view);
-            let camera = scene.camera_index(None)?;
-            let [_, height] = scene.resolution(None, camera);
-            let [w0, _] = scene.resolution(None, camera);
-            let height = (height as u64 * width as u64 / w0.max(1) as u64).max(1) as u32;
-            let options = render::RenderOptions {
-                spp,
-                resolution: Some([width, height]),
-                threads,
-                ..Default::default()
-            };
+        Cmd::Integrators { blobs, spp, width, threads, repeat, out } => {
             std::fs::create_dir_all(&out)?;
-            integrators::run(&view, &options, repeat, &out)?;
+            integrators::run(&blobs, spp, width, threads, repeat, &out)?;
         }
         Cmd::Rays { blob: path, res, rays: count, repeat, python, out } => {
             let bytes = load(&path)?;

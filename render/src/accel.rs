@@ -88,8 +88,9 @@ pub struct Hit {
 /// triangles and, when the scene has instances, the two-level structure of [`crate::instanced`].
 #[derive(Clone, Copy, Debug)]
 pub struct Accel<'a> {
-    nodes: &'a [BvhNode],
-    blocks: &'a [TriangleBlock],
+    // Crate-visible for the wavefront's packet-traversal experiment (`wavefront::packet`).
+    pub(crate) nodes: &'a [BvhNode],
+    pub(crate) blocks: &'a [TriangleBlock],
     positions: &'a [[f32; 3]],
     triangles: &'a [blob::Triangle],
     instances: crate::instanced::Instances<'a>,

@@ -75,14 +75,15 @@ pub struct BsdfSample {
 /// Material parameters resolved for one shading point.
 #[derive(Clone, Copy, Debug)]
 pub struct Bsdf {
-    frame: Frame,
+    // Crate-visible so the wavefront's 8-lane kernels (`wavefront::bsdf_lanes`) can transpose them.
+    pub(crate) frame: Frame,
     /// Geometric normal on the side of `wo`.
-    ng: Vec3,
-    diffuse: Vec3,
-    f0: Vec3,
-    alpha: f32,
-    clearcoat: f32,
-    clearcoat_alpha: f32,
+    pub(crate) ng: Vec3,
+    pub(crate) diffuse: Vec3,
+    pub(crate) f0: Vec3,
+    pub(crate) alpha: f32,
+    pub(crate) clearcoat: f32,
+    pub(crate) clearcoat_alpha: f32,
 }
 
 /// Rec. 709 luminance.

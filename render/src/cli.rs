@@ -124,6 +124,7 @@ impl Args {
                 max_depth: self.max_depth,
                 texture_filter: self.texture_filter,
                 texture_stats: self.stats.is_some(),
+                phase_stats: self.stats.is_some(),
                 curve_shape: self.curve_shape,
                 integrator: self.integrator,
                 ..RenderOptions::default()

@@ -40,6 +40,9 @@ pub struct RenderOptions {
     pub curve_shape: Option<crate::curves::CurveShape>,
     /// Which integrator traces the paths (`--integrator`); both give the same image.
     pub integrator: Integrator,
+    /// Time every phase of every path ([`RenderStats::phases`]); costs a few percent, so off by
+    /// default (`--stats` turns it on).
+    pub phase_stats: bool,
 }
 
 /// The path-tracing integrator: depth-first scalar or breadth-first wavefront (same estimator, same
@@ -79,6 +82,7 @@ impl Default for RenderOptions {
             texture_stats: false,
             curve_shape: None,
             integrator: Integrator::Scalar,
+            phase_stats: false,
         }
     }
 }
@@ -102,6 +106,12 @@ pub struct RenderStats {
     pub texture_bytes_touched: u64,
     /// Wavefront stage timers, summed over workers (zero for the scalar integrator).
     pub stages: crate::wavefront::StageSeconds,
+    /// Wavefront work and lane counters (zero for the scalar integrator).
+    pub counters: crate::wavefront::Counters,
+    /// CPU seconds per phase, both integrators (zero unless `RenderOptions::phase_stats`).
+    pub phases: crate::stats::PhaseSeconds,
+    /// Material programs evaluated at path vertices.
+    pub shader_evaluations: u64,
 }
 
 /// A rendered image with its AOVs, row-major from the top-left pixel.
@@ -145,6 +155,8 @@ pub(crate) struct TileResult {
     pub(crate) depth: Vec<f32>,
     pub(crate) rays: RayCounts,
     pub(crate) nonfinite: u64,
+    /// Scalar integrator: the tile's phase times and shader count (the wavefront keeps them per worker).
+    pub(crate) clock: Option<crate::stats::PhaseClock>,
 }
 
 /// Renders a prepared `scene` with `options`.
@@ -229,7 +241,9 @@ fn render_with_touch<T: texture::Touch + Sync>(
             depth: Vec::with_capacity(n),
             rays: RayCounts::default(),
             nonfinite: 0,
+            clock: None,
         };
+        let mut clock = crate::stats::PhaseClock::new(options.phase_stats);
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 let pixel = y * width + x;
@@ -243,7 +257,8 @@ fn render_with_touch<T: texture::Touch + Sync>(
                     let mut cone = camera.pixel_cone(d.dot(forward));
                     cone.width *= options.texture_footprint_scale;
                     cone.spread *= options.texture_footprint_scale;
-                    let r = scene.trace_path_with(o, d, cone, key, &settings, &mut out.rays, touch);
+                    let r =
+                        scene.trace_path_timed(o, d, cone, key, &settings, &mut out.rays, touch, &mut clock);
                     if r.radiance.is_finite() {
                         sum += r.radiance;
                     } else {
@@ -264,11 +279,17 @@ fn render_with_touch<T: texture::Touch + Sync>(
                 out.depth.push(if hits > 0 { (depth / hits as f64) as f32 } else { f32::INFINITY });
             }
         }
+        clock.lap(crate::stats::Phase::Overhead);
+        out.clock = Some(clock);
         let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         progress(finished, total);
         out
     };
-    let stages = std::sync::Mutex::new(crate::wavefront::StageSeconds::default());
+    let stages = std::sync::Mutex::new((
+        crate::wavefront::StageSeconds::default(),
+        crate::wavefront::Counters::default(),
+        crate::stats::PhaseClock::new(false),
+    ));
     // The wavefront stages trace triangles only so far: scenes with curves or points take the scalar
     // path (same estimator, same image) rather than losing their curves.
     let integrator = if scene.curves.is_empty() { options.integrator } else { Integrator::Scalar };
@@ -288,20 +309,23 @@ fn render_with_touch<T: texture::Touch + Sync>(
             };
             // One Worker (pools and queues) per rayon job, dropped when the job ends: the timers merge
             // then, under a lock taken once per worker, never on the hot path.
-            struct Merge<'m>(crate::wavefront::Worker, &'m std::sync::Mutex<crate::wavefront::StageSeconds>);
+            type Totals =
+                (crate::wavefront::StageSeconds, crate::wavefront::Counters, crate::stats::PhaseClock);
+            struct Merge<'m>(crate::wavefront::Worker, &'m std::sync::Mutex<Totals>);
             impl Drop for Merge<'_> {
                 fn drop(&mut self) {
                     if let Ok(mut s) = self.1.lock() {
-                        s.add(&self.0.seconds);
+                        s.0.add(&self.0.seconds);
+                        s.1.add(&self.0.counters);
+                        s.2.merge(&self.0.clock);
                     }
                 }
             }
-            let materials = scene.view.materials.len();
             pool.install(|| {
                 tiles
                     .par_iter()
                     .map_init(
-                        || Merge(crate::wavefront::Worker::new(ts, materials), &stages),
+                        || Merge(crate::wavefront::Worker::new(ts, scene, options.phase_stats), &stages),
                         |m, tile| {
                             let r = crate::wavefront::render(&ctx, &mut m.0, tile);
                             let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
@@ -314,6 +338,8 @@ fn render_with_touch<T: texture::Touch + Sync>(
         }
     };
     let seconds = start.elapsed().as_secs_f64();
+    let (stage_seconds, counters, mut clock) =
+        stages.into_inner().unwrap_or_else(|poisoned| poisoned.into_inner());
 
     let n = (width * height) as usize;
     let mut image = Image {
@@ -327,7 +353,8 @@ fn render_with_touch<T: texture::Touch + Sync>(
             samples: n as u64 * spp as u64,
             seconds,
             threads: pool.current_num_threads(),
-            stages: stages.into_inner().unwrap_or_default(),
+            stages: stage_seconds,
+            counters,
             ..RenderStats::default()
         },
     };
@@ -342,7 +369,12 @@ fn render_with_touch<T: texture::Touch + Sync>(
             image.depth[dst..dst + tw].copy_from_slice(&r.depth[src..src + tw]);
         }
         image.stats.rays.add(&r.rays);
+        if let Some(c) = &r.clock {
+            clock.merge(c);
+        }
         image.stats.nonfinite_samples += r.nonfinite;
     }
+    image.stats.phases = clock.seconds;
+    image.stats.shader_evaluations = clock.shader_evaluations;
     Ok(image)
 }

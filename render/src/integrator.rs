@@ -17,6 +17,7 @@ use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
 use crate::scene::Scene;
 use crate::shading::{ShadingInputs, UvFootprint};
+use crate::stats::{Phase, PhaseClock};
 use glam::Vec3;
 use texture::{Filter, NoTouch, Touch};
 
@@ -381,6 +382,23 @@ impl<'a> Scene<'a> {
     #[allow(clippy::too_many_arguments)]
     pub fn trace_path_with<T: Touch>(
         &self,
+        origin: Vec3,
+        dir: Vec3,
+        cone: RayCone,
+        key: SampleKey,
+        settings: &PathSettings,
+        rays: &mut RayCounts,
+        touch: &T,
+    ) -> PathResult {
+        let mut clock = PhaseClock::new(false);
+        self.trace_path_timed(origin, dir, cone, key, settings, rays, touch, &mut clock)
+    }
+
+    /// [`Scene::trace_path_with`] charging its time to `clock`'s phases (when enabled) and counting
+    /// its shader evaluations there.
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace_path_timed<T: Touch>(
+        &self,
         mut origin: Vec3,
         mut dir: Vec3,
         mut cone: RayCone,
@@ -388,7 +406,9 @@ impl<'a> Scene<'a> {
         settings: &PathSettings,
         rays: &mut RayCounts,
         touch: &T,
+        clock: &mut PhaseClock,
     ) -> PathResult {
+        clock.lap(Phase::Overhead);
         let max_depth = settings.max_depth;
         let filter = settings.filter;
         let mut result = PathResult::default();
@@ -406,6 +426,7 @@ impl<'a> Scene<'a> {
             // Curves and points have their own BVH; only hits closer than the triangle count.
             let curve_hit = self.curves.closest_hit(origin, dir, hit.map_or(f32::INFINITY, |h| h.t));
             let t_hit = curve_hit.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
+            clock.lap(Phase::Intersect);
             radiance += beta * self.lights.area_emission(origin, dir, t_hit, prev);
             let wo = -dir;
             let footprint = cone.width_at(t_hit);
@@ -420,7 +441,11 @@ impl<'a> Scene<'a> {
                     break;
                 }
             };
+            clock.lap(Phase::Shading);
             let inputs = self.shade(&s, filter, touch);
+            clock.shader_evaluations += 1;
+            let textured = clock.enabled() && crate::stats::reads_textures(&self.view, s.material);
+            clock.lap(if textured { Phase::Texturing } else { Phase::Shading });
 
             // Stochastic transparency: continue straight with probability 1 − opacity.
             let opacity = inputs.effective_opacity();
@@ -478,6 +503,7 @@ impl<'a> Scene<'a> {
                         f32::INFINITY
                     };
                     rays.shadow += 1;
+                    clock.lap(Phase::Integration);
                     let transmits = self.shadow_transmits(
                         shadow_origin,
                         ls.wi,
@@ -486,6 +512,7 @@ impl<'a> Scene<'a> {
                         filter,
                         touch,
                     ) && !self.curves.any_hit(shadow_origin, ls.wi, tmax);
+                    clock.lap(Phase::Intersect);
                     if transmits {
                         radiance += contribution * w;
                     }
@@ -513,6 +540,7 @@ impl<'a> Scene<'a> {
             cone = RayCone { width: footprint, spread: cone.spread + CONE_WIDEN_PER_ALPHA * bs.lobe_alpha };
             rays.bounce += 1;
         }
+        clock.lap(Phase::Integration);
         result.radiance = radiance;
         result
     }

@@ -502,16 +502,36 @@ impl<'a> Lights<'a> {
         for &i in &self.area {
             let light = &self.lights[i];
             if let Some((t, le)) = light.intersect(o, d, tmax) {
-                let w = match prev {
-                    None => 1.0,
-                    Some((p, bsdf_pdf)) => {
-                        power_heuristic(bsdf_pdf, self.select_pmf * light.pdf_area_light(p, o + d * t))
-                    }
-                };
-                sum += le * w;
+                sum += self.area_term(light, le, o, d, t, prev);
             }
         }
         sum
+    }
+
+    /// The area lights rays can hit, in the order [`Lights::area_emission`] sums them (the wavefront's
+    /// lane kernel tests them eight at a time).
+    pub(crate) fn area_lights(&self) -> impl Iterator<Item = &Light> {
+        self.area.iter().map(|&i| &self.lights[i])
+    }
+
+    /// What [`Lights::area_emission`] adds for `light` (radiance `le`) met at `t`.
+    #[inline]
+    pub(crate) fn area_term(
+        &self,
+        light: &Light,
+        le: Vec3,
+        o: Vec3,
+        d: Vec3,
+        t: f32,
+        prev: Option<(Vec3, f32)>,
+    ) -> Vec3 {
+        let w = match prev {
+            None => 1.0,
+            Some((p, bsdf_pdf)) => {
+                power_heuristic(bsdf_pdf, self.select_pmf * light.pdf_area_light(p, o + d * t))
+            }
+        };
+        le * w
     }
 
     /// Radiance from the dome and distant cones along an escaping direction `d`, MIS-weighted

@@ -63,7 +63,7 @@ const SOBOL_DIRECTIONS: [[u32; 32]; 2] = {
 /// numbers selected by byte `b` at byte position `k` of the index. The scrambled index is a full 32-bit
 /// value, so the bit-serial loop ran 32 iterations per sample and the sampler was half of the render
 /// time (perf, tractor example); four lookups replace it.
-static SOBOL1_BYTE_TABLES: [[u32; 256]; 4] = {
+pub(crate) static SOBOL1_BYTE_TABLES: [[u32; 256]; 4] = {
     let mut tables = [[0u32; 256]; 4];
     let mut k = 0;
     while k < 4 {
@@ -86,7 +86,7 @@ static SOBOL1_BYTE_TABLES: [[u32; 256]; 4] = {
 };
 
 #[inline]
-fn sobol(index: u32, dimension: usize) -> u32 {
+pub(crate) fn sobol(index: u32, dimension: usize) -> u32 {
     if dimension == 0 {
         return index.reverse_bits();
     }
@@ -143,12 +143,12 @@ fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
 
 /// Nested uniform (Owen) scrambling of a 32-bit fixed-point value.
 #[inline]
-fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+pub(crate) fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
     laine_karras_permutation(x.reverse_bits(), seed).reverse_bits()
 }
 
 #[inline]
-fn to_unit_float(x: u32) -> f32 {
+pub(crate) fn to_unit_float(x: u32) -> f32 {
     // 24 significant bits: exactly representable, so the result is < 1.
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }

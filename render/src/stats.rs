@@ -43,6 +43,36 @@ pub struct Summary {
     pub integrator: String,
     /// Wavefront CPU-seconds per stage (intersection, shading, sort/queue overhead; zero for scalar).
     pub stages: crate::wavefront::StageSeconds,
+    /// Material programs evaluated at path vertices.
+    pub shader_evaluations: u64,
+    /// Million shader evaluations per second of render time.
+    pub mshaders_per_second: f64,
+    /// CPU seconds per phase, both integrators (only with `--stats`).
+    pub phases: PhaseSeconds,
+    /// The phases as percentages of their sum (only with `--stats`).
+    pub phase_percent: PhaseSeconds,
+    /// Wavefront: mean fraction of the 8 lanes the BSDF and throughput kernels ran full, in percent.
+    pub bsdf_lane_utilisation: f64,
+    /// Wavefront: mean fraction of the 8 lanes of the light (MIS) kernel holding a light sample, in
+    /// percent.
+    pub light_lane_utilisation: f64,
+}
+
+impl Summary {
+    fn percent(p: &PhaseSeconds) -> PhaseSeconds {
+        let total = p.total();
+        if total <= 0.0 {
+            return PhaseSeconds::default();
+        }
+        let f = |x: f64| 100.0 * x / total;
+        PhaseSeconds {
+            intersect: f(p.intersect),
+            shading: f(p.shading),
+            texturing: f(p.texturing),
+            integration: f(p.integration),
+            overhead: f(p.overhead),
+        }
+    }
 }
 
 impl Summary {
@@ -65,6 +95,18 @@ impl Summary {
             texture_bytes_total: stats.texture_bytes_total,
             texture_bytes_touched: stats.texture_bytes_touched,
             stages: stats.stages,
+            shader_evaluations: stats.shader_evaluations,
+            mshaders_per_second: stats.shader_evaluations as f64 / secs / 1e6,
+            phases: stats.phases,
+            phase_percent: Self::percent(&stats.phases),
+            bsdf_lane_utilisation: lane_percent(
+                stats.counters.bsdf_lanes_active,
+                stats.counters.bsdf_lane_groups,
+            ),
+            light_lane_utilisation: lane_percent(
+                stats.counters.light_lanes_active,
+                stats.counters.bsdf_lane_groups,
+            ),
             ..Summary::default()
         }
     }
@@ -73,8 +115,9 @@ impl Summary {
     pub fn to_text(&self) -> String {
         format!(
             "{}x{} @ {} spp on {} threads\n\
-             rays: {} ({} camera, {} bounce, {} shadow), {:.2} Mrays/s, {:.3} Msamples/s\n\
-             time: load {:.3} s, render {:.3} s, write {:.3} s{}{}{}",
+             rays: {} ({} camera, {} bounce, {} shadow), {:.2} Mrays/s, {:.3} Msamples/s, \
+             {:.3} M shader evaluations/s\n\
+             time: load {:.3} s, render {:.3} s, write {:.3} s{}{}{}{}",
             self.width,
             self.height,
             self.spp,
@@ -85,6 +128,7 @@ impl Summary {
             self.shadow_rays,
             self.mrays_per_second,
             self.msamples_per_second,
+            self.mshaders_per_second,
             self.load_seconds,
             self.render_seconds,
             self.write_seconds,
@@ -123,11 +167,203 @@ impl Summary {
                     String::new()
                 }
             },
+            {
+                let p = &self.phase_percent;
+                if self.phases.total() > 0.0 {
+                    format!(
+                        "\nphases (% of {:.3} CPU s): intersection {:.1}, shading {:.1}, texturing {:.1}, \
+                         integration {:.1}, overhead (camera, queues, sort, transpose, film) {:.1}{}",
+                        self.phases.total(),
+                        p.intersect,
+                        p.shading,
+                        p.texturing,
+                        p.integration,
+                        p.overhead,
+                        if self.bsdf_lane_utilisation > 0.0 {
+                            format!(
+                                "\nSIMD lane utilisation: BSDF {:.1}%, light {:.1}%",
+                                self.bsdf_lane_utilisation, self.light_lane_utilisation
+                            )
+                        } else {
+                            String::new()
+                        }
+                    )
+                } else {
+                    String::new()
+                }
+            },
             if self.nonfinite_samples > 0 {
                 format!("\nwarning: {} NaN/inf samples discarded", self.nonfinite_samples)
             } else {
                 String::new()
             }
         )
+    }
+}
+
+/// The phases of path tracing both integrators time alike (`--stats`, MoonRay's Table 2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// BVH queries: closest hits (with the wavefront's sort-key surface) and shadow rays.
+    Intersect,
+    /// Surface reconstruction and material programs without texture reads.
+    Shading,
+    /// Material programs that read textures (the whole program: its texture reads dominate it).
+    Texturing,
+    /// Emission, light sampling, BSDF evaluation and sampling, MIS, Russian roulette, the sampler.
+    Integration,
+    /// Everything else: camera rays, accumulation, and the wavefront's queues, sorting and
+    /// AoS → SoA transposition.
+    Overhead,
+}
+
+/// CPU seconds per [`Phase`], summed over threads.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct PhaseSeconds {
+    /// [`Phase::Intersect`].
+    pub intersect: f64,
+    /// [`Phase::Shading`].
+    pub shading: f64,
+    /// [`Phase::Texturing`].
+    pub texturing: f64,
+    /// [`Phase::Integration`].
+    pub integration: f64,
+    /// [`Phase::Overhead`].
+    pub overhead: f64,
+}
+
+impl PhaseSeconds {
+    /// Adds `other` into `self`.
+    pub fn add(&mut self, other: &PhaseSeconds) {
+        self.intersect += other.intersect;
+        self.shading += other.shading;
+        self.texturing += other.texturing;
+        self.integration += other.integration;
+        self.overhead += other.overhead;
+    }
+    /// The sum over phases.
+    pub fn total(&self) -> f64 {
+        self.intersect + self.shading + self.texturing + self.integration + self.overhead
+    }
+    fn slot(&mut self, phase: Phase) -> &mut f64 {
+        match phase {
+            Phase::Intersect => &mut self.intersect,
+            Phase::Shading => &mut self.shading,
+            Phase::Texturing => &mut self.texturing,
+            Phase::Integration => &mut self.integration,
+            Phase::Overhead => &mut self.overhead,
+        }
+    }
+}
+
+/// A lap timer over [`Phase`]s: each [`PhaseClock::lap`] charges the time since the previous lap to a
+/// phase. Disabled (the default outside `--stats`), a lap is one predictable branch: timing every path
+/// vertex costs a few percent, so speed is measured without it and the breakdown with it.
+#[derive(Clone, Copy, Debug)]
+pub struct PhaseClock {
+    enabled: bool,
+    last: std::time::Instant,
+    /// Time charged so far.
+    pub seconds: PhaseSeconds,
+    /// Material programs evaluated at path vertices.
+    pub shader_evaluations: u64,
+}
+
+impl PhaseClock {
+    /// A clock that times only if `enabled`.
+    pub fn new(enabled: bool) -> Self {
+        PhaseClock {
+            enabled,
+            last: std::time::Instant::now(),
+            seconds: PhaseSeconds::default(),
+            shader_evaluations: 0,
+        }
+    }
+    /// Whether laps are timed.
+    #[inline]
+    pub fn enabled(&self) -> bool {
+        self.enabled
+    }
+    /// Charges the time since the previous lap to `phase`.
+    #[inline]
+    pub fn lap(&mut self, phase: Phase) {
+        if self.enabled {
+            let now = std::time::Instant::now();
+            *self.seconds.slot(phase) += (now - self.last).as_secs_f64();
+            self.last = now;
+        }
+    }
+    /// Adds `other`'s time and counts into `self`.
+    pub fn merge(&mut self, other: &PhaseClock) {
+        self.seconds.add(&other.seconds);
+        self.shader_evaluations += other.shader_evaluations;
+    }
+}
+
+/// Whether `material`'s program reads a texture (its evaluation counts as [`Phase::Texturing`]).
+pub fn reads_textures(view: &blob::SceneView, material: u32) -> bool {
+    view.materials.get(material as usize).is_some_and(|m| {
+        // In range: validated by `SceneView::parse`.
+        let program = &view.shader_ops[m.program_start as usize..][..m.program_len as usize];
+        program.iter().any(|op| op.kind == blob::op_kind::TEXTURE)
+    })
+}
+
+/// `100 · active / (8 · groups)`, 0 without groups.
+fn lane_percent(active: u64, groups: u64) -> f64 {
+    if groups == 0 {
+        0.0
+    } else {
+        100.0 * active as f64 / (8 * groups) as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn laps_charge_elapsed_time_to_their_phase() {
+        let mut clock = PhaseClock::new(true);
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        clock.lap(Phase::Texturing);
+        clock.lap(Phase::Intersect);
+        let s = clock.seconds;
+        assert!(s.texturing >= 0.019 && s.texturing < 1.0, "{s:?}");
+        assert!(s.intersect < 0.005 && s.shading == 0.0 && s.overhead == 0.0, "{s:?}");
+        let mut off = PhaseClock::new(false);
+        off.lap(Phase::Shading);
+        assert_eq!(off.seconds.total(), 0.0);
+        off.merge(&clock);
+        assert_eq!(off.seconds, clock.seconds);
+    }
+
+    #[test]
+    fn summary_reports_percentages_and_lane_use() {
+        let stats = RenderStats {
+            seconds: 2.0,
+            shader_evaluations: 4_000_000,
+            phases: PhaseSeconds {
+                intersect: 1.0,
+                shading: 0.5,
+                texturing: 0.25,
+                integration: 0.25,
+                overhead: 0.0,
+            },
+            counters: crate::wavefront::Counters {
+                bsdf_lane_groups: 10,
+                bsdf_lanes_active: 60,
+                light_lanes_active: 40,
+            },
+            ..RenderStats::default()
+        };
+        let s = Summary::from_render(&stats, 4, 4, 1);
+        assert_eq!(s.mshaders_per_second, 2.0);
+        assert_eq!(s.phase_percent.intersect, 50.0);
+        assert_eq!(s.phase_percent.texturing, 12.5);
+        assert_eq!(s.bsdf_lane_utilisation, 75.0);
+        assert_eq!(s.light_lane_utilisation, 50.0);
+        assert!(s.to_text().contains("intersection 50.0"), "{}", s.to_text());
+        assert!(s.to_text().contains("BSDF 75.0%"), "{}", s.to_text());
     }
 }

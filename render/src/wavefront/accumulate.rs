@@ -52,6 +52,7 @@ pub(super) fn finish(w: &mut Worker, spp: u32, rays: RayCounts) -> TileResult {
         depth: Vec::with_capacity(n),
         rays,
         nonfinite: 0,
+        clock: None,
     };
     let inv = 1.0 / spp as f32;
     for p in &w.pixels {

@@ -1,54 +1,136 @@
 //! Stage 4: shading. Reads the sorted shade queue (one segment per material) and the hit side table;
-//! per hit: stochastic transparency, the material program, the BSDF, the first-hit AOVs, emission at the
-//! hit, one light sample (a [`NeeCandidate`], weighed eight at a time by [`lanes`] into the occlusion
-//! queue) and one BSDF sample (a continuation ray into the next ray queue). Russian roulette and the
-//! depth limit end paths here.
+//! writes the occlusion queue, the shadow-ray side table and the next ray queue.
+//!
+//! The queue is shaded in chunks of [`CHUNK`] hits, each in two phases:
+//! 0. eight paths at a time: every random number of the paths' vertices ([`sampler_lanes`]);
+//! 1. per hit (scalar, material by material): stochastic transparency, the material program, the BSDF,
+//!    the first-hit AOVs, emission at the hit, the light sample, and the path's random numbers, into an
+//!    AoS [`ScatterPoint`] (the depth limit ends paths here);
+//! 2. eight points at a time, transposed to AoSoA lanes: the BSDF towards the light
+//!    ([`bsdf_lanes::eval_lanes`]), the MIS weight ([`lanes::weigh_lanes`], kept samples enter the
+//!    occlusion queue), the BSDF sample ([`bsdf_lanes::sample_lanes`]) and the throughput update with
+//!    Russian roulette ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
+//!
+//! A chunk's scatter points (~200 bytes each) stay in L2 between the phases: MoonRay's AoS → SoA
+//! conversion "in cache-sized chunks".
 
-use super::lanes::{self, NeeCandidate};
-use super::{sort, Context, Worker};
+use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, Lanes3, SampleInputs, SampleLanes};
+use super::lanes::{self, NeeLanes, NeeOut, LANES};
+use super::roulette::{self, RouletteLanes, RouletteOut};
+use super::sampler_lanes::{self, KeyLanes, DIMS};
+use super::{sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
 use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
-use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
+use crate::sampler::{dim, hash_combine, hash_u32, SampleKey};
 use crate::scene::Scene;
+use crate::stats::Phase;
 use glam::Vec3;
 use texture::Touch;
 
-/// Shades every queued hit, material by material.
+/// Hits per shading chunk (phase 1 then phase 2).
+pub const CHUNK: usize = 256;
+
+/// A shaded hit waiting for the lane kernels: its BSDF, the light sample and the random numbers.
+#[derive(Clone, Copy, Debug)]
+pub struct ScatterPoint {
+    /// Path index.
+    pub index: u32,
+    /// The BSDF at the hit.
+    pub bsdf: Bsdf,
+    /// Direction towards the viewer.
+    pub wo: Vec3,
+    /// Hit point.
+    pub p: Vec3,
+    /// Cone width at the hit.
+    pub footprint: f32,
+    /// Lobe choice.
+    pub u_lobe: f32,
+    /// Direction sample.
+    pub u_bsdf: [f32; 2],
+    /// Russian roulette sample.
+    pub u_rr: f32,
+    /// A light sample exists (the fields below are valid).
+    pub has_light: bool,
+    /// Direction to the light.
+    pub light_wi: Vec3,
+    /// Radiance from the light sample.
+    pub light_li: Vec3,
+    /// Light pdf.
+    pub light_pdf: f32,
+    /// Delta light.
+    pub light_delta: bool,
+    /// Shadow ray origin.
+    pub shadow_origin: Vec3,
+    /// Shadow ray extent.
+    pub shadow_tmax: f32,
+    /// Shadow ray pass-through seed.
+    pub shadow_seed: u32,
+}
+
+/// Shades every queued hit, in chunks.
 pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
     w.next_rays.clear();
-    w.nee.clear();
     w.occlusion.clear();
-    let segments = w.material_starts.len() - 1;
-    for m in 0..segments {
-        let (a, b) = (w.material_starts[m] as usize, w.material_starts[m + 1] as usize);
-        for k in a..b {
-            shade_one(ctx, w, sort::index(w.shade[k]), rays);
+    let n = w.shade.len();
+    let mut start = 0;
+    while start < n {
+        let end = (start + CHUNK).min(n);
+        draw(ctx, w, start, end);
+        w.clock.lap(Phase::Integration);
+        w.scatter.clear();
+        for (pos, k) in (start..end).enumerate() {
+            prepare(ctx, w, sort::index(w.shade[k]), pos, rays);
         }
+        scatter(w, rays);
+        start = end;
     }
-    let Worker { nee, shadow, occlusion, .. } = w;
-    lanes::weigh_all(nee, |c, contribution| {
-        shadow[c.index as usize] =
-            super::ShadowRay { origin: c.origin, dir: c.dir, tmax: c.tmax, contribution, seed: c.seed };
-        occlusion.push(c.index);
-    });
     rays.shadow += w.occlusion.len() as u64;
 }
 
-fn shade_one<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, rays: &mut RayCounts) {
+/// Phase 0: the random numbers of every queued path's vertex, eight paths at a time.
+fn draw<T>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
+    let seed_hash = hash_u32(ctx.options.seed);
+    let mut keys = KeyLanes::default();
+    w.randoms.clear();
+    for group in w.shade[start..end].chunks(LANES) {
+        for (k, &e) in group.iter().enumerate() {
+            let st = &w.states[sort::index(e) as usize];
+            (keys.pixel[k], keys.sample[k], keys.vertex[k]) = (st.pixel, st.sample, st.vertex);
+        }
+        let mut out = [[0.0; LANES]; DIMS];
+        sampler_lanes::vertex_lanes(seed_hash, &keys, &mut out);
+        w.randoms.push(out);
+    }
+}
+
+/// Phase 1 for one hit, the `pos`-th of its chunk.
+fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usize, rays: &mut RayCounts) {
     let scene: &Scene = ctx.scene;
     let (max_depth, filter, touch) = (ctx.settings.max_depth, ctx.settings.filter, ctx.touch);
     let hit = w.hits[i as usize];
     let st = &mut w.states[i as usize];
     let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed };
+    let r = |d: u32| w.randoms[pos / LANES][d as usize][pos % LANES];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
-    let Some(mut s) = scene.surface(&hit, wo, footprint) else { return };
+    let slot = if ctx.textured { w.surface_slot[i as usize] } else { u32::MAX };
+    let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
+    let Some(mut s) = kept.or_else(|| scene.surface(&hit, wo, footprint)) else { return };
+    w.clock.lap(Phase::Shading);
     let inputs = scene.shade(&s, filter, touch);
+    w.clock.shader_evaluations += 1;
+    if w.clock.enabled() {
+        w.clock.lap(if w.textured_materials[s.material as usize] {
+            Phase::Texturing
+        } else {
+            Phase::Shading
+        });
+    }
 
     let opacity = inputs.effective_opacity();
-    if opacity < 1.0 && sample_1d(key, st.vertex, dim::OPACITY) >= opacity {
+    if opacity < 1.0 && r(dim::OPACITY) >= opacity {
         st.vertex += 1;
         if st.vertex > max_depth + MAX_NULL_EVENTS {
             return;
@@ -80,15 +162,32 @@ fn shade_one<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, rays: &
         return;
     }
 
-    // Next-event estimation: the candidate; weighing and the shadow ray follow in batches.
     let vertex = st.vertex;
-    let u_select = sample_1d(key, vertex, dim::LIGHT_SELECT);
-    let u_light = sample_2d(key, vertex, dim::LIGHT_UV);
+    let mut point = ScatterPoint {
+        index: i,
+        bsdf,
+        wo,
+        p: s.p,
+        footprint,
+        u_lobe: r(dim::LOBE),
+        u_bsdf: [r(dim::BSDF_UV), r(dim::BSDF_UV + 1)],
+        u_rr: r(dim::RUSSIAN_ROULETTE),
+        has_light: false,
+        light_wi: Vec3::ZERO,
+        light_li: Vec3::ZERO,
+        light_pdf: 0.0,
+        light_delta: false,
+        shadow_origin: Vec3::ZERO,
+        shadow_tmax: 0.0,
+        shadow_seed: 0,
+    };
+    // Next-event estimation: the light sample; the BSDF and the MIS weight follow in lanes.
+    let u_select = r(dim::LIGHT_SELECT);
+    let u_light = [r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1)];
     if let Some(mut ls) = scene.lights.sample(s.p, u_select, u_light) {
         if let Some((tri, [b1, b2])) = ls.emitter {
             ls.li = scene.emission_at(tri, b1, b2, filter, touch);
         }
-        let (f, bsdf_pdf) = bsdf.eval(wo, ls.wi);
         let origin = offset_ray_origin(s.p, s.ng);
         let tmax = if ls.distance.is_finite() {
             (ls.distance - (origin - s.p).length()) * (1.0 - 1e-4)
@@ -96,43 +195,104 @@ fn shade_one<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, rays: &
             f32::INFINITY
         };
         let shadow_seed = hash_combine(hash_combine(hash_u32(key.seed), key.pixel), key.sample);
-        w.nee.push(NeeCandidate {
-            index: i,
-            beta: st.beta,
-            f,
-            li: ls.li,
-            cos: s.ns.dot(ls.wi).abs(),
-            light_pdf: ls.pdf,
-            bsdf_pdf,
-            delta: ls.delta as u32,
-            origin,
-            dir: ls.wi,
-            tmax,
-            seed: shadow_seed ^ vertex,
-        });
+        point.has_light = true;
+        point.light_wi = ls.wi;
+        point.light_li = ls.li;
+        point.light_pdf = ls.pdf;
+        point.light_delta = ls.delta;
+        point.shadow_origin = origin;
+        point.shadow_tmax = tmax;
+        point.shadow_seed = shadow_seed ^ vertex;
     }
+    w.scatter.push(point);
+    w.clock.lap(Phase::Integration);
+}
 
-    // BSDF sampling: the continuation ray.
-    let u_lobe = sample_1d(key, vertex, dim::LOBE);
-    let u_bsdf = sample_2d(key, vertex, dim::BSDF_UV);
-    let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else { return };
-    st.beta *= bs.f * (s.ns.dot(bs.wi).abs() / bs.pdf);
-    st.prev_p = s.p;
-    st.prev_pdf = bs.pdf;
-    st.bounces += 1;
-    if st.bounces >= RR_START_BOUNCE {
-        let survive = st.beta.max_element().min(0.95);
-        if sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) >= survive {
-            return;
+/// Phase 2: the lane kernels over the chunk's scatter points.
+#[allow(clippy::needless_range_loop)]
+fn scatter(w: &mut Worker, rays: &mut RayCounts) {
+    let Worker { scatter, states, shadow, occlusion, next_rays, counters, clock, .. } = w;
+    let (mut bl, mut wi, mut u) = (BsdfLanes::default(), Lanes3::default(), SampleInputs::default());
+    let (mut ev, mut smp) = (EvalLanes::default(), SampleLanes::default());
+    let (mut nl, mut nout) = (NeeLanes::default(), NeeOut::default());
+    let (mut rl, mut rout) = (RouletteLanes::default(), RouletteOut::default());
+    for group in scatter.chunks(LANES) {
+        // Transpose (AoS → AoSoA). Lanes past the group's end keep the previous group's values: their
+        // results are never read.
+        let mut lights = 0;
+        for (k, sp) in group.iter().enumerate() {
+            bl.set(k, &sp.bsdf, sp.wo);
+            let st = &states[sp.index as usize];
+            for c in 0..3 {
+                wi[c][k] = sp.light_wi[c];
+                nl.beta[c][k] = st.beta[c];
+                nl.li[c][k] = sp.light_li[c];
+                rl.beta[c][k] = st.beta[c];
+            }
+            nl.cos[k] = sp.bsdf.frame.n.dot(sp.light_wi).abs();
+            nl.light_pdf[k] = sp.light_pdf;
+            nl.delta[k] = sp.light_delta as u32;
+            u.u_lobe[k] = sp.u_lobe;
+            [u.u0[k], u.u1[k]] = sp.u_bsdf;
+            rl.u[k] = sp.u_rr;
+            rl.play[k] = (st.bounces + 1 >= RR_START_BOUNCE) as u32;
+            lights += sp.has_light as u64;
         }
-        st.beta /= survive;
+        clock.lap(Phase::Overhead);
+        counters.bsdf_lane_groups += 1;
+        counters.bsdf_lanes_active += group.len() as u64;
+        counters.light_lanes_active += lights;
+
+        // Next-event estimation: BSDF towards the light, then the MIS weight.
+        bsdf_lanes::eval_lanes(&bl, &wi, &mut ev);
+        nl.f = ev.f;
+        nl.bsdf_pdf = ev.pdf;
+        lanes::weigh_lanes(&nl, &mut nout);
+        for (k, sp) in group.iter().enumerate() {
+            if sp.has_light && nout.keep[k] != 0 {
+                let contribution =
+                    Vec3::new(nout.contribution[0][k], nout.contribution[1][k], nout.contribution[2][k]);
+                shadow[sp.index as usize] = ShadowRay {
+                    origin: sp.shadow_origin,
+                    dir: sp.light_wi,
+                    tmax: sp.shadow_tmax,
+                    contribution,
+                    seed: sp.shadow_seed,
+                };
+                occlusion.push(sp.index);
+            }
+        }
+
+        // BSDF sampling, throughput and Russian roulette: the continuation rays.
+        bsdf_lanes::sample_lanes(&bl, &u, &mut smp);
+        rl.f = smp.f;
+        rl.pdf = smp.pdf;
+        for k in 0..group.len() {
+            let n = group[k].bsdf.frame.n;
+            rl.cos[k] = n.dot(Vec3::new(smp.wi[0][k], smp.wi[1][k], smp.wi[2][k])).abs();
+        }
+        roulette::continue_lanes(&rl, &mut rout);
+        for (k, sp) in group.iter().enumerate() {
+            if smp.ok[k] == 0 {
+                continue;
+            }
+            let st = &mut states[sp.index as usize];
+            st.beta = Vec3::new(rout.beta[0][k], rout.beta[1][k], rout.beta[2][k]);
+            st.prev_p = sp.p;
+            st.prev_pdf = smp.pdf[k];
+            st.bounces += 1;
+            if rout.alive[k] == 0 {
+                continue;
+            }
+            st.vertex += 1;
+            st.origin = offset_ray_origin(sp.p, sp.bsdf.ng);
+            st.dir = Vec3::new(smp.wi[0][k], smp.wi[1][k], smp.wi[2][k]);
+            st.travelled = 0.0;
+            st.cone_width = sp.footprint;
+            st.cone_spread += CONE_WIDEN_PER_ALPHA * smp.lobe_alpha[k];
+            rays.bounce += 1;
+            next_rays.push(sp.index);
+        }
+        clock.lap(Phase::Integration);
     }
-    st.vertex += 1;
-    st.origin = offset_ray_origin(s.p, s.ng);
-    st.dir = bs.wi;
-    st.travelled = 0.0;
-    st.cone_width = footprint;
-    st.cone_spread += CONE_WIDEN_PER_ALPHA * bs.lobe_alpha;
-    rays.bounce += 1;
-    w.next_rays.push(i);
 }

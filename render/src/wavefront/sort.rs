@@ -16,8 +16,9 @@
 //! (bits 0–24 are [`texture::shading_sort_key`], computed by [`crate::Scene::shading_sort_key`]). This
 //! renderer has no light linking yet, so the light set is always 0 and its byte is never sorted.
 //!
-//! The radix sort is LSD with 8-bit digits and skips every digit in which no key has a bit set, so a
-//! queue of untextured hits (all keys 0) is not sorted at all and a textured one costs 2–4 passes.
+//! The radix sort is LSD with 8-bit digits and skips every digit in which all keys agree, so a queue of
+//! untextured hits (all keys 0) is not sorted at all, and a textured one costs one pass per byte that
+//! varies (usually the Morton bytes and the mip level: 2–3 passes).
 
 use super::Worker;
 use crate::scene::Scene;
@@ -57,10 +58,16 @@ pub fn key(e: ShadeEntry) -> u32 {
     (e >> 32) as u32
 }
 
-/// Stable LSD radix sort of `entries` by key, 8 bits per pass, passes only over the bytes some key
-/// uses. `scratch` must be at least as long as `entries`.
+/// Stable LSD radix sort of `entries` by key, 8 bits per pass, passes only over the bytes in which
+/// some keys differ. `scratch` must be at least as long as `entries`.
 pub fn radix_sort_by_key(entries: &mut [ShadeEntry], scratch: &mut [ShadeEntry]) {
-    let used = entries.iter().fold(0u32, |acc, &e| acc | key(e));
+    // The key bits that differ between entries: a byte where every key agrees needs no pass (all
+    // zero, as in untextured queues, or all equal, as the UDIM tile and mip level often are).
+    if entries.is_empty() {
+        return;
+    }
+    let (or, and) = entries.iter().fold((0u32, u32::MAX), |(o, a), &e| (o | key(e), a & key(e)));
+    let used = or ^ and;
     let scratch = &mut scratch[..entries.len()];
     let mut in_scratch = false;
     for pass in 0..4 {
@@ -140,6 +147,23 @@ mod tests {
             radix_sort_by_key(&mut v, &mut scratch);
             assert_eq!(v, expected, "{bits} key bits");
         }
+    }
+
+    #[test]
+    fn bytes_shared_by_every_key_cost_no_pass_and_keep_order() {
+        // Same UDIM tile and mip (byte 2 and 3 equal everywhere), varying Morton bytes.
+        let mut v: Vec<u64> =
+            (0..500u32).map(|i| entry(0x0312_0000 | (crate::sampler::hash_u32(i) & 0xffff), i)).collect();
+        let mut expected = v.clone();
+        expected.sort_by_key(|&e| key(e));
+        let mut scratch = vec![0; v.len()];
+        radix_sort_by_key(&mut v, &mut scratch);
+        assert_eq!(v, expected);
+        // Every key equal: nothing moves.
+        let mut same: Vec<u64> = (0..100).map(|i| entry(0xdead_beef, i)).collect();
+        let before = same.clone();
+        radix_sort_by_key(&mut same, &mut scratch);
+        assert_eq!(same, before);
     }
 
     #[test]

@@ -1,0 +1,464 @@
+//! The UsdPreviewSurface BSDF ([`crate::bsdf::Bsdf`]) evaluated and sampled eight shading points at a
+//! time, in AoSoA form (`[f32; 8]` columns). The scalar reference is [`Bsdf::eval`] and
+//! [`Bsdf::sample`] themselves: the lanes perform the same IEEE operations in the same order (glam's
+//! `dot` is `(x·x' + y·y') + z·z'`, `normalize` multiplies by `1 / length`, no FMA contraction happens
+//! without fast-math), and every early return of the scalar code becomes a lane mask, so each lane
+//! equals the scalar result bit for bit (the tests check it on random inputs, NaN and infinities
+//! included).
+//!
+//! The kernels are straight-line per lane (selects, no branches) in three loops over the lanes: before
+//! the trigonometry, the `cos`/`sin` calls (libm, one lane at a time: a vector polynomial would not
+//! round like `cosf`), and after. LLVM vectorises the first and last loops to 8-wide AVX2 under
+//! [`multiversion`] (chosen at run time, generic fallback elsewhere).
+
+use super::lanes::LANES;
+use crate::bsdf::Bsdf;
+use glam::Vec3;
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
+
+/// Eight lanes of one scalar.
+pub type Lanes = [f32; LANES];
+/// Eight lanes of a 3-vector, one column per component.
+pub type Lanes3 = [Lanes; 3];
+
+const CLEARCOAT_F0: f32 = 0.04;
+
+/// Eight BSDFs and their outgoing directions, transposed.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct BsdfLanes {
+    /// Shading frame tangent.
+    pub t: Lanes3,
+    /// Shading frame bitangent.
+    pub b: Lanes3,
+    /// Shading normal.
+    pub n: Lanes3,
+    /// Geometric normal on the side of `wo`.
+    pub ng: Lanes3,
+    /// Diffuse colour.
+    pub diffuse: Lanes3,
+    /// Specular F0.
+    pub f0: Lanes3,
+    /// GGX α of the specular lobe.
+    pub alpha: Lanes,
+    /// Clearcoat weight.
+    pub clearcoat: Lanes,
+    /// GGX α of the clearcoat.
+    pub clearcoat_alpha: Lanes,
+    /// World-space direction towards the viewer.
+    pub wo: Lanes3,
+}
+
+impl BsdfLanes {
+    /// Writes `bsdf` seen from `wo` into lane `k`.
+    #[inline]
+    pub fn set(&mut self, k: usize, bsdf: &Bsdf, wo: Vec3) {
+        let put = |dst: &mut Lanes3, v: Vec3| {
+            dst[0][k] = v.x;
+            dst[1][k] = v.y;
+            dst[2][k] = v.z;
+        };
+        put(&mut self.t, bsdf.frame.t);
+        put(&mut self.b, bsdf.frame.b);
+        put(&mut self.n, bsdf.frame.n);
+        put(&mut self.ng, bsdf.ng);
+        put(&mut self.diffuse, bsdf.diffuse);
+        put(&mut self.f0, bsdf.f0);
+        put(&mut self.wo, wo);
+        self.alpha[k] = bsdf.alpha;
+        self.clearcoat[k] = bsdf.clearcoat;
+        self.clearcoat_alpha[k] = bsdf.clearcoat_alpha;
+    }
+}
+
+/// Values and pdfs of eight evaluations.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct EvalLanes {
+    /// BSDF value (no cosine).
+    pub f: Lanes3,
+    /// Combined pdf.
+    pub pdf: Lanes,
+}
+
+/// Eight BSDF samples; lanes with `ok == 0` were absorbed (the scalar `sample` returned `None`).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct SampleLanes {
+    /// World-space incident direction.
+    pub wi: Lanes3,
+    /// BSDF value.
+    pub f: Lanes3,
+    /// Combined pdf.
+    pub pdf: Lanes,
+    /// α of the sampled lobe.
+    pub lobe_alpha: Lanes,
+    /// 1 where the sample exists.
+    pub ok: [u32; LANES],
+}
+
+/// The random numbers of eight samples.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct SampleInputs {
+    /// Lobe choice.
+    pub u_lobe: Lanes,
+    /// First direction coordinate.
+    pub u0: Lanes,
+    /// Second direction coordinate.
+    pub u1: Lanes,
+}
+
+/// A 3-vector of one lane, with glam's operation order.
+#[derive(Clone, Copy)]
+struct V {
+    x: f32,
+    y: f32,
+    z: f32,
+}
+
+impl V {
+    #[inline(always)]
+    fn at(c: &Lanes3, k: usize) -> V {
+        V { x: c[0][k], y: c[1][k], z: c[2][k] }
+    }
+    #[inline(always)]
+    fn dot(self, o: V) -> f32 {
+        (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
+    }
+    #[inline(always)]
+    fn scale(self, s: f32) -> V {
+        V { x: self.x * s, y: self.y * s, z: self.z * s }
+    }
+    #[inline(always)]
+    fn add(self, o: V) -> V {
+        V { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
+    }
+    #[inline(always)]
+    fn sub(self, o: V) -> V {
+        V { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
+    }
+    #[inline(always)]
+    fn mul(self, o: V) -> V {
+        V { x: self.x * o.x, y: self.y * o.y, z: self.z * o.z }
+    }
+    #[inline(always)]
+    fn normalize(self) -> V {
+        self.scale(1.0 / self.dot(self).sqrt())
+    }
+    #[inline(always)]
+    fn select(c: bool, a: V, b: V) -> V {
+        V { x: if c { a.x } else { b.x }, y: if c { a.y } else { b.y }, z: if c { a.z } else { b.z } }
+    }
+    #[inline(always)]
+    fn store(self, c: &mut Lanes3, k: usize) {
+        c[0][k] = self.x;
+        c[1][k] = self.y;
+        c[2][k] = self.z;
+    }
+}
+
+#[inline(always)]
+fn schlick(f0: V, cos: f32) -> V {
+    let m = (1.0 - cos).clamp(0.0, 1.0);
+    let m5 = (m * m) * (m * m) * m;
+    let f90 = (50.0 * 0.33 * (f0.x + f0.y + f0.z)).clamp(0.0, 1.0);
+    f0.add((V { x: f90, y: f90, z: f90 }.sub(f0)).scale(m5))
+}
+
+#[inline(always)]
+fn schlick_scalar(f0: f32, cos: f32) -> f32 {
+    let m = (1.0 - cos).clamp(0.0, 1.0);
+    f0 + (1.0 - f0) * (m * m) * (m * m) * m
+}
+
+#[inline(always)]
+fn luminance(c: V) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+#[inline(always)]
+fn ggx_d(hz: f32, alpha: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let c2 = hz * hz;
+    let d = c2 * (a2 - 1.0) + 1.0;
+    a2 / (PI * d * d)
+}
+
+#[inline(always)]
+fn ggx_lambda(wz: f32, alpha: f32) -> f32 {
+    let c2 = wz * wz;
+    let tan2 = ((1.0 - c2) / c2).max(0.0);
+    let l = 0.5 * ((1.0 + alpha * alpha * tan2).sqrt() - 1.0);
+    if c2 <= 0.0 {
+        f32::INFINITY
+    } else {
+        l
+    }
+}
+
+#[inline(always)]
+fn ggx_g2(woz: f32, wiz: f32, alpha: f32) -> f32 {
+    1.0 / (1.0 + ggx_lambda(woz, alpha) + ggx_lambda(wiz, alpha))
+}
+
+#[inline(always)]
+fn ggx_pdf(woz: f32, hz: f32, alpha: f32) -> f32 {
+    let g1 = 1.0 / (1.0 + ggx_lambda(woz, alpha));
+    g1 * ggx_d(hz, alpha) / (4.0 * woz)
+}
+
+/// One lane's BSDF parameters.
+#[derive(Clone, Copy)]
+struct P {
+    diffuse: V,
+    f0: V,
+    alpha: f32,
+    clearcoat: f32,
+    clearcoat_alpha: f32,
+}
+
+impl P {
+    #[inline(always)]
+    fn at(l: &BsdfLanes, k: usize) -> P {
+        P {
+            diffuse: V::at(&l.diffuse, k),
+            f0: V::at(&l.f0, k),
+            alpha: l.alpha[k],
+            clearcoat: l.clearcoat[k],
+            clearcoat_alpha: l.clearcoat_alpha[k],
+        }
+    }
+
+    /// `Bsdf::lobe_probabilities`.
+    #[inline(always)]
+    fn lobe_probabilities(&self, woz: f32) -> [f32; 3] {
+        let coat_f = self.clearcoat * schlick_scalar(CLEARCOAT_F0, woz);
+        let base = 1.0 - coat_f;
+        let spec_f = schlick(self.f0, woz);
+        let one = V { x: 1.0, y: 1.0, z: 1.0 };
+        let w_d = base * luminance(self.diffuse.mul(one.sub(spec_f)));
+        let w_s = base * luminance(spec_f);
+        let total = w_d + w_s + coat_f;
+        let probs = [w_d / total, w_s / total, coat_f / total];
+        if total <= 0.0 {
+            [0.0; 3]
+        } else {
+            probs
+        }
+    }
+
+    /// `Bsdf::eval_local` with the lobe probabilities already known.
+    #[inline(always)]
+    fn eval_local(&self, probs: [f32; 3], wo: V, wi: V) -> (V, f32) {
+        let h = wo.add(wi).normalize();
+        let wo_h = wo.dot(h).max(0.0);
+        let denom = 4.0 * wo.z * wi.z;
+        let coat_view = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo.z);
+        let spec_fresnel_view = schlick(self.f0, wo.z);
+        let one = V { x: 1.0, y: 1.0, z: 1.0 };
+        let diffuse = self.diffuse.mul(one.sub(spec_fresnel_view)).scale(FRAC_1_PI);
+        let specular =
+            schlick(self.f0, wo_h).scale(ggx_d(h.z, self.alpha) * ggx_g2(wo.z, wi.z, self.alpha) / denom);
+        let f = diffuse.add(specular).scale(1.0 - coat_view);
+        let pdf = probs[0] * wi.z * FRAC_1_PI + probs[1] * ggx_pdf(wo.z, h.z, self.alpha);
+        let a = self.clearcoat_alpha;
+        let coat =
+            self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo_h) * ggx_d(h.z, a) * ggx_g2(wo.z, wi.z, a)
+                / denom;
+        let coat_pdf = pdf + probs[2] * ggx_pdf(wo.z, h.z, a);
+        let has_coat = self.clearcoat > 0.0;
+        let f = V::select(has_coat, f.add(V { x: coat, y: coat, z: coat }), f);
+        let pdf = if has_coat { coat_pdf } else { pdf };
+        let below = wo.z <= 0.0 || wi.z <= 0.0;
+        let zero = V { x: 0.0, y: 0.0, z: 0.0 };
+        (V::select(below, zero, f), if below { 0.0 } else { pdf })
+    }
+}
+
+#[inline(always)]
+fn to_local(l: &BsdfLanes, k: usize, v: V) -> V {
+    V { x: v.dot(V::at(&l.t, k)), y: v.dot(V::at(&l.b, k)), z: v.dot(V::at(&l.n, k)) }
+}
+
+/// [`Bsdf::eval`] on eight lanes: `wi` towards the light, per lane.
+#[allow(clippy::needless_range_loop)]
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
+pub fn eval_lanes(l: &BsdfLanes, wi: &Lanes3, out: &mut EvalLanes) {
+    for k in 0..LANES {
+        let p = P::at(l, k);
+        let (wo_w, wi_w) = (V::at(&l.wo, k), V::at(wi, k));
+        let wo = to_local(l, k, wo_w);
+        let wi_l = to_local(l, k, wi_w);
+        let probs = p.lobe_probabilities(wo.z);
+        let (f, pdf) = p.eval_local(probs, wo, wi_l);
+        let below_ng = wi_w.dot(V::at(&l.ng, k)) <= 0.0;
+        V::select(below_ng, V { x: 0.0, y: 0.0, z: 0.0 }, f).store(&mut out.f, k);
+        out.pdf[k] = if below_ng { 0.0 } else { pdf };
+    }
+}
+
+/// [`Bsdf::sample`] on eight lanes.
+// `!(a <= b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
+pub fn sample_lanes(l: &BsdfLanes, u: &SampleInputs, out: &mut SampleLanes) {
+    // Before the trigonometry: the lobe, and the angle whose cosine and sine the lobe needs (the
+    // concentric disk's θ for the diffuse lobe, the spherical cap's φ for GGX).
+    let mut angle = [0.0f32; LANES];
+    let mut diffuse = [false; LANES];
+    for k in 0..LANES {
+        let p = P::at(l, k);
+        let wo = to_local(l, k, V::at(&l.wo, k));
+        let [p_d, _, _] = p.lobe_probabilities(wo.z);
+        let (a, b) = (2.0 * u.u0[k] - 1.0, 2.0 * u.u1[k] - 1.0);
+        let theta = if a.abs() > b.abs() { FRAC_PI_4 * (b / a) } else { FRAC_PI_2 - FRAC_PI_4 * (a / b) };
+        diffuse[k] = u.u_lobe[k] < p_d;
+        angle[k] = if diffuse[k] { theta } else { TAU * u.u0[k] };
+    }
+    let (mut cos, mut sin) = ([0.0f32; LANES], [0.0f32; LANES]);
+    for k in 0..LANES {
+        cos[k] = angle[k].cos();
+        sin[k] = angle[k].sin();
+    }
+    for k in 0..LANES {
+        let p = P::at(l, k);
+        let wo = to_local(l, k, V::at(&l.wo, k));
+        let probs = p.lobe_probabilities(wo.z);
+        let [p_d, p_s, p_c] = probs;
+        // Diffuse: the concentric disk lifted to the hemisphere.
+        let (a, b) = (2.0 * u.u0[k] - 1.0, 2.0 * u.u1[k] - 1.0);
+        let r = if a.abs() > b.abs() { a } else { b };
+        let centre = a == 0.0 && b == 0.0;
+        let dx = if centre { 0.0 } else { r * cos[k] };
+        let dy = if centre { 0.0 } else { r * sin[k] };
+        let wi_d = V { x: dx, y: dy, z: (1.0 - dx * dx - dy * dy).max(0.0).sqrt() };
+        // GGX visible normals (spherical caps).
+        let alpha = if u.u_lobe[k] < p_d + p_s { p.alpha } else { p.clearcoat_alpha };
+        let wi_std = V { x: wo.x * alpha, y: wo.y * alpha, z: wo.z }.normalize();
+        let z = (1.0 - u.u1[k]) * (1.0 + wi_std.z) - wi_std.z;
+        let sin_theta = (1.0 - z * z).clamp(0.0, 1.0).sqrt();
+        let c = V { x: sin_theta * cos[k], y: sin_theta * sin[k], z };
+        let h_std = c.add(wi_std);
+        let h = V { x: h_std.x * alpha, y: h_std.y * alpha, z: h_std.z }.normalize();
+        let wi_g = h.scale(2.0 * wo.dot(h)).sub(wo);
+        let wi_l = V::select(diffuse[k], wi_d, wi_g);
+        let lobe_alpha = if diffuse[k] { 1.0 } else { alpha };
+        let (t, bt, n) = (V::at(&l.t, k), V::at(&l.b, k), V::at(&l.n, k));
+        let wi = t.scale(wi_l.x).add(bt.scale(wi_l.y)).add(n.scale(wi_l.z)).normalize();
+        let (f, pdf) = p.eval_local(probs, wo, wi_l);
+        let finite = f.x.is_finite() && f.y.is_finite() && f.z.is_finite();
+        let ok = !(wo.z <= 0.0)
+            && !(p_d + p_s + p_c <= 0.0)
+            && !(wi_l.z <= 0.0)
+            && !(wi.dot(V::at(&l.ng, k)) <= 0.0)
+            && pdf > 0.0
+            && finite;
+        wi.store(&mut out.wi, k);
+        f.store(&mut out.f, k);
+        out.pdf[k] = pdf;
+        out.lobe_alpha[k] = lobe_alpha;
+        out.ok[k] = ok as u32;
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::needless_range_loop)] // lane-indexed comparisons read clearest as index loops
+mod tests {
+    use super::*;
+    use crate::shading::ShadingInputs;
+
+    struct Rng(u32);
+    impl Rng {
+        fn f(&mut self) -> f32 {
+            self.0 = crate::sampler::hash_u32(self.0);
+            (self.0 >> 8) as f32 / 16_777_216.0
+        }
+        fn dir(&mut self) -> Vec3 {
+            let z = 2.0 * self.f() - 1.0;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = TAU * self.f();
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        }
+    }
+
+    fn random_bsdf(rng: &mut Rng) -> (Bsdf, Vec3) {
+        let pick = |rng: &mut Rng, special: bool| {
+            if special && rng.f() < 0.1 {
+                [0.0, 1.0, 0.0, 1.0, f32::NAN, 2.0][(rng.f() * 6.0) as usize % 6]
+            } else {
+                rng.f()
+            }
+        };
+        let inputs = ShadingInputs {
+            diffuse_color: Vec3::new(pick(rng, true), pick(rng, true), pick(rng, true)),
+            emissive_color: Vec3::ZERO,
+            specular_color: Vec3::new(pick(rng, true), pick(rng, false), pick(rng, false)),
+            use_specular_workflow: rng.f() < 0.3,
+            roughness: pick(rng, true),
+            metallic: pick(rng, true),
+            ior: 1.0 + 2.0 * pick(rng, true),
+            opacity: 1.0,
+            opacity_threshold: 0.0,
+            clearcoat: if rng.f() < 0.5 { 0.0 } else { pick(rng, true) },
+            clearcoat_roughness: pick(rng, true),
+            normal: None,
+        };
+        let ng = rng.dir();
+        // Shading normals tilted off the geometric one, sometimes past it.
+        let ns = (ng + rng.dir() * (rng.f() * 1.2)).normalize_or(ng);
+        let wo = if rng.f() < 0.05 { -ng } else { (ng * 0.3 + rng.dir()).normalize_or(ng) };
+        (Bsdf::from_inputs(&inputs, ns, ng), wo)
+    }
+
+    /// Bits, with every NaN one value (IEEE leaves a NaN's sign and payload open).
+    fn bits(v: Vec3) -> [u32; 3] {
+        v.to_array().map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() })
+    }
+
+    #[test]
+    fn lanes_equal_the_scalar_bsdf_bit_for_bit_on_random_inputs() {
+        let mut rng = Rng(7);
+        let (mut evals, mut samples, mut ok) = (0, 0, 0);
+        for _ in 0..2000 {
+            let mut l = BsdfLanes::default();
+            let mut bsdfs = Vec::new();
+            let mut wi = Lanes3::default();
+            let mut u = SampleInputs::default();
+            for k in 0..LANES {
+                let (bsdf, wo) = random_bsdf(&mut rng);
+                l.set(k, &bsdf, wo);
+                let w = if rng.f() < 0.5 { rng.dir() } else { (bsdf.ng + rng.dir()).normalize_or(bsdf.ng) };
+                (wi[0][k], wi[1][k], wi[2][k]) = (w.x, w.y, w.z);
+                u.u_lobe[k] = rng.f();
+                u.u0[k] = if rng.f() < 0.02 { 0.5 } else { rng.f() };
+                u.u1[k] = if rng.f() < 0.02 { 0.5 } else { rng.f() };
+                bsdfs.push((bsdf, wo, w));
+            }
+            let mut e = EvalLanes::default();
+            eval_lanes(&l, &wi, &mut e);
+            let mut s = SampleLanes::default();
+            sample_lanes(&l, &u, &mut s);
+            for (k, (bsdf, wo, w)) in bsdfs.iter().enumerate() {
+                let (f, pdf) = bsdf.eval(*wo, *w);
+                let lane = Vec3::new(e.f[0][k], e.f[1][k], e.f[2][k]);
+                assert_eq!(bits(lane), bits(f), "eval f, lane {k}: {bsdf:?} wo {wo} wi {w}");
+                assert_eq!(bits(Vec3::splat(e.pdf[k])), bits(Vec3::splat(pdf)), "eval pdf, lane {k}");
+                evals += 1;
+                let scalar = bsdf.sample(*wo, u.u_lobe[k], [u.u0[k], u.u1[k]]);
+                assert_eq!(s.ok[k] != 0, scalar.is_some(), "sample exists, lane {k}: {bsdf:?} wo {wo}");
+                if let Some(bs) = scalar {
+                    let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
+                    assert_eq!(bits(at(&s.wi)), bits(bs.wi), "sample wi, lane {k}");
+                    assert_eq!(bits(at(&s.f)), bits(bs.f), "sample f, lane {k}");
+                    assert_eq!(s.pdf[k].to_bits(), bs.pdf.to_bits(), "sample pdf, lane {k}");
+                    assert_eq!(s.lobe_alpha[k].to_bits(), bs.lobe_alpha.to_bits(), "lobe α, lane {k}");
+                    ok += 1;
+                }
+                samples += 1;
+            }
+        }
+        eprintln!("{evals} evaluations, {samples} samples ({ok} not absorbed) equal the scalar BSDF");
+        assert!(ok > samples / 3, "too few live samples to be a test: {ok} of {samples}");
+    }
+}
