@@ -343,7 +343,7 @@ fn bounds(points: &[[f32; 3]]) -> (DVec3, DVec3) {
 fn refined_primvars(
     q: &QueuedSubdivision,
     tess: &Tessellation,
-    vertex: &dyn Fn(&[[f32; 4]]) -> subdiv::Result<Vec<[f32; 4]>>,
+    vertex: &RefineVertexValues,
 ) -> subdiv::Result<Vec<MeshPrimvar>> {
     let mut first_corner = Vec::with_capacity(q.cage.counts.len() + 1);
     first_corner.push(0);
@@ -425,6 +425,9 @@ fn dice(
     }
     Ok(Diced { local, level, edge_rates, triangles_at_max_level, note })
 }
+
+/// Refines one `vec4` per cage point onto a tessellation's vertices.
+type RefineVertexValues<'a> = dyn Fn(&[[f32; 4]]) -> subdiv::Result<Vec<[f32; 4]>> + 'a;
 
 /// A tessellation with its UVs, primvars, level, edge rates and a note for the log.
 type Tessellated = (Tessellation, Vec<Vec2>, Vec<MeshPrimvar>, u32, Vec<u32>, Option<String>);

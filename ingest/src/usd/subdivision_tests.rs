@@ -563,3 +563,34 @@ fn adaptive_tessellation_keeps_corners_creases_holes_seams_and_closes_the_surfac
     }
     assert!(uses.values().all(|&n| n == 2), "an edge of the closed cube is not shared by two triangles");
 }
+
+/// Catmull–Clark refinement is affine-invariant, so a vertex primvar equal to the cage points refines to
+/// the limit points themselves: in both dicing modes every tessellated vertex must carry its own
+/// position as the value (the adaptive path evaluates primvars in separate passes that must line up).
+#[test]
+fn vertex_primvars_refine_like_the_points_in_both_modes() {
+    let colors = points_text(&CUBE_POINTS);
+    let body = cube_prim(
+        "Cube",
+        &CUBE_POINTS,
+        &CUBE_INDICES,
+        &format!("color3f[] primvars:displayColor = [{colors}] (interpolation = \"vertex\")"),
+    );
+    let camera = r#"def Camera "Cam" { double3 xformOp:translate = (0.5, 0.5, 4)
+        uniform token[] xformOpOrder = ["xformOp:translate"] }"#;
+    for options in [SubdivOptions::default(), uniform(), forced(2)] {
+        let scene = load_with(&format!("{body}\n{camera}"), options);
+        let m = mesh(&scene, "/Cube");
+        let p = m.primvars.iter().find(|p| p.name == "displayColor").expect("displayColor stored");
+        assert_eq!(p.layout, crate::scene::PrimvarLayout::PerVertex, "{options:?}");
+        assert_eq!(p.values.len(), m.positions.len(), "{options:?}");
+        let worst = p
+            .values
+            .iter()
+            .zip(&m.positions)
+            .map(|(v, x)| (Vec3::new(v[0], v[1], v[2]) - *x).abs().max_element())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-4, "{options:?}: primvar strays {worst} from the limit point");
+        assert!(m.triangles.len() > 12, "{options:?}: the cube was refined");
+    }
+}
