@@ -20,11 +20,13 @@
 //!
 //! Schema fallback values live in [`fallback`], in one place.
 
+mod crate_check;
 mod curves;
 mod layer_fix;
 mod lux;
 mod material;
 mod mesh;
+mod reader_panic;
 mod resolver;
 mod stage;
 mod subdivision;
@@ -44,6 +46,7 @@ use std::path::Path;
 use glam::{DMat4, DQuat, DVec3};
 
 use crate::scene::{Scene, UpAxis};
+pub use reader_panic::quiet_reader_panics;
 use stage::{Stage, Value};
 
 /// USD schema fallbacks (values used when an attribute is unauthored).
@@ -156,6 +159,9 @@ pub enum UsdErrorKind {
     /// Any other failure reported by the composition engine.
     #[error("{0}")]
     Stage(String),
+    /// The composition engine panicked (a bug in it); the panic's message and place.
+    #[error("the USD reader failed unexpectedly: {0}")]
+    Internal(String),
 }
 
 /// A USD reading error with its location: the layer file, the prim and the attribute where known.
@@ -229,7 +235,14 @@ impl fmt::Display for UsdError {
 impl std::error::Error for UsdError {}
 
 /// Reads the stage rooted at `path` into a world-space [`Scene`].
+///
+/// A panic while reading (a bug in the composition engine) is returned as
+/// [`UsdErrorKind::Internal`] naming the root layer; see [`quiet_reader_panics`].
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
+    reader_panic::catch(&path.display().to_string(), || load_stage(path, options))
+}
+
+fn load_stage(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     let stage = Stage::open(path, options)?;
     let prims = stage.traverse()?;
     // Prim indices compose lazily, so composition errors are complete only after the traversal.
