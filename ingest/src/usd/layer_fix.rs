@@ -357,6 +357,22 @@ fn asset_as_string(raw: &str) -> Option<String> {
     (!inner.contains(['"', '\\', '\n'])).then(|| format!("\"{inner}\""))
 }
 
+/// The first path reference (`<...>`) in `text` that is not a well-formed scene path, as
+/// `line L, column C: <path>: problem`. The crate takes any text between `<` and `>` as a path;
+/// see [`super::path_syntax`] for why that must not reach it.
+pub(crate) fn malformed_path_ref(text: &str) -> Option<String> {
+    tokenize(text).into_iter().filter(|t| matches!(t.kind, Kind::PathRef)).find_map(|t| {
+        // An unterminated `<` runs to the end of the text; the crate reports it.
+        let inner = text[t.span.clone()].strip_prefix('<')?.strip_suffix('>')?;
+        let problem = super::path_syntax::check(inner).err()?;
+        let before = &text[..t.span.start];
+        let line = before.matches('\n').count() + 1;
+        let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+        let shown: String = inner.chars().take(60).collect::<String>().escape_debug().collect();
+        Some(format!("line {line}, column {column}: path <{shown}> is malformed: {problem}"))
+    })
+}
+
 /// Where the crate's parser stops in `text`: `line:column: source line`, if it rejects it.
 pub(crate) fn parse_error_location(text: &str) -> Option<String> {
     let mut parser = openusd::usda::parser::Parser::new(text);
@@ -371,6 +387,16 @@ pub(crate) fn parse_error_location(text: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn malformed_path_references_are_located() {
+        let text = "#usda 1.0\ndef X \"A\" {\n    rel r = </A/B \"q>\n    rel s = </A/B>\n    string t = \"<x y>\"\n}\n";
+        assert_eq!(
+            malformed_path_ref(text).unwrap(),
+            "line 3, column 13: path </A/B \\\"q> is malformed: unexpected ' ' at character 4"
+        );
+        assert_eq!(malformed_path_ref("rel s = </A/B.c:d>\nstring t = \"<x y>\" # <z w>\n"), None);
+    }
 
     #[test]
     fn numbers_gain_their_missing_digits() {

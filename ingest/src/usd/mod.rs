@@ -26,6 +26,7 @@ mod layer_fix;
 mod lux;
 mod material;
 mod mesh;
+mod path_syntax;
 mod reader_panic;
 mod resolver;
 mod stage;

@@ -9,7 +9,7 @@ import os
 from pxr import Usd, UsdGeom, UsdShade, UsdLux, Sdf, Gf, UsdUtils
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-OUT = os.path.join(HERE, "corpus")
+OUT = os.environ.get("FUZZ_CORPUS_OUT", os.path.join(HERE, "corpus"))
 
 
 def scene(path):
@@ -111,6 +111,8 @@ def main():
     arcs.GetRootLayer().Save()
     arcs.GetRootLayer().Export(os.path.join(OUT, "arcs.usdc"))
     UsdUtils.CreateNewUsdzPackage(os.path.join(OUT, "scene.usda"), os.path.join(OUT, "scene.usdz"))
+    # A package holding a crate file, so crate-file mutations reach the reader through a package.
+    UsdUtils.CreateNewUsdzPackage(os.path.join(OUT, "scene.usdc"), os.path.join(OUT, "scene_c.usdz"))
 
 
 if __name__ == "__main__":
