@@ -368,6 +368,16 @@ fn emissive_distribution(data: &blob::SceneData, emission: &[Vec3]) -> Vec<rec::
     entries
 }
 
+/// Largest coordinate (and width) packed. The BVH builders multiply box extents into surface
+/// areas, which overflow `f32` (and then panic on the infinite cost) past about 1e19; a scene that
+/// large is not renderable in `f32` anyway. Found by the layer fuzzer (a mutated width of 3e38).
+const MAX_COORDINATE: f32 = 1e18;
+
+/// `v` is finite and within ±[`MAX_COORDINATE`] (`false` for NaN).
+fn within_range(v: f32) -> bool {
+    v.abs() <= MAX_COORDINATE
+}
+
 fn validate(scene: &Scene) -> Result<(), PackError> {
     let fail = |prim: &str, problem: String| Err(PackError { prim: prim.to_string(), problem });
     for mesh in &scene.meshes {
@@ -387,8 +397,8 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
         if let Some(&m) = mesh.triangle_materials.iter().find(|&&m| m as usize >= scene.materials.len()) {
             return fail(&mesh.path, format!("material index {m} out of range"));
         }
-        if mesh.positions.iter().any(|p| !p.is_finite()) {
-            return fail(&mesh.path, "non-finite point".into());
+        if mesh.positions.iter().any(|p| !within_range(p.abs().max_element())) {
+            return fail(&mesh.path, format!("point beyond ±{MAX_COORDINATE:e} or not finite"));
         }
     }
     for m in &scene.materials {
@@ -403,10 +413,16 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
         if c.material as usize >= scene.materials.len() {
             return fail(&c.path, format!("material index {} out of range", c.material));
         }
-        let finite = c.segments.iter().all(|s| s.p.iter().all(|p| p.is_finite()))
-            && c.spheres.iter().all(|s| s.center.is_finite() && s.radius.is_finite());
-        if !finite {
-            return fail(&c.path, "non-finite curve control point or point".into());
+        let in_range = c.segments.iter().all(|s| s.p.iter().all(|p| within_range(p.abs().max_element())))
+            && c.spheres.iter().all(|s| within_range(s.center.abs().max_element()) && within_range(s.radius));
+        if !in_range {
+            return fail(
+                &c.path,
+                format!("curve control point, point or width beyond ±{MAX_COORDINATE:e} or not finite"),
+            );
+        }
+        if let Some(s) = c.spheres.iter().find(|s| s.radius < 0.0) {
+            return fail(&c.path, format!("point radius {} is negative", s.radius));
         }
     }
     if let Some(c) = scene.default_camera.filter(|&c| c >= scene.cameras.len()) {

@@ -1,0 +1,139 @@
+//! Broken crate files and packages give errors that name the file, the section and the problem,
+//! from the library and from the binary (exit 1, one line, no panic).
+
+#[path = "fuzz_support/mutate.rs"]
+mod mutate;
+
+use ingest::usd::{self, LoadOptions};
+use std::path::{Path, PathBuf};
+
+fn corpus_copy() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/assets/fuzz/corpus");
+    for entry in std::fs::read_dir(corpus).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, dir.path().join(path.file_name().unwrap())).unwrap();
+    }
+    dir
+}
+
+/// Offset of the cube's points in a crate file: (-1,-1,-1), (1,-1,-1), ... after their u64 count.
+fn points_at(bytes: &[u8]) -> usize {
+    let points: Vec<u8> = [-1f32, -1., -1., 1., -1., -1.].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let at = bytes.windows(points.len()).position(|w| w == points).unwrap();
+    assert_eq!(u64::from_le_bytes(bytes[at - 8..at].try_into().unwrap()), 8, "the cube's 8 points");
+    at
+}
+
+/// The count openusd once tried to allocate for (`memory allocation of 6052837899185946628 bytes`).
+const ABSURD: u64 = 6_052_837_899_185_946_628;
+
+fn with_absurd_points(bytes: &mut [u8]) -> usize {
+    let at = points_at(bytes);
+    bytes[at - 8..at].copy_from_slice(&ABSURD.to_le_bytes());
+    at
+}
+
+fn load_error(path: &Path) -> String {
+    match usd::load(path, &LoadOptions::default()) {
+        Ok(_) => panic!("{} loaded", path.display()),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn expected_absurd(at: usize, len: usize) -> String {
+    format!(
+        "FIELDS: value of field 81 (default): array claims 6.1e18 elements of 12 bytes at offset {at}, but only {} bytes follow",
+        len - at
+    )
+}
+
+#[test]
+fn an_absurd_array_count_is_an_error_not_an_abort() {
+    let dir = corpus_copy();
+    let path = dir.path().join("scene.usdc");
+    let mut bytes = std::fs::read(&path).unwrap();
+    let at = with_absurd_points(&mut bytes);
+    std::fs::write(&path, &bytes).unwrap();
+    let e = load_error(&path);
+    let expected = format!("scene.usdc: {}", expected_absurd(at, bytes.len()));
+    assert!(e.ends_with(&expected), "{e}");
+    // Through a sublayer, the error names the layer that asked for it.
+    let e = load_error(&dir.path().join("arcs.usda"));
+    assert!(e.contains("arcs.usda: sublayer @./scene.usdc@ could not be read: "), "{e}");
+    assert!(e.ends_with(&expected), "{e}");
+}
+
+#[test]
+fn a_truncated_crate_file_is_an_error() {
+    let dir = corpus_copy();
+    let path = dir.path().join("scene.usdc");
+    let bytes = std::fs::read(&path).unwrap();
+    std::fs::write(&path, &bytes[..2000]).unwrap();
+    let e = load_error(&path);
+    let toc = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
+    let expected =
+        format!("scene.usdc: TOC: table of contents at offset {toc} outside the 2000-byte file (truncated?)");
+    assert!(e.ends_with(&expected), "{e}");
+}
+
+#[test]
+fn a_crate_file_inside_a_package_is_checked_too() {
+    let dir = corpus_copy();
+    let path = dir.path().join("scene_c.usdz");
+    let mut bytes = std::fs::read(&path).unwrap();
+    let inner = points_at(&bytes) - points_at(&std::fs::read(dir.path().join("scene.usdc")).unwrap());
+    let at = with_absurd_points(&mut bytes) - inner;
+    // With the stored CRC repaired the zip reader hands the entry on; the check stops it.
+    mutate::fix_zip_checksums(&mut bytes);
+    std::fs::write(&path, &bytes).unwrap();
+    let e = load_error(&path);
+    let expected = format!("scene_c.usdz[scene.usdc]: {}", expected_absurd(at, 4274));
+    assert!(e.ends_with(&expected), "{e}");
+}
+
+#[test]
+fn a_package_with_a_cut_central_directory_is_an_error() {
+    let dir = corpus_copy();
+    let path = dir.path().join("scene.usdz");
+    let bytes = std::fs::read(&path).unwrap();
+    let eocd = bytes.windows(4).rposition(|w| w == b"PK\x05\x06").unwrap();
+    let directory = u32::from_le_bytes(bytes[eocd + 16..eocd + 20].try_into().unwrap()) as usize;
+    for cut in [directory + 10, eocd + 4] {
+        std::fs::write(&path, &bytes[..cut]).unwrap();
+        let e = load_error(&path);
+        assert!(e.starts_with(&format!("{}: cannot open stage: ", path.display())), "{e}");
+        assert!(e.contains("Zip archive"), "{e}");
+    }
+    // An end record pointing the central directory past the end of the file.
+    let mut bad = bytes.clone();
+    bad[eocd + 16..eocd + 20].copy_from_slice(&u32::MAX.to_le_bytes());
+    std::fs::write(&path, &bad).unwrap();
+    let e = load_error(&path);
+    assert!(e.contains("Zip archive"), "{e}");
+}
+
+fn ingest_binary(asset: &Path, out: &Path) -> (Option<i32>, String) {
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_ingest"))
+        .arg(asset)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap();
+    (output.status.code(), String::from_utf8_lossy(&output.stderr).into_owned())
+}
+
+#[test]
+fn the_binary_exits_1_with_one_error_line() {
+    let dir = corpus_copy();
+    let path: PathBuf = dir.path().join("scene.usdc");
+    let mut bytes = std::fs::read(&path).unwrap();
+    let at = with_absurd_points(&mut bytes);
+    std::fs::write(&path, &bytes).unwrap();
+    let (code, stderr) = ingest_binary(&path, &dir.path().join("out.blob"));
+    assert_eq!(code, Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("error: cannot ingest "), "{stderr}");
+    assert!(stderr.trim_end().ends_with(&expected_absurd(at, bytes.len())), "{stderr}");
+    assert!(!dir.path().join("out.blob").exists());
+}
