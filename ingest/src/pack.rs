@@ -373,7 +373,8 @@ fn emissive_distribution(data: &blob::SceneData, emission: &[Vec3]) -> Vec<rec::
 /// large is not renderable in `f32` anyway. Found by the layer fuzzer (a mutated width of 3e38).
 const MAX_COORDINATE: f32 = 1e18;
 
-/// `v` is finite and within ±[`MAX_COORDINATE`] (`false` for NaN).
+/// `v` is finite and within ±[`MAX_COORDINATE`] (`false` for NaN; per component, because
+/// `max_element` skips NaN).
 fn within_range(v: f32) -> bool {
     v.abs() <= MAX_COORDINATE
 }
@@ -397,7 +398,7 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
         if let Some(&m) = mesh.triangle_materials.iter().find(|&&m| m as usize >= scene.materials.len()) {
             return fail(&mesh.path, format!("material index {m} out of range"));
         }
-        if mesh.positions.iter().any(|p| !within_range(p.abs().max_element())) {
+        if mesh.positions.iter().any(|p| !p.to_array().into_iter().all(within_range)) {
             return fail(&mesh.path, format!("point beyond ±{MAX_COORDINATE:e} or not finite"));
         }
     }
@@ -413,8 +414,11 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
         if c.material as usize >= scene.materials.len() {
             return fail(&c.path, format!("material index {} out of range", c.material));
         }
-        let in_range = c.segments.iter().all(|s| s.p.iter().all(|p| within_range(p.abs().max_element())))
-            && c.spheres.iter().all(|s| within_range(s.center.abs().max_element()) && within_range(s.radius));
+        let in_range =
+            c.segments.iter().all(|s| s.p.iter().all(|p| p.to_array().into_iter().all(within_range)))
+                && c.spheres
+                    .iter()
+                    .all(|s| s.center.to_array().into_iter().all(within_range) && within_range(s.radius));
         if !in_range {
             return fail(
                 &c.path,
