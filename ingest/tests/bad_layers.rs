@@ -1,8 +1,8 @@
 //! Broken crate files and packages give errors that name the file, the section and the problem,
 //! from the library and from the binary (exit 1, one line, no panic).
 
-#[path = "fuzz_support/mutate.rs"]
-mod mutate;
+#[path = "fuzz_support/zip.rs"]
+mod zip;
 
 use ingest::usd::{self, LoadOptions};
 use std::path::{Path, PathBuf};
@@ -85,7 +85,7 @@ fn a_crate_file_inside_a_package_is_checked_too() {
     let inner = points_at(&bytes) - points_at(&std::fs::read(dir.path().join("scene.usdc")).unwrap());
     let at = with_absurd_points(&mut bytes) - inner;
     // With the stored CRC repaired the zip reader hands the entry on; the check stops it.
-    mutate::fix_zip_checksums(&mut bytes);
+    zip::fix_zip_checksums(&mut bytes);
     std::fs::write(&path, &bytes).unwrap();
     let e = load_error(&path);
     let expected = format!("scene_c.usdz[scene.usdc]: {}", expected_absurd(at, 4274));

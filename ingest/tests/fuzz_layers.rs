@@ -22,9 +22,11 @@
 
 #[path = "fuzz_support/mutate.rs"]
 mod mutate;
+#[path = "fuzz_support/zip.rs"]
+mod zip;
 
 use ingest::usd::{self, LoadOptions, UsdErrorKind};
-use mutate::{apply, fix_zip_checksums, mutation};
+use mutate::{apply, mutation};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -32,6 +34,7 @@ use std::panic::{self, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
+use zip::fix_zip_checksums;
 
 /// Largest single allocation a case may make. Corpus files are under 5 KB; the biggest honest
 /// allocations (scene, BVH, blob at subdivision level 1) stay under a few MiB.
