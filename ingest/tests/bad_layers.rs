@@ -137,3 +137,37 @@ fn the_binary_exits_1_with_one_error_line() {
     assert!(stderr.trim_end().ends_with(&expected_absurd(at, bytes.len())), "{stderr}");
     assert!(!dir.path().join("out.blob").exists());
 }
+
+/// Nesting at the limit of what text layers may use loads on a 2 MiB stack (a spawned thread's
+/// default; the binary's main thread has 8 MiB); one level more is an error, not a stack overflow.
+#[test]
+fn deep_nesting_stops_at_the_limit_without_overflowing_the_stack() {
+    let dir = tempfile::tempdir().unwrap();
+    let levels = 256;
+    let prims = format!("#usda 1.0\n{}{}", "def Xform \"a\" {\n".repeat(levels), "}\n".repeat(levels));
+    let dicts = format!(
+        "#usda 1.0\n(\n customLayerData = {{\n{}{}}}\n)\ndef Xform \"a\" {{}}\n",
+        "dictionary a = {\n".repeat(levels - 2),
+        "}\n".repeat(levels - 2)
+    );
+    let cases = [("prims.usda", prims.clone(), true), ("dicts.usda", dicts, true)];
+    let deeper =
+        format!("#usda 1.0\n{}{}", "def Xform \"a\" {\n".repeat(levels + 1), "}\n".repeat(levels + 1));
+    for (name, text, loads) in cases.into_iter().chain([("deeper.usda", deeper, false)]) {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let result = std::thread::Builder::new()
+            .stack_size(2 << 20)
+            .spawn(move || usd::load(&path, &LoadOptions::default()).map(|s| s.instance_count))
+            .unwrap()
+            .join()
+            .unwrap();
+        match result {
+            Ok(_) => assert!(loads, "{name} loaded"),
+            Err(e) => {
+                assert!(!loads, "{name}: {e}");
+                assert!(e.to_string().ends_with("line 258, column 15: nested deeper than 256 levels"), "{e}");
+            }
+        }
+    }
+}

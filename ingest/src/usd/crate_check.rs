@@ -262,6 +262,11 @@ fn read_fieldsets(r: &mut Reader, fields: usize) -> Result<usize, String> {
     Ok(entries.len())
 }
 
+/// Depth of the namespace allowed: composition and the scene walk recurse once per level, so a
+/// deeper tree overflows the stack (an abort); real scenes nest a few dozen levels. The same
+/// limit as text layers' nesting ([`super::layer_fix::MAX_NESTING`]).
+const MAX_PATH_DEPTH: u32 = super::layer_fix::MAX_NESTING as u32;
+
 /// Total bytes of path text the PATHS section may build, beyond which the tree is rejected:
 /// the reader builds every path as a full string, so a deep tree or long tokens can multiply a
 /// small section into gigabytes.
@@ -296,8 +301,9 @@ fn read_paths(r: &mut Reader, token_lengths: &[u32], file_len: usize) -> Result<
     let budget = path_budget(file_len);
     let mut total = 0u64;
     let mut reached = vec![false; count];
-    // (next entry, length of the parent path or None for the empty path).
-    let mut pending: Vec<(usize, Option<u64>)> = vec![(0, None)];
+    let mut depths = vec![0u32; path_count];
+    // (next entry, (length, depth) of the parent path or None for the empty path).
+    let mut pending: Vec<(usize, Option<(u64, u32)>)> = vec![(0, None)];
     while let Some((mut next, mut parent)) = pending.pop() {
         loop {
             let index = next;
@@ -316,9 +322,10 @@ fn read_paths(r: &mut Reader, token_lengths: &[u32], file_len: usize) -> Result<
                 // The reader writes the root at the entry's own index, not its path index.
                 None => {
                     lengths[index] = 1;
-                    parent = Some(1);
+                    depths[index] = 0;
+                    parent = Some((1, 0));
                 }
-                Some(parent_len) => {
+                Some((parent_len, parent_depth)) => {
                     let token = (elements[index] as i32).unsigned_abs() as usize;
                     let Some(&token_len) = token_lengths.get(token) else {
                         return Err(format!("entry {index} names token {token} of {}", token_lengths.len()));
@@ -326,6 +333,10 @@ fn read_paths(r: &mut Reader, token_lengths: &[u32], file_len: usize) -> Result<
                     // Parent, separator, element.
                     let len = parent_len + 1 + u64::from(token_len);
                     lengths[slot] = len;
+                    depths[slot] = parent_depth + 1;
+                    if parent_depth + 1 > MAX_PATH_DEPTH {
+                        return Err(format!("paths nest deeper than {MAX_PATH_DEPTH} levels"));
+                    }
                     total = total.saturating_add(len);
                     if total > budget {
                         return Err(format!("paths spell more than {} bytes", big(budget)));
@@ -341,7 +352,7 @@ fn read_paths(r: &mut Reader, token_lengths: &[u32], file_len: usize) -> Result<
                 }
                 parent = match lengths[slot] {
                     0 => None,
-                    len => Some(len),
+                    len => Some((len, depths[slot])),
                 };
             }
             if !has_child && !has_sibling {

@@ -357,20 +357,46 @@ fn asset_as_string(raw: &str) -> Option<String> {
     (!inner.contains(['"', '\\', '\n'])).then(|| format!("\"{inner}\""))
 }
 
-/// The first path reference (`<...>`) in `text` that is not a well-formed scene path, as
-/// `line L, column C: <path>: problem`. The crate takes any text between `<` and `>` as a path;
-/// see [`super::path_syntax`] for why that must not reach it.
-pub(crate) fn malformed_path_ref(text: &str) -> Option<String> {
-    tokenize(text).into_iter().filter(|t| matches!(t.kind, Kind::PathRef)).find_map(|t| {
-        // An unterminated `<` runs to the end of the text; the crate reports it.
-        let inner = text[t.span.clone()].strip_prefix('<')?.strip_suffix('>')?;
-        let problem = super::path_syntax::check(inner).err()?;
-        let before = &text[..t.span.start];
+/// Nesting of `{`, `[` and `(` a text layer may use. The crate's parser, its composition and our
+/// reader recurse once per level (dictionaries, arrays, prims), so a deeper file overflows the
+/// stack, an abort; real layers nest a few dozen levels.
+pub(crate) const MAX_NESTING: usize = 256;
+
+/// The first construct in `text` the crate must not be given, as `line L, column C: problem`:
+/// a path reference (`<...>`) that is not a well-formed scene path (the crate takes any text
+/// between `<` and `>`; see [`super::path_syntax`]), or nesting deeper than [`MAX_NESTING`].
+pub(crate) fn structural_problem(text: &str) -> Option<String> {
+    let at = |offset: usize| {
+        let before = &text[..offset];
         let line = before.matches('\n').count() + 1;
         let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-        let shown: String = inner.chars().take(60).collect::<String>().escape_debug().collect();
-        Some(format!("line {line}, column {column}: path <{shown}> is malformed: {problem}"))
-    })
+        format!("line {line}, column {column}")
+    };
+    let mut depth = 0usize;
+    for t in tokenize(text) {
+        let source = &text[t.span.clone()];
+        match t.kind {
+            Kind::PathRef => {
+                // An unterminated `<` runs to the end of the text; the crate reports it.
+                let Some(inner) = source.strip_prefix('<').and_then(|s| s.strip_suffix('>')) else {
+                    continue;
+                };
+                if let Err(problem) = super::path_syntax::check(inner) {
+                    let shown: String = inner.chars().take(60).collect::<String>().escape_debug().collect();
+                    return Some(format!("{}: path <{shown}> is malformed: {problem}", at(t.span.start)));
+                }
+            }
+            Kind::Punct if matches!(source, "{" | "[" | "(") => {
+                depth += 1;
+                if depth > MAX_NESTING {
+                    return Some(format!("{}: nested deeper than {MAX_NESTING} levels", at(t.span.start)));
+                }
+            }
+            Kind::Punct if matches!(source, "}" | "]" | ")") => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    None
 }
 
 /// Where the crate's parser stops in `text`: `line:column: source line`, if it rejects it.
@@ -389,13 +415,31 @@ mod tests {
     use super::*;
 
     #[test]
+    fn deep_nesting_is_located() {
+        let deep = format!(
+            "#usda 1.0\n{}{}",
+            "def \"a\" {\n".repeat(MAX_NESTING + 1),
+            "}\n".repeat(MAX_NESTING + 1)
+        );
+        let problem = structural_problem(&deep).unwrap();
+        assert_eq!(problem, format!("line {}, column 9: nested deeper than 256 levels", MAX_NESTING + 2));
+        let fine = format!("#usda 1.0\n{}{}", "def \"a\" {\n".repeat(MAX_NESTING), "}\n".repeat(MAX_NESTING));
+        assert_eq!(structural_problem(&fine), None);
+        // Brackets inside strings, comments and paths do not count.
+        assert_eq!(
+            structural_problem(&format!("string s = \"{}\" # {}\n", "[".repeat(300), "{".repeat(300))),
+            None
+        );
+    }
+
+    #[test]
     fn malformed_path_references_are_located() {
         let text = "#usda 1.0\ndef X \"A\" {\n    rel r = </A/B \"q>\n    rel s = </A/B>\n    string t = \"<x y>\"\n}\n";
         assert_eq!(
-            malformed_path_ref(text).unwrap(),
+            structural_problem(text).unwrap(),
             "line 3, column 13: path </A/B \\\"q> is malformed: unexpected ' ' at character 4"
         );
-        assert_eq!(malformed_path_ref("rel s = </A/B.c:d>\nstring t = \"<x y>\" # <z w>\n"), None);
+        assert_eq!(structural_problem("rel s = </A/B.c:d>\nstring t = \"<x y>\" # <z w>\n"), None);
     }
 
     #[test]

@@ -120,7 +120,7 @@ impl Resolver for IngestResolver {
         let bytes = asset.read_all()?;
         // Invalid UTF-8 is passed through for the crate to report.
         let Ok(text) = std::str::from_utf8(&bytes) else { return Ok(Box::new(Cursor::new(bytes))) };
-        if let Some(problem) = layer_fix::malformed_path_ref(text) {
+        if let Some(problem) = layer_fix::structural_problem(text) {
             let name =
                 resolved.file_name().map_or_else(|| resolved.to_string(), |n| n.to_string_lossy().into());
             return Err(io::Error::new(io::ErrorKind::InvalidData, format!("{name}: {problem}")));

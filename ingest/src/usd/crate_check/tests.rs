@@ -266,3 +266,30 @@ fn survey() {
         println!("{:8.3} ms {:9} bytes {}", ms, bytes.len(), path.display());
     }
 }
+
+/// PATHS rewritten as one chain of `depth` prims under the pseudo-root, all named by token 1.
+fn with_path_chain(depth: usize) -> Vec<u8> {
+    let mut bytes = corpus("scene.usdc");
+    let count = depth + 1;
+    let indices: Vec<i64> = (0..count as i64).collect();
+    let elements = vec![1i64; count];
+    let mut jumps = vec![-1i64; count];
+    jumps[depth] = -2;
+    let mut body = (count as u64).to_le_bytes().to_vec();
+    body.extend((count as u64).to_le_bytes());
+    for part in [&indices, &elements, &jumps] {
+        body.extend(encoded(part));
+    }
+    replace_section(&mut bytes, "PATHS", &body);
+    bytes
+}
+
+#[test]
+fn a_namespace_deeper_than_the_limit_is_refused() {
+    let e = check(&with_path_chain(MAX_PATH_DEPTH as usize + 1)).unwrap_err();
+    assert_eq!(e.to_string(), "PATHS: paths nest deeper than 256 levels");
+    // At the limit the tree itself passes (the specs then name paths the chain does not hold,
+    // which the reader handles).
+    let e = check(&with_path_chain(MAX_PATH_DEPTH as usize));
+    assert!(e.as_ref().map_or_else(|e| e.section != "PATHS", |_| true), "{e:?}");
+}
