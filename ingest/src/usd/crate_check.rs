@@ -96,10 +96,11 @@ pub(crate) fn check(bytes: &[u8]) -> Result<(), CrateError> {
     let reader = |name: &str| section(name).map(|s| Reader::new(bytes, s.start as usize, s.end as usize));
     let in_section = |name: &'static str| move |message: String| CrateError { section: name.into(), message };
 
-    let token_lengths = match reader("TOKENS") {
+    let tokens = match reader("TOKENS") {
         Some(mut r) => read_tokens(&mut r).map_err(in_section("TOKENS"))?,
-        None => Vec::new(),
+        None => Tokens::default(),
     };
+    let token_lengths: Vec<u32> = tokens.ranges.iter().map(|&(_, len)| len).collect();
     let strings = match reader("STRINGS") {
         Some(mut r) => read_strings(&mut r, token_lengths.len()).map_err(in_section("STRINGS"))?,
         None => Vec::new(),
@@ -113,7 +114,7 @@ pub(crate) fn check(bytes: &[u8]) -> Result<(), CrateError> {
         None => 0,
     };
     let path_lengths = match reader("PATHS") {
-        Some(mut r) => read_paths(&mut r, &token_lengths, bytes.len()).map_err(in_section("PATHS"))?,
+        Some(mut r) => read_paths(&mut r, &tokens, bytes.len()).map_err(in_section("PATHS"))?,
         None => Vec::new(),
     };
     if let Some(mut r) = reader("SPECS") {
@@ -193,18 +194,33 @@ fn read_header(bytes: &[u8]) -> Result<(Version, Vec<Section>), CrateError> {
     Ok((version, sections))
 }
 
+/// The token table: the decompressed text and each token's (start, length) in it.
+#[derive(Default)]
+struct Tokens {
+    text: Vec<u8>,
+    ranges: Vec<(u32, u32)>,
+}
+
+impl Tokens {
+    fn get(&self, index: usize) -> Option<&str> {
+        let &(start, len) = self.ranges.get(index)?;
+        // Checked as UTF-8 as a whole, and split at NULs (ASCII), so every token is UTF-8.
+        std::str::from_utf8(&self.text[start as usize..(start + len) as usize]).ok()
+    }
+}
+
 /// TOKENS: a count, the uncompressed size, then one compressed block of NUL-terminated UTF-8
-/// strings. Returns each token's byte length.
-fn read_tokens(r: &mut Reader) -> Result<Vec<u32>, String> {
+/// strings.
+fn read_tokens(r: &mut Reader) -> Result<Tokens, String> {
     let count = r.u64("token count")?;
     let size = r.u64("tokens size")?;
     let text = read_compressed(r, size, size, "tokens")?;
     if text.len() as u64 != size {
         return Err(format!("tokens decompress to {} bytes, not the {} claimed", text.len(), big(size)));
     }
-    let Some((&last, text)) = text.split_last() else {
+    let Some((&last, body)) = text.split_last() else {
         return if count == 0 {
-            Ok(Vec::new())
+            Ok(Tokens::default())
         } else {
             Err(format!("{} tokens claimed, none stored", big(count)))
         };
@@ -212,12 +228,17 @@ fn read_tokens(r: &mut Reader) -> Result<Vec<u32>, String> {
     if last != 0 {
         return Err("tokens are not NUL-terminated".into());
     }
-    std::str::from_utf8(text).map_err(|e| format!("tokens are not UTF-8 ({e})"))?;
-    let lengths: Vec<u32> = text.split(|&b| b == 0).map(|t| t.len() as u32).collect();
-    if lengths.len() as u64 != count {
-        return Err(format!("{} tokens claimed, {} stored", big(count), lengths.len()));
+    std::str::from_utf8(body).map_err(|e| format!("tokens are not UTF-8 ({e})"))?;
+    let mut ranges = Vec::new();
+    let mut start = 0u32;
+    for token in body.split(|&b| b == 0) {
+        ranges.push((start, token.len() as u32));
+        start += token.len() as u32 + 1;
     }
-    Ok(lengths)
+    if ranges.len() as u64 != count {
+        return Err(format!("{} tokens claimed, {} stored", big(count), ranges.len()));
+    }
+    Ok(Tokens { text, ranges })
 }
 
 /// STRINGS: a count, then one token index per string.
@@ -280,7 +301,7 @@ fn path_budget(file_len: usize) -> u64 {
 ///
 /// Walks the tree as openusd's `build_compressed_paths` does, checking every index it will use
 /// and that each entry is reached once.
-fn read_paths(r: &mut Reader, token_lengths: &[u32], file_len: usize) -> Result<Vec<u64>, String> {
+fn read_paths(r: &mut Reader, tokens: &Tokens, file_len: usize) -> Result<Vec<u64>, String> {
     let start = r.pos;
     let path_count = r.u64("path count")?;
     let count = r.u64("encoded path count")?;
@@ -302,6 +323,8 @@ fn read_paths(r: &mut Reader, token_lengths: &[u32], file_len: usize) -> Result<
     let mut total = 0u64;
     let mut reached = vec![false; count];
     let mut depths = vec![0u32; path_count];
+    // Whether each (token, is property) was found a valid path element.
+    let mut valid: std::collections::HashMap<(usize, bool), bool> = std::collections::HashMap::new();
     // (next entry, (length, depth) of the parent path or None for the empty path).
     let mut pending: Vec<(usize, Option<(u64, u32)>)> = vec![(0, None)];
     while let Some((mut next, mut parent)) = pending.pop() {
@@ -326,10 +349,18 @@ fn read_paths(r: &mut Reader, token_lengths: &[u32], file_len: usize) -> Result<
                     parent = Some((1, 0));
                 }
                 Some((parent_len, parent_depth)) => {
+                    let property = (elements[index] as i32) < 0;
                     let token = (elements[index] as i32).unsigned_abs() as usize;
-                    let Some(&token_len) = token_lengths.get(token) else {
-                        return Err(format!("entry {index} names token {token} of {}", token_lengths.len()));
+                    let Some(name) = tokens.get(token) else {
+                        return Err(format!("entry {index} names token {token} of {}", tokens.ranges.len()));
                     };
+                    // The reader appends the element's text to its parent's path unchecked; a
+                    // malformed one makes a path its queries loop on (see `path_syntax`).
+                    if !*valid.entry((token, property)).or_insert_with(|| element_ok(name, property)) {
+                        let what = if property { "property" } else { "prim or variant" };
+                        return Err(format!("entry {index}: {what} name {name:?} is malformed"));
+                    }
+                    let token_len = name.len() as u32;
                     // Parent, separator, element.
                     let len = parent_len + 1 + u64::from(token_len);
                     lengths[slot] = len;
@@ -361,6 +392,18 @@ fn read_paths(r: &mut Reader, token_lengths: &[u32], file_len: usize) -> Result<
         }
     }
     Ok(lengths)
+}
+
+/// Whether `name` is a path element of its kind: a namespaced property name, or a prim name or
+/// a `{set=selection}` variant element (the reader tells them by the leading `{`).
+fn element_ok(name: &str, property: bool) -> bool {
+    use super::path_syntax::{check_element, Element};
+    let element = match (property, name.starts_with('{')) {
+        (true, _) => Element::Property,
+        (false, true) => Element::Variant,
+        (false, false) => Element::Prim,
+    };
+    check_element(name, element).is_ok()
 }
 
 /// SPECS: a count, then compressed path indices, fieldset indices and spec types.

@@ -366,37 +366,72 @@ pub(crate) const MAX_NESTING: usize = 256;
 /// a path reference (`<...>`) that is not a well-formed scene path (the crate takes any text
 /// between `<` and `>`; see [`super::path_syntax`]), or nesting deeper than [`MAX_NESTING`].
 pub(crate) fn structural_problem(text: &str) -> Option<String> {
+    use super::path_syntax::{check_element, Element};
     let at = |offset: usize| {
         let before = &text[..offset];
         let line = before.matches('\n').count() + 1;
         let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
         format!("line {line}, column {column}")
     };
+    let shown = |s: &str| -> String { s.chars().take(60).collect::<String>().escape_debug().collect() };
+    let tokens: Vec<Token> =
+        tokenize(text).into_iter().filter(|t| !matches!(t.kind, Kind::Space | Kind::Comment)).collect();
+    let source = |i: Option<usize>| i.and_then(|i| tokens.get(i)).map_or("", |t| &text[t.span.clone()]);
     let mut depth = 0usize;
-    for t in tokenize(text) {
-        let source = &text[t.span.clone()];
+    for (i, t) in tokens.iter().enumerate() {
+        let here = &text[t.span.clone()];
         match t.kind {
             Kind::PathRef => {
                 // An unterminated `<` runs to the end of the text; the crate reports it.
-                let Some(inner) = source.strip_prefix('<').and_then(|s| s.strip_suffix('>')) else {
-                    continue;
-                };
+                let Some(inner) = here.strip_prefix('<').and_then(|s| s.strip_suffix('>')) else { continue };
                 if let Err(problem) = super::path_syntax::check(inner) {
-                    let shown: String = inner.chars().take(60).collect::<String>().escape_debug().collect();
-                    return Some(format!("{}: path <{shown}> is malformed: {problem}", at(t.span.start)));
+                    return Some(format!(
+                        "{}: path <{}> is malformed: {problem}",
+                        at(t.span.start),
+                        shown(inner)
+                    ));
                 }
             }
-            Kind::Punct if matches!(source, "{" | "[" | "(") => {
+            // A quoted name that becomes a path element: a prim's (`def Xform "name" {`), a
+            // variant set's (`variantSet "name" =`) or a variant's (`"name" {` inside one).
+            Kind::Str => {
+                let Some(inner) = unquote(here) else { continue };
+                let (before, before2) = (source(i.checked_sub(1)), source(i.checked_sub(2)));
+                let opens = matches!(source(Some(i + 1)), "{" | "(");
+                let specifier = |s: &str| matches!(s, "def" | "over" | "class");
+                let element = if specifier(before) || (specifier(before2) && opens) {
+                    Some(("prim name", Element::Prim))
+                } else if before == "variantSet" || opens {
+                    Some(("variant name", Element::VariantName))
+                } else {
+                    None
+                };
+                if let Some((what, element)) = element {
+                    if let Err(problem) = check_element(inner, element) {
+                        return Some(format!(
+                            "{}: {what} \"{}\" is malformed: {problem}",
+                            at(t.span.start),
+                            shown(inner)
+                        ));
+                    }
+                }
+            }
+            Kind::Punct if matches!(here, "{" | "[" | "(") => {
                 depth += 1;
                 if depth > MAX_NESTING {
                     return Some(format!("{}: nested deeper than {MAX_NESTING} levels", at(t.span.start)));
                 }
             }
-            Kind::Punct if matches!(source, "}" | "]" | ")") => depth = depth.saturating_sub(1),
+            Kind::Punct if matches!(here, "}" | "]" | ")") => depth = depth.saturating_sub(1),
             _ => {}
         }
     }
     None
+}
+
+/// The inside of a quoted string token, if it is terminated.
+fn unquote(s: &str) -> Option<&str> {
+    ["\"\"\"", "'''", "\"", "'"].into_iter().find_map(|q| s.strip_prefix(q).and_then(|r| r.strip_suffix(q)))
 }
 
 /// Where the crate's parser stops in `text`: `line:column: source line`, if it rejects it.
@@ -429,6 +464,28 @@ mod tests {
         assert_eq!(
             structural_problem(&format!("string s = \"{}\" # {}\n", "[".repeat(300), "{".repeat(300))),
             None
+        );
+    }
+
+    #[test]
+    fn malformed_prim_and_variant_names_are_located() {
+        let ok = concat!(
+            "def Xform \"Root\" (\n variants = { string look = \"a\" }\n prepend variantSets = \"look\"\n)\n{\n",
+            " variantSet \"look\" = {\n  \"a\" { def \"A\" {} }\n  \"b-2\" (doc = \"x y\") {}\n }\n}\n",
+            "over \"O\" {}\nclass \"C\" {}\ndef \"D\" { custom string s = \"a b\" }\n",
+        );
+        assert_eq!(structural_problem(ok), None);
+        assert_eq!(
+            structural_problem("def Xform \"}Root\" (\n)\n{\n}\n").unwrap(),
+            "line 1, column 11: prim name \"}Root\" is malformed: expected a name: unexpected '}' at character 0"
+        );
+        assert_eq!(
+            structural_problem("over \"a b\" {}").unwrap(),
+            "line 1, column 6: prim name \"a b\" is malformed: unexpected ' ' at character 1"
+        );
+        assert_eq!(
+            structural_problem("def \"R\" {\n variantSet \"v\" = {\n  \"a}\" {}\n }\n}").unwrap(),
+            "line 3, column 3: variant name \"a}\" is malformed: unexpected '}' at character 1"
         );
     }
 

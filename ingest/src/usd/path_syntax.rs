@@ -26,6 +26,42 @@ pub(crate) fn check(path: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// What one element of a path may be.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Element {
+    /// A prim name: an identifier.
+    Prim,
+    /// A property name: identifiers joined by `:`.
+    Property,
+    /// A variant selection `{set=selection}`.
+    Variant,
+    /// A variant name as authored (`variantSet "v" = { "name" { ... } }`): letters, digits and
+    /// `_|-.`, as the selection inside a variant element.
+    VariantName,
+}
+
+/// Checks one path element (a prim or property name, a variant selection), as a crate file's
+/// path tree or a text layer's prim definitions spell it.
+pub(crate) fn check_element(text: &str, element: Element) -> Result<(), String> {
+    let mut p = Parser { s: text.as_bytes(), i: 0 };
+    match element {
+        Element::Prim => p.name()?,
+        Element::Property => p.namespaced_name()?,
+        Element::Variant if p.peek() == Some(b'{') => p.variant()?,
+        Element::Variant => return Err(format!("expected `{{`: {}", p.unexpected())),
+        Element::VariantName => {
+            p.selection();
+            if p.i == 0 {
+                return Err(format!("expected a variant name: {}", p.unexpected()));
+            }
+        }
+    }
+    if p.i != p.s.len() {
+        return Err(p.unexpected());
+    }
+    Ok(())
+}
+
 /// Nesting of target paths (`.rel[/A.rel[/B]]`) allowed; real layers use one level.
 const MAX_TARGET_DEPTH: u32 = 8;
 
@@ -82,13 +118,18 @@ impl Parser<'_> {
         if !self.eat(b'=') {
             return Err(format!("expected `=` in a variant selection: {}", self.unexpected()));
         }
-        while self.peek().is_some_and(|c| c.is_ascii_alphanumeric() || b"_|-.".contains(&c)) {
-            self.i += 1;
-        }
+        self.selection();
         if !self.eat(b'}') {
             return Err(format!("expected `}}` closing a variant selection: {}", self.unexpected()));
         }
         Ok(())
+    }
+
+    /// A variant selection's characters (possibly none).
+    fn selection(&mut self) {
+        while self.peek().is_some_and(|c| c.is_ascii_alphanumeric() || b"_|-.".contains(&c)) {
+            self.i += 1;
+        }
     }
 
     fn path(&mut self, depth: u32) -> Result<(), String> {
@@ -156,7 +197,26 @@ impl Parser<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::check;
+    use super::{check, check_element, Element};
+
+    #[test]
+    fn elements_are_checked_by_kind() {
+        check_element("Root", Element::Prim).unwrap();
+        check_element("primvars:st", Element::Property).unwrap();
+        check_element("{look=a-1}", Element::Variant).unwrap();
+        check_element("1-a.b", Element::VariantName).unwrap();
+        assert_eq!(
+            check_element("}Root", Element::Prim).unwrap_err(),
+            "expected a name: unexpected '}' at character 0"
+        );
+        assert_eq!(check_element("a/b", Element::Prim).unwrap_err(), "unexpected '/' at character 1");
+        assert_eq!(check_element("a.b", Element::Property).unwrap_err(), "unexpected '.' at character 1");
+        assert_eq!(
+            check_element("{look=a", Element::Variant).unwrap_err(),
+            "expected `}` closing a variant selection: unexpected end"
+        );
+        assert_eq!(check_element("a}", Element::VariantName).unwrap_err(), "unexpected '}' at character 1");
+    }
 
     #[test]
     fn paths_usd_writes_are_accepted() {
@@ -199,4 +259,33 @@ mod tests {
             assert_eq!(check(path).unwrap_err(), problem, "{path:?}");
         }
     }
+}
+
+/// `TEXT_CHECK_SURVEY=DIR cargo test --release -p ingest --lib path_syntax::survey -- --ignored
+/// --nocapture` runs the text-layer checks on every text layer under DIR: any report there is
+/// either a broken file or a false alarm to fix.
+#[cfg(test)]
+#[test]
+#[ignore = "needs TEXT_CHECK_SURVEY=<folder of USD assets>"]
+fn survey() {
+    let mut stack = vec![std::path::PathBuf::from(std::env::var("TEXT_CHECK_SURVEY").unwrap())];
+    let (mut files, mut problems) = (0, Vec::new());
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(dir).unwrap().flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                stack.push(path);
+                continue;
+            }
+            let Ok(text) = std::fs::read_to_string(&path) else { continue };
+            if text.starts_with("#usda") {
+                files += 1;
+                if let Some(problem) = super::layer_fix::structural_problem(&text) {
+                    problems.push(format!("{}: {problem}", path.display()));
+                }
+            }
+        }
+    }
+    println!("{files} text layers, {} reported", problems.len());
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
