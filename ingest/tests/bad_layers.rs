@@ -171,3 +171,38 @@ fn deep_nesting_stops_at_the_limit_without_overflowing_the_stack() {
         }
     }
 }
+
+/// A PointInstancer whose prototype holds the instancer itself (directly, through the
+/// pseudo-root, or through a second instancer) would expand forever; the prototype is skipped
+/// with a warning and the rest of the stage loads.
+#[test]
+fn a_prototype_containing_its_instancer_is_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let instancer = |name: &str, proto: &str| {
+        format!(
+            "def PointInstancer \"{name}\" {{\n rel prototypes = <{proto}>\n int[] protoIndices = [0, 0]\n point3f[] positions = [(0, 0, 0), (2, 0, 0)]\n}}\n"
+        )
+    };
+    let cube = "def Mesh \"Tri\" {\n point3f[] points = [(0,0,0), (1,0,0), (0,1,0)]\n int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n uniform token subdivisionScheme = \"none\"\n}\n";
+    // (text, the prototype that loops): A's prototype is the pseudo-root; B expands /World,
+    // whose A expands /World again.
+    let cases = [
+        (format!("#usda 1.0\ndef Xform \"World\" {{\n{}{cube}}}\n", instancer("A", "/")), "/"),
+        (
+            format!(
+                "#usda 1.0\ndef Xform \"World\" {{\n{}{cube}}}\n{}",
+                instancer("A", "/World"),
+                instancer("B", "/World")
+            ),
+            "/World",
+        ),
+    ];
+    for (text, looped) in cases {
+        let path = dir.path().join("loop.usda");
+        std::fs::write(&path, text).unwrap();
+        let scene = usd::load(&path, &LoadOptions::default()).unwrap();
+        let warning = format!("prototype <{looped}> contains its own PointInstancer; skipped");
+        assert!(scene.warnings.iter().any(|w| w.message == warning), "{looped}: {:?}", scene.warnings);
+        assert!(scene.meshes.iter().any(|m| m.path.ends_with("/Tri")), "the rest loads");
+    }
+}

@@ -338,6 +338,8 @@ struct Reader<'a> {
     binding_cache: HashMap<(String, &'static str), Option<(String, bool)>>,
     /// Subdivision meshes waiting for the render camera.
     subdivisions: Vec<subdivision::QueuedSubdivision>,
+    /// PointInstancers being expanded, outermost first.
+    expanding: Vec<String>,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -365,6 +367,7 @@ impl<'a> Reader<'a> {
             render_settings: Vec::new(),
             binding_cache: HashMap::new(),
             subdivisions: Vec::new(),
+            expanding: Vec::new(),
         }
     }
 
@@ -509,13 +512,29 @@ impl<'a> Reader<'a> {
             self.ints(path, "invisibleIds")?.unwrap_or_default().into_iter().collect();
         // `inactiveIds` (list-op metadata) deactivates ids for all time, like invisibleIds.
         invisible.extend(self.stage.prim_id_list(path, "inactiveIds"));
+        // A prototype holding this instancer, or one being expanded around it, would expand
+        // forever (found by the layer fuzzer: a prototypes target of </>): skipped.
+        self.expanding.push(path.to_string());
+        let contains = |proto: &str, prim: &str| {
+            proto == "/"
+                || prim == proto
+                || prim.strip_prefix(proto).is_some_and(|rest| rest.starts_with('/'))
+        };
+        let mut prototypes: Vec<Option<String>> = prototypes.into_iter().map(Some).collect();
+        for slot in &mut prototypes {
+            if let Some(proto) = slot.take_if(|p| self.expanding.iter().any(|i| contains(p, i))) {
+                self.warn(path, format!("prototype <{proto}> contains its own PointInstancer; skipped"));
+            }
+        }
         let mut expanded = 0;
         for i in 0..n {
             let id = ids.as_ref().map_or(i as i64, |ids| ids[i]);
             if invisible.contains(&id) {
                 continue;
             }
-            let Some(proto) = usize::try_from(proto_indices[i]).ok().and_then(|p| prototypes.get(p)) else {
+            let Some(proto) =
+                usize::try_from(proto_indices[i]).ok().and_then(|p| prototypes.get(p)?.as_ref())
+            else {
                 self.warn(
                     path,
                     format!("protoIndices[{i}] = {} names no prototype; skipped", proto_indices[i]),
@@ -539,6 +558,7 @@ impl<'a> Reader<'a> {
             self.visit(&proto, &instance, true)?;
             expanded += 1;
         }
+        self.expanding.pop();
         self.scene.instance_count += expanded;
         Ok(())
     }

@@ -132,8 +132,9 @@ fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
 
 /// Offsets of the `u64`s a crate reader trusts first, as far as the file still parses.
 fn crate_targets(bytes: &[u8]) -> Vec<usize> {
-    let mut targets = vec![16];
+    let mut targets = Vec::new();
     let Some(toc) = u64_at(bytes, 16).and_then(|t| usize::try_from(t).ok()) else { return targets };
+    targets.push(16);
     targets.push(toc);
     let count = u64_at(bytes, toc).unwrap_or(0).min(16) as usize;
     for i in 0..count {
