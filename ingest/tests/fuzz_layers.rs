@@ -18,7 +18,8 @@
 //!
 //! Besides panics (and openusd panics, which `usd::load` reports as internal errors), a case fails
 //! when one allocation exceeds [`LARGEST_ALLOCATION`] (the seeds are a few kilobytes, so that is a
-//! count the readers trusted) or when it takes longer than [`SLOWEST_CASE`].
+//! count the readers trusted) or when it takes longer than [`SLOWEST_CASE`]; a case still running
+//! after [`HANG`] ends the run with its input saved as `hang-*`.
 
 #[path = "fuzz_support/mutate.rs"]
 mod mutate;
@@ -42,6 +43,9 @@ const LARGEST_ALLOCATION: usize = 256 << 20;
 
 /// Longest a case may take (a hang shows up as the slowest case, or as the test never ending).
 const SLOWEST_CASE: Duration = Duration::from_secs(20);
+
+/// A case still running after this is taken to hang.
+const HANG: Duration = Duration::from_secs(120);
 
 /// Seed used when `FUZZ_SEED` is unset.
 const DEFAULT_SEED: u64 = 0x5eed_0007;
@@ -162,7 +166,7 @@ fn mutated_layers_load_or_fail_cleanly() {
     let seeds = corpus();
     assert!(seeds.len() >= 6, "corpus missing: run tests/assets/fuzz/make_corpus.py");
     let cases = std::env::var("FUZZ_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(2000);
-    let (seed, rng) = rng();
+    let (fuzz_seed, rng) = rng();
     let config = Config { cases, failure_persistence: None, max_shrink_iters: 256, ..Config::default() };
     let mut runner = TestRunner::new_with_rng(config, rng);
     // One seed file, one to three mutations (stacking more leaves almost nothing loadable, and a
@@ -195,7 +199,21 @@ fn mutated_layers_load_or_fail_cleanly() {
         save_failure(&format!("last-case-{}", seeds[seed].file_name().unwrap().to_string_lossy()), &bytes);
         take_largest();
         let start = Instant::now();
-        let outcome = ingest(&target);
+        // On its own thread, so a case that never returns (a reader looping) fails the run after
+        // HANG instead of stalling it; the thread keeps the default 2 MiB stack.
+        let (sender, receiver) = std::sync::mpsc::channel();
+        let input = target.clone();
+        std::thread::spawn(move || sender.send(ingest(&input)));
+        let Ok(outcome) = receiver.recv_timeout(HANG) else {
+            let name = format!("hang-{}", seeds[seed].file_name().unwrap().to_string_lossy());
+            let saved = save_failure(&name, &bytes);
+            // Shrinking would wait out every hang again; end the run here.
+            eprintln!(
+                "FUZZ_SEED={fuzz_seed}: a case did not finish in {HANG:?}; input saved to {}",
+                saved.display()
+            );
+            std::process::exit(1);
+        };
         let (elapsed, largest) = (start.elapsed(), take_largest());
         slowest.set(slowest.get().max(elapsed));
         per_seed.borrow_mut()[seed].0 += 1;
@@ -220,12 +238,15 @@ fn mutated_layers_load_or_fail_cleanly() {
     });
     panic::set_hook(hook);
     if let Err(e) = result {
-        panic!("FUZZ_SEED={seed}: {e}");
+        panic!("FUZZ_SEED={fuzz_seed}: {e}");
     }
     // Mutations that still parse reach composition, tessellation and packing; a fuzzer whose inputs
     // all fail at the first token would test only the tokenizer.
     let loaded = loaded.get();
-    eprintln!("fuzz: seed {seed}, {cases} cases, {loaded} loaded and packed, slowest {:?}", slowest.get());
+    eprintln!(
+        "fuzz: seed {fuzz_seed}, {cases} cases, {loaded} loaded and packed, slowest {:?}",
+        slowest.get()
+    );
     for (file, (tried, ok)) in seeds.iter().zip(per_seed.borrow().iter()) {
         eprintln!("fuzz:   {}: {ok} of {tried} loaded", file.file_name().unwrap().to_string_lossy());
     }
