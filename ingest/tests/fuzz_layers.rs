@@ -11,6 +11,7 @@
 //! - `FUZZ_CASES` sets the number of cases (default 2000, what CI runs: about 15 s).
 //! - `FUZZ_SEED` seeds the generator (default fixed, so CI runs the same cases every time):
 //!   `FUZZ_SEED=7 FUZZ_CASES=5000 cargo test --release -p ingest --test fuzz_layers` is a long run.
+//! - `FUZZ_VERBOSE=1` prints every error the mutated inputs give (to review their messages).
 //! - A failing input is written to target/fuzz-failures/ (after an abort, the input it died on is
 //!   the newest `last-case-*` there); copy it to
 //!   tests/assets/fuzz/regressions/ as `<name>-<seed file name>` (it replaces that seed in a copy
