@@ -395,7 +395,14 @@ pub(crate) fn structural_problem(text: &str) -> Option<String> {
             // A quoted name that becomes a path element: a prim's (`def Xform "name" {`), a
             // variant set's (`variantSet "name" =`) or a variant's (`"name" {` inside one).
             Kind::Str => {
-                let Some(inner) = unquote(here) else { continue };
+                let Some(inner) = unquote(here) else {
+                    // Sdf's grammar (and usd-core) end a one-quote string at the line; the crate
+                    // reads on, so a prim name could swallow lines of braces (found by the fuzzer).
+                    if here.ends_with('\n') {
+                        return Some(format!("{}: string not closed on its line", at(t.span.start)));
+                    }
+                    continue;
+                };
                 let (before, before2) = (source(i.checked_sub(1)), source(i.checked_sub(2)));
                 let opens = matches!(source(Some(i + 1)), "{" | "(");
                 let specifier = |s: &str| matches!(s, "def" | "over" | "class");
@@ -478,6 +485,10 @@ mod tests {
         assert_eq!(
             structural_problem("def Xform \"}Root\" (\n)\n{\n}\n").unwrap(),
             "line 1, column 11: prim name \"}Root\" is malformed: expected a name: unexpected '}' at character 0"
+        );
+        assert_eq!(
+            structural_problem("def \"Lo  }\n}\n\naded\" {}").unwrap(),
+            "line 1, column 5: string not closed on its line"
         );
         assert_eq!(
             structural_problem("over \"a b\" {}").unwrap(),
