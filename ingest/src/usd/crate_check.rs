@@ -16,12 +16,13 @@
 //! - the table of contents: every section inside the file;
 //! - TOKENS, STRINGS, FIELDS, FIELDSETS, PATHS, SPECS: every count against the bytes of its
 //!   section (or, for compressed data, against what its compressed size can expand to), every
-//!   index against the table it names, the path tree's jumps (each entry reached once) and the
-//!   total length of the paths it builds;
+//!   index against the table it names, the path tree's jumps (each entry reached once), its
+//!   depth, the total length of the paths it builds and the syntax of each path element (the
+//!   reader's path queries loop forever on malformed ones, see [`super::path_syntax`]);
 //! - every field's value: see [`values`].
 //!
-//! A failure names the section and the problem, e.g. `FIELDS: value of field 12 (points):
-//! array claims 6.1e18 elements of 12 bytes at offset 1990, but only 2276 bytes follow`.
+//! A failure names the section and the problem, e.g. `FIELDS: value of field 81 (default):
+//! array claims 6.1e18 elements of 12 bytes at offset 936, but only 3338 bytes follow`.
 //! Problems the reader itself reports as errors (an unknown value type, a bad enum) are left to
 //! it. The check runs once per layer and costs a few milliseconds per megabyte.
 
