@@ -54,6 +54,8 @@ struct Args {
 }
 
 fn main() -> ExitCode {
+    // A panic in the USD reader is reported as one error line (exit 1), not a panic banner.
+    ingest::usd::quiet_reader_panics();
     match run(Args::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

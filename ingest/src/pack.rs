@@ -485,6 +485,17 @@ fn emissive_distribution(data: &blob::SceneData, emission: &[Vec3]) -> Vec<rec::
     entries
 }
 
+/// Largest coordinate (and width) packed. The BVH builders multiply box extents into surface
+/// areas, which overflow `f32` (and then panic on the infinite cost) past about 1e19; a scene that
+/// large is not renderable in `f32` anyway. Found by the layer fuzzer (a mutated width of 3e38).
+const MAX_COORDINATE: f32 = 1e18;
+
+/// `v` is finite and within ±[`MAX_COORDINATE`] (`false` for NaN; per component, because
+/// `max_element` skips NaN).
+fn within_range(v: f32) -> bool {
+    v.abs() <= MAX_COORDINATE
+}
+
 fn validate(scene: &Scene) -> Result<(), PackError> {
     let fail = |prim: &str, problem: String| Err(PackError { prim: prim.to_string(), problem });
     for mesh in &scene.meshes {
@@ -504,8 +515,8 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
         if let Some(&m) = mesh.triangle_materials.iter().find(|&&m| m as usize >= scene.materials.len()) {
             return fail(&mesh.path, format!("material index {m} out of range"));
         }
-        if mesh.positions.iter().any(|p| !p.is_finite()) {
-            return fail(&mesh.path, "non-finite point".into());
+        if mesh.positions.iter().any(|p| !p.to_array().into_iter().all(within_range)) {
+            return fail(&mesh.path, format!("point beyond ±{MAX_COORDINATE:e} or not finite"));
         }
         if let Some(local) = &mesh.instance {
             let consistent = (local.instance as usize) < scene.instances.len()
@@ -549,10 +560,19 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
         if c.material as usize >= scene.materials.len() {
             return fail(&c.path, format!("material index {} out of range", c.material));
         }
-        let finite = c.segments.iter().all(|s| s.p.iter().all(|p| p.is_finite()))
-            && c.spheres.iter().all(|s| s.center.is_finite() && s.radius.is_finite());
-        if !finite {
-            return fail(&c.path, "non-finite curve control point or point".into());
+        let in_range =
+            c.segments.iter().all(|s| s.p.iter().all(|p| p.to_array().into_iter().all(within_range)))
+                && c.spheres
+                    .iter()
+                    .all(|s| s.center.to_array().into_iter().all(within_range) && within_range(s.radius));
+        if !in_range {
+            return fail(
+                &c.path,
+                format!("curve control point, point or width beyond ±{MAX_COORDINATE:e} or not finite"),
+            );
+        }
+        if let Some(s) = c.spheres.iter().find(|s| s.radius < 0.0) {
+            return fail(&c.path, format!("point radius {} is negative", s.radius));
         }
     }
     if let Some(c) = scene.default_camera.filter(|&c| c >= scene.cameras.len()) {

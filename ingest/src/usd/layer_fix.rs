@@ -357,6 +357,90 @@ fn asset_as_string(raw: &str) -> Option<String> {
     (!inner.contains(['"', '\\', '\n'])).then(|| format!("\"{inner}\""))
 }
 
+/// Nesting of `{`, `[` and `(` a text layer may use. The crate's parser, its composition and our
+/// reader recurse once per level (dictionaries, arrays, prims), so a deeper file overflows the
+/// stack, an abort; real layers nest a few dozen levels.
+pub(crate) const MAX_NESTING: usize = 256;
+
+/// The first construct in `text` the crate must not be given, as `line L, column C: problem`:
+/// a path reference (`<...>`) that is not a well-formed scene path (the crate takes any text
+/// between `<` and `>`; see [`super::path_syntax`]), or nesting deeper than [`MAX_NESTING`].
+pub(crate) fn structural_problem(text: &str) -> Option<String> {
+    use super::path_syntax::{check_element, Element};
+    let at = |offset: usize| {
+        let before = &text[..offset];
+        let line = before.matches('\n').count() + 1;
+        let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+        format!("line {line}, column {column}")
+    };
+    let shown = |s: &str| -> String { s.chars().take(60).collect::<String>().escape_debug().collect() };
+    let tokens: Vec<Token> =
+        tokenize(text).into_iter().filter(|t| !matches!(t.kind, Kind::Space | Kind::Comment)).collect();
+    let source = |i: Option<usize>| i.and_then(|i| tokens.get(i)).map_or("", |t| &text[t.span.clone()]);
+    let mut depth = 0usize;
+    for (i, t) in tokens.iter().enumerate() {
+        let here = &text[t.span.clone()];
+        match t.kind {
+            Kind::PathRef => {
+                // An unterminated `<` runs to the end of the text; the crate reports it.
+                let Some(inner) = here.strip_prefix('<').and_then(|s| s.strip_suffix('>')) else { continue };
+                if let Err(problem) = super::path_syntax::check(inner) {
+                    return Some(format!(
+                        "{}: path <{}> is malformed: {problem}",
+                        at(t.span.start),
+                        shown(inner)
+                    ));
+                }
+            }
+            // A quoted name that becomes a path element: a prim's (`def Xform "name" {`), a
+            // variant set's (`variantSet "name" =`) or a variant's (`"name" {` inside one).
+            Kind::Str => {
+                let Some(inner) = unquote(here) else {
+                    // Sdf's grammar (and usd-core) end a one-quote string at the line; the crate
+                    // reads on, so a prim name could swallow lines of braces (found by the fuzzer).
+                    if here.ends_with('\n') {
+                        return Some(format!("{}: string not closed on its line", at(t.span.start)));
+                    }
+                    continue;
+                };
+                let (before, before2) = (source(i.checked_sub(1)), source(i.checked_sub(2)));
+                let opens = matches!(source(Some(i + 1)), "{" | "(");
+                let specifier = |s: &str| matches!(s, "def" | "over" | "class");
+                let element = if specifier(before) || (specifier(before2) && opens) {
+                    Some(("prim name", Element::Prim))
+                } else if before == "variantSet" || opens {
+                    Some(("variant name", Element::VariantName))
+                } else {
+                    None
+                };
+                if let Some((what, element)) = element {
+                    if let Err(problem) = check_element(inner, element) {
+                        return Some(format!(
+                            "{}: {what} \"{}\" is malformed: {problem}",
+                            at(t.span.start),
+                            shown(inner)
+                        ));
+                    }
+                }
+            }
+            Kind::Punct if matches!(here, "{" | "[" | "(") => {
+                depth += 1;
+                if depth > MAX_NESTING {
+                    return Some(format!("{}: nested deeper than {MAX_NESTING} levels", at(t.span.start)));
+                }
+            }
+            Kind::Punct if matches!(here, "}" | "]" | ")") => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    None
+}
+
+/// The inside of a quoted string token, if it is terminated.
+fn unquote(s: &str) -> Option<&str> {
+    ["\"\"\"", "'''", "\"", "'"].into_iter().find_map(|q| s.strip_prefix(q).and_then(|r| r.strip_suffix(q)))
+}
+
 /// Where the crate's parser stops in `text`: `line:column: source line`, if it rejects it.
 pub(crate) fn parse_error_location(text: &str) -> Option<String> {
     let mut parser = openusd::usda::parser::Parser::new(text);
@@ -371,6 +455,60 @@ pub(crate) fn parse_error_location(text: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn deep_nesting_is_located() {
+        let deep = format!(
+            "#usda 1.0\n{}{}",
+            "def \"a\" {\n".repeat(MAX_NESTING + 1),
+            "}\n".repeat(MAX_NESTING + 1)
+        );
+        let problem = structural_problem(&deep).unwrap();
+        assert_eq!(problem, format!("line {}, column 9: nested deeper than 256 levels", MAX_NESTING + 2));
+        let fine = format!("#usda 1.0\n{}{}", "def \"a\" {\n".repeat(MAX_NESTING), "}\n".repeat(MAX_NESTING));
+        assert_eq!(structural_problem(&fine), None);
+        // Brackets inside strings, comments and paths do not count.
+        assert_eq!(
+            structural_problem(&format!("string s = \"{}\" # {}\n", "[".repeat(300), "{".repeat(300))),
+            None
+        );
+    }
+
+    #[test]
+    fn malformed_prim_and_variant_names_are_located() {
+        let ok = concat!(
+            "def Xform \"Root\" (\n variants = { string look = \"a\" }\n prepend variantSets = \"look\"\n)\n{\n",
+            " variantSet \"look\" = {\n  \"a\" { def \"A\" {} }\n  \"b-2\" (doc = \"x y\") {}\n }\n}\n",
+            "over \"O\" {}\nclass \"C\" {}\ndef \"D\" { custom string s = \"a b\" }\n",
+        );
+        assert_eq!(structural_problem(ok), None);
+        assert_eq!(
+            structural_problem("def Xform \"}Root\" (\n)\n{\n}\n").unwrap(),
+            "line 1, column 11: prim name \"}Root\" is malformed: expected a name: unexpected '}' at character 0"
+        );
+        assert_eq!(
+            structural_problem("def \"Lo  }\n}\n\naded\" {}").unwrap(),
+            "line 1, column 5: string not closed on its line"
+        );
+        assert_eq!(
+            structural_problem("over \"a b\" {}").unwrap(),
+            "line 1, column 6: prim name \"a b\" is malformed: unexpected ' ' at character 1"
+        );
+        assert_eq!(
+            structural_problem("def \"R\" {\n variantSet \"v\" = {\n  \"a}\" {}\n }\n}").unwrap(),
+            "line 3, column 3: variant name \"a}\" is malformed: unexpected '}' at character 1"
+        );
+    }
+
+    #[test]
+    fn malformed_path_references_are_located() {
+        let text = "#usda 1.0\ndef X \"A\" {\n    rel r = </A/B \"q>\n    rel s = </A/B>\n    string t = \"<x y>\"\n}\n";
+        assert_eq!(
+            structural_problem(text).unwrap(),
+            "line 3, column 13: path </A/B \\\"q> is malformed: unexpected ' ' at character 4"
+        );
+        assert_eq!(structural_problem("rel s = </A/B.c:d>\nstring t = \"<x y>\" # <z w>\n"), None);
+    }
 
     #[test]
     fn numbers_gain_their_missing_digits() {

@@ -20,11 +20,14 @@
 //!
 //! Schema fallback values live in [`fallback`], in one place.
 
+mod crate_check;
 mod curves;
 mod layer_fix;
 mod lux;
 mod material;
 mod mesh;
+mod path_syntax;
+mod reader_panic;
 mod resolver;
 mod stage;
 mod subdivision;
@@ -44,6 +47,7 @@ use std::path::Path;
 use glam::{DMat4, DQuat, DVec3};
 
 use crate::scene::{Scene, UpAxis};
+pub use reader_panic::quiet_reader_panics;
 use stage::{Stage, Value};
 
 /// USD schema fallbacks (values used when an attribute is unauthored).
@@ -156,6 +160,9 @@ pub enum UsdErrorKind {
     /// Any other failure reported by the composition engine.
     #[error("{0}")]
     Stage(String),
+    /// The composition engine panicked (a bug in it); the panic's message and place.
+    #[error("the USD reader failed unexpectedly: {0}")]
+    Internal(String),
 }
 
 /// A USD reading error with its location: the layer file, the prim and the attribute where known.
@@ -229,7 +236,14 @@ impl fmt::Display for UsdError {
 impl std::error::Error for UsdError {}
 
 /// Reads the stage rooted at `path` into a world-space [`Scene`].
+///
+/// A panic while reading (a bug in the composition engine) is returned as
+/// [`UsdErrorKind::Internal`] naming the root layer; see [`quiet_reader_panics`].
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
+    reader_panic::catch(&path.display().to_string(), || load_stage(path, options))
+}
+
+fn load_stage(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     let stage = Stage::open(path, options)?;
     let prims = stage.traverse()?;
     // Prim indices compose lazily, so composition errors are complete only after the traversal.
@@ -343,6 +357,8 @@ struct Reader<'a> {
     binding_cache: HashMap<(String, &'static str), Option<(String, bool)>>,
     /// Subdivision meshes waiting for the render camera.
     subdivisions: Vec<subdivision::QueuedSubdivision>,
+    /// PointInstancers being expanded, outermost first.
+    expanding: Vec<String>,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -370,6 +386,7 @@ impl<'a> Reader<'a> {
             render_settings: Vec::new(),
             binding_cache: HashMap::new(),
             subdivisions: Vec::new(),
+            expanding: Vec::new(),
         }
     }
 
@@ -526,13 +543,29 @@ impl<'a> Reader<'a> {
             self.ints(path, "invisibleIds")?.unwrap_or_default().into_iter().collect();
         // `inactiveIds` (list-op metadata) deactivates ids for all time, like invisibleIds.
         invisible.extend(self.stage.prim_id_list(path, "inactiveIds"));
+        // A prototype holding this instancer, or one being expanded around it, would expand
+        // forever (found by the layer fuzzer: a prototypes target of </>): skipped.
+        self.expanding.push(path.to_string());
+        let contains = |proto: &str, prim: &str| {
+            proto == "/"
+                || prim == proto
+                || prim.strip_prefix(proto).is_some_and(|rest| rest.starts_with('/'))
+        };
+        let mut prototypes: Vec<Option<String>> = prototypes.into_iter().map(Some).collect();
+        for slot in &mut prototypes {
+            if let Some(proto) = slot.take_if(|p| self.expanding.iter().any(|i| contains(p, i))) {
+                self.warn(path, format!("prototype <{proto}> contains its own PointInstancer; skipped"));
+            }
+        }
         let mut expanded = 0;
         for i in 0..n {
             let id = ids.as_ref().map_or(i as i64, |ids| ids[i]);
             if invisible.contains(&id) {
                 continue;
             }
-            let Some(proto) = usize::try_from(proto_indices[i]).ok().and_then(|p| prototypes.get(p)) else {
+            let Some(proto) =
+                usize::try_from(proto_indices[i]).ok().and_then(|p| prototypes.get(p)?.as_ref())
+            else {
                 self.warn(
                     path,
                     format!("protoIndices[{i}] = {} names no prototype; skipped", proto_indices[i]),
@@ -562,6 +595,7 @@ impl<'a> Reader<'a> {
             self.visit(&proto, &instance, true)?;
             expanded += 1;
         }
+        self.expanding.pop();
         self.scene.instance_count += expanded;
         Ok(())
     }

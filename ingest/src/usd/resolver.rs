@@ -9,20 +9,24 @@
 //! file-relative (`tex/a.usda`, not `./a.usda` or `../a.usda`) is looked up next to the layer
 //! that names it first, then in each search directory in order.
 
+use std::collections::HashSet;
 use std::io::{self, Cursor, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use openusd::ar::{self, Asset, DefaultResolver, ResolvedPath, Resolver};
 
-use super::layer_fix;
+use super::{crate_check, layer_fix};
 
 /// Magic bytes that open every text layer.
 const USDA_MAGIC: &[u8] = b"#usda";
 
-/// [`DefaultResolver`] with search paths and `.usda` normalization.
+/// [`DefaultResolver`] with search paths, `.usda` normalization and crate-file checks.
 pub(crate) struct IngestResolver {
     inner: DefaultResolver,
     search_paths: Vec<PathBuf>,
+    /// Crate files already checked: openusd opens a `.usd` twice (once to sniff its format).
+    checked_crates: Mutex<HashSet<ResolvedPath>>,
 }
 
 impl IngestResolver {
@@ -30,7 +34,23 @@ impl IngestResolver {
     pub(crate) fn new(search_paths: &[PathBuf]) -> Self {
         let search_paths: Vec<PathBuf> =
             search_paths.iter().map(|p| p.canonicalize().unwrap_or_else(|_| p.clone())).collect();
-        IngestResolver { inner: DefaultResolver::new(), search_paths }
+        IngestResolver { inner: DefaultResolver::new(), search_paths, checked_crates: Mutex::default() }
+    }
+
+    /// Runs [`crate_check::check`] on a crate file's bytes, once per file; the error names the
+    /// file, the section and the problem.
+    fn check_crate(&self, resolved: &ResolvedPath, bytes: &[u8]) -> io::Result<()> {
+        let mut checked = self.checked_crates.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if checked.contains(resolved) {
+            return Ok(());
+        }
+        crate_check::check(bytes).map_err(|e| {
+            let name =
+                resolved.file_name().map_or_else(|| resolved.to_string(), |n| n.to_string_lossy().into());
+            io::Error::new(io::ErrorKind::InvalidData, format!("{name}: {e}"))
+        })?;
+        checked.insert(resolved.clone());
+        Ok(())
     }
 
     /// The layer's text as the crate receives it, if `resolved` is a text layer.
@@ -74,12 +94,13 @@ impl Resolver for IngestResolver {
         self.inner.resolve_for_new_asset(asset_path)
     }
 
-    /// Text layers are normalized; every other asset (crate files, packages, images) is passed
-    /// through. Only the first bytes are read to tell them apart, so a large `.usdc` is not
-    /// buffered here.
+    /// Text layers are normalized; crate files (`.usdc`, binary `.usd`, either inside a `.usdz`)
+    /// are checked by [`crate_check`] first, because openusd's crate reader trusts their counts
+    /// and indices; every other asset (packages, images) is passed through. Only the first bytes
+    /// are read to tell them apart, so packages and images are not buffered here.
     fn open_asset(&self, resolved: &ResolvedPath) -> io::Result<Box<dyn Asset>> {
         let mut asset = self.inner.open_asset(resolved)?;
-        let mut magic = [0u8; USDA_MAGIC.len()];
+        let mut magic = [0u8; crate_check::MAGIC.len()];
         let mut filled = 0;
         while filled < magic.len() {
             match asset.read(&mut magic[filled..])? {
@@ -88,12 +109,22 @@ impl Resolver for IngestResolver {
             }
         }
         asset.seek(SeekFrom::Start(0))?;
-        if magic[..filled] != *USDA_MAGIC {
+        if magic[..filled] == *crate_check::MAGIC {
+            let bytes = asset.read_all()?;
+            self.check_crate(resolved, &bytes)?;
+            return Ok(Box::new(Cursor::new(bytes)));
+        }
+        if !magic[..filled].starts_with(USDA_MAGIC) {
             return Ok(asset);
         }
         let bytes = asset.read_all()?;
         // Invalid UTF-8 is passed through for the crate to report.
         let Ok(text) = std::str::from_utf8(&bytes) else { return Ok(Box::new(Cursor::new(bytes))) };
+        if let Some(problem) = layer_fix::structural_problem(text) {
+            let name =
+                resolved.file_name().map_or_else(|| resolved.to_string(), |n| n.to_string_lossy().into());
+            return Err(io::Error::new(io::ErrorKind::InvalidData, format!("{name}: {problem}")));
+        }
         match layer_fix::normalize(text) {
             std::borrow::Cow::Borrowed(_) => Ok(Box::new(Cursor::new(bytes))),
             std::borrow::Cow::Owned(fixed) => Ok(Box::new(Cursor::new(fixed.into_bytes()))),
@@ -148,12 +179,27 @@ mod tests {
     fn text_layers_are_normalized_and_others_passed_through() {
         let dir = tempfile::tempdir().unwrap();
         let text = dir.path().join("a.usd");
-        let binary = dir.path().join("b.usd");
+        let binary = dir.path().join("b.png");
         std::fs::write(&text, "#usda 1.0\nfloat a = .5\n").unwrap();
-        std::fs::write(&binary, b"PXR-USDC .5").unwrap();
+        std::fs::write(&binary, b"\x89PNG .5").unwrap();
         let resolver = IngestResolver::new(&[]);
         let read = |p: &Path| resolver.open_asset(&ResolvedPath::new(p)).unwrap().read_all().unwrap();
         assert_eq!(read(&text), b"#usda 1.0\nfloat a = 0.5\n");
-        assert_eq!(read(&binary), b"PXR-USDC .5");
+        assert_eq!(read(&binary), b"\x89PNG .5");
+    }
+
+    #[test]
+    fn crate_files_are_checked_before_the_crate_reads_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let broken = dir.path().join("broken.usd");
+        std::fs::write(&broken, b"PXR-USDC .5").unwrap();
+        let resolver = IngestResolver::new(&[]);
+        let Err(e) = resolver.open_asset(&ResolvedPath::new(&broken)) else {
+            panic!("broken crate file accepted")
+        };
+        assert_eq!(
+            e.to_string(),
+            "broken.usd: bootstrap: header needs 32 bytes at offset 0 but only 11 remain (truncated?)"
+        );
     }
 }

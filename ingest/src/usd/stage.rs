@@ -286,6 +286,12 @@ impl Stage {
     }
 
     fn attr_handle(&self, prim: &str, name: &str) -> Result<usd::Attribute, UsdError> {
+        // Names can come from values (`xformOpOrder`, a primvar reader's `varname`); the crate
+        // appends any text and then loops forever on the parents of a malformed path (found by
+        // the layer fuzzer: an xformOpOrder entry holding `}` and line breaks).
+        super::path_syntax::check_element(name, super::path_syntax::Element::Property).map_err(|e| {
+            self.attr_err(prim, &name.escape_debug().to_string(), format!("not a property name: {e}"))
+        })?;
         let p = path(prim).append_property(name).map_err(|e| self.attr_err(prim, name, format!("{e:#}")))?;
         Ok(self.inner.attribute(p))
     }
