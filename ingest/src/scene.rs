@@ -13,6 +13,8 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 pub struct Scene {
     /// Renderable gprims (Mesh prims), one entry per instance once instancing is flattened.
     pub meshes: Vec<Mesh>,
+    /// Wall seconds of the load's heavy phases, so composition can be timed apart from them.
+    pub load_timings: LoadTimings,
     /// Curve and point prims (BasisCurves, NurbsCurves, Points), one entry per instance.
     pub curves: Vec<Curves>,
     /// Materials; `Mesh::triangle_materials` index into this.
@@ -207,6 +209,16 @@ pub struct Mesh {
     pub instance: Option<InstancedMesh>,
     /// The primvars the mesh's materials read ([`ShaderNode::Primvar`]), sorted by name.
     pub primvars: Vec<MeshPrimvar>,
+}
+
+/// Wall seconds spent in the parts of a load that are not composition (`bench ingest` subtracts them
+/// to compare composing and listing a stage with usd-core, which neither bakes nor refines).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LoadTimings {
+    /// Decoding textures and baking their mip pyramids.
+    pub texture_seconds: f64,
+    /// Dicing and tessellating subdivision surfaces.
+    pub subdivision_seconds: f64,
 }
 
 /// One outermost instance: an instanceable prim, or one entry of a PointInstancer.

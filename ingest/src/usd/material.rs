@@ -589,6 +589,19 @@ impl Reader<'_> {
         color_space: texture::ColorSpace,
         fallback: [f32; 4],
     ) -> Option<u32> {
+        let start = std::time::Instant::now();
+        let texture = self.bake_texture_untimed(node, path, color_space, fallback);
+        self.scene.load_timings.texture_seconds += start.elapsed().as_secs_f64();
+        texture
+    }
+
+    fn bake_texture_untimed(
+        &mut self,
+        node: &str,
+        path: &Path,
+        color_space: texture::ColorSpace,
+        fallback: [f32; 4],
+    ) -> Option<u32> {
         let requested = path;
         let located = texture_location(path);
         let path = located.as_path();

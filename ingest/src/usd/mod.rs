@@ -264,7 +264,9 @@ fn load_stage(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     reader.collect_instancer_prototypes()?;
     reader.visit("/", &Inherited::root(), false)?;
     reader.finish()?;
+    let start = std::time::Instant::now();
     reader.tessellate_subdivisions(&options.subdiv);
+    reader.scene.load_timings.subdivision_seconds = start.elapsed().as_secs_f64();
     for (prim, message) in stage.take_notes() {
         reader.scene.warn(prim, message);
     }
