@@ -15,7 +15,7 @@ use texture::Filter;
 
 fn plane_scene() -> ingest::Scene {
     use glam::{Mat4, Vec2, Vec3};
-    use ingest::scene::{SceneTexture, ShaderNode, ShadingInput, TextureData};
+    use ingest::scene::{SceneTexture, ShaderNode, TextureData};
     let n = 1024u32;
     let texels: Vec<u8> = (0..n * n)
         .flat_map(|i| {
@@ -59,20 +59,7 @@ fn plane_scene() -> ingest::Scene {
     };
     let mut material =
         ingest::Material { path: "/Looks/Ground".into(), ior: 1.0, ..ingest::Material::default() };
-    material.program = vec![
-        ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
-        ShaderNode::Texture {
-            dst: 1,
-            src: 0,
-            texture: Some(0),
-            wrap_s: texture::Wrap::Repeat,
-            wrap_t: texture::Wrap::Repeat,
-            scale: [1.0; 4],
-            bias: [0.0; 4],
-            fallback: [0.0, 0.0, 0.0, 1.0],
-        },
-        ShaderNode::Output { input: ShadingInput::DiffuseColor, src: 1, swizzle: [0, 1, 2, 3] },
-    ];
+    material.program = ShaderNode::diffuse_texture_program(0, [0.0, 0.0, 0.0, 1.0]);
     let camera = ingest::Camera {
         path: "/Cam".into(),
         world_from_camera: Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0)) * Mat4::from_rotation_x(-0.12),

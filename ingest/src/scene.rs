@@ -165,6 +165,28 @@ pub enum ShaderNode {
     },
 }
 
+impl ShaderNode {
+    /// The program of a material whose diffuse colour is texture `texture` read at the mesh's uvs
+    /// (repeat wrap, `fallback` where there is no texel); register 1 holds the texel, so callers may
+    /// route more of its channels (e.g. alpha to roughness) with further [`ShaderNode::Output`]s.
+    pub fn diffuse_texture_program(texture: u32, fallback: [f32; 4]) -> Vec<ShaderNode> {
+        vec![
+            ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
+            ShaderNode::Texture {
+                dst: 1,
+                src: 0,
+                texture: Some(texture),
+                wrap_s: texture::Wrap::Repeat,
+                wrap_t: texture::Wrap::Repeat,
+                scale: [1.0; 4],
+                bias: [0.0; 4],
+                fallback,
+            },
+            ShaderNode::Output { input: ShadingInput::DiffuseColor, src: 1, swizzle: [0, 1, 2, 3] },
+        ]
+    }
+}
+
 /// Stage up axis.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum UpAxis {

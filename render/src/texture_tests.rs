@@ -4,7 +4,7 @@ use crate::camera::Camera;
 use crate::testscene::{self, camera_looking_down_z, lambert};
 use crate::Scene;
 use glam::{Vec2, Vec3};
-use ingest::scene::{SceneTexture, ShaderNode, ShadingInput, TextureData};
+use ingest::scene::{SceneTexture, ShaderNode, TextureData};
 use ingest::Mesh;
 
 /// A 1024² checker (8-texel squares) baked in memory.
@@ -25,20 +25,7 @@ fn checker() -> SceneTexture {
 /// A material whose diffuse colour is the checker read through the mesh's uvs.
 fn textured_material() -> ingest::Material {
     let mut m = lambert(0.5);
-    m.program = vec![
-        ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
-        ShaderNode::Texture {
-            dst: 1,
-            src: 0,
-            texture: Some(0),
-            wrap_s: texture::Wrap::Repeat,
-            wrap_t: texture::Wrap::Repeat,
-            scale: [1.0; 4],
-            bias: [0.0; 4],
-            fallback: [0.0, 0.0, 0.0, 1.0],
-        },
-        ShaderNode::Output { input: ShadingInput::DiffuseColor, src: 1, swizzle: [0, 1, 2, 3] },
-    ];
+    m.program = ShaderNode::diffuse_texture_program(0, [0.0, 0.0, 0.0, 1.0]);
     m
 }
 

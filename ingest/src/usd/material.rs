@@ -439,7 +439,12 @@ impl Reader<'_> {
                     }),
                 };
                 let texture = match file {
-                    Some(path) => self.bake_texture(node, &path, color_space, fallback),
+                    Some(path) => {
+                        let start = std::time::Instant::now();
+                        let texture = self.bake_texture(node, &path, color_space, fallback);
+                        self.scene.load_timings.texture_seconds += start.elapsed().as_secs_f64();
+                        texture
+                    }
                     None => None,
                 };
                 let Some(dst) = program.register() else { return self.too_many(node) };
@@ -583,19 +588,6 @@ impl Reader<'_> {
     /// The scene texture for `path` baked in `color_space` (decoded once per pair), or `None` with a
     /// warning naming the file and the fallback the lookups return instead.
     fn bake_texture(
-        &mut self,
-        node: &str,
-        path: &Path,
-        color_space: texture::ColorSpace,
-        fallback: [f32; 4],
-    ) -> Option<u32> {
-        let start = std::time::Instant::now();
-        let texture = self.bake_texture_untimed(node, path, color_space, fallback);
-        self.scene.load_timings.texture_seconds += start.elapsed().as_secs_f64();
-        texture
-    }
-
-    fn bake_texture_untimed(
         &mut self,
         node: &str,
         path: &Path,

@@ -11,21 +11,11 @@ use ingest::{Light, LightKind, Material, Scene};
 
 fn textured(metallic: f32, clearcoat: f32) -> Material {
     let mut m = Material { ior: 1.5, metallic, clearcoat, clearcoat_roughness: 0.2, ..Material::default() };
-    m.program = vec![
-        ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
-        ShaderNode::Texture {
-            dst: 1,
-            src: 0,
-            texture: Some(0),
-            wrap_s: texture::Wrap::Repeat,
-            wrap_t: texture::Wrap::Repeat,
-            scale: [1.0; 4],
-            bias: [0.0; 4],
-            fallback: [0.5; 4],
-        },
-        ShaderNode::Output { input: ShadingInput::DiffuseColor, src: 1, swizzle: [0, 1, 2, 3] },
-        ShaderNode::Output { input: ShadingInput::Roughness, src: 1, swizzle: [3; 4] },
-    ];
+    m.program = {
+        let mut program = ShaderNode::diffuse_texture_program(0, [0.5; 4]);
+        program.push(ShaderNode::Output { input: ShadingInput::Roughness, src: 1, swizzle: [3; 4] });
+        program
+    };
     m
 }
 
