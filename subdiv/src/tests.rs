@@ -620,10 +620,10 @@ fn bad_topology_is_an_error_not_a_crash() {
     assert!(matches!(Refiner::new(&Topology::new(&cube()).unwrap(), 11), Err(Error::LevelTooHigh { .. })));
 }
 
-#[test]
-fn non_manifold_and_degenerate_faces_do_not_crash() {
-    // Three triangles sharing edge 0–1, and a face repeating a vertex: OpenSubdiv may accept or
-    // reject them; either way the process survives and any mesh it returns is finite.
+/// Three triangles sharing edge 0–1, and a face repeating a vertex, under every scheme: OpenSubdiv
+/// may accept or reject them; either way the process survives and any mesh `refine` returns is
+/// finite. Shared by the uniform and the adaptive refiner tests.
+pub(crate) fn check_degenerate_cages(refine: impl Fn(&Cage, &[[f32; 3]]) -> Result<Tessellation>) {
     let points = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [0.5, -1.0, 0.0], [0.5, 0.0, 1.0]];
     let cases: [(&[i32], &[i32]); 2] =
         [(&[3, 3, 3], &[0, 1, 2, 1, 0, 3, 0, 1, 4]), (&[4, 3], &[0, 1, 1, 2, 0, 2, 3])];
@@ -636,9 +636,7 @@ fn non_manifold_and_degenerate_faces_do_not_crash() {
                 ..Default::default()
             };
             cage.options.scheme = scheme;
-            let result = Topology::new(&cage)
-                .and_then(|t| Refiner::new(&t, 2))
-                .and_then(|r| tessellate(&r, &points, None));
+            let result = refine(&cage, &points);
             eprintln!(
                 "{counts:?} {scheme:?}: {}",
                 match &result {
@@ -652,6 +650,13 @@ fn non_manifold_and_degenerate_faces_do_not_crash() {
             }
         }
     }
+}
+
+#[test]
+fn non_manifold_and_degenerate_faces_do_not_crash() {
+    check_degenerate_cages(|cage, points| {
+        Topology::new(cage).and_then(|t| Refiner::new(&t, 2)).and_then(|r| tessellate(&r, points, None))
+    });
 }
 
 #[test]

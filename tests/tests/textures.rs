@@ -66,9 +66,10 @@ fn card(x: [f32; 2], y: [f32; 2], s: [f32; 2], t: [f32; 2]) -> String {
     )
 }
 
-/// `/World/Looks/M`: a PreviewSurface with `surface_inputs` (connections into `Tex`/`St`) and a
-/// UsdUVTexture `Tex` reading `file` through a `st` primvar reader, with `tex_inputs` added.
-fn material(surface_inputs: &str, file: &str, tex_inputs: &str) -> String {
+/// `/World/Looks/M`: a rough, IOR-1 PreviewSurface (pure Lambertian: a pixel under a white dome reads its
+/// albedo) with `surface_inputs`, followed by the material's other `shaders` (their connections name
+/// `/World/Looks/M/<shader>`).
+fn lambert_material(surface_inputs: &str, shaders: &str) -> String {
     format!(
         r#"    def Scope "Looks"
     {{
@@ -83,7 +84,17 @@ fn material(surface_inputs: &str, file: &str, tex_inputs: &str) -> String {
                 {surface_inputs}
                 token outputs:surface
             }}
-            def Shader "Tex"
+{shaders}        }}
+    }}
+"#
+    )
+}
+
+/// `/World/Looks/M`: [`lambert_material`] with `surface_inputs` (connections into `Tex`/`St`) and a
+/// UsdUVTexture `Tex` reading `file` through a `st` primvar reader, with `tex_inputs` added.
+fn material(surface_inputs: &str, file: &str, tex_inputs: &str) -> String {
+    let shaders = format!(
+        r#"            def Shader "Tex"
             {{
                 uniform token info:id = "UsdUVTexture"
                 asset inputs:file = @{file}@
@@ -99,10 +110,9 @@ fn material(surface_inputs: &str, file: &str, tex_inputs: &str) -> String {
                 string inputs:varname = "st"
                 float2 outputs:result
             }}
-        }}
-    }}
 "#
-    )
+    );
+    lambert_material(surface_inputs, &shaders)
 }
 
 const EMISSIVE: &str = "color3f inputs:diffuseColor = (0, 0, 0)\n                color3f inputs:emissiveColor.connect = </World/Looks/M/Tex.outputs:rgb>";
@@ -430,40 +440,28 @@ fn wavefront_equals_scalar_on_a_textured_card() {
 
 const WHITE_DOME: &str = "    def DomeLight \"Dome\"\n    {\n        float inputs:intensity = 1\n    }\n";
 
-/// `/World/Looks/M`: a rough, IOR-1 PreviewSurface (pure Lambertian: a pixel under the white dome reads
-/// its albedo) whose `input` is connected to a `reader` (`UsdPrimvarReader_*`) of `varname`, with the
-/// reader's `extra` inputs.
+/// `/World/Looks/M`: a black [`lambert_material`] whose `input` is connected to a `reader`
+/// (`UsdPrimvarReader_*`) of `varname`, with the reader's `extra` inputs.
 fn primvar_material(input: &str, reader: &str, varname: &str, extra: &str) -> String {
     let (ty, out) = match reader {
         "UsdPrimvarReader_float" | "UsdPrimvarReader_int" => ("float", "float"),
         _ => ("color3f", "float3"),
     };
-    format!(
-        r#"    def Scope "Looks"
-    {{
-        def Material "M"
-        {{
-            token outputs:surface.connect = </World/Looks/M/Surface.outputs:surface>
-            def Shader "Surface"
-            {{
-                uniform token info:id = "UsdPreviewSurface"
-                float inputs:ior = 1
-                float inputs:roughness = 1
-                color3f inputs:diffuseColor = (0, 0, 0)
-                {ty} inputs:{input}.connect = </World/Looks/M/Reader.outputs:result>
-                token outputs:surface
-            }}
-            def Shader "Reader"
+    let surface_inputs = format!(
+        "color3f inputs:diffuseColor = (0, 0, 0)\n                \
+         {ty} inputs:{input}.connect = </World/Looks/M/Reader.outputs:result>"
+    );
+    let shaders = format!(
+        r#"            def Shader "Reader"
             {{
                 uniform token info:id = "{reader}"
                 string inputs:varname = "{varname}"
                 {extra}
                 {out} outputs:result
             }}
-        }}
-    }}
 "#
-    )
+    );
+    lambert_material(&surface_inputs, &shaders)
 }
 
 /// Two quads side by side spanning `[-1, 1] × [-1, 1]` (shared edge at x = 0), corners counter-clockwise
