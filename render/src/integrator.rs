@@ -122,7 +122,7 @@ struct CurveSurface {
 
 impl Surface {
     /// Origin for a ray leaving the surface in direction `w`.
-    fn spawn(&self, w: Vec3) -> Vec3 {
+    pub(crate) fn spawn(&self, w: Vec3) -> Vec3 {
         match &self.curve {
             Some(c) if c.spawn > 0.0 => self.p + w * c.spawn,
             _ => offset_ray_origin(self.p, if w.dot(self.ng) >= 0.0 { self.ng } else { -self.ng }),
@@ -131,25 +131,25 @@ impl Surface {
 }
 
 /// The BSDF at a hit: UsdPreviewSurface (triangles, points) or hair (curves).
-enum SurfaceBsdf {
+pub(crate) enum SurfaceBsdf {
     Preview(Bsdf),
     Hair(HairBsdf),
 }
 
 impl SurfaceBsdf {
-    fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         match self {
             SurfaceBsdf::Preview(b) => b.eval(wo, wi),
             SurfaceBsdf::Hair(h) => h.eval(wo, wi),
         }
     }
-    fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
+    pub(crate) fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
         match self {
             SurfaceBsdf::Preview(b) => b.sample(wo, u_lobe, u),
             SurfaceBsdf::Hair(h) => h.sample(wo, u_lobe, u),
         }
     }
-    fn albedo(&self) -> Vec3 {
+    pub(crate) fn albedo(&self) -> Vec3 {
         match self {
             SurfaceBsdf::Preview(b) => b.diffuse_albedo(),
             SurfaceBsdf::Hair(h) => h.color(),
@@ -239,7 +239,7 @@ impl<'a> Scene<'a> {
     }
 
     /// Surface data at a curve or point hit.
-    fn curve_surface(&self, hit: &CurveHit, wo: Vec3) -> Surface {
+    pub(crate) fn curve_surface(&self, hit: &CurveHit, wo: Vec3) -> Surface {
         let curves = self.curves.view();
         let group = self.curves.group_of(hit.prim);
         let material = &self.view.materials[group.material as usize];
@@ -275,7 +275,7 @@ impl<'a> Scene<'a> {
     }
 
     /// The BSDF at `s` from its evaluated shading inputs.
-    fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs) -> SurfaceBsdf {
+    pub(crate) fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs) -> SurfaceBsdf {
         match &s.curve {
             Some(CurveSurface { hair: Some(h), .. }) => SurfaceBsdf::Hair(*h),
             Some(c) => SurfaceBsdf::Preview(Bsdf::from_inputs(
