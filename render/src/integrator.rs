@@ -27,6 +27,18 @@ pub const RR_START_BOUNCE: u32 = 3;
 /// cannot loop forever.
 pub const MAX_NULL_EVENTS: u32 = 64;
 
+/// How far a shadow ray from `origin` runs towards a light sample `distance` away from the shading
+/// point `p`: the rest of the way, less a relative 1e-4 so it stops short of the light's own surface
+/// (infinite for lights at infinity).
+#[inline]
+pub(crate) fn shadow_tmax(distance: f32, origin: Vec3, p: Vec3) -> f32 {
+    if distance.is_finite() {
+        (distance - (origin - p).length()) * (1.0 - 1e-4)
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// First-hit data for the AOVs.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FirstHit {
@@ -497,11 +509,7 @@ impl<'a> Scene<'a> {
                 if contribution.max_element() > 0.0 {
                     let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
                     let shadow_origin = s.spawn(ls.wi);
-                    let tmax = if ls.distance.is_finite() {
-                        (ls.distance - (shadow_origin - s.p).length()) * (1.0 - 1e-4)
-                    } else {
-                        f32::INFINITY
-                    };
+                    let tmax = shadow_tmax(ls.distance, shadow_origin, s.p);
                     rays.shadow += 1;
                     clock.lap(Phase::Integration);
                     let transmits = self.shadow_transmits(

@@ -90,6 +90,17 @@ fn scene() -> Scene {
     }
 }
 
+/// 48 × 48 at 16 spp in 16-pixel tiles, paths up to 6 bounces (Russian roulette from the third).
+fn options() -> RenderOptions {
+    RenderOptions {
+        spp: 16,
+        resolution: Some([48, 48]),
+        tile_size: 16,
+        max_depth: 6,
+        ..RenderOptions::default()
+    }
+}
+
 /// Renders `view` with both integrators and asserts the images are equal bit for bit (beauty and
 /// every AOV), with the same ray and shader-evaluation counts.
 fn both_integrators(view: &blob::SceneView, options: &RenderOptions, what: &str) -> (Image, Image) {
@@ -120,13 +131,7 @@ fn both_integrators(view: &blob::SceneView, options: &RenderOptions, what: &str)
 fn wavefront_equals_scalar_with_textures_and_many_area_lights() {
     let bytes = testscene::bytes(&scene());
     let view = blob::SceneView::parse(&bytes).expect("valid blob");
-    let options = RenderOptions {
-        spp: 16,
-        resolution: Some([48, 48]),
-        tile_size: 16,
-        max_depth: 6,
-        ..RenderOptions::default()
-    };
+    let options = options();
     let (scalar, wave) = both_integrators(&view, &options, "textures + 12 area lights");
     // The scene must actually be lit by its area lights and show texture variation.
     let lum: Vec<f32> = scalar.beauty.iter().map(|p| p[0] + p[1] + p[2]).collect();
@@ -223,13 +228,7 @@ fn wavefront_equals_scalar_with_curves_and_points() {
     let bytes = testscene::bytes(&with_curves);
     let view = blob::SceneView::parse(&bytes).expect("valid blob");
     assert!(view.curves.segments.len() >= 112 && view.curves.spheres.len() == 60);
-    let options = RenderOptions {
-        spp: 16,
-        resolution: Some([48, 48]),
-        tile_size: 16,
-        max_depth: 6,
-        ..RenderOptions::default()
-    };
+    let options = options();
     let (scalar, wave) = both_integrators(&view, &options, "curves, points, textures + 12 area lights");
     // The wavefront really ran (no scalar fallback for scenes with curves): its stages took time
     // and its lanes ran; the scalar render has neither.

@@ -9,7 +9,9 @@
 
 use super::lanes::LANES;
 use super::{Context, ShadowRay, Worker};
-use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE};
+use crate::integrator::{
+    shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE,
+};
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32};
 use crate::stats::Phase;
@@ -89,11 +91,7 @@ pub(super) fn vertex<T: Touch>(
         if contribution.max_element() > 0.0 {
             let mis = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
             let origin = s.spawn(ls.wi);
-            let tmax = if ls.distance.is_finite() {
-                (ls.distance - (origin - s.p).length()) * (1.0 - 1e-4)
-            } else {
-                f32::INFINITY
-            };
+            let tmax = shadow_tmax(ls.distance, origin, s.p);
             let seed = hash_combine(hash_combine(hash_u32(ctx.options.seed), st.pixel), st.sample) ^ vertex;
             w.shadow[i as usize] =
                 ShadowRay { origin, dir: ls.wi, tmax, contribution: contribution * mis, seed };
