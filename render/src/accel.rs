@@ -224,31 +224,52 @@ impl<'a> Accel<'a> {
     }
 }
 
-// The multiversioned entry points: one clone per target, the CPU checked once per query. The two
-// kernels are nested `inherit_target` functions, compiled for the clone's target and deliberately not
-// inlined: inlined into the traversal loop, LLVM's SLP vectorizer split the 8-wide slab test into
-// 4-wide halves with shuffles and scalarized most of the triangle test (register pressure), and the
-// out-of-line kernels were faster (see the module docs). Closures inherit the target features, so passing
-// the kernels to the generic traversal stays safe.
+/// The two lane kernels ([`Lanes::node`], [`Lanes::block`]) compiled for the target of the
+/// `#[multiversion]` clone this is expanded in, as a pair of closures `(node, block)` to hand to a
+/// traversal. Every multiversioned traversal entry point (closest and any hit here, packets in
+/// [`crate::wavefront::packet`]) takes its kernels from here.
+///
+/// The kernels are nested `inherit_target` functions, deliberately not inlined: inlined into the
+/// traversal loop, LLVM's SLP vectorizer split the 8-wide slab test into 4-wide halves with shuffles
+/// and scalarized most of the triangle test (register pressure), and the out-of-line kernels were
+/// faster (see the module docs). `#[target_feature]` functions do not implement `Fn`; closures
+/// defined in the clone inherit its features, which makes the calls safe, so the closures are not
+/// redundant.
+macro_rules! lane_kernels {
+    () => {{
+        #[multiversion::inherit_target]
+        #[inline(never)]
+        fn node(
+            node: &blob::BvhNode,
+            ray: &$crate::accel::NodeRay,
+            tmax: f32,
+        ) -> (u32, [f32; blob::BVH_WIDTH]) {
+            <$crate::accel::Lanes as $crate::accel::Kernels>::node(node, ray, tmax)
+        }
+        #[multiversion::inherit_target]
+        #[inline(never)]
+        fn block(
+            block: &blob::TriangleBlock,
+            ray: &$crate::accel::WatertightRay,
+            tmax: f32,
+        ) -> $crate::accel::BlockHits {
+            <$crate::accel::Lanes as $crate::accel::Kernels>::block(block, ray, tmax)
+        }
+        #[allow(clippy::redundant_closure)]
+        let kernels = (
+            |n: &blob::BvhNode, r: &$crate::accel::NodeRay, t: f32| node(n, r, t),
+            |b: &blob::TriangleBlock, r: &$crate::accel::WatertightRay, t: f32| block(b, r, t),
+        );
+        kernels
+    }};
+}
+pub(crate) use lane_kernels;
+
+// The multiversioned entry points: one clone per target, the CPU checked once per query.
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn closest_hit_simd(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
-    #[multiversion::inherit_target]
-    #[inline(never)]
-    fn node(node: &BvhNode, ray: &NodeRay, tmax: f32) -> (u32, [f32; BVH_WIDTH]) {
-        Lanes::node(node, ray, tmax)
-    }
-    #[multiversion::inherit_target]
-    #[inline(never)]
-    fn block(block: &TriangleBlock, ray: &WatertightRay, tmax: f32) -> BlockHits {
-        Lanes::block(block, ray, tmax)
-    }
-    // Not redundant: `#[target_feature]` functions do not implement `Fn`; the closures inherit the
-    // features and make the calls safe.
-    #[allow(clippy::redundant_closure)]
-    let found = two_level_closest(accel, origin, direction, tmax, &|n, r, t| node(n, r, t), &|b, r, t| {
-        block(b, r, t)
-    });
-    found
+    let (node, block) = lane_kernels!();
+    two_level_closest(accel, origin, direction, tmax, &node, &block)
 }
 
 #[multiversion(targets("x86_64+avx2+fma"))]
@@ -259,28 +280,8 @@ fn any_hit_simd<F: FnMut(u32, u32) -> bool>(
     tmax: f32,
     mut blocks: F,
 ) -> bool {
-    #[multiversion::inherit_target]
-    #[inline(never)]
-    fn node(node: &BvhNode, ray: &NodeRay, tmax: f32) -> (u32, [f32; BVH_WIDTH]) {
-        Lanes::node(node, ray, tmax)
-    }
-    #[multiversion::inherit_target]
-    #[inline(never)]
-    fn block(block: &TriangleBlock, ray: &WatertightRay, tmax: f32) -> BlockHits {
-        Lanes::block(block, ray, tmax)
-    }
-    // Not redundant, see `closest_hit_simd`.
-    #[allow(clippy::redundant_closure)]
-    let found = two_level_any(
-        accel,
-        origin,
-        direction,
-        tmax,
-        &|n, r, t| node(n, r, t),
-        &|b, r, t| block(b, r, t),
-        &mut blocks,
-    );
-    found
+    let (node, block) = lane_kernels!();
+    two_level_any(accel, origin, direction, tmax, &node, &block, &mut blocks)
 }
 
 /// Closest hit over the top-level triangles, then over the instances closer than that hit. A scene

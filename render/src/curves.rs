@@ -55,7 +55,7 @@ pub enum CurveShape {
 }
 
 /// A ray's hit on a curve segment or a point sphere.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CurveHit {
     /// Ray parameter (in multiples of the ray direction).
     pub t: f32,

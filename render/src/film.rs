@@ -290,10 +290,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
         crate::wavefront::Counters::default(),
         crate::stats::PhaseClock::new(false),
     ));
-    // The wavefront stages trace triangles only so far: scenes with curves or points take the scalar
-    // path (same estimator, same image) rather than losing their curves.
-    let integrator = if scene.curves.is_empty() { options.integrator } else { Integrator::Scalar };
-    let results: Vec<TileResult> = match integrator {
+    let results: Vec<TileResult> = match options.integrator {
         Integrator::Scalar => pool.install(|| tiles.par_iter().map(render_tile).collect()),
         Integrator::Wavefront => {
             let ctx = crate::wavefront::Context {

@@ -27,6 +27,18 @@ pub const RR_START_BOUNCE: u32 = 3;
 /// cannot loop forever.
 pub const MAX_NULL_EVENTS: u32 = 64;
 
+/// How far a shadow ray from `origin` runs towards a light sample `distance` away from the shading
+/// point `p`: the rest of the way, less a relative 1e-4 so it stops short of the light's own surface
+/// (infinite for lights at infinity).
+#[inline]
+pub(crate) fn shadow_tmax(distance: f32, origin: Vec3, p: Vec3) -> f32 {
+    if distance.is_finite() {
+        (distance - (origin - p).length()) * (1.0 - 1e-4)
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// First-hit data for the AOVs.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FirstHit {
@@ -122,7 +134,7 @@ struct CurveSurface {
 
 impl Surface {
     /// Origin for a ray leaving the surface in direction `w`.
-    fn spawn(&self, w: Vec3) -> Vec3 {
+    pub(crate) fn spawn(&self, w: Vec3) -> Vec3 {
         match &self.curve {
             Some(c) if c.spawn > 0.0 => self.p + w * c.spawn,
             _ => offset_ray_origin(self.p, if w.dot(self.ng) >= 0.0 { self.ng } else { -self.ng }),
@@ -131,25 +143,25 @@ impl Surface {
 }
 
 /// The BSDF at a hit: UsdPreviewSurface (triangles, points) or hair (curves).
-enum SurfaceBsdf {
+pub(crate) enum SurfaceBsdf {
     Preview(Bsdf),
     Hair(HairBsdf),
 }
 
 impl SurfaceBsdf {
-    fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         match self {
             SurfaceBsdf::Preview(b) => b.eval(wo, wi),
             SurfaceBsdf::Hair(h) => h.eval(wo, wi),
         }
     }
-    fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
+    pub(crate) fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
         match self {
             SurfaceBsdf::Preview(b) => b.sample(wo, u_lobe, u),
             SurfaceBsdf::Hair(h) => h.sample(wo, u_lobe, u),
         }
     }
-    fn albedo(&self) -> Vec3 {
+    pub(crate) fn albedo(&self) -> Vec3 {
         match self {
             SurfaceBsdf::Preview(b) => b.diffuse_albedo(),
             SurfaceBsdf::Hair(h) => h.color(),
@@ -239,7 +251,7 @@ impl<'a> Scene<'a> {
     }
 
     /// Surface data at a curve or point hit.
-    fn curve_surface(&self, hit: &CurveHit, wo: Vec3) -> Surface {
+    pub(crate) fn curve_surface(&self, hit: &CurveHit, wo: Vec3) -> Surface {
         let curves = self.curves.view();
         let group = self.curves.group_of(hit.prim);
         let material = &self.view.materials[group.material as usize];
@@ -275,7 +287,7 @@ impl<'a> Scene<'a> {
     }
 
     /// The BSDF at `s` from its evaluated shading inputs.
-    fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs) -> SurfaceBsdf {
+    pub(crate) fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs) -> SurfaceBsdf {
         match &s.curve {
             Some(CurveSurface { hair: Some(h), .. }) => SurfaceBsdf::Hair(*h),
             Some(c) => SurfaceBsdf::Preview(Bsdf::from_inputs(
@@ -497,11 +509,7 @@ impl<'a> Scene<'a> {
                 if contribution.max_element() > 0.0 {
                     let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
                     let shadow_origin = s.spawn(ls.wi);
-                    let tmax = if ls.distance.is_finite() {
-                        (ls.distance - (shadow_origin - s.p).length()) * (1.0 - 1e-4)
-                    } else {
-                        f32::INFINITY
-                    };
+                    let tmax = shadow_tmax(ls.distance, shadow_origin, s.p);
                     rays.shadow += 1;
                     clock.lap(Phase::Integration);
                     let transmits = self.shadow_transmits(

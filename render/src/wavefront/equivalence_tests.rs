@@ -1,13 +1,15 @@
 //! Whole-image equivalence of the wavefront and scalar integrators on a scene that exercises every
 //! lane kernel: textured UsdPreviewSurface materials (diffuse, metal, clearcoat; texture-driven colour
 //! and roughness), sphere, rect and disk lights (the area-emission lanes, more than eight of them), an
-//! emissive triangle, a dome and a sun, and paths deep enough for Russian roulette.
+//! emissive triangle, a dome and a sun, and paths deep enough for Russian roulette; and the same scene
+//! with curves (hair-coloured tubes, ribbons, a textured and a translucent UsdPreviewSurface material
+//! on fibres) and points among the triangles.
 
 use crate::testscene::{self, camera_looking_down_z, card, sphere};
-use crate::{render_image, Integrator, RenderOptions};
+use crate::{render_image, Image, Integrator, RenderOptions};
 use glam::{Mat4, Vec3};
 use ingest::scene::{SceneTexture, ShaderNode, ShadingInput, TextureData};
-use ingest::{Light, LightKind, Material, Scene};
+use ingest::{BezierSegment, CurveKind, Curves, Light, LightKind, Material, PointSphere, Scene};
 
 fn textured(metallic: f32, clearcoat: f32) -> Material {
     let mut m = Material { ior: 1.5, metallic, clearcoat, clearcoat_roughness: 0.2, ..Material::default() };
@@ -88,39 +90,163 @@ fn scene() -> Scene {
     }
 }
 
-#[test]
-fn wavefront_equals_scalar_with_textures_and_many_area_lights() {
-    let bytes = testscene::bytes(&scene());
-    let view = blob::SceneView::parse(&bytes).expect("valid blob");
-    let options = RenderOptions {
+/// 48 × 48 at 16 spp in 16-pixel tiles, paths up to 6 bounces (Russian roulette from the third).
+fn options() -> RenderOptions {
+    RenderOptions {
         spp: 16,
         resolution: Some([48, 48]),
         tile_size: 16,
         max_depth: 6,
         ..RenderOptions::default()
-    };
+    }
+}
+
+/// Renders `view` with both integrators and asserts the images are equal bit for bit (beauty and
+/// every AOV), with the same ray and shader-evaluation counts.
+fn both_integrators(view: &blob::SceneView, options: &RenderOptions, what: &str) -> (Image, Image) {
     let scalar =
-        render_image(&view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() }).unwrap();
-    let wave = render_image(&view, &RenderOptions { integrator: Integrator::Wavefront, ..options }).unwrap();
+        render_image(view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() }).unwrap();
+    let wave =
+        render_image(view, &RenderOptions { integrator: Integrator::Wavefront, ..options.clone() }).unwrap();
     let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
     for (a, b) in scalar.beauty.iter().flatten().zip(wave.beauty.iter().flatten()) {
         max = max.max((a - b).abs());
         sum += (a - b).abs() as f64;
         n += 1;
     }
-    eprintln!(
-        "textures + 12 area lights: wavefront vs scalar: max abs diff {max:e}, mean {:e}",
-        sum / n as f64
-    );
+    let mean = sum / n as f64;
+    eprintln!("{what}: wavefront vs scalar: max abs diff {max:e}, mean {mean:e}");
     assert_eq!(max, 0.0, "the lane kernels are bit-exact, so the images must be equal");
+    assert_eq!(mean, 0.0);
+    assert_eq!(scalar.beauty, wave.beauty);
     assert_eq!(scalar.albedo, wave.albedo);
+    assert_eq!(scalar.normal, wave.normal);
+    assert_eq!(scalar.depth, wave.depth);
     assert_eq!(scalar.stats.rays, wave.stats.rays);
     assert_eq!(scalar.stats.shader_evaluations, wave.stats.shader_evaluations);
+    (scalar, wave)
+}
+
+#[test]
+fn wavefront_equals_scalar_with_textures_and_many_area_lights() {
+    let bytes = testscene::bytes(&scene());
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    let options = options();
+    let (scalar, wave) = both_integrators(&view, &options, "textures + 12 area lights");
     // The scene must actually be lit by its area lights and show texture variation.
     let lum: Vec<f32> = scalar.beauty.iter().map(|p| p[0] + p[1] + p[2]).collect();
     let mean = lum.iter().sum::<f32>() / lum.len() as f32;
     assert!(mean > 0.05, "mean luminance {mean}");
     assert!(wave.stats.counters.bsdf_lane_groups > 0);
+}
+
+/// Material indices [`curve_scene`] adds after [`scene`]'s four.
+const TRANSLUCENT: u32 = 4;
+const GLOWING: u32 = 5;
+
+/// A cubic Bézier fibre from `root` along `dir`, bent sideways by `bend`, radius `r0` → `r1`.
+fn fibre(root: Vec3, dir: Vec3, bend: Vec3, r0: f32, r1: f32) -> BezierSegment {
+    let p = [
+        root.extend(r0),
+        (root + dir / 3.0).extend(r0 + (r1 - r0) / 3.0),
+        (root + dir * (2.0 / 3.0) + bend * 0.5).extend(r0 + (r1 - r0) * (2.0 / 3.0)),
+        (root + dir + bend).extend(r1),
+    ];
+    BezierSegment { p, u: [0.0, 1.0], ..BezierSegment::default() }
+}
+
+/// [`scene`] with curves and points in front of and between its spheres: a hair-coloured groom of
+/// tubes (per-vertex colours: the hair BSDF's absorption), ribbons with authored normals under the
+/// textured UsdPreviewSurface material, translucent fibres (opacity 0.5: stochastic pass-through,
+/// also of shadow rays' occluders), coloured points and glowing points (emission found by BSDF
+/// sampling).
+fn curve_scene() -> Scene {
+    let mut scene = scene();
+    scene.materials.push(Material { opacity: 0.5, ..testscene::lambert(0.7) });
+    scene.materials.push(Material { emissive_color: Vec3::new(2.0, 1.0, 0.5), ..testscene::lambert(0.3) });
+    let mut rng = testscene::Rng(17);
+    let mut groom =
+        Curves { path: "/Groom".into(), kind: CurveKind::Tube, has_colors: true, ..Curves::default() };
+    for k in 0..80 {
+        let root = Vec3::new(rng.range(-1.6, 1.6), rng.range(-0.9, -0.3), rng.range(-0.2, 0.6));
+        let bend = Vec3::new(rng.range(-0.3, 0.3), 0.0, rng.range(-0.2, 0.2));
+        let mut seg = fibre(root, Vec3::new(0.0, rng.range(0.6, 1.2), 0.0), bend, 0.012, 0.004);
+        let tint = k as f32 / 80.0;
+        seg.color = [Vec3::new(0.3 + 0.5 * tint, 0.2, 0.1), Vec3::new(0.9, 0.7 - 0.4 * tint, 0.4)];
+        groom.segments.push(seg);
+    }
+    groom.curve_count = groom.segments.len();
+    let mut ribbons =
+        Curves { path: "/Ribbons".into(), kind: CurveKind::Ribbon, has_normals: true, ..Curves::default() };
+    for k in 0..12 {
+        let x = -1.5 + 0.27 * k as f32;
+        let mut seg =
+            fibre(Vec3::new(x, 0.6, 0.4), Vec3::new(0.1, -0.9, 0.2), Vec3::new(0.15, 0.0, 0.0), 0.05, 0.03);
+        seg.normal = [Vec3::new(0.3, 0.0, 1.0).normalize(), Vec3::new(-0.4, 0.2, 1.0).normalize()];
+        ribbons.segments.push(seg);
+    }
+    ribbons.curve_count = ribbons.segments.len();
+    let mut translucent = Curves { path: "/Veil".into(), material: TRANSLUCENT, ..Curves::default() };
+    for k in 0..20 {
+        let y = -0.8 + 0.09 * k as f32;
+        translucent.segments.push(fibre(
+            Vec3::new(-1.8, y, 0.9),
+            Vec3::new(3.6, 0.1, -0.2),
+            Vec3::new(0.0, 0.05, 0.1),
+            0.02,
+            0.02,
+        ));
+    }
+    translucent.curve_count = translucent.segments.len();
+    let points = |path: &str, material: u32, has_colors: bool, rng: &mut testscene::Rng| {
+        let spheres: Vec<PointSphere> = (0..30)
+            .map(|_| PointSphere {
+                center: Vec3::new(rng.range(-1.8, 1.8), rng.range(-0.9, 1.2), rng.range(-0.4, 0.8)),
+                radius: rng.range(0.03, 0.12),
+                color: Vec3::new(rng.range(0.1, 0.9), rng.range(0.1, 0.9), rng.range(0.1, 0.9)),
+            })
+            .collect();
+        Curves {
+            path: path.into(),
+            kind: CurveKind::Points,
+            curve_count: spheres.len(),
+            spheres,
+            material,
+            has_colors,
+            ..Curves::default()
+        }
+    };
+    let coloured = points("/Points", 0, true, &mut rng);
+    let glowing = points("/Glow", GLOWING, false, &mut rng);
+    scene.curves = vec![groom, ribbons, translucent, coloured, glowing];
+    scene
+}
+
+#[test]
+fn wavefront_equals_scalar_with_curves_and_points() {
+    let with_curves = curve_scene();
+    let bytes = testscene::bytes(&with_curves);
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    assert!(view.curves.segments.len() >= 112 && view.curves.spheres.len() == 60);
+    let options = options();
+    let (scalar, wave) = both_integrators(&view, &options, "curves, points, textures + 12 area lights");
+    // The wavefront really ran (no scalar fallback for scenes with curves): its stages took time
+    // and its lanes ran; the scalar render has neither.
+    let stages = wave.stats.stages;
+    assert!(stages.intersect > 0.0 && stages.shade > 0.0 && stages.occlusion > 0.0, "{stages:?}");
+    assert!(wave.stats.counters.bsdf_lane_groups > 0);
+    assert_eq!(scalar.stats.stages, crate::wavefront::StageSeconds::default());
+    assert_eq!(scalar.stats.counters, crate::wavefront::Counters::default());
+
+    // The curves and points are in the picture: without them, many pixels change.
+    let plain = testscene::bytes(&scene());
+    let plain = blob::SceneView::parse(&plain).expect("valid blob");
+    let without =
+        render_image(&plain, &RenderOptions { integrator: Integrator::Wavefront, ..options }).unwrap();
+    let changed = wave.beauty.iter().zip(&without.beauty).filter(|(a, b)| a != b).count();
+    let changed_first_hits = wave.depth.iter().zip(&without.depth).filter(|(a, b)| a != b).count();
+    eprintln!("curves change {changed} pixels, {changed_first_hits} first-hit depths of {}", 48 * 48);
+    assert!(changed_first_hits > 48 * 48 / 10, "{changed_first_hits} pixels see a curve or point first");
 }
 
 /// `phase_stats` times every phase for both integrators, and the timers cover the render: their sum

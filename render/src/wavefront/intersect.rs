@@ -1,9 +1,17 @@
 //! Stage 2: closest hits for the ray queue. Reads the ray queue; adds the emission each ray finds
 //! (area lights it crosses, and on escape the dome and distant lights) to its path; writes the hit side
-//! table and the shade queue (`key << 32 | index`, unsorted; [`sort_keys`] fills the keys). Escaped
+//! tables and the shade queue (`key << 32 | index`, unsorted; [`sort_keys`] fills the keys). Escaped
 //! paths leave the wave here.
+//!
+//! Curves and points have their own BVH ([`crate::curves`]). As in the scalar integrator, a ray first
+//! finds its closest triangle, then asks the curves for a hit nearer than that one; a curve hit wins
+//! and is recorded in `curve_hits`, with [`blob::NONE`] as the triangle of its [`Hit`] (whose `t` is
+//! the curve's, so the cone footprint is taken at the right distance).
 
 use super::{sort, Context, Worker};
+use crate::accel::Hit;
+use crate::curves::CurveHit;
+use crate::scene::Scene;
 use texture::Touch;
 
 /// Intersects every queued ray.
@@ -13,21 +21,45 @@ pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     for &i in &w.rays {
         let st = &mut w.states[i as usize];
         let hit = scene.accel.closest_hit(st.origin, st.dir, f32::INFINITY);
-        let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
+        let curve = scene.curves.closest_hit(st.origin, st.dir, hit.map_or(f32::INFINITY, |h| h.t));
+        let t_hit = curve.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
         let prev = st.prev();
         st.radiance += st.beta * w.area_lights.emission(&scene.lights, st.origin, st.dir, t_hit, prev);
-        let Some(hit) = hit else {
-            st.radiance += st.beta * scene.lights.escaped_emission(st.dir, prev.map(|p| p.1));
-            continue;
+        w.hits[i as usize] = match (curve, hit) {
+            (Some(c), _) => {
+                w.curve_hits[i as usize] = c;
+                Hit { t: c.t, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE }
+            }
+            (None, Some(h)) => h,
+            (None, None) => {
+                st.radiance += st.beta * scene.lights.escaped_emission(st.dir, prev.map(|p| p.1));
+                continue;
+            }
         };
-        w.hits[i as usize] = hit;
         w.shade.push(sort::entry(0, i));
+    }
+}
+
+/// Whether `hit` is a curve or point hit (its data is in the worker's `curve_hits`).
+#[inline]
+pub(super) fn is_curve(hit: &Hit) -> bool {
+    hit.triangle == blob::NONE
+}
+
+/// The material of a path's hit: its triangle's, or its curve or point prim's.
+#[inline]
+pub(super) fn hit_material(scene: &Scene, hit: &Hit, curve: &CurveHit) -> u32 {
+    if is_curve(hit) {
+        scene.curves.group_of(curve.prim).material
+    } else {
+        scene.view.triangle_materials[hit.triangle as usize]
     }
 }
 
 /// Writes the texture part of every shade-queue key (see [`sort`]): the key needs the surface (uv
 /// and footprint), which is kept for shading, so each hit is reconstructed once. Hits on untextured
-/// materials keep key 0 and sort by material alone.
+/// materials keep key 0 and sort by material alone, and so do curve and point hits (they have no uv:
+/// their textures are read at uv 0, one key per material).
 pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene = ctx.scene;
     w.surfaces.clear();
@@ -37,8 +69,11 @@ pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     for e in w.shade.iter_mut() {
         let i = sort::index(*e) as usize;
         let hit = &w.hits[i];
-        let material = scene.view.triangle_materials[hit.triangle as usize] as usize;
         w.surface_slot[i] = u32::MAX;
+        if is_curve(hit) {
+            continue;
+        }
+        let material = scene.view.triangle_materials[hit.triangle as usize] as usize;
         if !w.textured_materials[material] {
             continue;
         }

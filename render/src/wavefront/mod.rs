@@ -59,6 +59,7 @@ pub mod packet;
 pub mod roulette;
 pub mod sampler_lanes;
 mod shade;
+mod shade_curves;
 pub mod sort;
 
 use crate::accel::Hit;
@@ -170,6 +171,8 @@ impl StageSeconds {
 pub struct Worker {
     states: Vec<RayState>,
     hits: Vec<Hit>,
+    /// Curve and point hits, valid where `hits` holds [`blob::NONE`] as the triangle.
+    curve_hits: Vec<crate::curves::CurveHit>,
     first_hits: Vec<Option<FirstHit>>,
     shadow: Vec<ShadowRay>,
     /// Incoherent ray queue being intersected, and the one shade fills for the next wave.
@@ -242,6 +245,7 @@ impl Worker {
         Worker {
             states: Vec::with_capacity(paths),
             hits: vec![Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: blob::NONE }; paths],
+            curve_hits: vec![crate::curves::CurveHit::default(); paths],
             first_hits: vec![None; paths],
             shadow: vec![ShadowRay::default(); paths],
             rays: Vec::with_capacity(paths),

@@ -29,8 +29,11 @@
 //! L2, so the shared fetch is cheap, while the packet's looser culling (a child is entered while any
 //! ray of the packet still wants it) adds node tests. Scenes whose BVH spills out of cache are where
 //! primary-ray packets should be measured next.
+//!
+//! [`Lanes::node`]: crate::accel::Kernels::node
+//! [`Lanes::block`]: crate::accel::Kernels::block
 
-use crate::accel::{Accel, BlockHits, Hit, Kernels, Lanes, NodeRay, WatertightRay};
+use crate::accel::{Accel, BlockHits, Hit, NodeRay, WatertightRay};
 use blob::{child_ref, BvhNode, TriangleBlock, BVH_WIDTH};
 use glam::Vec3;
 
@@ -57,20 +60,8 @@ pub fn closest_packet(accel: &Accel, origins: &[Vec3], dirs: &[Vec3], tmax: f32,
 
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn closest_packet_simd(accel: &Accel, origins: &[Vec3], dirs: &[Vec3], tmax: f32, out: &mut [Option<Hit>]) {
-    // Out-of-line kernels inheriting the target, as `accel::closest_hit_simd` does (inlined into the
-    // traversal loop they compiled poorly there).
-    #[multiversion::inherit_target]
-    #[inline(never)]
-    fn node(node: &BvhNode, ray: &NodeRay, tmax: f32) -> (u32, [f32; BVH_WIDTH]) {
-        Lanes::node(node, ray, tmax)
-    }
-    #[multiversion::inherit_target]
-    #[inline(never)]
-    fn block(block: &TriangleBlock, ray: &WatertightRay, tmax: f32) -> BlockHits {
-        Lanes::block(block, ray, tmax)
-    }
-    #[allow(clippy::redundant_closure)]
-    traverse(accel, origins, dirs, tmax, out, |n, r, t| node(n, r, t), |b, r, t| block(b, r, t));
+    let (node, block) = crate::accel::lane_kernels!();
+    traverse(accel, origins, dirs, tmax, out, node, block);
 }
 
 #[derive(Clone, Copy, Default)]

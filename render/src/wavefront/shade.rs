@@ -81,7 +81,12 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         w.clock.lap(Phase::Integration);
         w.scatter.clear();
         for (pos, k) in (start..end).enumerate() {
-            prepare(ctx, w, sort::index(w.shade[k]), pos, rays);
+            let i = sort::index(w.shade[k]);
+            if super::intersect::is_curve(&w.hits[i as usize]) {
+                super::shade_curves::vertex(ctx, w, i, pos, rays);
+            } else {
+                prepare(ctx, w, i, pos, rays);
+            }
         }
         scatter(w, rays);
         start = end;

@@ -101,22 +101,23 @@ pub fn radix_sort_by_key(entries: &mut [ShadeEntry], scratch: &mut [ShadeEntry])
 pub(super) fn shade_queue(scene: &Scene, w: &mut Worker) {
     let n = w.shade.len();
     radix_sort_by_key(&mut w.shade, &mut w.scratch);
-    let materials = &scene.view.triangle_materials;
     let buckets = w.material_starts.len() - 1;
-    let bucket = |e: ShadeEntry, hits: &[crate::accel::Hit]| {
-        (materials[hits[index(e) as usize].triangle as usize] as usize).min(buckets - 1)
+    let (hits, curve_hits) = (&w.hits, &w.curve_hits);
+    let bucket = |e: ShadeEntry| {
+        let i = index(e) as usize;
+        (super::intersect::hit_material(scene, &hits[i], &curve_hits[i]) as usize).min(buckets - 1)
     };
     let starts = &mut w.material_starts;
     starts.fill(0);
     for &e in &w.shade {
-        starts[bucket(e, &w.hits) + 1] += 1;
+        starts[bucket(e) + 1] += 1;
     }
     for m in 0..buckets {
         starts[m + 1] += starts[m];
     }
     // Scatter into scratch with a moving cursor per bucket, then shift the starts back.
     for &e in &w.shade {
-        let b = bucket(e, &w.hits);
+        let b = bucket(e);
         w.scratch[starts[b] as usize] = e;
         starts[b] += 1;
     }
