@@ -54,6 +54,7 @@ mod equivalence_tests;
 mod generate;
 mod intersect;
 pub mod lanes;
+pub mod light_lanes;
 mod occlusion;
 pub mod packet;
 pub mod roulette;
