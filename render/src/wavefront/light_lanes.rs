@@ -713,9 +713,9 @@ mod tests {
                 }
                 let mut g = Gathered { kind: [KIND_TRIANGLES; LANES], ..Gathered::default() };
                 pick_emitters(&table, &u0, &mut g);
-                for k in 0..LANES {
-                    let expected = cdf.partition_point(|&c| c <= u0[k]).min(len - 1);
-                    assert_eq!(g.triangle[k] as usize, expected, "cdf {cdf:?} choice {}", u0[k]);
+                for (&triangle, &u) in g.triangle.iter().zip(&u0) {
+                    let expected = cdf.partition_point(|&c| c <= u).min(len - 1);
+                    assert_eq!(triangle as usize, expected, "cdf {cdf:?} choice {u}");
                 }
             }
         }
