@@ -90,6 +90,8 @@ struct LaneEmitter {
     triangle: u32,
 }
 
+const _: () = assert!(std::mem::size_of::<LaneLight>() == 80 && std::mem::size_of::<LaneEmitter>() == 80);
+
 /// The selection list in the kernel's layout.
 #[derive(Clone, Debug, Default)]
 pub struct LightTable {
@@ -531,8 +533,8 @@ pub(super) fn sample_scatter_points<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut 
 }
 
 #[cfg(test)]
-/// A scene with every light kind: dome, delta and cone distant lights, point, sphere, rect and disk lights, and
-/// emissive triangles of three powers.
+/// A scene with every light kind: dome, delta and cone distant lights, point, sphere, rect and disk
+/// lights, and emissive triangles of three powers.
 pub(super) fn every_light_kind() -> ingest::Scene {
     use crate::testscene::{self, card, sphere};
     use glam::Mat4;
