@@ -121,6 +121,9 @@ pub struct Lights<'a> {
     triangles: &'a [blob::Triangle],
     triangle_materials: &'a [u32],
     materials: &'a [blob::Material],
+    /// The same lights laid out for the wavefront's 8-lane sampling kernel, built on first use (the
+    /// scalar integrator never pays for it).
+    lane_table: std::sync::OnceLock<crate::wavefront::light_lanes::LightTable>,
 }
 
 /// Power heuristic (β = 2) weight of a strategy with pdf `a` against one with pdf `b`.
@@ -333,7 +336,23 @@ impl<'a> Lights<'a> {
             triangles: view.triangles,
             triangle_materials: view.triangle_materials,
             materials: view.materials,
+            lane_table: std::sync::OnceLock::new(),
         }
+    }
+
+    /// Probability of selecting each entry of the selection list.
+    pub(crate) fn select_pmf(&self) -> f32 {
+        self.select_pmf
+    }
+
+    /// The emissive triangles' power distribution.
+    pub(crate) fn emissive(&self) -> &[blob::EmissiveTriangle] {
+        self.emissive
+    }
+
+    /// [`Lights::sample`]'s data in the wavefront light kernel's layout, built once per scene.
+    pub(crate) fn lane_table(&self) -> &crate::wavefront::light_lanes::LightTable {
+        self.lane_table.get_or_init(|| crate::wavefront::light_lanes::LightTable::new(self))
     }
 
     /// True if there is nothing to sample.
@@ -346,7 +365,7 @@ impl<'a> Lights<'a> {
         &self.lights
     }
 
-    fn triangle_points(&self, triangle: u32) -> [Vec3; 3] {
+    pub(crate) fn triangle_points(&self, triangle: u32) -> [Vec3; 3] {
         self.triangles[triangle as usize].vertices.map(|v| Vec3::from(self.positions[v as usize]))
     }
 
@@ -600,6 +619,7 @@ mod tests {
             triangles: &[],
             triangle_materials: &[],
             materials: &[],
+            lane_table: std::sync::OnceLock::new(),
         }
     }
 

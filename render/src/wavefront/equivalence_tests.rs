@@ -249,6 +249,49 @@ fn wavefront_equals_scalar_with_curves_and_points() {
     assert!(changed_first_hits > 48 * 48 / 10, "{changed_first_hits} pixels see a curve or point first");
 }
 
+/// Every light kind the light-sampling lanes handle (dome, delta and cone distant lights, point,
+/// sphere, rect and disk lights, emissive triangles of three powers, one of them with a textured
+/// `emissiveColor` evaluated per light sample): the wavefront image equals the scalar one.
+#[test]
+fn wavefront_equals_scalar_with_every_light_kind() {
+    let mut lit = super::light_lanes::every_light_kind();
+    lit.textures = scene().textures;
+    lit.materials[2].program = vec![
+        ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
+        ShaderNode::Texture {
+            dst: 1,
+            src: 0,
+            texture: Some(0),
+            wrap_s: texture::Wrap::Repeat,
+            wrap_t: texture::Wrap::Repeat,
+            scale: [2.0; 4],
+            bias: [0.0; 4],
+            fallback: [1.0; 4],
+        },
+        ShaderNode::Output { input: ShadingInput::EmissiveColor, src: 1, swizzle: [0, 1, 2, 3] },
+    ];
+    let bytes = testscene::bytes(&lit);
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    assert_eq!(view.lights.len(), 7);
+    assert_eq!(
+        view.emissive_triangles.len(),
+        6,
+        "three emissive cards of two triangles: {:?}",
+        view.emissive_triangles
+    );
+    let options = RenderOptions {
+        spp: 16,
+        resolution: Some([40, 40]),
+        tile_size: 16,
+        max_depth: 5,
+        ..RenderOptions::default()
+    };
+    let (scalar, wave) = both_integrators(&view, &options, "every light kind");
+    assert!(wave.stats.counters.light_lanes_active > 0);
+    let mean = scalar.beauty.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / scalar.beauty.len() as f32;
+    assert!(mean > 0.05, "mean luminance {mean}");
+}
+
 /// `phase_stats` times every phase for both integrators, and the timers cover the render: their sum
 /// is positive and no more than the render's wall time over all threads.
 #[test]

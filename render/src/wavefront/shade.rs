@@ -4,8 +4,9 @@
 //! The queue is shaded in chunks of [`CHUNK`] hits, each in two phases:
 //! 0. eight paths at a time: every random number of the paths' vertices ([`sampler_lanes`]);
 //! 1. per hit (scalar, material by material): stochastic transparency, the material program, the BSDF,
-//!    the first-hit AOVs, emission at the hit, the light sample, and the path's random numbers, into an
-//!    AoS [`ScatterPoint`] (the depth limit ends paths here);
+//!    the first-hit AOVs, emission at the hit, and the path's random numbers, into an AoS
+//!    [`ScatterPoint`] (the depth limit ends paths here);
+//!    then eight points at a time, the light sample and its shadow ray ([`light_lanes`]);
 //! 2. eight points at a time, transposed to AoSoA lanes: the BSDF towards the light
 //!    ([`bsdf_lanes::eval_lanes`]), the MIS weight ([`lanes::weigh_lanes`], kept samples enter the
 //!    occlusion queue), the BSDF sample ([`bsdf_lanes::sample_lanes`]) and the throughput update with
@@ -16,6 +17,7 @@
 
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
+use super::light_lanes;
 use super::roulette::{self, RouletteLanes, RouletteOut};
 use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::{sort, Context, ShadowRay, Worker};
@@ -23,7 +25,7 @@ use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
 use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
-use crate::sampler::{dim, hash_combine, hash_u32, SampleKey};
+use crate::sampler::{dim, hash_u32};
 use crate::scene::Scene;
 use crate::stats::Phase;
 use glam::Vec3;
@@ -51,7 +53,11 @@ pub struct ScatterPoint {
     pub u_bsdf: [f32; 2],
     /// Russian roulette sample.
     pub u_rr: f32,
-    /// A light sample exists (the fields below are valid).
+    /// Light choice.
+    pub u_light_select: f32,
+    /// Position sample on the light.
+    pub u_light: [f32; 2],
+    /// A light sample exists (the fields below are valid; [`light_lanes`] fills them).
     pub has_light: bool,
     /// Direction to the light.
     pub light_wi: Vec3,
@@ -88,6 +94,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
                 prepare(ctx, w, i, pos, rays);
             }
         }
+        light_lanes::sample_scatter_points(ctx, w);
         scatter(w, rays);
         start = end;
     }
@@ -116,7 +123,6 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let (max_depth, filter, touch) = (ctx.settings.max_depth, ctx.settings.filter, ctx.touch);
     let hit = w.hits[i as usize];
     let st = &mut w.states[i as usize];
-    let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed };
     let r = |d: u32| w.randoms[pos / LANES][d as usize][pos % LANES];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
@@ -167,8 +173,7 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
         return;
     }
 
-    let vertex = st.vertex;
-    let mut point = ScatterPoint {
+    let point = ScatterPoint {
         index: i,
         bsdf,
         wo,
@@ -177,6 +182,8 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
         u_lobe: r(dim::LOBE),
         u_bsdf: [r(dim::BSDF_UV), r(dim::BSDF_UV + 1)],
         u_rr: r(dim::RUSSIAN_ROULETTE),
+        u_light_select: r(dim::LIGHT_SELECT),
+        u_light: [r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1)],
         has_light: false,
         light_wi: Vec3::ZERO,
         light_li: Vec3::ZERO,
@@ -186,29 +193,6 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
         shadow_tmax: 0.0,
         shadow_seed: 0,
     };
-    // Next-event estimation: the light sample; the BSDF and the MIS weight follow in lanes.
-    let u_select = r(dim::LIGHT_SELECT);
-    let u_light = [r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1)];
-    if let Some(mut ls) = scene.lights.sample(s.p, u_select, u_light) {
-        if let Some((tri, [b1, b2])) = ls.emitter {
-            ls.li = scene.emission_at(tri, b1, b2, filter, touch);
-        }
-        let origin = offset_ray_origin(s.p, s.ng);
-        let tmax = if ls.distance.is_finite() {
-            (ls.distance - (origin - s.p).length()) * (1.0 - 1e-4)
-        } else {
-            f32::INFINITY
-        };
-        let shadow_seed = hash_combine(hash_combine(hash_u32(key.seed), key.pixel), key.sample);
-        point.has_light = true;
-        point.light_wi = ls.wi;
-        point.light_li = ls.li;
-        point.light_pdf = ls.pdf;
-        point.light_delta = ls.delta;
-        point.shadow_origin = origin;
-        point.shadow_tmax = tmax;
-        point.shadow_seed = shadow_seed ^ vertex;
-    }
     w.scatter.push(point);
     w.clock.lap(Phase::Integration);
 }

@@ -1,0 +1,725 @@
+//! Next-event light sampling ([`crate::lights::Lights::sample`], the scalar reference) for eight
+//! shading points at once, as its own pass over a shading chunk's scatter points.
+//!
+//! The selection list is laid out once per scene as a [`LightTable`]: one 80-byte record per light
+//! (kind, radiance and the shape's vectors) and one per emissive triangle (vertices, normal,
+//! emission, and everything `Lights::sample` derives from its distribution entry). Records rather
+//! than one column per field: lanes pick lights by random index, so a record costs one or two cache
+//! lines per lane where columns would cost one per field.
+//!
+//! The kernel runs in four steps over the lanes:
+//! 1. selection (the uniform pick, then for the emissive-triangle entry a branchless binary search of
+//!    the power CDF, eight lanes in step, which finds `partition_point`'s index on the validated,
+//!    non-decreasing CDF), gathering each lane's record into AoSoA columns;
+//! 2. the angle each lane's sampling needs (φ = 2πu₁ for domes, spheres and cones, the concentric
+//!    disk's θ for disks);
+//! 3. its cosine and sine (libm, one lane at a time: a vector polynomial would not round like `cosf`),
+//!    only for the lanes that need them;
+//! 4. straight-line arithmetic per lane, every light kind's formula with the scalar code's IEEE
+//!    operations in the same order (glam's `dot` is `(x·x' + y·y') + z·z'`, `normalize` multiplies by
+//!    `1 / length`, `Vec3 / f32` divides each component), the kind choosing the result by select.
+//!    LLVM vectorises it to 8-wide AVX2 under [`multiversion`].
+//!
+//! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
+//! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
+//! that sampled an emissive triangle, as the scalar integrator calls it.
+
+use super::bsdf_lanes::{Lanes, Lanes3};
+use super::lanes::LANES;
+use super::{Context, Worker};
+use crate::accel::offset_ray_origin;
+use crate::lights::{Lights, Shape};
+use crate::sampler::{hash_combine, hash_u32};
+use crate::stats::Phase;
+use glam::Vec3;
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
+use texture::Touch;
+
+/// A dome light.
+pub const KIND_DOME: u32 = 0;
+/// A distant light of angle 0 (a delta direction).
+pub const KIND_DELTA: u32 = 1;
+/// A distant light with a cone of directions.
+pub const KIND_CONE: u32 = 2;
+/// A point light (sphere with `treatAsPoint`).
+pub const KIND_POINT: u32 = 3;
+/// A sphere light.
+pub const KIND_SPHERE: u32 = 4;
+/// A rect light.
+pub const KIND_RECT: u32 = 5;
+/// A disk light.
+pub const KIND_DISK: u32 = 6;
+/// The entry standing for all emissive triangles.
+pub const KIND_TRIANGLES: u32 = 7;
+
+/// One entry of the selection list.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+struct LaneLight {
+    kind: u32,
+    radiance: [f32; 3],
+    /// Centre, position, or the direction towards a distant light.
+    center: [f32; 3],
+    /// Rect/disk half-axis X.
+    ex: [f32; 3],
+    /// Rect/disk half-axis Y.
+    ey: [f32; 3],
+    /// Rect/disk emission normal.
+    normal: [f32; 3],
+    /// Sphere radius, rect/disk area, or a distant cone's 1 − cos θmax.
+    scalar: f32,
+}
+
+/// One emissive triangle with what `Lights::sample` computes from it, computed the same way.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+struct LaneEmitter {
+    a: [f32; 3],
+    b: [f32; 3],
+    c: [f32; 3],
+    /// Unit normal (`normalize_or_zero` of the edge cross product).
+    n: [f32; 3],
+    /// Area over pmf: the area the solid-angle pdf divides by.
+    area: f32,
+    pmf: f32,
+    /// The CDF before this entry, and at it.
+    lo: f32,
+    cdf: f32,
+    /// Emitted radiance of the triangle's material.
+    emission: [f32; 3],
+    triangle: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<LaneLight>() == 80 && std::mem::size_of::<LaneEmitter>() == 80);
+
+/// The selection list in the kernel's layout.
+#[derive(Clone, Debug, Default)]
+pub struct LightTable {
+    lights: Vec<LaneLight>,
+    select_pmf: f32,
+    /// The emissive triangles' CDF, contiguous for the search.
+    cdf: Vec<f32>,
+    emitters: Vec<LaneEmitter>,
+}
+
+impl LightTable {
+    /// Lays out the lights of `lights`.
+    pub fn new(lights: &Lights) -> Self {
+        let records = lights
+            .lights()
+            .iter()
+            .map(|light| {
+                let mut r = LaneLight { radiance: light.radiance.to_array(), ..LaneLight::default() };
+                match light.shape {
+                    Shape::Dome => r.kind = KIND_DOME,
+                    Shape::Distant { to_light, one_minus_cos_max } => {
+                        r.kind = if one_minus_cos_max == 0.0 { KIND_DELTA } else { KIND_CONE };
+                        r.center = to_light.to_array();
+                        r.scalar = one_minus_cos_max;
+                    }
+                    Shape::Point { position } => {
+                        r.kind = KIND_POINT;
+                        r.center = position.to_array();
+                    }
+                    Shape::Sphere { center, radius } => {
+                        r.kind = KIND_SPHERE;
+                        r.center = center.to_array();
+                        r.scalar = radius;
+                    }
+                    Shape::Rect { center, ex, ey, normal, area }
+                    | Shape::Disk { center, ex, ey, normal, area } => {
+                        r.kind =
+                            if matches!(light.shape, Shape::Rect { .. }) { KIND_RECT } else { KIND_DISK };
+                        (r.center, r.ex, r.ey, r.normal) =
+                            (center.to_array(), ex.to_array(), ey.to_array(), normal.to_array());
+                        r.scalar = area;
+                    }
+                    Shape::Triangles => r.kind = KIND_TRIANGLES,
+                }
+                r
+            })
+            .collect();
+        let emissive = lights.emissive();
+        let emitters = emissive
+            .iter()
+            .enumerate()
+            .map(|(k, e)| {
+                let [a, b, c] = lights.triangle_points(e.triangle);
+                LaneEmitter {
+                    a: a.to_array(),
+                    b: b.to_array(),
+                    c: c.to_array(),
+                    n: (b - a).cross(c - a).normalize_or_zero().to_array(),
+                    area: e.area / e.pmf.max(f32::MIN_POSITIVE),
+                    pmf: e.pmf,
+                    lo: if k == 0 { 0.0 } else { emissive[k - 1].cdf },
+                    cdf: e.cdf,
+                    emission: lights.triangle_emission(e.triangle).to_array(),
+                    triangle: e.triangle,
+                }
+            })
+            .collect();
+        LightTable {
+            lights: records,
+            select_pmf: lights.select_pmf(),
+            cdf: emissive.iter().map(|e| e.cdf).collect(),
+            emitters,
+        }
+    }
+
+    /// True if there is nothing to sample.
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+}
+
+/// Eight shading points and their light-sample random numbers.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct LightInputs {
+    /// Shading point.
+    pub p: Lanes3,
+    /// Light choice.
+    pub u_select: Lanes,
+    /// Position (or direction) sample on the light.
+    pub u: [Lanes; 2],
+}
+
+/// Eight light samples; lanes with `ok == 0` have none (`Lights::sample` returned `None`).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct LightSampleLanes {
+    /// 1 where the sample exists.
+    pub ok: [u32; LANES],
+    /// Unit direction towards the light.
+    pub wi: Lanes3,
+    /// Distance to the sampled point (infinite for dome and distant lights).
+    pub distance: Lanes,
+    /// Incident radiance (irradiance or intensity over d² for delta lights).
+    pub li: Lanes3,
+    /// Solid-angle pdf with the selection probability.
+    pub pdf: Lanes,
+    /// 1 for a delta light.
+    pub delta: [u32; LANES],
+    /// The emissive triangle sampled, or [`blob::NONE`].
+    pub triangle: [u32; LANES],
+    /// Barycentric weights of the triangle's vertices 1 and 2 at the sampled point.
+    pub b: [Lanes; 2],
+}
+
+/// Each lane's light record, gathered by the selection step.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+struct Gathered {
+    kind: [u32; LANES],
+    radiance: Lanes3,
+    /// Centre / position / direction, or a triangle's first vertex.
+    center: Lanes3,
+    /// Rect/disk X axis, or a triangle's second vertex.
+    ex: Lanes3,
+    /// Rect/disk Y axis, or a triangle's third vertex.
+    ey: Lanes3,
+    /// Rect/disk/triangle normal.
+    normal: Lanes3,
+    scalar: Lanes,
+    /// `u[0]`, or for a triangle its value stretched within the chosen CDF bucket.
+    u0: Lanes,
+    triangle: [u32; LANES],
+}
+
+/// A 3-vector of one lane, with glam's operation order.
+#[derive(Clone, Copy)]
+struct V {
+    x: f32,
+    y: f32,
+    z: f32,
+}
+
+impl V {
+    #[inline(always)]
+    fn at(c: &Lanes3, k: usize) -> V {
+        V { x: c[0][k], y: c[1][k], z: c[2][k] }
+    }
+    #[inline(always)]
+    fn dot(self, o: V) -> f32 {
+        (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
+    }
+    #[inline(always)]
+    fn scale(self, s: f32) -> V {
+        V { x: self.x * s, y: self.y * s, z: self.z * s }
+    }
+    #[inline(always)]
+    fn div(self, s: f32) -> V {
+        V { x: self.x / s, y: self.y / s, z: self.z / s }
+    }
+    #[inline(always)]
+    fn add(self, o: V) -> V {
+        V { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
+    }
+    #[inline(always)]
+    fn sub(self, o: V) -> V {
+        V { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
+    }
+    #[inline(always)]
+    fn normalize(self) -> V {
+        self.scale(1.0 / self.dot(self).sqrt())
+    }
+    #[inline(always)]
+    fn select(c: bool, a: V, b: V) -> V {
+        V { x: if c { a.x } else { b.x }, y: if c { a.y } else { b.y }, z: if c { a.z } else { b.z } }
+    }
+    #[inline(always)]
+    fn store(self, c: &mut Lanes3, k: usize) {
+        (c[0][k], c[1][k], c[2][k]) = (self.x, self.y, self.z);
+    }
+}
+
+/// `Frame::new(n).to_world(v)` (Duff et al. 2017), in its operation order.
+#[inline(always)]
+fn frame_to_world(n: V, v: V) -> V {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = V { x: 1.0 + sign * n.x * n.x * a, y: sign * b, z: -sign * n.x };
+    let bt = V { x: b, y: sign + n.y * n.y * a, z: -n.y };
+    t.scale(v.x).add(bt.scale(v.y)).add(n.scale(v.z))
+}
+
+/// Step 1 for the lanes that picked the emissive triangles: the CDF search and the record.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn pick_emitters(table: &LightTable, u0: &Lanes, g: &mut Gathered) {
+    let cdf = &table.cdf;
+    // `partition_point(|c| c <= choice)`: the same halving in step on every lane, so the loop count
+    // depends on the CDF's length only.
+    let mut base = [0usize; LANES];
+    let mut size = cdf.len();
+    while size > 1 {
+        let half = size / 2;
+        for k in 0..LANES {
+            let mid = base[k] + half;
+            base[k] = if cdf[mid] <= u0[k] { mid } else { base[k] };
+        }
+        size -= half;
+    }
+    for k in 0..LANES {
+        if g.kind[k] != KIND_TRIANGLES {
+            continue;
+        }
+        let choice = u0[k];
+        let index = (base[k] + (cdf[base[k]] <= choice) as usize).min(cdf.len() - 1);
+        let e = &table.emitters[index];
+        let u = if e.pmf > 0.0 { ((choice - e.lo) / (e.cdf - e.lo)).clamp(0.0, 0.999_999_94) } else { 0.5 };
+        for c in 0..3 {
+            g.center[c][k] = e.a[c];
+            g.ex[c][k] = e.b[c];
+            g.ey[c][k] = e.c[c];
+            g.normal[c][k] = e.n[c];
+            g.radiance[c][k] = e.emission[c];
+        }
+        g.scalar[k] = e.area;
+        g.u0[k] = u;
+        g.triangle[k] = e.triangle;
+    }
+}
+
+/// [`Lights::sample`] on eight lanes; `table` must not be empty.
+// `!(a < b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
+pub fn sample_lanes(table: &LightTable, inp: &LightInputs, out: &mut LightSampleLanes) {
+    // 1. Selection and gather.
+    let count = table.lights.len();
+    let mut g = Gathered::default();
+    let mut any_triangles = false;
+    for k in 0..LANES {
+        let index = ((inp.u_select[k] * count as f32) as usize).min(count - 1);
+        let r = &table.lights[index];
+        g.kind[k] = r.kind;
+        for c in 0..3 {
+            g.radiance[c][k] = r.radiance[c];
+            g.center[c][k] = r.center[c];
+            g.ex[c][k] = r.ex[c];
+            g.ey[c][k] = r.ey[c];
+            g.normal[c][k] = r.normal[c];
+        }
+        g.scalar[k] = r.scalar;
+        g.u0[k] = inp.u[0][k];
+        g.triangle[k] = blob::NONE;
+        any_triangles |= r.kind == KIND_TRIANGLES;
+    }
+    if any_triangles {
+        pick_emitters(table, &inp.u[0], &mut g);
+    }
+
+    // 2. The angle: the concentric disk's θ for disks, φ = 2πu₁ for everything else that has one.
+    let mut angle = [0.0f32; LANES];
+    for k in 0..LANES {
+        let (a, b) = (2.0 * g.u0[k] - 1.0, 2.0 * inp.u[1][k] - 1.0);
+        let theta = if a.abs() > b.abs() { FRAC_PI_4 * (b / a) } else { FRAC_PI_2 - FRAC_PI_4 * (a / b) };
+        angle[k] = if g.kind[k] == KIND_DISK { theta } else { TAU * inp.u[1][k] };
+    }
+    // 3. Its cosine and sine, where the kind needs them.
+    let (mut cos, mut sin) = ([0.0f32; LANES], [0.0f32; LANES]);
+    for k in 0..LANES {
+        if matches!(g.kind[k], KIND_DOME | KIND_CONE | KIND_SPHERE | KIND_DISK) {
+            cos[k] = angle[k].cos();
+            sin[k] = angle[k].sin();
+        }
+    }
+
+    // 4. Every kind's arithmetic, the kind selecting.
+    let sel = table.select_pmf;
+    for k in 0..LANES {
+        let kind = g.kind[k];
+        let p = V::at(&inp.p, k);
+        let (u0, u1) = (g.u0[k], inp.u[1][k]);
+        let (c, s) = (V::at(&g.center, k), g.scalar[k]);
+        let radiance = V::at(&g.radiance, k);
+
+        // `uniform_sphere(u)`: the dome's direction, a sphere's normal seen from inside.
+        let z = 1.0 - 2.0 * u0;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let on_sphere = V { x: r * cos[k], y: r * sin[k], z };
+
+        // A sphere seen from outside: the cone it subtends.
+        let dc = c.sub(p);
+        let dc2 = dc.dot(dc);
+        let inside = dc2 <= s * s * (1.0 + 1e-4);
+        let sin2 = s * s / dc2;
+        let cos_max = (1.0 - sin2).max(0.0).sqrt();
+        let sphere_one_minus_cos_max = sin2 / (1.0 + cos_max);
+        let sphere_axis = dc.div(dc2.sqrt());
+
+        // `sample_cone`: a distant cone or a sphere's.
+        let distant = kind == KIND_CONE;
+        let axis = V::select(distant, c, sphere_axis);
+        let one_minus_cos_max = if distant { s } else { sphere_one_minus_cos_max };
+        let one_minus_cos = u0 * one_minus_cos_max;
+        let cos_theta = 1.0 - one_minus_cos;
+        let sin_theta = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+        let local = V { x: sin_theta * cos[k], y: sin_theta * sin[k], z: cos_theta };
+        let cone_dir = frame_to_world(axis, local).normalize();
+
+        // `ray_sphere(p, cone_dir, centre, radius)`, else the distance along the axis.
+        let oc = p.sub(c);
+        let b = oc.dot(cone_dir);
+        let cc = oc.dot(oc) - s * s;
+        let disc = b * b - cc;
+        let sq = disc.sqrt();
+        let q = if b > 0.0 { -b - sq } else { -b + sq };
+        let (t0, t1) = (q, if q != 0.0 { cc / q } else { 0.0 });
+        let (t0, t1) = if t0 > t1 { (t1, t0) } else { (t0, t1) };
+        let sphere_hit = !(disc < 0.0) && (t0 > 0.0 || t1 > 0.0);
+        let t = if t0 > 0.0 { t0 } else { t1 };
+        let cone_distance = if sphere_hit { t } else { dc.dot(cone_dir) };
+
+        // A point on the light: rect, disk, triangle, the sphere from inside, or the point light.
+        let (ex, ey) = (V::at(&g.ex, k), V::at(&g.ey, k));
+        let (a, bb) = (2.0 * u0 - 1.0, 2.0 * u1 - 1.0);
+        let x_rect = c.add(ex.scale(a)).add(ey.scale(bb));
+        let centre = a == 0.0 && bb == 0.0;
+        let rd = if a.abs() > bb.abs() { a } else { bb };
+        let (da, db) = if centre { (0.0, 0.0) } else { (rd * cos[k], rd * sin[k]) };
+        let x_disk = c.add(ex.scale(da)).add(ey.scale(db));
+        let su = u0.sqrt();
+        let (b0, b1) = (1.0 - su, u1 * su);
+        let b2 = 1.0 - b0 - b1;
+        let x_triangle = c.scale(b0).add(ex.scale(b1)).add(ey.scale(b2));
+        let x_sphere = c.add(on_sphere.scale(s));
+        let x = match kind {
+            KIND_RECT => x_rect,
+            KIND_DISK => x_disk,
+            KIND_TRIANGLES => x_triangle,
+            KIND_SPHERE => x_sphere,
+            _ => c,
+        };
+        let sphere = kind == KIND_SPHERE;
+        let n = V::select(sphere, on_sphere, V::at(&g.normal, k));
+        let area = if sphere { 4.0 * PI * s * s } else { s };
+        let two_sided = sphere || kind == KIND_TRIANGLES;
+        let to = x.sub(p);
+        let d2 = to.dot(to);
+        let distance = d2.sqrt();
+        let wi_point = to.div(distance);
+        let cos_light = -n.dot(wi_point);
+        let cos_light = if two_sided { cos_light.abs() } else { cos_light };
+        let area_ok = cos_light > 0.0 && distance > 0.0 && area > 0.0;
+        let area_pdf = sel * d2 / (cos_light * area);
+
+        // The kind's result.
+        let on_area = matches!(kind, KIND_RECT | KIND_DISK | KIND_TRIANGLES) || (sphere && inside);
+        let on_cone = distant || (sphere && !inside);
+        let wi = match kind {
+            KIND_DOME => on_sphere,
+            KIND_DELTA => c,
+            _ if on_cone => cone_dir,
+            _ => wi_point,
+        };
+        let (ok, dist, pdf) = if on_area {
+            (area_ok, distance, area_pdf)
+        } else if on_cone {
+            (true, if distant { f32::INFINITY } else { cone_distance }, sel / (TAU * one_minus_cos_max))
+        } else {
+            match kind {
+                KIND_DOME => (true, f32::INFINITY, sel / (4.0 * PI)),
+                KIND_DELTA => (true, f32::INFINITY, sel),
+                _ => (distance > 0.0, distance, sel), // point
+            }
+        };
+        let point = kind == KIND_POINT;
+        V::select(point, radiance.div(d2), radiance).store(&mut out.li, k);
+        wi.store(&mut out.wi, k);
+        out.ok[k] = ok as u32;
+        out.distance[k] = dist;
+        out.pdf[k] = pdf;
+        out.delta[k] = (point || kind == KIND_DELTA) as u32;
+        out.triangle[k] = g.triangle[k];
+        out.b[0][k] = b1;
+        out.b[1][k] = b2;
+    }
+}
+
+/// The light sample of every scatter point of the chunk, with its shadow ray (origin, extent and
+/// pass-through seed), eight points at a time.
+pub(super) fn sample_scatter_points<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
+    let scene = ctx.scene;
+    if scene.lights.is_empty() {
+        return;
+    }
+    let table = scene.lights.lane_table();
+    let (filter, touch) = (ctx.settings.filter, ctx.touch);
+    let seed_hash = hash_u32(ctx.options.seed);
+    let Worker { scatter, states, clock, .. } = w;
+    let mut inp = LightInputs::default();
+    let mut out = LightSampleLanes::default();
+    for group in scatter.chunks_mut(LANES) {
+        // Lanes past the group's end keep the previous group's inputs: their results are not read.
+        for (k, sp) in group.iter().enumerate() {
+            (inp.p[0][k], inp.p[1][k], inp.p[2][k]) = (sp.p.x, sp.p.y, sp.p.z);
+            inp.u_select[k] = sp.u_light_select;
+            [inp.u[0][k], inp.u[1][k]] = sp.u_light;
+        }
+        sample_lanes(table, &inp, &mut out);
+        for (k, sp) in group.iter_mut().enumerate() {
+            if out.ok[k] == 0 {
+                continue;
+            }
+            let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
+            let li = if out.triangle[k] != blob::NONE {
+                scene.emission_at(out.triangle[k], out.b[0][k], out.b[1][k], filter, touch)
+            } else {
+                at(&out.li)
+            };
+            let origin = offset_ray_origin(sp.p, sp.bsdf.ng);
+            let distance = out.distance[k];
+            let tmax = if distance.is_finite() {
+                (distance - (origin - sp.p).length()) * (1.0 - 1e-4)
+            } else {
+                f32::INFINITY
+            };
+            let st = &states[sp.index as usize];
+            sp.has_light = true;
+            sp.light_wi = at(&out.wi);
+            sp.light_li = li;
+            sp.light_pdf = out.pdf[k];
+            sp.light_delta = out.delta[k] != 0;
+            sp.shadow_origin = origin;
+            sp.shadow_tmax = tmax;
+            sp.shadow_seed = hash_combine(hash_combine(seed_hash, st.pixel), st.sample) ^ st.vertex;
+        }
+    }
+    clock.lap(Phase::Integration);
+}
+
+#[cfg(test)]
+/// A scene with every light kind: dome, delta and cone distant lights, point, sphere, rect and disk
+/// lights, and emissive triangles of three powers.
+pub(super) fn every_light_kind() -> ingest::Scene {
+    use crate::testscene::{self, card, sphere};
+    use glam::Mat4;
+    use ingest::{Light as SceneLight, LightKind, Material, Scene};
+    let at = |x: f32, y: f32, z: f32| Mat4::from_translation(Vec3::new(x, y, z));
+    let light = |name: &str, kind: LightKind, radiance: f32, m: Mat4| SceneLight {
+        path: format!("/{name}"),
+        kind,
+        radiance: Vec3::new(radiance, 0.8 * radiance, 0.6 * radiance),
+        normalize: false,
+        world_from_light: m,
+    };
+    let mut lamp = card(-0.2, 0.3, 1);
+    lamp.positions.iter_mut().for_each(|p| *p += Vec3::new(0.0, 1.6, 0.0));
+    let mut dim = card(0.4, 0.2, 2);
+    dim.positions.iter_mut().for_each(|p| *p += Vec3::new(-1.0, 1.2, 0.0));
+    let mut dark = card(0.1, 0.25, 3);
+    dark.positions.iter_mut().for_each(|p| *p += Vec3::new(1.0, 1.4, 0.0));
+    Scene {
+        meshes: vec![
+            card(-1.5, 3.0, 0),
+            sphere(Vec3::new(0.0, 0.0, -0.5), 0.55, 8, 16, 0, false),
+            lamp,
+            dim,
+            dark,
+        ],
+        materials: vec![
+            testscene::lambert(0.6),
+            Material { emissive_color: Vec3::new(4.0, 3.0, 2.0), ..testscene::lambert(0.2) },
+            Material { emissive_color: Vec3::new(0.5, 1.0, 0.2), ..testscene::lambert(0.2) },
+            Material { emissive_color: Vec3::new(0.05, 0.02, 0.1), ..testscene::lambert(0.2) },
+        ],
+        lights: vec![
+            light("dome", LightKind::Dome, 0.3, Mat4::IDENTITY),
+            light("sun", LightKind::Distant { angle_degrees: 3.0 }, 1.5, Mat4::from_rotation_x(-0.6)),
+            light("delta", LightKind::Distant { angle_degrees: 0.0 }, 0.7, Mat4::from_rotation_y(0.4)),
+            light("point", LightKind::Sphere { radius: 0.1, treat_as_point: true }, 20.0, at(-1.0, 1.0, 1.0)),
+            light("sphere", LightKind::Sphere { radius: 0.3, treat_as_point: false }, 3.0, at(1.2, 0.8, 1.2)),
+            light("rect", LightKind::Rect { width: 0.6, height: 0.4 }, 2.5, at(0.0, 1.2, 1.5)),
+            light("disk", LightKind::Disk { radius: 0.3 }, 2.0, at(-0.8, 0.6, 1.6)),
+        ],
+        cameras: vec![testscene::camera_looking_down_z(Vec3::new(0.0, 0.3, 4.0), 18.0)],
+        default_camera: Some(0),
+        meters_per_unit: 1.0,
+        ..Scene::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testscene;
+
+    struct Rng(u32);
+    impl Rng {
+        fn f(&mut self) -> f32 {
+            self.0 = hash_u32(self.0);
+            (self.0 >> 8) as f32 / 16_777_216.0
+        }
+    }
+
+    /// Bits, with every NaN one value (IEEE leaves a NaN's sign and payload open).
+    fn bits(v: Vec3) -> [u32; 3] {
+        v.to_array().map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() })
+    }
+
+    #[test]
+    fn lanes_equal_the_scalar_light_sample_bit_for_bit() {
+        let bytes = testscene::bytes(&every_light_kind());
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        let lights = Lights::new(&view);
+        assert_eq!(lights.lights().len(), 8, "seven UsdLux lights and the emissive triangles");
+        let table = LightTable::new(&lights);
+        let mut rng = Rng(11);
+        // Special points: a sphere's centre and inside it, the point light's position, a rect's centre.
+        let special = [
+            Vec3::new(1.2, 0.8, 1.2),
+            Vec3::new(1.1, 0.9, 1.1),
+            Vec3::new(1.25, 0.75, 1.3),
+            Vec3::new(-1.0, 1.0, 1.0),
+            Vec3::new(0.0, 1.2, 1.5),
+        ];
+        let mut per_kind = [0u32; 8];
+        let (mut samples, mut some, mut inside_sphere) = (0, 0, 0);
+        for round in 0..4000 {
+            let mut inp = LightInputs::default();
+            let mut points = [Vec3::ZERO; LANES];
+            for k in 0..LANES {
+                let p = if rng.f() < 0.03 {
+                    special[(rng.f() * special.len() as f32) as usize % special.len()]
+                } else {
+                    Vec3::new(4.0 * rng.f() - 2.0, 3.0 * rng.f() - 1.0, 4.0 * rng.f() - 2.0)
+                };
+                points[k] = p;
+                (inp.p[0][k], inp.p[1][k], inp.p[2][k]) = (p.x, p.y, p.z);
+                inp.u_select[k] = rng.f();
+                for u in &mut inp.u {
+                    u[k] = match rng.f() {
+                        r if r < 0.02 => 0.0,
+                        r if r < 0.04 => 0.5,
+                        _ => rng.f(),
+                    };
+                }
+            }
+            // Some rounds pick one kind on every lane.
+            if round % 5 == 0 {
+                let pick = rng.f();
+                inp.u_select = [pick; LANES];
+            }
+            let mut out = LightSampleLanes::default();
+            sample_lanes(&table, &inp, &mut out);
+            for (k, p) in points.iter().enumerate() {
+                let u = [inp.u[0][k], inp.u[1][k]];
+                let scalar = lights.sample(*p, inp.u_select[k], u);
+                let index = ((inp.u_select[k] * 8.0) as usize).min(7);
+                assert_eq!(out.ok[k] != 0, scalar.is_some(), "exists, lane {k}: p {p} u {u:?} light {index}");
+                samples += 1;
+                let Some(ls) = scalar else { continue };
+                some += 1;
+                per_kind[index] += 1;
+                // A sphere seen from inside samples its surface (finite pdf against area), from
+                // outside its cone.
+                inside_sphere += (index == 4 && (*p - Vec3::new(1.2, 0.8, 1.2)).length() <= 0.3) as u32;
+                let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
+                let what = format!("lane {k}: p {p} u {u:?} light {index}");
+                assert_eq!(bits(at(&out.wi)), bits(ls.wi), "wi, {what}");
+                assert_eq!(bits(at(&out.li)), bits(ls.li), "li, {what}");
+                assert_eq!(
+                    bits(Vec3::splat(out.distance[k])),
+                    bits(Vec3::splat(ls.distance)),
+                    "distance, {what}"
+                );
+                assert_eq!(bits(Vec3::splat(out.pdf[k])), bits(Vec3::splat(ls.pdf)), "pdf, {what}");
+                assert_eq!(out.delta[k] != 0, ls.delta, "delta, {what}");
+                let emitter =
+                    (out.triangle[k] != blob::NONE).then(|| (out.triangle[k], [out.b[0][k], out.b[1][k]]));
+                assert_eq!(
+                    emitter.map(|(t, b)| (t, b.map(f32::to_bits))),
+                    ls.emitter.map(|(t, b)| (t, b.map(f32::to_bits))),
+                    "emitter, {what}"
+                );
+            }
+        }
+        eprintln!("{samples} lanes, {some} samples equal the scalar ones; per light {per_kind:?}");
+        assert!(per_kind.iter().all(|&n| n > 1000), "every kind sampled often: {per_kind:?}");
+        assert!(inside_sphere > 20, "{inside_sphere} samples from inside the sphere light");
+    }
+
+    #[test]
+    fn cdf_search_finds_the_partition_point() {
+        let mut rng = Rng(5);
+        for len in [1usize, 2, 3, 7, 8, 9, 64, 100] {
+            // Non-decreasing, with repeated entries (zero-pmf triangles) and an exact 1 at the end.
+            let mut cdf: Vec<f32> = (0..len).map(|_| if rng.f() < 0.3 { 0.0 } else { rng.f() }).collect();
+            for i in 1..len {
+                cdf[i] = cdf[i].max(cdf[i - 1]);
+            }
+            cdf[len - 1] = 1.0;
+            let emitters = cdf
+                .iter()
+                .enumerate()
+                .map(|(i, _)| LaneEmitter {
+                    triangle: i as u32,
+                    pmf: 1.0,
+                    cdf: 1.0,
+                    ..LaneEmitter::default()
+                })
+                .collect();
+            let table = LightTable { lights: vec![], select_pmf: 1.0, cdf: cdf.clone(), emitters };
+            for _ in 0..200 {
+                let mut u0 = [0.0f32; LANES];
+                for (k, u) in u0.iter_mut().enumerate() {
+                    *u = match k {
+                        0 => cdf[(rng.f() * len as f32) as usize % len],
+                        1 => 0.0,
+                        _ => rng.f(),
+                    };
+                }
+                let mut g = Gathered { kind: [KIND_TRIANGLES; LANES], ..Gathered::default() };
+                pick_emitters(&table, &u0, &mut g);
+                for (&triangle, &u) in g.triangle.iter().zip(&u0) {
+                    let expected = cdf.partition_point(|&c| c <= u).min(len - 1);
+                    assert_eq!(triangle as usize, expected, "cdf {cdf:?} choice {u}");
+                }
+            }
+        }
+    }
+}
