@@ -63,6 +63,7 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
                 normals: normals.clone(),
                 triangles: triangles.clone(),
             }),
+            placed: None,
         });
     }
     scene.instance_count = count as u32;

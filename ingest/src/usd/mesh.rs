@@ -591,19 +591,31 @@ impl Reader<'_> {
     ) -> Mesh {
         let (geometry, triangle_materials, double_sided) = local.split();
         let geometry = self.geometry.intern(geometry);
-        Mesh {
-            path: path.to_string(),
-            triangle_materials,
-            double_sided,
-            placed: Some(PlacedMesh::new(frame.index, geometry, world_from_local, frame.instance_from_local)),
-            ..Mesh::default()
-        }
+        placed_with(path, geometry, triangle_materials, double_sided, frame, world_from_local)
+    }
+}
+
+/// A gprim inside the instance `frame` drawing the shared `geometry`.
+pub(super) fn placed_with(
+    path: &str,
+    geometry: Arc<LocalGeometry>,
+    triangle_materials: Vec<u32>,
+    double_sided: bool,
+    frame: super::InstanceFrame,
+    world_from_local: DMat4,
+) -> Mesh {
+    Mesh {
+        path: path.to_string(),
+        triangle_materials,
+        double_sided,
+        placed: Some(PlacedMesh::new(frame.index, geometry, world_from_local, frame.instance_from_local)),
+        ..Mesh::default()
     }
 }
 
 impl LocalMesh {
     /// The shareable geometry, the per-triangle materials and `doubleSided`.
-    fn split(self) -> (LocalGeometry, Vec<u32>, bool) {
+    pub(super) fn split(self) -> (LocalGeometry, Vec<u32>, bool) {
         let geometry = LocalGeometry {
             positions: self.positions,
             normals: self.normals,

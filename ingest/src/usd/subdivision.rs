@@ -17,6 +17,8 @@
 
 use std::str::FromStr;
 
+use std::sync::Arc;
+
 use glam::{DMat4, DVec3, Vec2};
 use rayon::prelude::*;
 use subdiv::{
@@ -25,7 +27,7 @@ use subdiv::{
     UvSource,
 };
 
-use super::mesh::{world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
+use super::mesh::{placed_with, world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
 use super::{Inherited, Reader, UsdError};
 use crate::dicing::{choose_edge_rates, choose_level, triangles_at_level, DicingCamera, SubdivOptions};
 use crate::scene::{Mesh, MeshPrimvar, PrimvarLayout, Subdivision};
@@ -376,30 +378,42 @@ impl Reader<'_> {
                     if let Some(note) = d.note {
                         self.warn(&q.path, note);
                     }
-                    let follower_local = |f: &Follower| LocalMesh {
-                        triangle_materials: d
-                            .coarse_face
-                            .iter()
-                            .map(|&c| f.face_materials[c as usize])
-                            .collect(),
-                        double_sided: f.double_sided,
-                        ..d.local.clone()
-                    };
-                    for f in &followers {
-                        let mesh = self.placed_mesh(&f.path, follower_local(f), f.frame, f.world_from_local);
-                        self.scene.meshes[f.slot] = mesh;
-                        self.scene.subdivisions.push(Subdivision {
-                            mesh: f.slot,
-                            topology: q.topology.clone(),
-                            points: q.points.clone(),
-                            world_from_local: f.world_from_local,
-                            level: d.level,
-                            edge_rates: d.edge_rates.clone(),
-                            triangles_at_max_level: d.triangles_at_max_level,
-                        });
-                    }
                     self.scene.meshes[q.slot] = match q.instance {
-                        Some(frame) => self.placed_mesh(&q.path, d.local, frame, q.world_from_points),
+                        // One geometry for the queued instance and its followers; each keeps its
+                        // own materials (per cage face, through the face each triangle comes from).
+                        Some(frame) => {
+                            let (geometry, materials, double_sided) = d.local.split();
+                            let geometry = self.geometry.intern(geometry);
+                            for f in &followers {
+                                let materials =
+                                    d.coarse_face.iter().map(|&c| f.face_materials[c as usize]).collect();
+                                self.scene.meshes[f.slot] = placed_with(
+                                    &f.path,
+                                    Arc::clone(&geometry),
+                                    materials,
+                                    f.double_sided,
+                                    f.frame,
+                                    f.world_from_local,
+                                );
+                                self.scene.subdivisions.push(Subdivision {
+                                    mesh: f.slot,
+                                    topology: q.topology.clone(),
+                                    points: q.points.clone(),
+                                    world_from_local: f.world_from_local,
+                                    level: d.level,
+                                    edge_rates: d.edge_rates.clone(),
+                                    triangles_at_max_level: d.triangles_at_max_level,
+                                });
+                            }
+                            placed_with(
+                                &q.path,
+                                geometry,
+                                materials,
+                                double_sided,
+                                frame,
+                                q.world_from_points,
+                            )
+                        }
                         None => world_mesh(&q.path, d.local, q.world_from_points),
                     };
                     self.scene.subdivisions.push(Subdivision {
