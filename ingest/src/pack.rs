@@ -722,6 +722,32 @@ mod tests {
     }
 
     #[test]
+    fn materials_equal_in_value_are_stored_once() {
+        let mut scene = quad_scene();
+        // Three displayColor-style materials: two equal in value under different paths.
+        let grey = |path: &str| Material { path: path.into(), ..Material::default() };
+        scene.materials = vec![
+            grey("/A.displayColor"),
+            Material { path: "/B.displayColor".into(), diffuse_color: Vec3::X, ..Material::default() },
+            grey("/C.displayColor"),
+        ];
+        scene.meshes[0].triangle_materials = vec![2, 1];
+        let data = pack(&scene).unwrap();
+        assert_eq!(data.materials.len(), 2, "/C is stored as /A");
+        assert_eq!(data.triangle_materials, vec![0, 1]);
+        let bytes = blob::AlignedBytes::copy_from(&data.encode());
+        let view = blob::SceneView::parse(&bytes).unwrap();
+        assert_eq!(view.string(view.materials[0].name), "/A.displayColor");
+        assert_eq!(view.materials[1].diffuse_color, [1.0, 0.0, 0.0]);
+        // A program (even one computing the same colour) makes a material distinct.
+        scene.materials[2].program = vec![
+            ShaderNode::Const { dst: 0, value: [0.18, 0.18, 0.18, 1.0] },
+            ShaderNode::Output { input: ShadingInput::DiffuseColor, src: 0, swizzle: [0, 1, 2, 3] },
+        ];
+        assert_eq!(pack(&scene).unwrap().materials.len(), 3);
+    }
+
+    #[test]
     fn same_scene_same_bytes() {
         assert_eq!(pack(&quad_scene()).unwrap().encode(), pack(&quad_scene()).unwrap().encode());
     }
