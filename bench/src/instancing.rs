@@ -63,6 +63,7 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
                 normals: normals.clone(),
                 triangles: triangles.clone(),
             }),
+            placed: None,
         });
     }
     scene.instance_count = count as u32;
@@ -81,7 +82,9 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
     scene
 }
 
-/// Packs the scene both ways, measures, prints and writes `instancing.json`.
+/// Packs the scene both ways, measures, prints and writes `instancing.json` (with the `ingest`
+/// figures of [`crate::instancing_ingest::measure`]).
+#[allow(clippy::too_many_arguments)]
 pub fn run(
     count: usize,
     rings: u32,
@@ -89,6 +92,7 @@ pub fn run(
     res: u32,
     rays_count: usize,
     repeat: usize,
+    ingest: Option<serde_json::Value>,
     out: &Path,
 ) -> anyhow::Result<()> {
     let scene = scene(count, rings, segments);
@@ -153,6 +157,7 @@ pub fn run(
         "flattened": {"blob_bytes": flattened.len(), "triangles_stored": vf.triangles.len()},
         "rays": figures,
         "load_average": load.trim(),
+        "ingest": ingest,
     });
     let file = out.join("instancing.json");
     std::fs::write(&file, serde_json::to_string_pretty(&result)?)?;

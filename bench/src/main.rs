@@ -11,7 +11,9 @@
 //!   image difference; table, JSON and stacked-bar SVG.
 //!
 //! - `bench instancing`: 1,000 instanced spheres as one prototype plus instance records versus
-//!   flattened: blob bytes and closest-hit Mrays/s on the same rays.
+//!   flattened: blob bytes and closest-hit Mrays/s on the same rays; then peak RSS and wall time of
+//!   the `ingest` binary on a generated 10,000-instance stage and the layout assets, instanced
+//!   versus `--flatten-instances` (and versus `--baseline BIN`).
 //!
 //! - `bench curves`: a generated groom; curve-intersection throughput and image error against segments per
 //!   curve, fixed versus camera-adaptive splitting, charted as SVG.
@@ -25,6 +27,7 @@ mod convergence;
 mod curves;
 mod ingest_speed;
 mod instancing;
+mod instancing_ingest;
 mod integrators;
 mod rays;
 mod subdiv;
@@ -147,6 +150,15 @@ enum Cmd {
         /// Best of this many timings.
         #[arg(long, default_value_t = 3)]
         repeat: usize,
+        /// Instances of the generated stage whose ingest is measured (0: skip the ingest runs).
+        #[arg(long, default_value_t = 10_000)]
+        ingest_instances: usize,
+        /// Stages whose ingest is measured as well (default: teapotScene_layout, simpleAssetScene).
+        #[arg(long)]
+        ingest_assets: Vec<PathBuf>,
+        /// An older `ingest` binary to measure against.
+        #[arg(long)]
+        baseline: Option<PathBuf>,
         /// Work folder for the results.
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
@@ -308,9 +320,30 @@ fn main() -> anyhow::Result<()> {
             std::fs::create_dir_all(&out)?;
             subdiv::run(&assets, &out)?;
         }
-        Cmd::Instancing { count, rings, segments, res, rays, repeat, out } => {
+        Cmd::Instancing {
+            count,
+            rings,
+            segments,
+            res,
+            rays,
+            repeat,
+            ingest_instances,
+            ingest_assets,
+            baseline,
+            out,
+        } => {
             std::fs::create_dir_all(&out)?;
-            instancing::run(count, rings, segments, res, rays, repeat, &out)?;
+            let ingest = if ingest_instances == 0 {
+                None
+            } else {
+                let assets = if ingest_assets.is_empty() {
+                    instancing_ingest::LAYOUT_ASSETS.iter().map(PathBuf::from).collect()
+                } else {
+                    ingest_assets
+                };
+                Some(instancing_ingest::measure(ingest_instances, &assets, baseline.as_deref(), &out)?)
+            };
+            instancing::run(count, rings, segments, res, rays, repeat, ingest, &out)?;
         }
         Cmd::Curves { strands, res, out } => {
             std::fs::create_dir_all(&out)?;

@@ -55,6 +55,7 @@ fn plane_scene() -> ingest::Scene {
         triangle_materials: vec![0, 0],
         double_sided: true,
         instance: None,
+        placed: None,
         primvars: Vec::new(),
     };
     let mut material =

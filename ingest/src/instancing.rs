@@ -1,10 +1,12 @@
 //! Which gprims become shared prototypes and which are drawn in world space.
 //!
-//! The USD reader records, for every gprim inside an instance (an instanceable prim or a
-//! PointInstancer entry), its geometry in the instance's space ([`crate::scene::InstancedMesh`]).
-//! Here the instances whose gprims are identical — same instance-space points, normals, uvs,
-//! triangles, double-sidedness and materials equal in value — are grouped into one prototype, so
-//! 1,000 instances of a mesh store one mesh plus 1,000 transforms.
+//! The USD reader keeps every gprim inside an instance (an instanceable prim or a PointInstancer
+//! entry) as a reference to interned local-space geometry plus its transforms
+//! ([`crate::scene::PlacedMesh`]); hand-built scenes may give an instance-space copy instead
+//! ([`crate::scene::InstancedMesh`]). Here the instances whose gprims are identical in the
+//! instance's space — same points, normals, uvs, triangles, primvars, double-sidedness and
+//! materials equal in value — are grouped into one prototype, so 1,000 instances of a mesh store
+//! one mesh plus 1,000 transforms.
 //!
 //! Kept in world space ("top level"), with the reason:
 //! - gprims outside instances, and curves/points (split per instance against the camera, and
@@ -17,10 +19,10 @@
 //! The decision depends only on the scene, never on hash-map iteration order, so packing stays
 //! deterministic.
 //!
-//! Subdivision surfaces inside instances are diced per instance against the camera; instances
-//! diced to the same level have identical instance-space tessellations and share a prototype.
+//! Subdivision surfaces inside instances are diced once per distinct cage, at the finest rate any
+//! instance needs (`crate::usd` subdivision), so their instances share a prototype too.
 
-use crate::scene::{Material, Mesh, Scene};
+use crate::scene::{Mesh, Scene};
 use glam::DMat4;
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -39,8 +41,8 @@ pub struct Instancing {
 /// A set of meshes shared by several instances.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Prototype {
-    /// Indices into `Scene::meshes` of the first instance's gprims; their
-    /// [`crate::scene::InstancedMesh`] data is the prototype geometry.
+    /// Indices into `Scene::meshes` of the first instance's gprims; their instance-space copies
+    /// ([`Mesh::in_instance`]) are the prototype geometry.
     pub meshes: Vec<usize>,
 }
 
@@ -63,43 +65,60 @@ impl Instancing {
 
     /// Triangles the blob stores for meshes (top level plus one copy of each prototype).
     pub fn stored_triangles(&self, scene: &Scene) -> usize {
-        let top: usize = self.top_level.iter().map(|&m| scene.meshes[m].triangles.len()).sum();
+        let top: usize = self.top_level.iter().map(|&m| scene.meshes[m].triangle_count()).sum();
         let shared: usize =
-            self.prototypes.iter().flat_map(|p| &p.meshes).map(|&m| scene.meshes[m].triangles.len()).sum();
+            self.prototypes.iter().flat_map(|p| &p.meshes).map(|&m| scene.meshes[m].triangle_count()).sum();
         top + shared
     }
 }
 
 /// Groups the scene's instances into prototypes (see the module docs for what stays in world space).
-/// `emissive[material]` says whether a material emits.
-pub fn plan(scene: &Scene, emissive: &[bool]) -> Instancing {
-    let canonical = canonical_materials(&scene.materials);
+/// `emissive[material]` says whether a material emits; `canonical[material]` names one material per
+/// class of materials equal in value (the blob stores each class once).
+pub fn plan(scene: &Scene, emissive: &[bool], canonical: &[u32]) -> Instancing {
     let usable: Vec<bool> = scene.instances.iter().map(|i| invertible(&i.world_from_instance)).collect();
     // Instanced meshes per scene instance, in scene order.
     let mut members: Vec<Vec<usize>> = vec![Vec::new(); scene.instances.len()];
     let mut top_level = Vec::new();
     for (index, mesh) in scene.meshes.iter().enumerate() {
-        let shareable = mesh.instance.as_ref().is_some_and(|i| {
-            usable[i.instance as usize]
-                && !mesh.triangles.is_empty()
+        let shareable = mesh.instance_index().is_some_and(|i| {
+            usable[i as usize]
+                && mesh.triangle_count() > 0
                 && !mesh.triangle_materials.iter().any(|&m| emissive[m as usize])
         });
-        match &mesh.instance {
-            Some(i) if shareable => members[i.instance as usize].push(index),
+        match mesh.instance_index() {
+            Some(i) if shareable => members[i as usize].push(index),
             _ => top_level.push(index),
         }
     }
-    // Prototype candidates by content hash; equal hashes are confirmed by comparing content.
+    let shapes = Shapes::of(scene, &members);
+    // Prototype candidates by key hash; equal hashes are confirmed by comparing keys.
+    let key = |meshes: &[usize]| -> Vec<(u32, bool)> {
+        meshes.iter().map(|&m| (shapes.id[&m], scene.meshes[m].double_sided)).collect()
+    };
+    let same_materials = |a: &[usize], b: &[usize]| {
+        a.iter().zip(b).all(|(&x, &y)| {
+            let (x, y) = (&scene.meshes[x].triangle_materials, &scene.meshes[y].triangle_materials);
+            x.len() == y.len()
+                && x.iter().zip(y).all(|(&p, &q)| canonical[p as usize] == canonical[q as usize])
+        })
+    };
     let mut by_hash: HashMap<u64, Vec<usize>> = HashMap::new();
     let mut groups: Vec<(Vec<usize>, Vec<u32>)> = Vec::new(); // (representative meshes, scene instances)
     for (instance, meshes) in members.iter().enumerate() {
         if meshes.is_empty() {
             continue;
         }
-        let hash = content_hash(scene, meshes, &canonical);
-        let candidates = by_hash.entry(hash).or_default();
-        let found =
-            candidates.iter().copied().find(|&g| same_content(scene, &groups[g].0, meshes, &canonical));
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        key(meshes).hash(&mut h);
+        for &m in meshes {
+            scene.meshes[m].triangle_materials.iter().for_each(|&t| canonical[t as usize].hash(&mut h));
+        }
+        let candidates = by_hash.entry(h.finish()).or_default();
+        let found = candidates.iter().copied().find(|&g| {
+            let first = &groups[g].0;
+            key(first) == key(meshes) && same_materials(first, meshes)
+        });
         match found {
             Some(g) => groups[g].1.push(instance as u32),
             None => {
@@ -136,62 +155,79 @@ fn invertible(m: &DMat4) -> bool {
     m.is_finite() && f.is_finite() && f.determinant().abs() > 1e-12 && f.inverse().is_finite()
 }
 
-/// Per material, the index of the first material with the same content except the path: gprims
-/// without a bound material get a `<gprim>.displayColor` material each, and instances of the same
-/// prototype must still match.
-fn canonical_materials(materials: &[Material]) -> Vec<u32> {
-    let mut first: HashMap<String, u32> = HashMap::new();
-    materials
-        .iter()
-        .enumerate()
-        .map(|(i, m)| {
-            // Debug prints floats exactly (shortest round trip), so equal keys mean equal values.
-            let key = format!("{:?}", Material { path: String::new(), ..m.clone() });
-            *first.entry(key).or_insert(i as u32)
-        })
-        .collect()
+/// Per instanced mesh, an id of its instance-space geometry (materials aside): equal ids, equal
+/// geometry. Placed meshes are compared by their shared geometry and local-to-instance transform,
+/// without making their instance-space copies; explicit copies by content.
+struct Shapes {
+    id: HashMap<usize, u32>,
 }
 
-fn content_hash(scene: &Scene, meshes: &[usize], canonical: &[u32]) -> u64 {
+impl Shapes {
+    fn of(scene: &Scene, members: &[Vec<usize>]) -> Self {
+        let mut id = HashMap::new();
+        let mut placed: HashMap<(usize, [u64; 16]), u32> = HashMap::new();
+        let mut copies: HashMap<u64, Vec<(usize, u32)>> = HashMap::new();
+        let mut next = 0u32;
+        for &m in members.iter().flatten() {
+            let mesh = &scene.meshes[m];
+            let shape = match &mesh.placed {
+                Some(p) => {
+                    let key = (
+                        std::sync::Arc::as_ptr(&p.geometry) as usize,
+                        p.instance_from_local.to_cols_array().map(f64::to_bits),
+                    );
+                    *placed.entry(key).or_insert_with(|| {
+                        next += 1;
+                        next - 1
+                    })
+                }
+                None => {
+                    let candidates = copies.entry(copy_hash(mesh)).or_default();
+                    match candidates.iter().find(|&&(other, _)| same_copy(&scene.meshes[other], mesh)) {
+                        Some(&(_, shape)) => shape,
+                        None => {
+                            candidates.push((m, next));
+                            next += 1;
+                            next - 1
+                        }
+                    }
+                }
+            };
+            id.insert(m, shape);
+        }
+        Shapes { id }
+    }
+}
+
+/// Hash of an explicit instance-space copy ([`crate::scene::InstancedMesh`]) with the mesh's uvs.
+fn copy_hash(mesh: &Mesh) -> u64 {
     let mut h = std::collections::hash_map::DefaultHasher::new();
-    for &m in meshes {
-        let mesh = &scene.meshes[m];
-        let Some(local) = &mesh.instance else { continue };
+    if let Some(local) = &mesh.instance {
         local.positions.iter().for_each(|p| p.to_array().map(f32::to_bits).hash(&mut h));
         local.normals.iter().for_each(|n| n.to_array().map(f32::to_bits).hash(&mut h));
-        mesh.uvs.iter().for_each(|uv| uv.to_array().map(f32::to_bits).hash(&mut h));
         local.triangles.hash(&mut h);
-        mesh.triangle_materials.iter().for_each(|&t| canonical[t as usize].hash(&mut h));
-        mesh.double_sided.hash(&mut h);
     }
+    mesh.uvs.iter().for_each(|uv| uv.to_array().map(f32::to_bits).hash(&mut h));
     h.finish()
 }
 
-fn same_content(scene: &Scene, a: &[usize], b: &[usize], canonical: &[u32]) -> bool {
-    let same_mesh = |x: &Mesh, y: &Mesh| {
-        let (Some(lx), Some(ly)) = (&x.instance, &y.instance) else { return false };
-        let bits = |v: &[glam::Vec3]| v.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
-        bits(&lx.positions) == bits(&ly.positions)
-            && bits(&lx.normals) == bits(&ly.normals)
-            && x.uvs
-                .iter()
-                .map(|u| u.to_array().map(f32::to_bits))
-                .eq(y.uvs.iter().map(|u| u.to_array().map(f32::to_bits)))
-            && lx.triangles == ly.triangles
-            && x.double_sided == y.double_sided
-            && x.triangle_materials.len() == y.triangle_materials.len()
-            && x.triangle_materials
-                .iter()
-                .zip(&y.triangle_materials)
-                .all(|(&p, &q)| canonical[p as usize] == canonical[q as usize])
-    };
-    a.len() == b.len() && a.iter().zip(b).all(|(&x, &y)| same_mesh(&scene.meshes[x], &scene.meshes[y]))
+fn same_copy(x: &Mesh, y: &Mesh) -> bool {
+    let (Some(lx), Some(ly)) = (&x.instance, &y.instance) else { return false };
+    let bits = |v: &[glam::Vec3]| v.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    bits(&lx.positions) == bits(&ly.positions)
+        && bits(&lx.normals) == bits(&ly.normals)
+        && x.uvs
+            .iter()
+            .map(|u| u.to_array().map(f32::to_bits))
+            .eq(y.uvs.iter().map(|u| u.to_array().map(f32::to_bits)))
+        && lx.triangles == ly.triangles
+        && x.primvars == y.primvars
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{InstancedMesh, SceneInstance};
+    use crate::scene::{InstancedMesh, Material, SceneInstance};
     use glam::{DVec3, Vec3};
 
     fn instanced_triangle(instance: u32, offset: f32, material: u32) -> Mesh {
@@ -248,7 +284,7 @@ mod tests {
             ],
             4,
         );
-        let plan = plan(&s, &[false; 4]);
+        let plan = plan(&s, &[false; 4], &[0, 0, 0, 3]);
         assert_eq!(plan.prototypes, vec![Prototype { meshes: vec![0] }]);
         assert_eq!(plan.instances.iter().map(|i| i.path.as_str()).collect::<Vec<_>>(), ["/I0", "/I1", "/I2"]);
         assert_eq!(plan.top_level, vec![3, 4], "the red singleton and the ground stay in world space");
@@ -267,7 +303,7 @@ mod tests {
         s.instances
             .push(SceneInstance { path: "/I3".into(), world_from_instance: DMat4::from_scale(DVec3::ZERO) });
         s.instances[2].world_from_instance.w_axis.x = f64::NAN;
-        let plan = plan(&s, &[true, false]);
+        let plan = plan(&s, &[true, false], &[0, 1]);
         assert!(plan.prototypes.is_empty());
         assert_eq!(plan.top_level, vec![0, 1, 2, 3]);
     }

@@ -44,52 +44,35 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
     let mut data = blob::SceneData::default();
     let mut bounds_min = Vec3::splat(f32::INFINITY);
     let mut bounds_max = Vec3::splat(f32::NEG_INFINITY);
-    for p in scene.meshes.iter().flat_map(|m| &m.positions) {
-        bounds_min = bounds_min.min(*p);
-        bounds_max = bounds_max.max(*p);
+    for [lo, hi] in scene.meshes.iter().map(crate::scene::Mesh::world_bounds) {
+        bounds_min = bounds_min.min(lo);
+        bounds_max = bounds_max.max(hi);
     }
-    let emission: Vec<Vec3> = scene.materials.iter().map(emission_estimate).collect();
+    let primvar_ids = primvar_name_ids(scene);
+    let texture_refs = pack_textures(scene, &mut data);
+    let material_slot = pack_materials(scene, &texture_refs, &primvar_ids, &mut data);
+    // Emission per blob material, from the first scene material stored in it (equal in value).
+    let mut emission = vec![Vec3::ZERO; data.materials.len()];
+    for (m, &slot) in scene.materials.iter().zip(&material_slot).rev() {
+        emission[slot as usize] = emission_estimate(m);
+    }
     let plan = if options.flatten_instances {
         crate::instancing::Instancing::flattened(scene)
     } else {
-        let emissive: Vec<bool> = emission.iter().map(|e| luminance(*e) > 0.0).collect();
-        crate::instancing::plan(scene, &emissive)
+        let emissive: Vec<bool> =
+            material_slot.iter().map(|&slot| luminance(emission[slot as usize]) > 0.0).collect();
+        crate::instancing::plan(scene, &emissive, &material_slot)
     };
     let layout = MeshLayout {
-        any_normals: scene.meshes.iter().any(|m| !m.normals.is_empty()),
-        any_uvs: scene.meshes.iter().any(|m| !m.uvs.is_empty()),
-        primvar_ids: primvar_name_ids(scene),
+        any_normals: scene.meshes.iter().any(crate::scene::Mesh::has_normals),
+        any_uvs: scene.meshes.iter().any(crate::scene::Mesh::has_uvs),
+        primvar_ids,
+        material_slot,
     };
     for &m in &plan.top_level {
-        let mesh = &scene.meshes[m];
-        layout.push(&mut data, mesh, &mesh.positions, &mesh.normals, &mesh.triangles);
+        layout.push(&mut data, &scene.meshes[m].in_world());
     }
     let top_level_triangles = data.triangles.len();
-
-    let texture_refs = pack_textures(scene, &mut data);
-    for m in &scene.materials {
-        let name = data.add_string(&m.path);
-        let program_start = data.shader_ops.len() as u32;
-        data.shader_ops
-            .extend(m.program.iter().map(|node| shader_op(node, &texture_refs, &layout.primvar_ids)));
-        data.materials.push(rec::Material {
-            name,
-            diffuse_color: m.diffuse_color.to_array(),
-            emissive_color: m.emissive_color.to_array(),
-            specular_color: m.specular_color.to_array(),
-            roughness: m.roughness,
-            metallic: m.metallic,
-            ior: m.ior,
-            opacity: m.opacity,
-            opacity_threshold: m.opacity_threshold,
-            clearcoat: m.clearcoat,
-            clearcoat_roughness: m.clearcoat_roughness,
-            use_specular_workflow: m.use_specular_workflow as u32,
-            program_start,
-            program_len: m.program.len() as u32,
-            reserved: [0; 3],
-        });
-    }
 
     let mut dome_light = rec::NONE;
     for (i, light) in scene.lights.iter().enumerate() {
@@ -162,8 +145,12 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
     data.bvh_nodes = bvh.nodes;
     data.bvh_blocks = bvh.blocks;
     crate::pack_instances::pack_instances(scene, &plan, &layout, &mut data);
+    let first_group = data.curves.groups.len();
     let (curves_min, curves_max) =
         crate::pack_curves::pack_curves(scene, &mut data, options.split, (bounds_min, bounds_max))?;
+    for group in &mut data.curves.groups[first_group..] {
+        group.material = layout.material_slot[group.material as usize];
+    }
     bounds_min = bounds_min.min(curves_min);
     bounds_max = bounds_max.max(curves_max);
 
@@ -192,18 +179,15 @@ pub(crate) struct MeshLayout {
     any_uvs: bool,
     /// Scene-wide id of each primvar name programs read (the `PRIMVAR` op's key).
     primvar_ids: std::collections::BTreeMap<String, u32>,
+    /// Blob material per scene material (materials equal in value share one record).
+    material_slot: Vec<u32>,
 }
 
 impl MeshLayout {
-    /// Appends one mesh (its vertices given in the space it is stored in) and its mesh record.
-    pub(crate) fn push(
-        &self,
-        data: &mut blob::SceneData,
-        mesh: &crate::scene::Mesh,
-        positions: &[Vec3],
-        normals: &[Vec3],
-        triangles: &[[u32; 3]],
-    ) {
+    /// Appends one mesh, whose vertices, triangles and primvars are in the space it is stored in
+    /// (world, or its prototype's), and its mesh record.
+    pub(crate) fn push(&self, data: &mut blob::SceneData, mesh: &crate::scene::Mesh) {
+        let (positions, normals, triangles) = (&mesh.positions, &mesh.normals, &mesh.triangles);
         let mesh_index = data.meshes.len() as u32;
         let first_vertex = data.positions.len() as u32;
         let first_triangle = data.triangles.len() as u32;
@@ -226,7 +210,8 @@ impl MeshLayout {
         for tri in triangles {
             data.triangles.push(rec::Triangle { vertices: tri.map(|v| v + first_vertex), mesh: mesh_index });
         }
-        data.triangle_materials.extend_from_slice(&mesh.triangle_materials);
+        data.triangle_materials
+            .extend(mesh.triangle_materials.iter().map(|&m| self.material_slot[m as usize]));
         let mut flags = 0;
         if !normals.is_empty() {
             flags |= rec::MESH_HAS_NORMALS;
@@ -237,8 +222,8 @@ impl MeshLayout {
         if mesh.double_sided {
             flags |= rec::MESH_DOUBLE_SIDED;
         }
-        // Primvars do not depend on the space the vertices are stored in, so a prototype carries its
-        // mesh's values unchanged.
+        // Values are in the storage space's winding: corner values follow their triangle's vertex
+        // order (see `LocalGeometry::transformed`).
         let mut primvars: Vec<_> = mesh.primvars.iter().map(|p| (self.primvar_ids[&p.name], p)).collect();
         primvars.sort_by_key(|&(id, _)| id);
         for (name_id, p) in primvars {
@@ -257,21 +242,7 @@ impl MeshLayout {
                 first_value: data.primvar_values.len() as u32,
                 value_count: p.values.len() as u32,
             });
-            if p.layout == PrimvarLayout::PerCorner {
-                // Corner values follow their triangle's vertex order; a prototype's triangles are wound
-                // for its own space, which may mirror the world's.
-                for (i, (stored, world)) in triangles.iter().zip(&mesh.triangles).enumerate() {
-                    let c = &p.values[3 * i..3 * i + 3];
-                    let swapped = stored != world;
-                    data.primvar_values.extend_from_slice(&if swapped {
-                        [c[0], c[2], c[1]]
-                    } else {
-                        [c[0], c[1], c[2]]
-                    });
-                }
-            } else {
-                data.primvar_values.extend_from_slice(&p.values);
-            }
+            data.primvar_values.extend_from_slice(&p.values);
         }
         data.meshes.push(rec::Mesh {
             name,
@@ -283,6 +254,54 @@ impl MeshLayout {
             reserved: 0,
         });
     }
+}
+
+/// Converts the materials to blob records, storing each class of materials with the same
+/// compiled program and constants once (gprims without a bound material get a
+/// `<gprim>.displayColor` material each: 1,000 instances would otherwise store 1,000 equal
+/// records). Returns the blob material of each scene material; a record keeps the name of the
+/// first material of its class.
+fn pack_materials(
+    scene: &Scene,
+    texture_refs: &[(u32, bool)],
+    primvar_ids: &std::collections::BTreeMap<String, u32>,
+    data: &mut blob::SceneData,
+) -> Vec<u32> {
+    let mut slot_of: std::collections::HashMap<(Vec<u8>, Vec<u8>), u32> = std::collections::HashMap::new();
+    let mut slots = Vec::with_capacity(scene.materials.len());
+    for m in &scene.materials {
+        let ops: Vec<rec::ShaderOp> =
+            m.program.iter().map(|node| shader_op(node, texture_refs, primvar_ids)).collect();
+        let record = rec::Material {
+            name: rec::StrRef::default(),
+            diffuse_color: m.diffuse_color.to_array(),
+            emissive_color: m.emissive_color.to_array(),
+            specular_color: m.specular_color.to_array(),
+            roughness: m.roughness,
+            metallic: m.metallic,
+            ior: m.ior,
+            opacity: m.opacity,
+            opacity_threshold: m.opacity_threshold,
+            clearcoat: m.clearcoat,
+            clearcoat_roughness: m.clearcoat_roughness,
+            use_specular_workflow: m.use_specular_workflow as u32,
+            program_start: 0,
+            program_len: ops.len() as u32,
+            reserved: [0; 3],
+        };
+        // Equal bytes: the same constants and the same program (floats compared bit for bit).
+        let key = (bytemuck::bytes_of(&record).to_vec(), bytemuck::cast_slice::<_, u8>(&ops).to_vec());
+        let next = data.materials.len() as u32;
+        let slot = *slot_of.entry(key).or_insert(next);
+        if slot == next {
+            let name = data.add_string(&m.path);
+            let program_start = data.shader_ops.len() as u32;
+            data.shader_ops.extend(ops);
+            data.materials.push(rec::Material { name, program_start, ..record });
+        }
+        slots.push(slot);
+    }
+    slots
 }
 
 /// Rec. 709 luminance, the weight of emission in the light distribution.
@@ -359,7 +378,7 @@ fn input_code(input: ShadingInput) -> u32 {
 fn primvar_name_ids(scene: &Scene) -> std::collections::BTreeMap<String, u32> {
     let mut names = std::collections::BTreeSet::new();
     for mesh in &scene.meshes {
-        names.extend(mesh.primvars.iter().map(|p| p.name.clone()));
+        names.extend(mesh.primvar_list().iter().map(|p| p.name.clone()));
     }
     for m in &scene.materials {
         names.extend(m.program.iter().filter_map(|n| match n {
@@ -498,54 +517,43 @@ fn within_range(v: f32) -> bool {
 
 fn validate(scene: &Scene) -> Result<(), PackError> {
     let fail = |prim: &str, problem: String| Err(PackError { prim: prim.to_string(), problem });
+    // Shared geometry is checked once, under the path of its first gprim.
+    let mut checked = std::collections::HashSet::new();
     for mesh in &scene.meshes {
-        let n = mesh.positions.len();
-        if !mesh.normals.is_empty() && mesh.normals.len() != n {
-            return fail(&mesh.path, format!("{} normals for {n} points", mesh.normals.len()));
-        }
-        if !mesh.uvs.is_empty() && mesh.uvs.len() != n {
-            return fail(&mesh.path, format!("{} uvs for {n} points", mesh.uvs.len()));
-        }
-        if mesh.triangle_materials.len() != mesh.triangles.len() {
-            return fail(&mesh.path, "one material per triangle is required".into());
-        }
-        if let Some(t) = mesh.triangles.iter().find(|t| t.iter().any(|&v| v as usize >= n)) {
-            return fail(&mesh.path, format!("triangle {t:?} indexes past {n} points"));
-        }
-        if let Some(&m) = mesh.triangle_materials.iter().find(|&&m| m as usize >= scene.materials.len()) {
-            return fail(&mesh.path, format!("material index {m} out of range"));
-        }
-        if mesh.positions.iter().any(|p| !p.to_array().into_iter().all(within_range)) {
-            return fail(&mesh.path, format!("point beyond ±{MAX_COORDINATE:e} or not finite"));
-        }
-        if let Some(local) = &mesh.instance {
-            let consistent = (local.instance as usize) < scene.instances.len()
-                && local.positions.len() == n
-                && (local.normals.len() == mesh.normals.len())
-                && local.triangles.len() == mesh.triangles.len()
-                && local.triangles.iter().all(|t| t.iter().all(|&v| (v as usize) < n))
-                && local.positions.iter().all(|p| p.is_finite());
-            if !consistent {
-                return fail(&mesh.path, "instance-space copy does not match the mesh".into());
+        if let Some(placed) = &mesh.placed {
+            let g = &placed.geometry;
+            if checked.insert(std::sync::Arc::as_ptr(g)) {
+                let local = crate::scene::Mesh {
+                    path: mesh.path.clone(),
+                    positions: g.positions.iter().map(|p| p.as_vec3()).collect(),
+                    normals: g.normals.iter().map(|n| n.as_vec3()).collect(),
+                    uvs: g.uvs.clone(),
+                    triangles: g.triangles.clone(),
+                    triangle_materials: vec![0; g.triangles.len()],
+                    primvars: g.primvars.clone(),
+                    ..crate::scene::Mesh::default()
+                };
+                if g.positions.iter().any(|p| !p.is_finite()) {
+                    return fail(&mesh.path, "point not finite".into());
+                }
+                validate_mesh(scene, &local, true)?;
             }
-        }
-        for p in &mesh.primvars {
-            let expected = p.expected_len(n, mesh.triangles.len());
-            if p.values.len() != expected || !(1..=4).contains(&p.components) {
-                let (got, components) = (p.values.len(), p.components);
-                return fail(
-                    &mesh.path,
-                    format!(
-                        "primvar {}: {got} values of {components} components, {:?} needs {expected} of 1..=4",
-                        p.name, p.layout
-                    ),
-                );
+            if mesh.triangle_materials.len() != g.triangles.len() {
+                return fail(&mesh.path, "one material per triangle is required".into());
             }
-        }
-        let mut names: Vec<&str> = mesh.primvars.iter().map(|p| p.name.as_str()).collect();
-        names.sort_unstable();
-        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
-            return fail(&mesh.path, format!("primvar {} appears twice", w[0]));
+            if (placed.instance as usize) >= scene.instances.len() {
+                return fail(&mesh.path, format!("instance {} out of range", placed.instance));
+            }
+            if !placed.world_bounds.iter().all(|b| b.to_array().into_iter().all(within_range))
+                && !g.positions.is_empty()
+            {
+                return fail(&mesh.path, format!("point beyond ±{MAX_COORDINATE:e} or not finite"));
+            }
+            if let Some(&m) = mesh.triangle_materials.iter().find(|&&m| m as usize >= scene.materials.len()) {
+                return fail(&mesh.path, format!("material index {m} out of range"));
+            }
+        } else {
+            validate_mesh(scene, mesh, false)?;
         }
     }
     for m in &scene.materials {
@@ -581,6 +589,61 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
     Ok(())
 }
 
+/// Checks one mesh's arrays against each other (`local`: shared geometry, whose points are
+/// checked in world space per placement instead).
+fn validate_mesh(scene: &Scene, mesh: &crate::scene::Mesh, local: bool) -> Result<(), PackError> {
+    let fail = |prim: &str, problem: String| Err(PackError { prim: prim.to_string(), problem });
+    let n = mesh.positions.len();
+    if !mesh.normals.is_empty() && mesh.normals.len() != n {
+        return fail(&mesh.path, format!("{} normals for {n} points", mesh.normals.len()));
+    }
+    if !mesh.uvs.is_empty() && mesh.uvs.len() != n {
+        return fail(&mesh.path, format!("{} uvs for {n} points", mesh.uvs.len()));
+    }
+    if mesh.triangle_materials.len() != mesh.triangles.len() {
+        return fail(&mesh.path, "one material per triangle is required".into());
+    }
+    if let Some(t) = mesh.triangles.iter().find(|t| t.iter().any(|&v| v as usize >= n)) {
+        return fail(&mesh.path, format!("triangle {t:?} indexes past {n} points"));
+    }
+    if let Some(&m) = mesh.triangle_materials.iter().find(|&&m| m as usize >= scene.materials.len()) {
+        return fail(&mesh.path, format!("material index {m} out of range"));
+    }
+    if !local && mesh.positions.iter().any(|p| !p.to_array().into_iter().all(within_range)) {
+        return fail(&mesh.path, format!("point beyond ±{MAX_COORDINATE:e} or not finite"));
+    }
+    if let Some(copy) = &mesh.instance {
+        let consistent = (copy.instance as usize) < scene.instances.len()
+            && copy.positions.len() == n
+            && (copy.normals.len() == mesh.normals.len())
+            && copy.triangles.len() == mesh.triangles.len()
+            && copy.triangles.iter().all(|t| t.iter().all(|&v| (v as usize) < n))
+            && copy.positions.iter().all(|p| p.is_finite());
+        if !consistent {
+            return fail(&mesh.path, "instance-space copy does not match the mesh".into());
+        }
+    }
+    for p in &mesh.primvars {
+        let expected = p.expected_len(n, mesh.triangles.len());
+        if p.values.len() != expected || !(1..=4).contains(&p.components) {
+            let (got, components) = (p.values.len(), p.components);
+            return fail(
+                &mesh.path,
+                format!(
+                    "primvar {}: {got} values of {components} components, {:?} needs {expected} of 1..=4",
+                    p.name, p.layout
+                ),
+            );
+        }
+    }
+    let mut names: Vec<&str> = mesh.primvars.iter().map(|p| p.name.as_str()).collect();
+    names.sort_unstable();
+    if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+        return fail(&mesh.path, format!("primvar {} appears twice", w[0]));
+    }
+    Ok(())
+}
+
 /// Why a material program cannot be encoded (registers past the file, unknown textures), if it cannot.
 fn program_problem(program: &[ShaderNode], textures: usize) -> Option<String> {
     let max = rec::MAX_REGISTERS;
@@ -605,7 +668,7 @@ fn program_problem(program: &[ShaderNode], textures: usize) -> Option<String> {
 
 impl Scene {
     fn positions_total(&self) -> usize {
-        self.meshes.iter().map(|m| m.positions.len()).sum()
+        self.meshes.iter().map(crate::scene::Mesh::vertex_count).sum()
     }
 }
 
@@ -656,6 +719,32 @@ mod tests {
         slots.sort();
         slots.dedup();
         assert_eq!(slots, vec![0, 1], "every triangle is reachable from the BVH");
+    }
+
+    #[test]
+    fn materials_equal_in_value_are_stored_once() {
+        let mut scene = quad_scene();
+        // Three displayColor-style materials: two equal in value under different paths.
+        let grey = |path: &str| Material { path: path.into(), ..Material::default() };
+        scene.materials = vec![
+            grey("/A.displayColor"),
+            Material { path: "/B.displayColor".into(), diffuse_color: Vec3::X, ..Material::default() },
+            grey("/C.displayColor"),
+        ];
+        scene.meshes[0].triangle_materials = vec![2, 1];
+        let data = pack(&scene).unwrap();
+        assert_eq!(data.materials.len(), 2, "/C is stored as /A");
+        assert_eq!(data.triangle_materials, vec![0, 1]);
+        let bytes = blob::AlignedBytes::copy_from(&data.encode());
+        let view = blob::SceneView::parse(&bytes).unwrap();
+        assert_eq!(view.string(view.materials[0].name), "/A.displayColor");
+        assert_eq!(view.materials[1].diffuse_color, [1.0, 0.0, 0.0]);
+        // A program (even one computing the same colour) makes a material distinct.
+        scene.materials[2].program = vec![
+            ShaderNode::Const { dst: 0, value: [0.18, 0.18, 0.18, 1.0] },
+            ShaderNode::Output { input: ShadingInput::DiffuseColor, src: 0, swizzle: [0, 1, 2, 3] },
+        ];
+        assert_eq!(pack(&scene).unwrap().materials.len(), 3);
     }
 
     #[test]

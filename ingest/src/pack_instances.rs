@@ -20,10 +20,9 @@ pub(crate) fn pack_instances(
         let first_mesh = data.meshes.len() as u32;
         let first_triangle = data.triangles.len();
         for &m in &prototype.meshes {
-            let mesh = &scene.meshes[m];
-            // `plan` only lists meshes with an instance-space copy.
-            let Some(local) = &mesh.instance else { continue };
-            layout.push(data, mesh, &local.positions, &local.normals, &local.triangles);
+            // `plan` only lists meshes inside instances.
+            let Some(local) = scene.meshes[m].in_instance() else { continue };
+            layout.push(data, &local);
         }
         let corners: Vec<[Vec3; 3]> = data.triangles[first_triangle..]
             .iter()

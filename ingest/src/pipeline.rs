@@ -20,7 +20,7 @@ pub struct IngestReport {
     pub prototypes: usize,
     /// Instances of those prototypes.
     pub instances: usize,
-    /// Materials written.
+    /// Materials written (each class of materials equal in value once).
     pub materials: usize,
     /// Lights written.
     pub lights: usize,
@@ -77,7 +77,7 @@ pub fn ingest_file_with(
         stored_triangles: data.triangles.len(),
         prototypes: data.instancing.prototypes.len(),
         instances: data.instancing.instances.len(),
-        materials: scene.materials.len(),
+        materials: data.materials.len(),
         lights: scene.lights.len(),
         cameras: scene.cameras.len(),
         blob_bytes: bytes.len(),
@@ -93,7 +93,7 @@ pub fn ingest_file_with(
 /// Triangles of `scene` if every subdivision mesh were refined to the level cap instead of its
 /// diced level (from the face-count formula, see [`crate::dicing::triangles_at_level`]).
 pub fn triangles_at_fixed_level(scene: &Scene) -> u64 {
-    let diced: u64 = scene.subdivisions.iter().map(|s| scene.meshes[s.mesh].triangles.len() as u64).sum();
+    let diced: u64 = scene.subdivisions.iter().map(|s| scene.meshes[s.mesh].triangle_count() as u64).sum();
     let fixed: u64 = scene.subdivisions.iter().map(|s| s.triangles_at_max_level).sum();
     scene.triangle_count() as u64 - diced + fixed
 }
@@ -115,10 +115,7 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
         .iter()
         .zip(&subdivision)
         .map(|(m, subdivision)| {
-            let (lo, hi) = m.positions.iter().fold(
-                (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY)),
-                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-            );
+            let [lo, hi] = m.world_bounds();
             let mut materials: Vec<&str> =
                 m.triangle_materials.iter().map(|&i| scene.materials[i as usize].path.as_str()).collect();
             materials.sort_unstable();
@@ -126,7 +123,7 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
             let mut entry = serde_json::json!({
                 "path": m.path,
                 "type": "Mesh",
-                "triangles": m.triangles.len(),
+                "triangles": m.triangle_count(),
                 "bounds_min": lo.to_array(),
                 "bounds_max": hi.to_array(),
                 "materials": materials,

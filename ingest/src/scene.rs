@@ -1,12 +1,16 @@
 //! The validated scene model between USD and the blob.
 //!
 //! Everything here is already composed, flattened to world space and triangulated: the USD reader
-//! (`crate::usd`) produces it, `crate::pack` turns it into blob records. Gprims inside instances also
-//! keep a copy in their instance's space ([`InstancedMesh`]), from which `crate::instancing` builds
-//! shared prototypes; the world-space copies serve `--dump-json` and `--flatten-instances`. Nothing in
-//! this module knows about USD or about the blob layout.
+//! (`crate::usd`) produces it, `crate::pack` turns it into blob records. Gprims inside instances are
+//! kept as a reference to local-space geometry shared by every identical instance plus their
+//! transforms ([`PlacedMesh`]): 1,000 instances of a mesh hold one mesh through ingest, and world
+//! copies are made only where one is packed in world space (`--flatten-instances`, singletons).
+//! Hand-built scenes may instead give a world-space mesh with an explicit instance-space copy
+//! ([`InstancedMesh`]). Nothing in this module knows about USD or about the blob layout.
 
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{DMat3, DMat4, DVec3, Mat4, Vec2, Vec3, Vec4};
+use std::borrow::Cow;
+use std::sync::Arc;
 
 /// A composed, world-space, renderable scene.
 #[derive(Clone, Debug, Default)]
@@ -231,6 +235,221 @@ pub struct Mesh {
     pub instance: Option<InstancedMesh>,
     /// The primvars the mesh's materials read ([`ShaderNode::Primvar`]), sorted by name.
     pub primvars: Vec<MeshPrimvar>,
+    /// For a gprim inside an instance as the USD reader keeps it: its geometry by reference, in
+    /// local space, with its transforms. `positions`, `normals`, `uvs`, `triangles` and `primvars`
+    /// are then empty (see [`Mesh::in_world`]); `triangle_materials` is the instance's own.
+    pub placed: Option<PlacedMesh>,
+}
+
+/// Triangulated geometry in a gprim's local space, shared by every instance whose copy of the gprim
+/// is identical (same points, normals, uvs, triangles and primvars).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LocalGeometry {
+    /// Local-space positions, in `f64` so that world and instance copies round as a direct
+    /// transform of the authored points would.
+    pub positions: Vec<DVec3>,
+    /// Local-space normals (empty: flat shading).
+    pub normals: Vec<DVec3>,
+    /// Texture coordinates, one per position, or empty.
+    pub uvs: Vec<Vec2>,
+    /// Triangles wound for the local space.
+    pub triangles: Vec<[u32; 3]>,
+    /// Primvars, per-corner values in the local winding.
+    pub primvars: Vec<MeshPrimvar>,
+}
+
+/// Positions, normals, triangles and primvars of [`LocalGeometry`] moved to another space.
+pub struct Transformed {
+    /// Positions in the target space.
+    pub positions: Vec<Vec3>,
+    /// Unit normals (inverse transpose), or empty.
+    pub normals: Vec<Vec3>,
+    /// Triangles, flipped where the transform mirrors.
+    pub triangles: Vec<[u32; 3]>,
+    /// Primvars, corner values following their triangle's vertex order.
+    pub primvars: Vec<MeshPrimvar>,
+}
+
+impl LocalGeometry {
+    /// The geometry under `target_from_local`.
+    ///
+    /// A transform with negative determinant mirrors the surface; the winding is flipped so the
+    /// triangles stay counter-clockwise about the (inverse-transpose transformed) normals, as Hydra
+    /// does (`orientation` XOR mirrored).
+    pub fn transformed(&self, target_from_local: DMat4) -> Transformed {
+        let normal_from_local = DMat3::from_mat4(target_from_local).inverse().transpose();
+        let mut triangles = self.triangles.clone();
+        let mut primvars = self.primvars.clone();
+        if target_from_local.determinant() < 0.0 {
+            triangles.iter_mut().for_each(|t| t.swap(1, 2));
+            for p in primvars.iter_mut().filter(|p| p.layout == PrimvarLayout::PerCorner) {
+                p.values.chunks_exact_mut(3).for_each(|c| c.swap(1, 2));
+            }
+        }
+        Transformed {
+            positions: self
+                .positions
+                .iter()
+                .map(|&p| target_from_local.project_point3(p).as_vec3())
+                .collect(),
+            normals: self
+                .normals
+                .iter()
+                .map(|&n| (normal_from_local * n).normalize_or_zero().as_vec3())
+                .collect(),
+            triangles,
+            primvars,
+        }
+    }
+
+    /// Bounds of the positions under `target_from_local`, exactly as those of
+    /// [`LocalGeometry::transformed`] (without making the copy).
+    pub fn bounds(&self, target_from_local: DMat4) -> [Vec3; 2] {
+        self.positions.iter().fold(
+            [Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)],
+            |[lo, hi], &p| {
+                let p = target_from_local.project_point3(p).as_vec3();
+                [lo.min(p), hi.max(p)]
+            },
+        )
+    }
+}
+
+/// A gprim inside an instance: shared local geometry and where this instance puts it.
+#[derive(Clone, Debug)]
+pub struct PlacedMesh {
+    /// Index into [`Scene::instances`].
+    pub instance: u32,
+    /// The geometry (one allocation for every identical instance).
+    pub geometry: Arc<LocalGeometry>,
+    /// Local-to-world transform.
+    pub world_from_local: DMat4,
+    /// Local-to-instance transform (the same for every instance of a prototype).
+    pub instance_from_local: DMat4,
+    /// World bounds of the positions (computed once, for the listing and the scene bounds).
+    pub world_bounds: [Vec3; 2],
+}
+
+impl PlacedMesh {
+    /// Places `geometry` inside instance `instance`.
+    pub fn new(
+        instance: u32,
+        geometry: Arc<LocalGeometry>,
+        world_from_local: DMat4,
+        instance_from_local: DMat4,
+    ) -> Self {
+        let world_bounds = geometry.bounds(world_from_local);
+        PlacedMesh { instance, geometry, world_from_local, instance_from_local, world_bounds }
+    }
+}
+
+impl Mesh {
+    /// Triangles drawn.
+    pub fn triangle_count(&self) -> usize {
+        self.placed.as_ref().map_or(self.triangles.len(), |p| p.geometry.triangles.len())
+    }
+
+    /// Vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.placed.as_ref().map_or(self.positions.len(), |p| p.geometry.positions.len())
+    }
+
+    /// World bounds of the vertices (`+∞..−∞` when there are none).
+    pub fn world_bounds(&self) -> [Vec3; 2] {
+        match &self.placed {
+            Some(p) => p.world_bounds,
+            None => self
+                .positions
+                .iter()
+                .fold([Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)], |[lo, hi], p| {
+                    [lo.min(*p), hi.max(*p)]
+                }),
+        }
+    }
+
+    /// Whether the mesh has shading normals / texture coordinates.
+    pub fn has_normals(&self) -> bool {
+        self.placed.as_ref().map_or(!self.normals.is_empty(), |p| !p.geometry.normals.is_empty())
+    }
+
+    /// See [`Mesh::has_normals`].
+    pub fn has_uvs(&self) -> bool {
+        self.placed.as_ref().map_or(!self.uvs.is_empty(), |p| !p.geometry.uvs.is_empty())
+    }
+
+    /// The primvars, wherever they are kept.
+    pub fn primvar_list(&self) -> &[MeshPrimvar] {
+        self.placed.as_ref().map_or(&self.primvars, |p| &p.geometry.primvars)
+    }
+
+    /// The index into [`Scene::instances`] of the instance the gprim is inside.
+    pub fn instance_index(&self) -> Option<u32> {
+        match (&self.placed, &self.instance) {
+            (Some(p), _) => Some(p.instance),
+            (None, Some(i)) => Some(i.instance),
+            (None, None) => None,
+        }
+    }
+
+    /// The mesh in world space: itself, or a copy made from its placed geometry.
+    pub fn in_world(&self) -> Cow<'_, Mesh> {
+        match &self.placed {
+            None => Cow::Borrowed(self),
+            Some(p) => Cow::Owned(self.copy_in(&p.geometry, p.world_from_local)),
+        }
+    }
+
+    /// The mesh in its instance's space (`None` outside instances).
+    pub fn in_instance(&self) -> Option<Mesh> {
+        if let Some(p) = &self.placed {
+            return Some(self.copy_in(&p.geometry, p.instance_from_local));
+        }
+        let local = self.instance.as_ref()?;
+        // Corner values follow their triangle's vertex order; the instance-space triangles may be
+        // wound against the world's (a mirroring instance transform).
+        let primvars = self
+            .primvars
+            .iter()
+            .map(|p| {
+                let mut p = p.clone();
+                if p.layout == PrimvarLayout::PerCorner {
+                    for (c, (stored, world)) in
+                        p.values.chunks_exact_mut(3).zip(local.triangles.iter().zip(&self.triangles))
+                    {
+                        if stored != world {
+                            c.swap(1, 2);
+                        }
+                    }
+                }
+                p
+            })
+            .collect();
+        Some(Mesh {
+            positions: local.positions.clone(),
+            normals: local.normals.clone(),
+            triangles: local.triangles.clone(),
+            primvars,
+            instance: None,
+            placed: None,
+            ..self.clone()
+        })
+    }
+
+    fn copy_in(&self, geometry: &LocalGeometry, target_from_local: DMat4) -> Mesh {
+        let t = geometry.transformed(target_from_local);
+        Mesh {
+            path: self.path.clone(),
+            positions: t.positions,
+            normals: t.normals,
+            uvs: geometry.uvs.clone(),
+            triangles: t.triangles,
+            triangle_materials: self.triangle_materials.clone(),
+            double_sided: self.double_sided,
+            instance: None,
+            primvars: t.primvars,
+            placed: None,
+        }
+    }
 }
 
 /// Wall seconds spent in the parts of a load that are not composition (`bench ingest` subtracts them
@@ -499,7 +718,7 @@ pub struct Camera {
 impl Scene {
     /// Total triangle count.
     pub fn triangle_count(&self) -> usize {
-        self.meshes.iter().map(|m| m.triangles.len()).sum()
+        self.meshes.iter().map(Mesh::triangle_count).sum()
     }
 
     /// Records a warning once per (prim, message) pair.

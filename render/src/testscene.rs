@@ -90,6 +90,7 @@ pub fn card(z: f32, half: f32, material: u32) -> Mesh {
         triangle_materials: vec![material; 2],
         double_sided: false,
         instance: None,
+        placed: None,
         primvars: Vec::new(),
     }
 }

@@ -40,6 +40,7 @@ fn quad(corners: [Vec3; 4], uv_max: f32) -> Mesh {
         triangle_materials: vec![0, 0],
         double_sided: true,
         instance: None,
+        placed: None,
         primvars: Vec::new(),
     }
 }

@@ -61,7 +61,7 @@ fn a_thousand_instances_store_one_sphere() {
     let (_, one) = ingest(dir.path(), "one", &instanced_spheres_stage(1), false);
     let (_, flat) = ingest(dir.path(), "flat", &instanced_spheres_stage(1000), true);
     let view = blob::SceneView::parse(&bytes).expect("valid blob");
-    let sphere = scene.meshes[0].triangles.len();
+    let sphere = scene.meshes[0].triangle_count();
     assert_eq!(sphere, 12 * 24 * 2, "rings × segments quads, two triangles each");
     assert_eq!(view.triangles.len(), sphere, "the sphere is stored once");
     assert_eq!(view.instancing.instances.len(), 1000);
@@ -214,14 +214,16 @@ fn point_instancer_entries_render_where_the_flattened_gprims_are() {
             .meshes
             .iter()
             .find(|m| {
-                m.instance.as_ref().is_some_and(|l| scene.instances[l.instance as usize].path == name)
+                m.instance_index().is_some_and(|i| scene.instances[i as usize].path == name)
                     && m.path.ends_with(suffix)
             })
             .expect("flattened gprim of the entry");
         let hit = render::Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: index as u32 };
         let stored = &view.positions[mesh_record.first_vertex as usize
             ..(mesh_record.first_vertex + mesh_record.vertex_count) as usize];
-        for (p, world) in stored.iter().zip(&flattened.positions) {
+        let world_copy = flattened.in_world();
+        assert_eq!(stored.len(), world_copy.positions.len());
+        for (p, world) in stored.iter().zip(&world_copy.positions) {
             let q = accel.instances().to_world_point(hit.instance, glam::Vec3::from(*p));
             assert!((q - *world).length() < 1e-5, "entry {i}: {q} vs {world}");
         }
@@ -313,4 +315,148 @@ fn nested_instances_are_expanded_inside_the_outermost_prototype() {
     assert_eq!(view.triangles.len(), 2, "the prototype holds both nested triangles");
     let info = render::info::summarize(&view);
     assert_eq!(info.triangles, 6);
+}
+
+#[test]
+fn instanced_gprims_keep_one_mesh_through_ingest() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(dir.path(), "many.usda", &instanced_spheres_stage(300));
+    let scene = ingest::usd::load(&input, &Default::default()).expect("load");
+    assert_eq!(scene.meshes.len(), 300);
+    let first = scene.meshes[0].placed.as_ref().expect("instance proxies are placed, not copied");
+    for mesh in &scene.meshes {
+        let placed = mesh.placed.as_ref().expect("placed");
+        assert!(std::sync::Arc::ptr_eq(&placed.geometry, &first.geometry), "{} has its own copy", mesh.path);
+        assert!(
+            mesh.positions.is_empty() && mesh.triangles.is_empty(),
+            "no world copy is made while loading"
+        );
+        // The bounds kept for the listing are those of the world copy made on demand.
+        let world = mesh.in_world();
+        let lo = world.positions.iter().fold(glam::Vec3::INFINITY, |a, p| a.min(*p));
+        let hi = world.positions.iter().fold(glam::Vec3::NEG_INFINITY, |a, p| a.max(*p));
+        assert_eq!(mesh.world_bounds(), [lo, hi]);
+        assert_eq!(world.triangles.len(), mesh.triangle_count());
+    }
+    assert_eq!(std::sync::Arc::strong_count(&first.geometry), 300, "one geometry for 300 instances");
+    // Flattening at pack time gives the world copies; the listing is the same either way.
+    let pack = |flatten| {
+        let options = ingest::pack::PackOptions { flatten_instances: flatten, ..Default::default() };
+        ingest::pack::pack_scene(&scene, &options).expect("pack")
+    };
+    let (shared, flat) = (pack(false), pack(true));
+    assert_eq!(shared.triangles.len(), 576);
+    assert_eq!(flat.triangles.len(), 300 * 576);
+    assert_eq!(shared.info.bounds_min, flat.info.bounds_min);
+    assert_eq!(shared.info.bounds_max, flat.info.bounds_max);
+}
+
+/// Instanceable references to `/Proto` (defined by `proto_body`) translated to each of `places`,
+/// seen by a camera at z = 10 looking down −Z.
+fn instances_at(proto_body: &str, places: &[[f64; 3]]) -> String {
+    let instances: String = places
+        .iter()
+        .enumerate()
+        .map(|(i, [x, y, z])| {
+            format!(
+                "def \"I{i}\" (\n    instanceable = true\n    references = </Proto>\n)\n{{\n    \
+                 double3 xformOp:translate = ({x}, {y}, {z})\n    uniform token[] xformOpOrder = [\"xformOp:translate\"]\n}}\n"
+            )
+        })
+        .collect();
+    let world = stage(
+        &[lambert_material("/World/Grey", 0.5), instances, camera_prim("Cam", [0.0, 0.0, 10.0], 35.0, 36.0)]
+            .join("\n"),
+    );
+    let split = world.find("def Xform \"World\"").expect("stage() writes /World");
+    format!("{}class Xform \"Proto\"\n{{\n{proto_body}}}\n\n{}", &world[..split], &world[split..])
+}
+
+#[test]
+fn subdivision_instances_at_different_distances_share_one_prototype_diced_for_the_nearest() {
+    let dir = tempfile::tempdir().unwrap();
+    let cup = open_box_mesh("Cup", "/World/Grey").replace("\"none\"", "\"catmullClark\"");
+    let places = [[0.0, 0.0, 0.0], [3.0, 0.0, -20.0], [-6.0, 2.0, -80.0]];
+    let input = write(dir.path(), "cups.usda", &instances_at(&cup, &places));
+    let output = dir.path().join("cups.blob");
+    let (scene, report) =
+        ingest::pipeline::ingest_file(&input, &output, &Default::default()).expect("ingest");
+    assert_eq!((report.prototypes, report.instances), (1, 3), "one prototype for the three cups");
+    assert_eq!(report.stored_triangles * 3, report.triangles);
+    assert_eq!(scene.subdivisions.len(), 3);
+    let shared = &scene.subdivisions[0].edge_rates;
+    assert!(scene.subdivisions.iter().all(|s| &s.edge_rates == shared));
+    // Each cup diced alone, as the only instance on the stage.
+    let mut finest = vec![0u32; shared.len()];
+    let mut alone_totals = Vec::new();
+    for (i, place) in places.iter().enumerate() {
+        let input = write(dir.path(), &format!("cup{i}.usda"), &instances_at(&cup, &[*place]));
+        let alone = ingest::usd::load(&input, &Default::default()).expect("load");
+        let rates = &alone.subdivisions[0].edge_rates;
+        assert_eq!(rates.len(), shared.len(), "same cage, same edges");
+        for (e, (&need, &got)) in rates.iter().zip(shared).enumerate() {
+            assert!(got >= need, "cup {i} edge {e}: shared rate {got} below its own need {need}");
+        }
+        finest.iter_mut().zip(rates).for_each(|(f, &r)| *f = (*f).max(r));
+        alone_totals.push(rates.iter().sum::<u32>());
+    }
+    assert_eq!(shared, &finest, "the shared rates are the finest any instance needs, edge by edge");
+    eprintln!(
+        "segments per cup alone (near to far): {alone_totals:?}; shared {}",
+        shared.iter().sum::<u32>()
+    );
+    assert!(alone_totals[0] > alone_totals[2], "distance changes the need: {alone_totals:?}");
+}
+
+#[test]
+fn display_color_materials_equal_in_value_are_stored_once() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two prototypes without a bound material: each instance proxy gets its own
+    // `<gprim>.displayColor` material, equal in value within a prototype.
+    let unbound = |name: &str, color: &str| {
+        let tri = mesh_prim(
+            name,
+            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            &[3],
+            &[0, 1, 2],
+            None,
+            "/X",
+        );
+        tri.replace(
+            "    rel material:binding = </X>\n",
+            &format!("    color3f[] primvars:displayColor = [{color}]\n"),
+        )
+    };
+    let red_proto = unbound("Red", "(0.8, 0.1, 0.1)");
+    let blue = format!("class Xform \"BlueProto\"\n{{\n{}}}\n\n", unbound("Blue", "(0.1, 0.1, 0.8)"));
+    let mut usda = instances_at(&red_proto, &(0..10).map(|i| [i as f64, 0.0, 0.0]).collect::<Vec<_>>());
+    let blues: String = (0..5)
+        .map(|i| format!("    def \"B{i}\" (\n        instanceable = true\n        references = </BlueProto>\n    )\n    {{\n        double3 xformOp:translate = ({i}, 3, 0)\n        uniform token[] xformOpOrder = [\"xformOp:translate\"]\n    }}\n"))
+        .collect();
+    let split = usda.find("def Xform \"World\"").unwrap();
+    usda.insert_str(split, &blue);
+    let close = usda.rfind('}').unwrap();
+    usda.insert_str(close, &blues);
+    let (scene, bytes) = ingest(dir.path(), "colors", &usda, false);
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    let display: Vec<&str> =
+        scene.materials.iter().map(|m| m.path.as_str()).filter(|p| p.ends_with(".displayColor")).collect();
+    assert_eq!(display.len(), 15, "one displayColor material per instance proxy: {display:?}");
+    // Grey (bound by nothing but still read) may or may not be listed; the displayColor ones fold
+    // into one record per colour.
+    let colors: std::collections::BTreeSet<[u32; 3]> =
+        view.materials.iter().map(|m| m.diffuse_color.map(f32::to_bits)).collect();
+    assert_eq!(colors.len(), view.materials.len(), "no two blob materials are equal in value");
+    assert!(view.materials.len() <= scene.materials.len() - 13, "{} blob materials", view.materials.len());
+    assert_eq!(view.instancing.prototypes.len(), 2);
+    assert_eq!(view.instancing.instances.len(), 15);
+    // Every triangle still shades with its own colour.
+    let (_, flat) = ingest(dir.path(), "colors_flat", &usda, true);
+    let flat_view = blob::SceneView::parse(&flat).unwrap();
+    for (t, &m) in flat_view.triangles.iter().zip(flat_view.triangle_materials) {
+        let name = flat_view.string(flat_view.meshes[t.mesh as usize].name);
+        let material = &flat_view.materials[m as usize];
+        let red = material.diffuse_color[0] > material.diffuse_color[2];
+        assert_eq!(red, name.ends_with("/Red"), "{name}");
+    }
 }

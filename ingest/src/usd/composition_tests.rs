@@ -171,7 +171,7 @@ def PointInstancer "PI" (
         ("weak.usda", &weak),
     ]);
     let scene = load_with(&dir.path().join("root.usda"), &LoadOptions::default());
-    let mut xs: Vec<f32> = scene.meshes.iter().map(|m| m.positions[0].x).collect();
+    let mut xs: Vec<f32> = scene.meshes.iter().map(|m| m.in_world().positions[0].x).collect();
     xs.sort_by(f32::total_cmp);
     assert_eq!(xs, [0.0, 20.0]);
 }

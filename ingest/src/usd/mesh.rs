@@ -1,15 +1,17 @@
 //! UsdGeomMesh (and the implicit Sphere/Cube): topology, triangulation, primvars, world transform.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
+use std::hash::{Hash, Hasher};
+use std::sync::Arc;
 
-use glam::{DMat3, DMat4, DVec2, DVec3, Vec2};
+use glam::{DMat4, DVec2, DVec3, Vec2};
 
 use super::stage::Value;
 use super::{fallback, Inherited, Reader, UsdError};
-use crate::scene::{Mesh, MeshPrimvar, PrimvarLayout};
+use crate::scene::{LocalGeometry, Mesh, MeshPrimvar, PlacedMesh, PrimvarLayout};
 
 /// Primvar interpolation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(super) enum Interpolation {
     Constant,
     Uniform,
@@ -36,6 +38,7 @@ impl Interpolation {
 }
 
 /// A validated primvar: every lookup is in range.
+#[derive(PartialEq)]
 pub(super) struct Primvar<T> {
     pub values: Vec<T>,
     pub indices: Option<Vec<usize>>,
@@ -60,6 +63,7 @@ impl<T: Copy> Primvar<T> {
 }
 
 /// A primvar a material program reads, as authored on the cage (elements widened to `vec4`).
+#[derive(PartialEq)]
 pub(super) struct CagePrimvar {
     pub name: String,
     pub components: u32,
@@ -567,66 +571,111 @@ impl Reader<'_> {
         Ok(())
     }
 
-    /// Transforms a local mesh to world space and adds it to the scene.
+    /// Adds a local mesh to the scene: in world space, or inside an instance as a reference to
+    /// geometry shared with every identical instance (see [`GeometryInterner`]).
     pub(super) fn push_mesh(&mut self, path: &str, local: LocalMesh, state: &Inherited) {
-        // Inside an instance the gprim is also kept in the instance's space (computed from the
-        // authored points, not by inverting the world transform, so identical instances give
-        // bit-identical prototype geometry).
-        let instance = state.instance.map(|frame| instanced_copy(path, &local, frame));
-        let mut mesh = world_mesh(path, local, state.world_from_local);
-        mesh.instance = instance;
+        let mesh = match state.instance {
+            Some(frame) => self.placed_mesh(path, local, frame, state.world_from_local),
+            None => world_mesh(path, local, state.world_from_local),
+        };
         self.scene.meshes.push(mesh);
     }
+
+    /// A gprim inside the instance `frame`: its materials and a reference to its interned geometry.
+    pub(super) fn placed_mesh(
+        &mut self,
+        path: &str,
+        local: LocalMesh,
+        frame: super::InstanceFrame,
+        world_from_local: DMat4,
+    ) -> Mesh {
+        let (geometry, triangle_materials, double_sided) = local.split();
+        let geometry = self.geometry.intern(geometry);
+        placed_with(path, geometry, triangle_materials, double_sided, frame, world_from_local)
+    }
 }
 
-/// The instance-space copy of a local mesh inside the instance `frame`.
-pub(super) fn instanced_copy(
+/// A gprim inside the instance `frame` drawing the shared `geometry`.
+pub(super) fn placed_with(
     path: &str,
-    local: &LocalMesh,
+    geometry: Arc<LocalGeometry>,
+    triangle_materials: Vec<u32>,
+    double_sided: bool,
     frame: super::InstanceFrame,
-) -> crate::scene::InstancedMesh {
-    let in_instance = world_mesh(path, local.clone(), frame.instance_from_local);
-    crate::scene::InstancedMesh {
-        instance: frame.index,
-        positions: in_instance.positions,
-        normals: in_instance.normals,
-        triangles: in_instance.triangles,
-    }
-}
-
-/// A local mesh in world space.
-///
-/// A transform with negative determinant mirrors the surface; the winding is flipped so the
-/// triangles stay counter-clockwise about the (inverse-transpose transformed) normals, as Hydra
-/// does (`orientation` XOR mirrored).
-pub(super) fn world_mesh(path: &str, local: LocalMesh, world_from_local: DMat4) -> Mesh {
-    let normal_from_local = DMat3::from_mat4(world_from_local).inverse().transpose();
-    let mirrored = world_from_local.determinant() < 0.0;
-    let mut triangles = local.triangles;
-    let mut primvars = local.primvars;
-    if mirrored {
-        for t in &mut triangles {
-            t.swap(1, 2);
-        }
-        // Corner values follow their triangle's vertex order.
-        for p in primvars.iter_mut().filter(|p| p.layout == PrimvarLayout::PerCorner) {
-            p.values.chunks_exact_mut(3).for_each(|c| c.swap(1, 2));
-        }
-    }
+    world_from_local: DMat4,
+) -> Mesh {
     Mesh {
         path: path.to_string(),
-        positions: local.positions.iter().map(|&p| world_from_local.project_point3(p).as_vec3()).collect(),
-        normals: local
-            .normals
-            .iter()
-            .map(|&n| (normal_from_local * n).normalize_or_zero().as_vec3())
-            .collect(),
-        uvs: local.uvs,
-        triangles,
-        triangle_materials: local.triangle_materials,
-        double_sided: local.double_sided,
+        triangle_materials,
+        double_sided,
+        placed: Some(PlacedMesh::new(frame.index, geometry, world_from_local, frame.instance_from_local)),
+        ..Mesh::default()
+    }
+}
+
+impl LocalMesh {
+    /// The shareable geometry, the per-triangle materials and `doubleSided`.
+    pub(super) fn split(self) -> (LocalGeometry, Vec<u32>, bool) {
+        let geometry = LocalGeometry {
+            positions: self.positions,
+            normals: self.normals,
+            uvs: self.uvs,
+            triangles: self.triangles,
+            primvars: self.primvars,
+        };
+        (geometry, self.triangle_materials, self.double_sided)
+    }
+}
+
+/// One allocation per distinct instanced gprim geometry: every instance proxy of a prototype is
+/// read (its bindings and inherited primvars may differ), but an identical copy is dropped at once
+/// for the one already kept, so ingest holds one mesh per prototype, not one per instance.
+#[derive(Default)]
+pub(super) struct GeometryInterner {
+    by_hash: HashMap<u64, Vec<Arc<LocalGeometry>>>,
+}
+
+impl GeometryInterner {
+    /// The shared copy of `geometry`.
+    pub(super) fn intern(&mut self, geometry: LocalGeometry) -> Arc<LocalGeometry> {
+        let candidates = self.by_hash.entry(geometry_hash(&geometry)).or_default();
+        if let Some(found) = candidates.iter().find(|g| ***g == geometry) {
+            return Arc::clone(found);
+        }
+        let shared = Arc::new(geometry);
+        candidates.push(Arc::clone(&shared));
+        shared
+    }
+}
+
+fn geometry_hash(g: &LocalGeometry) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    g.positions.iter().for_each(|p| p.to_array().map(f64::to_bits).hash(&mut h));
+    g.normals.iter().for_each(|n| n.to_array().map(f64::to_bits).hash(&mut h));
+    g.uvs.iter().for_each(|uv| uv.to_array().map(f32::to_bits).hash(&mut h));
+    g.triangles.hash(&mut h);
+    for p in &g.primvars {
+        (&p.name, p.layout as u8, p.components).hash(&mut h);
+        p.values.iter().for_each(|v| v.map(f32::to_bits).hash(&mut h));
+    }
+    h.finish()
+}
+
+/// A local mesh in world space (see [`LocalGeometry::transformed`] for the winding).
+pub(super) fn world_mesh(path: &str, local: LocalMesh, world_from_local: DMat4) -> Mesh {
+    let (geometry, triangle_materials, double_sided) = local.split();
+    let world = geometry.transformed(world_from_local);
+    Mesh {
+        path: path.to_string(),
+        positions: world.positions,
+        normals: world.normals,
+        uvs: geometry.uvs,
+        triangles: world.triangles,
+        triangle_materials,
+        double_sided,
         instance: None,
-        primvars,
+        primvars: world.primvars,
+        placed: None,
     }
 }
 

@@ -361,6 +361,10 @@ struct Reader<'a> {
     subdivisions: Vec<subdivision::QueuedSubdivision>,
     /// PointInstancers being expanded, outermost first.
     expanding: Vec<String>,
+    /// Instanced gprim geometry, one copy per distinct mesh.
+    geometry: mesh::GeometryInterner,
+    /// Queued instanced subdivision cages by content hash (indices into `subdivisions`).
+    subdivision_groups: HashMap<u64, Vec<usize>>,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -389,6 +393,8 @@ impl<'a> Reader<'a> {
             binding_cache: HashMap::new(),
             subdivisions: Vec::new(),
             expanding: Vec::new(),
+            geometry: mesh::GeometryInterner::default(),
+            subdivision_groups: HashMap::new(),
         }
     }
 

@@ -9,8 +9,15 @@
 //! default) or level (uniform) (`crate::dicing`), tessellates the queued cages in parallel, and
 //! fills the slots with world-space limit surfaces. A cage OpenSubdiv rejects is rendered as its
 //! triangulated cage, with one warning naming the problem.
+//!
+//! Instances of one subdivision prototype (identical local cages inside instances) are queued
+//! once: later copies only add their placement (a *follower*) and drop their cage. The surface is
+//! diced once at, per cage edge, the finest rate any of its instances needs (uniform: the finest
+//! level), so every instance shares one tessellation and one prototype.
 
 use std::str::FromStr;
+
+use std::sync::Arc;
 
 use glam::{DMat4, DVec3, Vec2};
 use rayon::prelude::*;
@@ -20,12 +27,13 @@ use subdiv::{
     UvSource,
 };
 
-use super::mesh::{instanced_copy, world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
+use super::mesh::{placed_with, world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
 use super::{Inherited, Reader, UsdError};
 use crate::dicing::{choose_edge_rates, choose_level, triangles_at_level, DicingCamera, SubdivOptions};
 use crate::scene::{Mesh, MeshPrimvar, PrimvarLayout, Subdivision};
 
 /// The st primvar in the form the refiner takes.
+#[derive(PartialEq)]
 enum UvInput {
     None,
     /// Face-varying channel 0 of the cage (faceVarying primvars, and uniform ones as one value
@@ -58,11 +66,56 @@ pub(super) struct QueuedSubdivision {
     /// The polygon cage: per-face materials, and the fallback if refinement fails.
     cage: PolygonCage,
     world_from_local: DMat4,
+    /// Other instances of the same cage, diced with this one.
+    followers: Vec<Follower>,
+}
+
+/// Another instance of a queued instanced cage: where it is and what it is bound to.
+struct Follower {
+    slot: usize,
+    path: String,
+    frame: super::InstanceFrame,
+    world_from_local: DMat4,
+    face_materials: Vec<u32>,
+    double_sided: bool,
+}
+
+impl QueuedSubdivision {
+    /// The same surface in local space (materials and placement aside).
+    fn same_cage(&self, topology: &Topology, uv: &UvInput, cage: &PolygonCage) -> bool {
+        let (a, b) = (&self.cage, cage);
+        self.topology == *topology
+            && self.uv == *uv
+            && a.points == b.points
+            && a.counts == b.counts
+            && a.corners_to_points == b.corners_to_points
+            && a.holes == b.holes
+            && a.left_handed == b.left_handed
+            && a.uvs == b.uvs
+            && a.primvars == b.primvars
+    }
+
+    /// Local-to-world of the queued instance and of each follower.
+    fn placements(&self) -> impl Iterator<Item = DMat4> + '_ {
+        std::iter::once(self.world_from_points).chain(self.followers.iter().map(|f| f.world_from_local))
+    }
+}
+
+/// Buckets instanced cages: their points and face sizes.
+fn cage_hash(cage: &PolygonCage) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    cage.points.iter().for_each(|p| p.to_array().map(f64::to_bits).hash(&mut h));
+    cage.counts.hash(&mut h);
+    cage.corners_to_points.hash(&mut h);
+    h.finish()
 }
 
 /// A diced, tessellated subdivision mesh in local space.
 struct Diced {
     local: LocalMesh,
+    /// Cage face per triangle (for the followers' materials).
+    coarse_face: Vec<u32>,
     level: u32,
     /// Segments per cage edge (adaptive tessellation; empty for uniform).
     edge_rates: Vec<u32>,
@@ -137,6 +190,28 @@ impl Reader<'_> {
                 // world space, which keeps the surface inside the projected cage.
                 let m = state.world_from_local;
                 let projective = m.row(3) != glam::DVec4::W;
+                if let Some(frame) = state.instance.filter(|_| !projective) {
+                    let hash = cage_hash(&cage);
+                    let group = self.subdivision_groups.entry(hash).or_default();
+                    let leader = group
+                        .iter()
+                        .copied()
+                        .find(|&i| self.subdivisions[i].same_cage(&topology, &uv, &cage));
+                    match leader {
+                        Some(i) => {
+                            self.subdivisions[i].followers.push(Follower {
+                                slot,
+                                path: path.to_string(),
+                                frame,
+                                world_from_local: m,
+                                face_materials: cage.face_materials,
+                                double_sided: cage.double_sided,
+                            });
+                            return Ok(None);
+                        }
+                        None => group.push(self.subdivisions.len()),
+                    }
+                }
                 let (points, world_from_points) = if projective {
                     (
                         cage.points.iter().map(|&p| m.project_point3(p).as_vec3().to_array()).collect(),
@@ -156,6 +231,7 @@ impl Reader<'_> {
                     instance: if projective { None } else { state.instance },
                     cage,
                     world_from_local: m,
+                    followers: Vec::new(),
                 });
                 Ok(None)
             }
@@ -279,28 +355,67 @@ impl Reader<'_> {
             None => {
                 // `render` frames the whole scene; the cages bound their limit surfaces.
                 let cages = queued.iter().flat_map(|q| {
-                    q.points
-                        .iter()
-                        .map(|p| q.world_from_points.transform_point3(glam::Vec3::from_array(*p).as_dvec3()))
+                    q.placements().flat_map(|m| {
+                        q.points
+                            .iter()
+                            .map(move |p| m.transform_point3(glam::Vec3::from_array(*p).as_dvec3()))
+                    })
                 });
-                let meshes = self.scene.meshes.iter().flat_map(|m| m.positions.iter().map(|p| p.as_dvec3()));
+                let meshes = self.scene.meshes.iter().flat_map(|m| m.world_bounds()).map(|p| p.as_dvec3());
                 let (lo, hi) = cages
                     .chain(meshes)
+                    .filter(|p| p.is_finite())
                     .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
                 DicingCamera::framing(lo, hi, self.scene.up_axis == crate::scene::UpAxis::Z)
             }
         };
         let camera = Some(camera);
         let diced: Vec<_> = queued.par_iter().map(|q| dice(q, options, camera.as_ref())).collect();
-        for (q, result) in queued.into_iter().zip(diced) {
+        for (mut q, result) in queued.into_iter().zip(diced) {
+            let followers = std::mem::take(&mut q.followers);
             match result {
                 Ok(d) => {
                     if let Some(note) = d.note {
                         self.warn(&q.path, note);
                     }
-                    let instance = q.instance.map(|frame| instanced_copy(&q.path, &d.local, frame));
-                    self.scene.meshes[q.slot] = world_mesh(&q.path, d.local, q.world_from_points);
-                    self.scene.meshes[q.slot].instance = instance;
+                    self.scene.meshes[q.slot] = match q.instance {
+                        // One geometry for the queued instance and its followers; each keeps its
+                        // own materials (per cage face, through the face each triangle comes from).
+                        Some(frame) => {
+                            let (geometry, materials, double_sided) = d.local.split();
+                            let geometry = self.geometry.intern(geometry);
+                            for f in &followers {
+                                let materials =
+                                    d.coarse_face.iter().map(|&c| f.face_materials[c as usize]).collect();
+                                self.scene.meshes[f.slot] = placed_with(
+                                    &f.path,
+                                    Arc::clone(&geometry),
+                                    materials,
+                                    f.double_sided,
+                                    f.frame,
+                                    f.world_from_local,
+                                );
+                                self.scene.subdivisions.push(Subdivision {
+                                    mesh: f.slot,
+                                    topology: q.topology.clone(),
+                                    points: q.points.clone(),
+                                    world_from_local: f.world_from_local,
+                                    level: d.level,
+                                    edge_rates: d.edge_rates.clone(),
+                                    triangles_at_max_level: d.triangles_at_max_level,
+                                });
+                            }
+                            placed_with(
+                                &q.path,
+                                geometry,
+                                materials,
+                                double_sided,
+                                frame,
+                                q.world_from_points,
+                            )
+                        }
+                        None => world_mesh(&q.path, d.local, q.world_from_points),
+                    };
                     self.scene.subdivisions.push(Subdivision {
                         mesh: q.slot,
                         topology: q.topology,
@@ -312,14 +427,22 @@ impl Reader<'_> {
                     });
                 }
                 Err(e) => {
-                    self.warn(
-                        &q.path,
-                        format!("cannot subdivide: {e}; rendering the triangulated cage instead"),
-                    );
+                    let message = format!("cannot subdivide: {e}; rendering the triangulated cage instead");
+                    for mut f in followers {
+                        self.warn(&f.path, message.clone());
+                        std::mem::swap(&mut q.cage.face_materials, &mut f.face_materials);
+                        let (mut local, _) = q.cage.triangulate();
+                        std::mem::swap(&mut q.cage.face_materials, &mut f.face_materials);
+                        local.double_sided = f.double_sided;
+                        self.scene.meshes[f.slot] =
+                            self.placed_mesh(&f.path, local, f.frame, f.world_from_local);
+                    }
+                    self.warn(&q.path, message);
                     let (local, _) = q.cage.triangulate();
-                    let instance = q.instance.map(|frame| instanced_copy(&q.path, &local, frame));
-                    self.scene.meshes[q.slot] = world_mesh(&q.path, local, q.world_from_local);
-                    self.scene.meshes[q.slot].instance = instance;
+                    self.scene.meshes[q.slot] = match q.instance {
+                        Some(frame) => self.placed_mesh(&q.path, local, frame, q.world_from_local),
+                        None => world_mesh(&q.path, local, q.world_from_local),
+                    };
                 }
             }
         }
@@ -387,15 +510,15 @@ fn dice(
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
 ) -> subdiv::Result<Diced> {
-    let world: Vec<DVec3> = q
-        .points
-        .iter()
-        .map(|p| q.world_from_points.transform_point3(glam::Vec3::from_array(*p).as_dvec3()))
+    // The cage as each instance places it.
+    let worlds: Vec<Vec<DVec3>> = q
+        .placements()
+        .map(|m| q.points.iter().map(|p| m.transform_point3(glam::Vec3::from_array(*p).as_dvec3())).collect())
         .collect();
     let (tess, uvs, primvars, level, edge_rates, note) = if options.adaptive() {
-        dice_adaptive(q, options, camera, &world)?
+        dice_adaptive(q, options, camera, &worlds)?
     } else {
-        dice_uniform(q, options, camera, &world)?
+        dice_uniform(q, options, camera, &worlds)?
     };
 
     // Faces that made it to the surface (not holes, not dropped by interpolateBoundary = none),
@@ -423,7 +546,7 @@ fn dice(
         local.triangles.iter_mut().for_each(|t| t.swap(1, 2));
         local.normals.iter_mut().for_each(|n| *n = -*n);
     }
-    Ok(Diced { local, level, edge_rates, triangles_at_max_level, note })
+    Ok(Diced { local, coarse_face: tess.coarse_face, level, edge_rates, triangles_at_max_level, note })
 }
 
 /// Refines one `vec4` per cage point onto a tessellation's vertices.
@@ -432,13 +555,28 @@ type RefineVertexValues<'a> = dyn Fn(&[[f32; 4]]) -> subdiv::Result<Vec<[f32; 4]
 /// A tessellation with its UVs, primvars, level, edge rates and a note for the log.
 type Tessellated = (Tessellation, Vec<Vec2>, Vec<MeshPrimvar>, u32, Vec<u32>, Option<String>);
 
-/// One uniform level for the whole mesh (`--subdiv-level`, `--subdiv-mode uniform`).
+/// One uniform level for the whole mesh (`--subdiv-level`, `--subdiv-mode uniform`): the finest
+/// any of its instances (`worlds`, the cage as each places it) needs.
 fn dice_uniform(
     q: &QueuedSubdivision,
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
-    world: &[DVec3],
+    worlds: &[Vec<DVec3>],
 ) -> subdiv::Result<Tessellated> {
+    let mut level = 0;
+    for world in worlds {
+        level = level.max(uniform_level(q, options, camera, world)?);
+    }
+    refine_uniform(q, level)
+}
+
+/// The uniform level one placement of the cage (`world`) needs.
+fn uniform_level(
+    q: &QueuedSubdivision,
+    options: &SubdivOptions,
+    camera: Option<&DicingCamera>,
+    world: &[DVec3],
+) -> subdiv::Result<u32> {
     let world_f32: Vec<[f32; 3]> = world.iter().map(|p| p.as_vec3().to_array()).collect();
     let (lo, hi) = bounds(&world_f32);
     let longest = q.topology.longest_edge(&world_f32)?;
@@ -452,9 +590,13 @@ fn dice_uniform(
             .filter(|(f, _)| !q.cage.holes.contains(&(*f as i64)))
             .map(|(_, &n)| n)
     };
-    let level = choose_level(options, camera, longest.into(), lo, hi, |l| {
+    Ok(choose_level(options, camera, longest.into(), lo, hi, |l| {
         triangles_at_level(scheme, surface_faces(), all_quads, l)
-    });
+    }))
+}
+
+/// Tessellates the cage at uniform `level`.
+fn refine_uniform(q: &QueuedSubdivision, level: u32) -> subdiv::Result<Tessellated> {
     let mut note = None;
     let refiner = match Refiner::new(&q.topology, level) {
         Err(subdiv::Error::LevelTooHigh { level, max }) => {
@@ -491,10 +633,19 @@ fn dice_adaptive(
     q: &QueuedSubdivision,
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
-    world: &[DVec3],
+    worlds: &[Vec<DVec3>],
 ) -> subdiv::Result<Tessellated> {
     let refiner = AdaptiveRefiner::new(&q.topology)?;
-    let rates = choose_edge_rates(options, camera, world, &refiner);
+    // Per cage edge, the finest rate any placement needs.
+    let mut rates: Vec<u32> = Vec::new();
+    for world in worlds {
+        let need = choose_edge_rates(options, camera, world, &refiner);
+        if rates.is_empty() {
+            rates = need;
+        } else {
+            rates.iter_mut().zip(need).for_each(|(r, n)| *r = (*r).max(n));
+        }
+    }
     let uv = match &q.uv {
         UvInput::FaceVarying(values) => Some(AdaptiveUv::FaceVarying(UvSource { channel: 0, values })),
         UvInput::Vertex(values) => Some(AdaptiveUv::Vertex(values)),

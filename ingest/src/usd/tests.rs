@@ -662,8 +662,8 @@ def PointInstancer "PI" {{
     let paths: Vec<&str> = scene.meshes.iter().map(|m| m.path.as_str()).collect();
     assert_eq!(paths, ["/A/Tri", "/B/Tri", "/PI/Protos/Tri", "/PI/Protos/Tri"]);
     assert_eq!(scene.instance_count, 4);
-    assert_eq!(mesh(&scene, "/A/Tri").positions[1], Vec3::new(11.0, 0.0, 0.0));
-    assert_eq!(scene.meshes[3].positions[1], Vec3::new(2.0, 0.0, 6.0));
+    assert_eq!(mesh(&scene, "/A/Tri").in_world().positions[1], Vec3::new(11.0, 0.0, 0.0));
+    assert_eq!(scene.meshes[3].in_world().positions[1], Vec3::new(2.0, 0.0, 6.0));
 }
 
 #[test]
