@@ -1,8 +1,9 @@
 //! Token-level fixes for `.usda` text that usd-core reads but the `openusd` 0.6 parser rejects.
 //!
-//! The resolver ([`super::resolver`]) passes every text layer through [`normalize`] before the
-//! crate parses it. The rewrite works on tokens of the USDA grammar, so the inside of strings,
-//! asset paths (`@...@`), path references (`<...>`) and comments is never touched, and it never
+//! The resolver ([`super::resolver`]) passes every text layer through [`prepare`] (the structural
+//! check and this rewrite in one lexing pass) before the crate parses it. The rewrite works on
+//! tokens of the USDA grammar, so the inside of strings, asset paths (`@...@`), path references
+//! (`<...>`) and comments is never touched, and it never
 //! adds or removes a line break, so line numbers in the crate's errors still point into the file
 //! as authored.
 //!
@@ -66,7 +67,7 @@ pub(crate) const LIST_OP_METADATA: &[&str] = &["inactiveIds"];
 pub(crate) const LIST_OPS: &[&str] = &["add", "append", "prepend", "delete", "reorder"];
 
 /// The plain metadata field that holds the `op` items of list-op metadata `key` after
-/// [`normalize`] (`inactiveIds__append`).
+/// [`prepare`] (`inactiveIds__append`).
 pub(crate) fn list_op_field(key: &str, op: &str) -> String {
     format!("{key}__{op}")
 }
@@ -280,9 +281,9 @@ pub(crate) struct PreparedLayer<'a> {
     pub asset_paths: Vec<&'a str>,
 }
 
-/// A text layer as the crate is given it: [`structural_problem`] and [`normalize`] in one
+/// A text layer as the crate is given it: `structural_problem` and `normalize` in one
 /// lexing pass (run one after the other they cost half as much as the crate's own parse),
-/// with the asset paths it names; `Err` is [`structural_problem`]'s.
+/// with the asset paths it names; `Err` is `structural_problem`'s.
 pub(crate) fn prepare(text: &str) -> Result<PreparedLayer<'_>, String> {
     let mut edits: Vec<Edit> = Vec::new();
     let mut asset_paths = Vec::new();
@@ -440,7 +441,7 @@ pub(crate) fn structural_problem(text: &str) -> Option<String> {
     None
 }
 
-/// What [`structural_problem`] tracks from one significant token to the next.
+/// What the structural check tracks from one significant token to the next.
 struct Structure<'a> {
     text: &'a str,
     /// The two significant tokens before the current one, nearest first.
