@@ -1,8 +1,9 @@
 //! Token-level fixes for `.usda` text that usd-core reads but the `openusd` 0.6 parser rejects.
 //!
-//! The resolver ([`super::resolver`]) passes every text layer through [`normalize`] before the
-//! crate parses it. The rewrite works on tokens of the USDA grammar, so the inside of strings,
-//! asset paths (`@...@`), path references (`<...>`) and comments is never touched, and it never
+//! The resolver ([`super::resolver`]) passes every text layer through [`prepare`] (the structural
+//! check and this rewrite in one lexing pass) before the crate parses it. The rewrite works on
+//! tokens of the USDA grammar, so the inside of strings, asset paths (`@...@`), path references
+//! (`<...>`) and comments is never touched, and it never
 //! adds or removes a line break, so line numbers in the crate's errors still point into the file
 //! as authored.
 //!
@@ -66,7 +67,7 @@ pub(crate) const LIST_OP_METADATA: &[&str] = &["inactiveIds"];
 pub(crate) const LIST_OPS: &[&str] = &["add", "append", "prepend", "delete", "reorder"];
 
 /// The plain metadata field that holds the `op` items of list-op metadata `key` after
-/// [`normalize`] (`inactiveIds__append`).
+/// [`prepare`] (`inactiveIds__append`).
 pub(crate) fn list_op_field(key: &str, op: &str) -> String {
     format!("{key}__{op}")
 }
@@ -98,15 +99,37 @@ struct Token {
     span: Range<usize>,
 }
 
-/// Splits `text` into tokens covering every byte. Unterminated strings, asset paths and comments
-/// run to the end of the text (the crate reports them).
-fn tokenize(text: &str) -> Vec<Token> {
-    let b = text.as_bytes();
-    let mut out: Vec<Token> = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        let start = i;
-        let c = b[i];
+/// Splits a text into tokens covering every byte, one at a time: the passes below look a few
+/// tokens ahead by cloning the lexer, so no token list is ever stored (a 3 MB layer has about a
+/// million tokens; storing them cost more than lexing them). Unterminated strings, asset paths
+/// and comments run to the end of the text (the crate reports them).
+#[derive(Clone)]
+struct Lexer<'a> {
+    text: &'a str,
+    at: usize,
+    /// Kind of the previous token, of any kind (a `.` after a name or number is not a number).
+    last: Option<Kind>,
+}
+
+impl<'a> Lexer<'a> {
+    fn new(text: &'a str) -> Self {
+        Lexer { text, at: 0, last: None }
+    }
+
+    /// The next token that is neither space nor comment.
+    fn next_significant(&mut self) -> Option<Token> {
+        self.find(|t| !matches!(t.kind, Kind::Space | Kind::Comment))
+    }
+}
+
+impl Iterator for Lexer<'_> {
+    type Item = Token;
+
+    fn next(&mut self) -> Option<Token> {
+        let b = self.text.as_bytes();
+        let start = self.at;
+        let mut i = start;
+        let &c = b.get(i)?;
         let kind = match c {
             b' ' | b'\t' | b'\r' | b'\n' | b'\x0c' => {
                 while i < b.len() && matches!(b[i], b' ' | b'\t' | b'\r' | b'\n' | b'\x0c') {
@@ -115,7 +138,7 @@ fn tokenize(text: &str) -> Vec<Token> {
                 Kind::Space
             }
             b'#' => {
-                i = find_from(b, i, b"\n").unwrap_or(b.len());
+                i = find_byte(b, i, b'\n').unwrap_or(b.len());
                 Kind::Comment
             }
             b'/' if b.get(i + 1) == Some(&b'*') => {
@@ -139,12 +162,12 @@ fn tokenize(text: &str) -> Vec<Token> {
                 if b[i..].starts_with(b"@@@") {
                     i = find_from(b, i + 3, b"@@@").map_or(b.len(), |e| e + 3);
                 } else {
-                    i = find_from(b, i + 1, b"@").map_or(b.len(), |e| e + 1);
+                    i = find_byte(b, i + 1, b'@').map_or(b.len(), |e| e + 1);
                 }
                 Kind::Asset
             }
             b'<' => {
-                i = find_from(b, i + 1, b">").map_or(b.len(), |e| e + 1);
+                i = find_byte(b, i + 1, b'>').map_or(b.len(), |e| e + 1);
                 Kind::PathRef
             }
             b'0'..=b'9' => {
@@ -153,7 +176,7 @@ fn tokenize(text: &str) -> Vec<Token> {
             }
             // `.5` is a number unless the dot is glued to a name (`attr.timeSamples`, `a.5`).
             b'.' if b.get(i + 1).is_some_and(u8::is_ascii_digit)
-                && !out.last().is_some_and(|t| matches!(t.kind, Kind::Ident | Kind::Number)) =>
+                && !matches!(self.last, Some(Kind::Ident | Kind::Number)) =>
             {
                 i = number_end(b, i);
                 Kind::Number
@@ -166,13 +189,20 @@ fn tokenize(text: &str) -> Vec<Token> {
             }
             _ => {
                 // One (possibly multi-byte) character.
-                i += text[i..].chars().next().map_or(1, char::len_utf8);
+                i += self.text[i..].chars().next().map_or(1, char::len_utf8);
                 Kind::Punct
             }
         };
-        out.push(Token { kind, span: start..i });
+        // A string or escape may step past the end: the token ends with the text.
+        let end = i.min(b.len());
+        self.at = end;
+        self.last = Some(kind);
+        Some(Token { kind, span: start..end })
     }
-    out
+}
+
+fn find_byte(b: &[u8], from: usize, needle: u8) -> Option<usize> {
+    b.get(from..)?.iter().position(|&c| c == needle).map(|p| p + from)
 }
 
 fn find_from(b: &[u8], from: usize, needle: &[u8]) -> Option<usize> {
@@ -226,112 +256,147 @@ fn fix_number(n: &str) -> Option<String> {
     Some(format!("{int}.{frac}{exponent}"))
 }
 
-/// A replacement for one token: (token index, new text).
-type Edit = (usize, String);
+/// A replacement for one token: (its byte span, new text).
+type Edit = (Range<usize>, String);
 
-/// Rewrites the constructs listed in the module docs; borrows `text` when nothing changes.
+/// Rewrites the constructs listed in the module docs; borrows `text` when nothing changes, so a
+/// layer that needs no rewrite costs one lexing pass and no allocation. (The resolver uses
+/// [`prepare`], which also checks the structure.)
+#[cfg(test)]
 pub(crate) fn normalize(text: &str) -> Cow<'_, str> {
-    let tokens = tokenize(text);
-    let significant: Vec<usize> =
-        (0..tokens.len()).filter(|&i| !matches!(tokens[i].kind, Kind::Space | Kind::Comment)).collect();
-    let tok = |s: usize| &tokens[significant[s]];
-    let src = |s: usize| &text[tok(s).span.clone()];
-    let is_punct = |s: usize, c: &str| s < significant.len() && tok(s).kind == Kind::Punct && src(s) == c;
-
     let mut edits: Vec<Edit> = Vec::new();
-    let mut s = 0;
-    while s < significant.len() {
-        let t = tok(s);
-        match t.kind {
-            Kind::Number => {
-                if let Some(fixed) = fix_number(src(s)) {
-                    edits.push((significant[s], fixed));
-                }
-            }
-            Kind::Ident
-                if LIST_OPS.contains(&src(s))
-                    && s + 2 < significant.len()
-                    && LIST_OP_METADATA.contains(&src(s + 1))
-                    && is_punct(s + 2, "=") =>
-            {
-                edits.push((significant[s], String::new()));
-                edits.push((significant[s + 1], list_op_field(src(s + 1), src(s))));
-            }
-            Kind::Ident => {
-                // Type position: `TYPE name` or `TYPE[] name`.
-                let array = is_punct(s + 1, "[") && is_punct(s + 2, "]");
-                let name = s + if array { 3 } else { 1 };
-                let typed = name < significant.len() && tok(name).kind == Kind::Ident;
-                if typed {
-                    if let Some((_, modern)) = TYPE_ALIASES.iter().find(|(alias, _)| *alias == src(s)) {
-                        edits.push((significant[s], (*modern).to_string()));
-                    }
-                    if src(s) == "asset" {
-                        asset_value(name, array, &significant, &tokens, text, &mut edits);
-                    }
-                }
-            }
-            _ => {}
-        }
-        s += 1;
+    let mut tokens = Lexer::new(text);
+    while let Some(t) = tokens.next_significant() {
+        fix_token(text, &t, &tokens, &mut edits);
     }
+    apply(text, edits)
+}
+
+/// A text layer as [`prepare`] hands it to the crate.
+pub(crate) struct PreparedLayer<'a> {
+    /// The text, normalized; borrowed when nothing needed a rewrite.
+    pub text: Cow<'a, str>,
+    /// Every asset path the layer spells (`@...@`, inside the delimiters), in order: the
+    /// resolver prefetches the layers among them.
+    pub asset_paths: Vec<&'a str>,
+}
+
+/// A text layer as the crate is given it: `structural_problem` and `normalize` in one
+/// lexing pass (run one after the other they cost half as much as the crate's own parse),
+/// with the asset paths it names; `Err` is `structural_problem`'s.
+pub(crate) fn prepare(text: &str) -> Result<PreparedLayer<'_>, String> {
+    let mut edits: Vec<Edit> = Vec::new();
+    let mut asset_paths = Vec::new();
+    let mut structure = Structure::new(text);
+    let mut tokens = Lexer::new(text);
+    while let Some(t) = tokens.next_significant() {
+        structure.check(&t, &tokens)?;
+        fix_token(text, &t, &tokens, &mut edits);
+        if t.kind == Kind::Asset {
+            let raw = &text[t.span];
+            let at = if raw.starts_with("@@@") { 3 } else { 1 };
+            if let Some(inner) = raw.get(at..raw.len().saturating_sub(at)).filter(|p| !p.is_empty()) {
+                asset_paths.push(inner);
+            }
+        }
+    }
+    Ok(PreparedLayer { text: apply(text, edits), asset_paths })
+}
+
+/// Records the edit significant token `t` needs, `tokens` standing just after it.
+fn fix_token(text: &str, t: &Token, tokens: &Lexer<'_>, edits: &mut Vec<Edit>) {
+    let src = |t: &Token| &text[t.span.clone()];
+    let is_punct =
+        |t: &Option<Token>, c: &str| t.as_ref().is_some_and(|t| t.kind == Kind::Punct && src(t) == c);
+    match t.kind {
+        Kind::Number => {
+            if let Some(fixed) = fix_number(src(t)) {
+                edits.push((t.span.clone(), fixed));
+            }
+        }
+        Kind::Ident => {
+            let mut ahead = tokens.clone();
+            let next = [ahead.next_significant(), ahead.next_significant(), ahead.next_significant()];
+            let word = src(t);
+            let list_op_key = next[0].as_ref().filter(|k| LIST_OP_METADATA.contains(&src(k)));
+            if let (true, Some(key), true) = (LIST_OPS.contains(&word), list_op_key, is_punct(&next[1], "="))
+            {
+                edits.push((key.span.clone(), list_op_field(src(key), word)));
+                edits.push((t.span.clone(), String::new()));
+                return;
+            }
+            // Type position: `TYPE name` or `TYPE[] name`.
+            let array = is_punct(&next[0], "[") && is_punct(&next[1], "]");
+            let name = if array { &next[2] } else { &next[0] };
+            if !name.as_ref().is_some_and(|n| n.kind == Kind::Ident) {
+                return;
+            }
+            if let Some((_, modern)) = TYPE_ALIASES.iter().find(|(alias, _)| *alias == word) {
+                edits.push((t.span.clone(), (*modern).to_string()));
+            }
+            if word == "asset" {
+                let mut value = tokens.clone();
+                for _ in 0..if array { 3 } else { 1 } {
+                    value.next_significant();
+                }
+                asset_value(value, array, text, edits);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// `text` with `edits` applied; borrowed when there are none.
+fn apply(text: &str, mut edits: Vec<Edit>) -> Cow<'_, str> {
     if edits.is_empty() {
         return Cow::Borrowed(text);
     }
     // An asset value's edits are pushed when its type is met, before the numbers that precede it.
-    edits.sort_by_key(|(at, _)| *at);
+    edits.sort_by_key(|(span, _)| span.start);
+    edits.dedup_by_key(|(span, _)| span.start);
     let mut out = String::with_capacity(text.len() + edits.len());
-    let mut next = edits.iter().peekable();
-    for (i, token) in tokens.iter().enumerate() {
-        match next.peek() {
-            Some((at, with)) if *at == i => {
-                out.push_str(with);
-                next.next();
-            }
-            _ => out.push_str(&text[token.span.clone()]),
-        }
+    let mut copied = 0;
+    for (span, with) in &edits {
+        out.push_str(&text[copied..span.start]);
+        out.push_str(with);
+        copied = span.end;
     }
+    out.push_str(&text[copied..]);
     Cow::Owned(out)
 }
 
-/// Rewrites the value of an `asset`/`asset[]` attribute whose name is significant token `name`:
+/// Rewrites the value of an `asset`/`asset[]` attribute, `tokens` standing just after its name:
 /// strings become asset paths, except in scalar time samples where asset paths become strings.
-fn asset_value(
-    name: usize,
-    array: bool,
-    significant: &[usize],
-    tokens: &[Token],
-    text: &str,
-    edits: &mut Vec<Edit>,
-) {
-    let src = |s: usize| significant.get(s).map_or("", |&i| &text[tokens[i].span.clone()]);
-    let mut s = name + 1;
-    let time_samples = src(s) == "." && src(s + 1) == "timeSamples";
-    if src(s) == "." {
-        s += 2;
+fn asset_value(mut tokens: Lexer<'_>, array: bool, text: &str, edits: &mut Vec<Edit>) {
+    let src = |t: &Option<Token>| t.as_ref().map_or("", |t| &text[t.span.clone()]);
+    let mut t = tokens.next_significant();
+    let time_samples = src(&t) == "." && {
+        let mut ahead = tokens.clone();
+        src(&ahead.next_significant()) == "timeSamples"
+    };
+    if src(&t) == "." {
+        tokens.next_significant();
+        t = tokens.next_significant();
     }
-    if src(s) != "=" {
+    if src(&t) != "=" {
         return;
     }
-    s += 1;
     // The value: one token, or a bracketed group up to its matching close.
     let mut depth = 0usize;
     let to_string = time_samples && !array;
-    while s < significant.len() {
-        let i = significant[s];
-        let token = &tokens[i];
+    while let Some(token) = tokens.next_significant() {
         let raw = &text[token.span.clone()];
         match token.kind {
             Kind::Punct if matches!(raw, "[" | "{" | "(") => depth += 1,
             Kind::Punct if matches!(raw, "]" | "}" | ")") => depth = depth.saturating_sub(1),
             Kind::Str if !to_string => {
                 if let Some(path) = string_as_asset(raw) {
-                    edits.push((i, path));
+                    edits.push((token.span, path));
                 }
             }
             Kind::Asset if to_string => {
                 if let Some(string) = asset_as_string(raw) {
-                    edits.push((i, string));
+                    edits.push((token.span, string));
                 }
             }
             _ => {}
@@ -339,7 +404,6 @@ fn asset_value(
         if depth == 0 {
             return;
         }
-        s += 1;
     }
 }
 
@@ -365,75 +429,98 @@ pub(crate) const MAX_NESTING: usize = 256;
 /// The first construct in `text` the crate must not be given, as `line L, column C: problem`:
 /// a path reference (`<...>`) that is not a well-formed scene path (the crate takes any text
 /// between `<` and `>`; see [`super::path_syntax`]), or nesting deeper than [`MAX_NESTING`].
+#[cfg(test)]
 pub(crate) fn structural_problem(text: &str) -> Option<String> {
-    use super::path_syntax::{check_element, Element};
-    let at = |offset: usize| {
-        let before = &text[..offset];
-        let line = before.matches('\n').count() + 1;
-        let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-        format!("line {line}, column {column}")
-    };
-    let shown = |s: &str| -> String { s.chars().take(60).collect::<String>().escape_debug().collect() };
-    let tokens: Vec<Token> =
-        tokenize(text).into_iter().filter(|t| !matches!(t.kind, Kind::Space | Kind::Comment)).collect();
-    let source = |i: Option<usize>| i.and_then(|i| tokens.get(i)).map_or("", |t| &text[t.span.clone()]);
-    let mut depth = 0usize;
-    for (i, t) in tokens.iter().enumerate() {
+    let mut structure = Structure::new(text);
+    let mut tokens = Lexer::new(text);
+    while let Some(t) = tokens.next_significant() {
+        if let Err(problem) = structure.check(&t, &tokens) {
+            return Some(problem);
+        }
+    }
+    None
+}
+
+/// What the structural check tracks from one significant token to the next.
+struct Structure<'a> {
+    text: &'a str,
+    /// The two significant tokens before the current one, nearest first.
+    before: (&'a str, &'a str),
+    depth: usize,
+}
+
+impl<'a> Structure<'a> {
+    fn new(text: &'a str) -> Self {
+        Structure { text, before: ("", ""), depth: 0 }
+    }
+
+    /// Checks significant token `t`, `tokens` standing just after it.
+    fn check(&mut self, t: &Token, tokens: &Lexer<'a>) -> Result<(), String> {
+        use super::path_syntax::{check_element, Element};
+        let text = self.text;
+        let at = |offset: usize| {
+            let before = &text[..offset];
+            let line = before.matches('\n').count() + 1;
+            let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+            format!("line {line}, column {column}")
+        };
+        let shown = |s: &str| -> String { s.chars().take(60).collect::<String>().escape_debug().collect() };
         let here = &text[t.span.clone()];
+        let (before, before2) = self.before;
         match t.kind {
             Kind::PathRef => {
                 // An unterminated `<` runs to the end of the text; the crate reports it.
-                let Some(inner) = here.strip_prefix('<').and_then(|s| s.strip_suffix('>')) else { continue };
-                if let Err(problem) = super::path_syntax::check(inner) {
-                    return Some(format!(
-                        "{}: path <{}> is malformed: {problem}",
-                        at(t.span.start),
-                        shown(inner)
-                    ));
-                }
-            }
-            // A quoted name that becomes a path element: a prim's (`def Xform "name" {`), a
-            // variant set's (`variantSet "name" =`) or a variant's (`"name" {` inside one).
-            Kind::Str => {
-                let Some(inner) = unquote(here) else {
-                    // Sdf's grammar (and usd-core) end a one-quote string at the line; the crate
-                    // reads on, so a prim name could swallow lines of braces (found by the fuzzer).
-                    if here.ends_with('\n') {
-                        return Some(format!("{}: string not closed on its line", at(t.span.start)));
-                    }
-                    continue;
-                };
-                let (before, before2) = (source(i.checked_sub(1)), source(i.checked_sub(2)));
-                let opens = matches!(source(Some(i + 1)), "{" | "(");
-                let specifier = |s: &str| matches!(s, "def" | "over" | "class");
-                let element = if specifier(before) || (specifier(before2) && opens) {
-                    Some(("prim name", Element::Prim))
-                } else if before == "variantSet" || opens {
-                    Some(("variant name", Element::VariantName))
-                } else {
-                    None
-                };
-                if let Some((what, element)) = element {
-                    if let Err(problem) = check_element(inner, element) {
-                        return Some(format!(
-                            "{}: {what} \"{}\" is malformed: {problem}",
+                if let Some(inner) = here.strip_prefix('<').and_then(|s| s.strip_suffix('>')) {
+                    if let Err(problem) = super::path_syntax::check(inner) {
+                        return Err(format!(
+                            "{}: path <{}> is malformed: {problem}",
                             at(t.span.start),
                             shown(inner)
                         ));
                     }
                 }
             }
-            Kind::Punct if matches!(here, "{" | "[" | "(") => {
-                depth += 1;
-                if depth > MAX_NESTING {
-                    return Some(format!("{}: nested deeper than {MAX_NESTING} levels", at(t.span.start)));
+            // A quoted name that becomes a path element: a prim's (`def Xform "name" {`), a
+            // variant set's (`variantSet "name" =`) or a variant's (`"name" {` inside one).
+            Kind::Str => {
+                if let Some(inner) = unquote(here) {
+                    let next = tokens.clone().next_significant().map_or("", |n| &text[n.span]);
+                    let opens = matches!(next, "{" | "(");
+                    let specifier = |s: &str| matches!(s, "def" | "over" | "class");
+                    let element = if specifier(before) || (specifier(before2) && opens) {
+                        Some(("prim name", Element::Prim))
+                    } else if before == "variantSet" || opens {
+                        Some(("variant name", Element::VariantName))
+                    } else {
+                        None
+                    };
+                    if let Some((what, element)) = element {
+                        if let Err(problem) = check_element(inner, element) {
+                            return Err(format!(
+                                "{}: {what} \"{}\" is malformed: {problem}",
+                                at(t.span.start),
+                                shown(inner)
+                            ));
+                        }
+                    }
+                } else if here.ends_with('\n') {
+                    // Sdf's grammar (and usd-core) end a one-quote string at the line; the crate
+                    // reads on, so a prim name could swallow lines of braces (found by the fuzzer).
+                    return Err(format!("{}: string not closed on its line", at(t.span.start)));
                 }
             }
-            Kind::Punct if matches!(here, "}" | "]" | ")") => depth = depth.saturating_sub(1),
+            Kind::Punct if matches!(here, "{" | "[" | "(") => {
+                self.depth += 1;
+                if self.depth > MAX_NESTING {
+                    return Err(format!("{}: nested deeper than {MAX_NESTING} levels", at(t.span.start)));
+                }
+            }
+            Kind::Punct if matches!(here, "}" | "]" | ")") => self.depth = self.depth.saturating_sub(1),
             _ => {}
         }
+        self.before = (here, before);
+        Ok(())
     }
-    None
 }
 
 /// The inside of a quoted string token, if it is terminated.
@@ -455,6 +542,31 @@ pub(crate) fn parse_error_location(text: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn one_pass_preparation_agrees_with_the_separate_passes() {
+        let texts = [
+            "#usda 1.0\ndef \"A\" (\n    prepend references = @./b.usda@\n)\n{\n    Vec3f[] extent = [(-.5, 0, 0), (.5, 1, 1.)]\n    asset f = \"x.png\"\n    asset g.timeSamples = { 1: @y.png@ }\n}\n",
+            "#usda 1.0\ndef PointInstancer \"P\" (\n    append inactiveIds = [1]\n)\n{\n    rel r = </P/Q>\n}\n",
+            "#usda 1.0\ndef \"A\" {\n    float a = 0.5\n}\n",
+            "def Xform \"}Root\" (\n)\n{\n}\n",
+            "rel r = </A/B \"q>\n",
+        ];
+        for text in texts {
+            match prepare(text) {
+                Ok(layer) => {
+                    assert_eq!(structural_problem(text), None, "{text}");
+                    assert_eq!(layer.text, normalize(text), "{text}");
+                    let borrowed = matches!(layer.text, Cow::Borrowed(_));
+                    assert_eq!(borrowed, matches!(normalize(text), Cow::Borrowed(_)), "{text}");
+                }
+                Err(problem) => assert_eq!(Some(problem), structural_problem(text), "{text}"),
+            }
+        }
+        let layer = prepare(texts[0]).unwrap();
+        assert_eq!(layer.asset_paths, ["./b.usda", "y.png"]);
+        assert_eq!(prepare("asset a = @@@x@y.usda@@@\n").unwrap().asset_paths, ["x@y.usda"]);
+    }
 
     #[test]
     fn deep_nesting_is_located() {

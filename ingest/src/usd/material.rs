@@ -594,6 +594,9 @@ impl Reader<'_> {
         color_space: texture::ColorSpace,
         fallback: [f32; 4],
     ) -> Option<u32> {
+        if !self.bake_textures {
+            return None;
+        }
         let requested = path;
         let located = texture_location(path);
         let path = located.as_path();

@@ -115,6 +115,10 @@ pub struct LoadOptions {
     pub frame: Option<f64>,
     /// How subdivision surfaces are diced.
     pub subdiv: crate::dicing::SubdivOptions,
+    /// Decode and bake the texture files materials name (default `true`). Off, texture lookups
+    /// return their fallback: for listings (`ingest --dump-json` without `-o`), which name
+    /// materials but never shade.
+    pub bake_textures: bool,
 }
 
 impl Default for LoadOptions {
@@ -125,6 +129,7 @@ impl Default for LoadOptions {
             asset_paths: Vec::new(),
             frame: None,
             subdiv: crate::dicing::SubdivOptions::default(),
+            bake_textures: true,
         }
     }
 }
@@ -260,6 +265,7 @@ fn load_stage(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
         scene.warn(prim, format!("{}: {}", issue.layer, issue.kind));
     }
     let mut reader = Reader::new(&stage, &prims, scene);
+    reader.bake_textures = options.bake_textures;
     reader.read_stage_metadata();
     reader.collect_instancer_prototypes()?;
     reader.visit("/", &Inherited::root(), false)?;
@@ -365,6 +371,8 @@ struct Reader<'a> {
     geometry: mesh::GeometryInterner,
     /// Queued instanced subdivision cages by content hash (indices into `subdivisions`).
     subdivision_groups: HashMap<u64, Vec<usize>>,
+    /// [`LoadOptions::bake_textures`].
+    bake_textures: bool,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -395,6 +403,7 @@ impl<'a> Reader<'a> {
             expanding: Vec::new(),
             geometry: mesh::GeometryInterner::default(),
             subdivision_groups: HashMap::new(),
+            bake_textures: true,
         }
     }
 

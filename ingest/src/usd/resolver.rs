@@ -9,10 +9,10 @@
 //! file-relative (`tex/a.usda`, not `./a.usda` or `../a.usda`) is looked up next to the layer
 //! that names it first, then in each search directory in order.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::io::{self, Cursor, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use openusd::ar::{self, Asset, DefaultResolver, ResolvedPath, Resolver};
 
@@ -21,12 +21,80 @@ use super::{crate_check, layer_fix};
 /// Magic bytes that open every text layer.
 const USDA_MAGIC: &[u8] = b"#usda";
 
+/// Extensions of the layers a text layer's asset paths may name that can hold text.
+const TEXT_LAYER_EXTENSIONS: &[&str] = &["usda", "usd"];
+
 /// [`DefaultResolver`] with search paths, `.usda` normalization and crate-file checks.
+///
+/// Text layers are prepared once each and ahead of need: when a text layer is prepared, the text
+/// layers its asset paths name are prepared on rayon's pool while the crate parses this one
+/// (the crate opens and parses layers one at a time, and preparing a layer costs about half
+/// of parsing it).
 pub(crate) struct IngestResolver {
+    shared: Arc<Shared>,
+}
+
+/// The resolver's state, shared with the prefetch tasks.
+struct Shared {
     inner: DefaultResolver,
     search_paths: Vec<PathBuf>,
     /// Crate files already checked: openusd opens a `.usd` twice (once to sniff its format).
     checked_crates: Mutex<HashSet<ResolvedPath>>,
+    /// Every file considered as a text layer, by resolved path, once prepared. openusd opens a
+    /// layer more than once (a `.usd` once to sniff its format and once to read it; the root
+    /// layer once for its expression variables and once for its stack); the cell makes a reader
+    /// that arrives while a prefetch task prepares the file wait for it instead of redoing it.
+    prepared: Mutex<HashMap<ResolvedPath, Arc<OnceLock<Prepared>>>>,
+}
+
+/// A file as [`Shared::prepare`] left it.
+enum Prepared {
+    /// A text layer, checked and normalized: the bytes the crate is given.
+    Text(Arc<[u8]>),
+    /// A text layer [`layer_fix::prepare`] rejected, with the problem.
+    Rejected(String),
+    /// Not a text layer (a crate file, a package, an image), or unreadable: opened the plain way.
+    Other,
+}
+
+/// A prepared layer's bytes, shared with the cache.
+struct SharedBytes(Cursor<Arc<[u8]>>);
+
+impl Read for SharedBytes {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        self.0.read(buf)
+    }
+}
+
+impl Seek for SharedBytes {
+    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
+        self.0.seek(pos)
+    }
+}
+
+impl Asset for SharedBytes {
+    fn size(&self) -> io::Result<u64> {
+        Ok(self.0.get_ref().len() as u64)
+    }
+}
+
+fn file_name(resolved: &ResolvedPath) -> String {
+    resolved.file_name().map_or_else(|| resolved.to_string(), |n| n.to_string_lossy().into())
+}
+
+/// Reads the first `n` bytes of `asset` (fewer if it is shorter) and rewinds it.
+fn read_magic(asset: &mut dyn Asset, n: usize) -> io::Result<Vec<u8>> {
+    let mut magic = vec![0u8; n];
+    let mut filled = 0;
+    while filled < n {
+        match asset.read(&mut magic[filled..])? {
+            0 => break,
+            k => filled += k,
+        }
+    }
+    magic.truncate(filled);
+    asset.seek(SeekFrom::Start(0))?;
+    Ok(magic)
 }
 
 impl IngestResolver {
@@ -34,23 +102,14 @@ impl IngestResolver {
     pub(crate) fn new(search_paths: &[PathBuf]) -> Self {
         let search_paths: Vec<PathBuf> =
             search_paths.iter().map(|p| p.canonicalize().unwrap_or_else(|_| p.clone())).collect();
-        IngestResolver { inner: DefaultResolver::new(), search_paths, checked_crates: Mutex::default() }
-    }
-
-    /// Runs [`crate_check::check`] on a crate file's bytes, once per file; the error names the
-    /// file, the section and the problem.
-    fn check_crate(&self, resolved: &ResolvedPath, bytes: &[u8]) -> io::Result<()> {
-        let mut checked = self.checked_crates.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-        if checked.contains(resolved) {
-            return Ok(());
+        IngestResolver {
+            shared: Arc::new(Shared {
+                inner: DefaultResolver::new(),
+                search_paths,
+                checked_crates: Mutex::default(),
+                prepared: Mutex::default(),
+            }),
         }
-        crate_check::check(bytes).map_err(|e| {
-            let name =
-                resolved.file_name().map_or_else(|| resolved.to_string(), |n| n.to_string_lossy().into());
-            io::Error::new(io::ErrorKind::InvalidData, format!("{name}: {e}"))
-        })?;
-        checked.insert(resolved.clone());
-        Ok(())
     }
 
     /// The layer's text as the crate receives it, if `resolved` is a text layer.
@@ -69,11 +128,25 @@ impl IngestResolver {
     }
 }
 
-impl Resolver for IngestResolver {
+impl Shared {
+    /// Runs [`crate_check::check`] on a crate file's bytes, once per file; the error names the
+    /// file, the section and the problem.
+    fn check_crate(&self, resolved: &ResolvedPath, bytes: &[u8]) -> io::Result<()> {
+        let mut checked = self.checked_crates.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if checked.contains(resolved) {
+            return Ok(());
+        }
+        crate_check::check(bytes).map_err(|e| {
+            io::Error::new(io::ErrorKind::InvalidData, format!("{}: {e}", file_name(resolved)))
+        })?;
+        checked.insert(resolved.clone());
+        Ok(())
+    }
+
     fn create_identifier(&self, asset_path: &str, anchor: Option<&ResolvedPath>) -> String {
         let anchored = self.inner.create_identifier(asset_path, anchor);
         if self.search_paths.is_empty()
-            || !Self::is_search_path(asset_path)
+            || !IngestResolver::is_search_path(asset_path)
             || self.inner.resolve(&anchored).is_some()
         {
             return anchored;
@@ -86,57 +159,114 @@ impl Resolver for IngestResolver {
             .unwrap_or(anchored)
     }
 
-    fn resolve(&self, asset_path: &str) -> Option<ResolvedPath> {
-        self.inner.resolve(asset_path)
-    }
-
-    fn resolve_for_new_asset(&self, asset_path: &str) -> Option<ResolvedPath> {
-        self.inner.resolve_for_new_asset(asset_path)
-    }
-
-    /// Text layers are normalized; crate files (`.usdc`, binary `.usd`, either inside a `.usdz`)
-    /// are checked by [`crate_check`] first, because openusd's crate reader trusts their counts
-    /// and indices; every other asset (packages, images) is passed through. Only the first bytes
-    /// are read to tell them apart, so packages and images are not buffered here.
-    fn open_asset(&self, resolved: &ResolvedPath) -> io::Result<Box<dyn Asset>> {
-        let mut asset = self.inner.open_asset(resolved)?;
-        let mut magic = [0u8; crate_check::MAGIC.len()];
-        let mut filled = 0;
-        while filled < magic.len() {
-            match asset.read(&mut magic[filled..])? {
-                0 => break,
-                n => filled += n,
+    /// The cell of `resolved` and whether this call created it.
+    fn cell(&self, resolved: &ResolvedPath) -> (Arc<OnceLock<Prepared>>, bool) {
+        let mut prepared = self.prepared.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        match prepared.get(resolved) {
+            Some(cell) => (Arc::clone(cell), false),
+            None => {
+                let cell = Arc::new(OnceLock::new());
+                prepared.insert(resolved.clone(), Arc::clone(&cell));
+                (cell, true)
             }
         }
-        asset.seek(SeekFrom::Start(0))?;
-        if magic[..filled] == *crate_check::MAGIC {
+    }
+
+    /// Reads `resolved` and, if it is a text layer, checks and normalizes it; then starts the
+    /// preparation of the text layers it names.
+    fn prepare(self: &Arc<Self>, resolved: &ResolvedPath) -> Prepared {
+        let Ok(mut asset) = self.inner.open_asset(resolved) else { return Prepared::Other };
+        match read_magic(asset.as_mut(), USDA_MAGIC.len()) {
+            Ok(magic) if magic == USDA_MAGIC => {}
+            _ => return Prepared::Other,
+        }
+        let Ok(bytes) = asset.read_all() else { return Prepared::Other };
+        // Invalid UTF-8 is passed through for the crate to report.
+        let Ok(text) = std::str::from_utf8(&bytes) else { return Prepared::Text(bytes.into()) };
+        match layer_fix::prepare(text) {
+            Err(problem) => Prepared::Rejected(format!("{}: {problem}", file_name(resolved))),
+            Ok(layer) => {
+                self.prefetch(resolved, &layer.asset_paths);
+                Prepared::Text(match layer.text {
+                    std::borrow::Cow::Borrowed(_) => bytes.into(),
+                    std::borrow::Cow::Owned(fixed) => fixed.into_bytes().into(),
+                })
+            }
+        }
+    }
+
+    /// Starts preparing, on rayon's pool, each text layer `asset_paths` (authored in the layer
+    /// at `anchor`) names that no one has asked for yet. A file the crate never opens (an
+    /// unselected variant's, an unloaded payload's) costs background time only: its problems
+    /// are reported if and when the crate opens it.
+    fn prefetch(self: &Arc<Self>, anchor: &ResolvedPath, asset_paths: &[&str]) {
+        for asset_path in asset_paths {
+            let is_layer = Path::new(asset_path)
+                .extension()
+                .is_some_and(|e| TEXT_LAYER_EXTENSIONS.iter().any(|t| e.eq_ignore_ascii_case(t)));
+            if !is_layer || ar::is_package_relative_path(asset_path) {
+                continue;
+            }
+            let identifier = self.create_identifier(asset_path, Some(anchor));
+            let Some(resolved) = self.inner.resolve(&identifier) else { continue };
+            let (cell, created) = self.cell(&resolved);
+            if created {
+                let shared = Arc::clone(self);
+                rayon::spawn(move || {
+                    cell.get_or_init(|| shared.prepare(&resolved));
+                });
+            }
+        }
+    }
+
+    /// The asset the crate reads: see [`Resolver::open_asset`] on [`IngestResolver`].
+    fn open_asset(self: &Arc<Self>, resolved: &ResolvedPath) -> io::Result<Box<dyn Asset>> {
+        let (cell, _) = self.cell(resolved);
+        match cell.get_or_init(|| self.prepare(resolved)) {
+            Prepared::Text(bytes) => return Ok(Box::new(SharedBytes(Cursor::new(Arc::clone(bytes))))),
+            Prepared::Rejected(problem) => {
+                return Err(io::Error::new(io::ErrorKind::InvalidData, problem.clone()))
+            }
+            Prepared::Other => {}
+        }
+        let mut asset = self.inner.open_asset(resolved)?;
+        if read_magic(asset.as_mut(), crate_check::MAGIC.len())? == *crate_check::MAGIC {
             let bytes = asset.read_all()?;
             self.check_crate(resolved, &bytes)?;
             return Ok(Box::new(Cursor::new(bytes)));
         }
-        if !magic[..filled].starts_with(USDA_MAGIC) {
-            return Ok(asset);
-        }
-        let bytes = asset.read_all()?;
-        // Invalid UTF-8 is passed through for the crate to report.
-        let Ok(text) = std::str::from_utf8(&bytes) else { return Ok(Box::new(Cursor::new(bytes))) };
-        if let Some(problem) = layer_fix::structural_problem(text) {
-            let name =
-                resolved.file_name().map_or_else(|| resolved.to_string(), |n| n.to_string_lossy().into());
-            return Err(io::Error::new(io::ErrorKind::InvalidData, format!("{name}: {problem}")));
-        }
-        match layer_fix::normalize(text) {
-            std::borrow::Cow::Borrowed(_) => Ok(Box::new(Cursor::new(bytes))),
-            std::borrow::Cow::Owned(fixed) => Ok(Box::new(Cursor::new(fixed.into_bytes()))),
-        }
+        Ok(asset)
+    }
+}
+
+impl Resolver for IngestResolver {
+    fn create_identifier(&self, asset_path: &str, anchor: Option<&ResolvedPath>) -> String {
+        self.shared.create_identifier(asset_path, anchor)
+    }
+
+    fn resolve(&self, asset_path: &str) -> Option<ResolvedPath> {
+        self.shared.inner.resolve(asset_path)
+    }
+
+    fn resolve_for_new_asset(&self, asset_path: &str) -> Option<ResolvedPath> {
+        self.shared.inner.resolve_for_new_asset(asset_path)
+    }
+
+    /// Text layers are checked and normalized (once each, see [`IngestResolver`]); crate files
+    /// (`.usdc`, binary `.usd`, either inside a `.usdz`) are checked by [`crate_check`] first,
+    /// because openusd's crate reader trusts their counts and indices; every other asset
+    /// (packages, images) is passed through. Only the first bytes are read to tell them apart,
+    /// so packages and images are not buffered here.
+    fn open_asset(&self, resolved: &ResolvedPath) -> io::Result<Box<dyn Asset>> {
+        self.shared.open_asset(resolved)
     }
 
     fn get_asset_info(&self, asset_path: &str, resolved: &ResolvedPath) -> ar::AssetInfo {
-        self.inner.get_asset_info(asset_path, resolved)
+        self.shared.inner.get_asset_info(asset_path, resolved)
     }
 
     fn identity(&self) -> String {
-        format!("ingest:{:?}", self.search_paths)
+        format!("ingest:{:?}", self.shared.search_paths)
     }
 }
 
@@ -186,6 +316,60 @@ mod tests {
         let read = |p: &Path| resolver.open_asset(&ResolvedPath::new(p)).unwrap().read_all().unwrap();
         assert_eq!(read(&text), b"#usda 1.0\nfloat a = 0.5\n");
         assert_eq!(read(&binary), b"\x89PNG .5");
+    }
+
+    /// Waits until `resolved` has been prepared (by a prefetch task), or panics after a minute.
+    fn wait_prepared(resolver: &IngestResolver, resolved: &ResolvedPath) {
+        for _ in 0..6000 {
+            let cell = resolver.shared.prepared.lock().unwrap().get(resolved).cloned();
+            if cell.is_some_and(|c| c.get().is_some()) {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        panic!("{resolved} never prepared");
+    }
+
+    #[test]
+    fn text_layers_are_prepared_once_and_the_layers_they_name_ahead_of_need() {
+        let dir = tempfile::tempdir().unwrap();
+        let (root, child, image) =
+            (dir.path().join("root.usd"), dir.path().join("child.usda"), dir.path().join("t.png"));
+        std::fs::write(&root, "#usda 1.0\ndef \"A\" (references = @./child.usda@) { asset f = @./t.png@ }\n")
+            .unwrap();
+        std::fs::write(&child, "#usda 1.0\nfloat a = .5\n").unwrap();
+        std::fs::write(&image, b"\x89PNG").unwrap();
+        let resolver = IngestResolver::new(&[]);
+        let read = |p: &Path| resolver.open_asset(&ResolvedPath::new(p)).unwrap().read_all().unwrap();
+        let first = read(&root);
+        let child_resolved = resolver
+            .resolve(&resolver.create_identifier("./child.usda", Some(&ResolvedPath::new(&root))))
+            .unwrap();
+        wait_prepared(&resolver, &child_resolved);
+        // Rewritten on disk after preparation: the crate is served what was prepared, once.
+        std::fs::write(&root, "#usda 1.0\n").unwrap();
+        std::fs::write(&child, "#usda 1.0\n").unwrap();
+        assert_eq!(read(&root), first);
+        assert_eq!(read(&child), b"#usda 1.0\nfloat a = 0.5\n");
+        // Only layers are prefetched; other assets are opened as they are asked for.
+        let image_resolved = ResolvedPath::new(image.canonicalize().unwrap());
+        assert!(!resolver.shared.prepared.lock().unwrap().contains_key(&image_resolved));
+        assert_eq!(read(&image), b"\x89PNG");
+    }
+
+    #[test]
+    fn a_rejected_layer_is_reported_every_time_it_is_opened() {
+        let dir = tempfile::tempdir().unwrap();
+        let bad = dir.path().join("bad.usda");
+        std::fs::write(&bad, "#usda 1.0\ndef \"a b\" {}\n").unwrap();
+        let resolver = IngestResolver::new(&[]);
+        for _ in 0..2 {
+            let Err(e) = resolver.open_asset(&ResolvedPath::new(&bad)) else { panic!("accepted") };
+            assert_eq!(
+                e.to_string(),
+                "bad.usda: line 2, column 5: prim name \"a b\" is malformed: unexpected ' ' at character 1"
+            );
+        }
     }
 
     #[test]
