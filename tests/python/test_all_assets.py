@@ -32,10 +32,6 @@ ROOTS = sorted(
 
 #: Root layer (relative to the asset library) -> why ours differs from usd-core.
 KNOWN_DIFFERENCES: dict[str, str] = {
-    "openusd_subdiv/extras/usd/tutorials/animatedTop/top.geom.usd": (
-        "openusd 0.6 cannot decode the time samples of this crate file (version 0.4.0: 'Invalid time samples "
-        "count'), and the mesh has no default values, so the ingest warns and skips /Top/mesh_0"
-    ),
     **{
         f"openusd_subdiv/extras/usd/tutorials/endToEnd/assets/Table/{name}": (
             "/Table/Looks/TableMaterial's surface is only `outputs:ri:surface` (a RenderMan shader, no "

@@ -112,6 +112,8 @@ impl Resolver for IngestResolver {
         if magic[..filled] == *crate_check::MAGIC {
             let bytes = asset.read_all()?;
             self.check_crate(resolved, &bytes)?;
+            // Old files' time-sample times, in the layout openusd reads (checked again).
+            let bytes = crate_check::repair(&bytes).unwrap_or(bytes);
             return Ok(Box::new(Cursor::new(bytes)));
         }
         if !magic[..filled].starts_with(USDA_MAGIC) {
