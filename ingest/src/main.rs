@@ -88,7 +88,8 @@ fn run(args: Args) -> anyhow::Result<()> {
     let pack = ingest::pack::PackOptions { flatten_instances: args.flatten_instances, ..Default::default() };
     let (scene, report) = ingest::pipeline::ingest_file_with(&args.asset, &args.output, &options, &pack)?;
     for w in &report.warnings {
-        eprintln!("warning: {w}");
+        // The file, then the prim and the feature (`warning: a.usda: /World/Cyl: Cylinder prims ...`).
+        eprintln!("warning: {}: {w}", args.asset.display());
     }
     if let Some(path) = &args.dump_json {
         let text = serde_json::to_string_pretty(&ingest::pipeline::dump_json(&scene))?;

@@ -258,7 +258,13 @@ impl Reader<'_> {
     fn preview_surface(&mut self, path: &str) -> Result<Option<Material>, UsdError> {
         let ty = self.stage.type_name(path);
         if ty != "Material" {
-            self.warn(path, format!("bound material is a {ty:?} prim, not a Material; using displayColor"));
+            let message = if self.stage.is_defined(path) {
+                format!("bound material is a {ty:?} prim, not a Material; using displayColor")
+            } else {
+                // Typically a material defined only in a layer that did not load (a `.mtlx` reference).
+                "bound material is not defined on the stage; using displayColor".to_string()
+            };
+            self.warn(path, message);
             return Ok(None);
         }
         let Some(shader) = self.surface_shader(path) else {

@@ -411,6 +411,11 @@ impl Stage {
             .unwrap_or_default()
     }
 
+    /// Whether a `def` (not only `over`s, or nothing) composes at the prim's path.
+    pub(crate) fn is_defined(&self, prim: &str) -> bool {
+        self.inner.prim(self.query(prim)).is_defined().unwrap_or(false)
+    }
+
     /// Whether the prim is an instance (instanceable with a composition arc).
     pub(crate) fn is_instance(&self, prim: &str) -> bool {
         self.inner.prim(self.query(prim)).is_instance().unwrap_or(false)
@@ -773,6 +778,50 @@ def Xform "World"
         let expected: Vec<_> =
             expected.iter().map(|(p, xy, m)| (p.to_string(), *xy, m.to_string())).collect();
         assert_eq!(drawn, expected);
+    }
+
+    #[test]
+    fn a_binding_to_a_material_no_layer_defines_is_warned_as_such() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("unbound.usda");
+        let text = r#"#usda 1.0
+def Mesh "Tri" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Looks/FromMtlx>
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+}
+over "Looks"
+{
+    over "FromMtlx"
+    {
+    }
+}
+def Scope "Scoped"
+{
+}
+def Mesh "Tri2" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Scoped>
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+}
+"#;
+        std::fs::write(&root, text).unwrap();
+        let scene = load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let warned = |prim: &str| -> Vec<String> {
+            scene.warnings.iter().filter(|w| w.prim == prim).map(|w| w.message.clone()).collect()
+        };
+        assert_eq!(
+            warned("/Looks/FromMtlx"),
+            ["bound material is not defined on the stage; using displayColor"]
+        );
+        assert_eq!(
+            warned("/Scoped"),
+            ["bound material is a \"Scope\" prim, not a Material; using displayColor"]
+        );
     }
 
     #[test]
