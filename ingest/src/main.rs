@@ -121,7 +121,8 @@ fn run(args: Args) -> anyhow::Result<()> {
     let pack = ingest::pack::PackOptions { flatten_instances: args.flatten_instances, ..Default::default() };
     let (scene, report) = ingest::pipeline::ingest_file_with(&args.asset, output, &options, &pack)?;
     for w in &report.warnings {
-        eprintln!("warning: {w}");
+        // The file, then the prim and the feature (`warning: a.usda: /World/Cyl: Cylinder prims ...`).
+        eprintln!("warning: {}: {w}", args.asset.display());
     }
     if let Some(path) = &args.dump_json {
         write_dump(&scene, path)?;

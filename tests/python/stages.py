@@ -501,7 +501,8 @@ def Xform "World"
 }
 
 # An instanceable prim inside an instance's prototype whose reference targets a prim of that same
-# prototype (</Inner/Proto>): the pattern of OpenUSD's ni_ni_* instancing tests, reduced.
+# prototype (</Inner/Proto>): the pattern of OpenUSD's ni_ni_* instancing tests, reduced. The
+# material bound inside Proto is listed under each instance's own namespace (…/Nested/Red).
 NESTED_INSTANCING = {
     "nested_instancing.usda": header() + f"""
 def Xform "World"
@@ -510,7 +511,9 @@ def Xform "World"
     {{
         def Xform "Proto"
         {{
-            {tri("Tri")}
+            {tri("Tri", meta='(prepend apiSchemas = ["MaterialBindingAPI"])',
+                 body="rel material:binding = </World/Inner/Proto/Red>")}
+            {material("Red", (1, 0, 0))}
         }}
 
         def "Nested" (
@@ -734,6 +737,10 @@ EXPECTED = {
     "nested_instancing": {
         "paths": {
             f"/World/{outer}/{inner}/Tri"
+            for outer in ("Inner", "Outer", "OuterNotInstanced") for inner in ("Proto", "Nested")
+        },
+        "materials": {
+            f"/World/{outer}/{inner}/Tri": frozenset([f"/World/{outer}/{inner}/Red"])
             for outer in ("Inner", "Outer", "OuterNotInstanced") for inner in ("Proto", "Nested")
         },
     },

@@ -25,13 +25,18 @@
 //! array claims 6.1e18 elements of 12 bytes at offset 936, but only 3338 bytes follow`.
 //! Problems the reader itself reports as errors (an unknown value type, a bad enum) are left to
 //! it. The check runs once per layer and costs a few milliseconds per megabyte.
+//!
+//! [`repair`] then rewrites the one layout openusd misreads in crate files older than 0.7.0 (the
+//! times of time samples), so their animated attributes compose as in usd-core.
 
 mod coding;
+mod repair;
 mod values;
 
 use std::fmt;
 
 use coding::{big, read_compressed, read_ints, Reader};
+pub(crate) use repair::repair;
 use values::Values;
 
 /// Magic bytes of every crate file.

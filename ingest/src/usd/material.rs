@@ -6,7 +6,7 @@
 //! wins, unless an ancestor's binding is `bindMaterialAs = "strongerThanDescendants"` (then the
 //! topmost such ancestor wins). Only if no full/all-purpose binding exists anywhere up the chain is
 //! `material:binding:preview` used, with a warning. Collection-based bindings are not resolved
-//! (warned). GeomSubsets of a mesh carrying a direct binding give per-face materials.
+//! (warned when of the full or all purposes; `preview:` ones never apply to a final render). GeomSubsets of a mesh carrying a direct binding give per-face materials.
 //!
 //! Inputs connected to shading networks are compiled into the material's program
 //! ([`crate::scene::ShaderNode`]): each reachable node (UsdUVTexture, UsdPrimvarReader_float2 (the
@@ -112,6 +112,17 @@ fn as_float(value: &Value, output: &str) -> Option<f32> {
     }
 }
 
+/// Whether `property` is a collection-based binding a final-frame render would use:
+/// `material:binding:collection:NAME` (all purposes) or `material:binding:collection:full:NAME`.
+/// A `preview:` one never applies to the full purpose (as in usd-core's `ComputeBoundMaterial`).
+fn renders_collection_binding(property: &str) -> bool {
+    let Some(rest) = property.strip_prefix("material:binding:collection:") else { return false };
+    match rest.split_once(':') {
+        None => true,
+        Some((purpose, _)) => purpose == "full",
+    }
+}
+
 /// A binding relationship opinion at one prim: target material and `strongerThanDescendants`.
 type DirectBinding = Option<(String, bool)>;
 
@@ -181,12 +192,7 @@ impl Reader<'_> {
             let binding = match self.binding_cache.get(&(prim.clone(), relationships[0])) {
                 Some(b) => b.clone(),
                 None => {
-                    if self
-                        .stage
-                        .property_names(&prim)
-                        .iter()
-                        .any(|p| p.starts_with("material:binding:collection"))
-                    {
+                    if self.stage.property_names(&prim).iter().any(|p| renders_collection_binding(p)) {
                         self.warn(&prim, "collection-based material bindings not supported yet; ignored");
                     }
                     let b = self.direct_binding(&prim, relationships);
@@ -258,7 +264,13 @@ impl Reader<'_> {
     fn preview_surface(&mut self, path: &str) -> Result<Option<Material>, UsdError> {
         let ty = self.stage.type_name(path);
         if ty != "Material" {
-            self.warn(path, format!("bound material is a {ty:?} prim, not a Material; using displayColor"));
+            let message = if self.stage.is_defined(path) {
+                format!("bound material is a {ty:?} prim, not a Material; using displayColor")
+            } else {
+                // Typically a material defined only in a layer that did not load (a `.mtlx` reference).
+                "bound material is not defined on the stage; using displayColor".to_string()
+            };
+            self.warn(path, message);
             return Ok(None);
         }
         let Some(shader) = self.surface_shader(path) else {
@@ -870,4 +882,18 @@ fn decode_texture(path: &Path) -> Result<texture::SourceImage, texture::Error> {
         ar::DefaultResolver::new().open_asset(&resolved).and_then(|mut a| a.read_all()).map_err(io)?;
     texture::decode_bytes(&bytes, Path::new(&inner))
         .map_err(|e| texture::Error { path: path.to_path_buf(), ..e })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::renders_collection_binding;
+
+    #[test]
+    fn only_full_and_all_purpose_collection_bindings_matter_to_a_final_render() {
+        assert!(renders_collection_binding("material:binding:collection:Shiny"));
+        assert!(renders_collection_binding("material:binding:collection:full:Shiny"));
+        assert!(!renders_collection_binding("material:binding:collection:preview:MainMaterial"));
+        assert!(!renders_collection_binding("material:binding:full"));
+        assert!(!renders_collection_binding("material:binding"));
+    }
 }

@@ -233,6 +233,8 @@ impl Shared {
         if read_magic(asset.as_mut(), crate_check::MAGIC.len())? == *crate_check::MAGIC {
             let bytes = asset.read_all()?;
             self.check_crate(resolved, &bytes)?;
+            // Old files' time-sample times, in the layout openusd reads (checked again).
+            let bytes = crate_check::repair(&bytes).unwrap_or(bytes);
             return Ok(Box::new(Cursor::new(bytes)));
         }
         Ok(asset)

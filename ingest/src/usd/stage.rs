@@ -216,6 +216,35 @@ pub(crate) struct Stage {
     time: f64,
     /// Non-fatal problems met while reading values, as (prim, message); see [`Stage::take_notes`].
     notes: RefCell<Vec<(String, String)>>,
+    /// Nested instances whose contents openusd composes wrongly, found by [`Stage::traverse`]:
+    /// queries below them are redirected (see [`NestedInstance`]).
+    nested: RefCell<Vec<NestedInstance>>,
+}
+
+/// An instance reached through an instance proxy (an instanceable prim inside another instance's
+/// prototype) whose own prototype openusd 0.6 composes empty.
+///
+/// The crate registers such a proxy (`/World/Outer/Nested`) as an instance in its own right and
+/// mints a fresh prototype for it from the proxy's index, which comes out empty when the nested
+/// prim internally references a prim of the enclosing prototype's source (usd-core shares
+/// `/World/Inner/Nested`'s prototype). The prim it stands for inside the enclosing prototype
+/// (`/__Prototype_1/Nested`) is an instance with the right prototype, so every query below the
+/// proxy is asked there instead, and paths in the answers are mapped back.
+#[derive(Clone, Debug)]
+struct NestedInstance {
+    /// The instance proxy path the reader sees (`/World/Outer/Nested`).
+    proxy: String,
+    /// The same prim inside the enclosing prototype (`/__Prototype_1/Nested`).
+    in_prototype: String,
+    /// That prim's own prototype (`/__Prototype_0`), in which relationship targets and
+    /// connections below it may also be expressed.
+    prototype: String,
+}
+
+/// `path` with its prefix `from` replaced by `to`, if it has that (whole-element) prefix.
+fn replace_prefix(path: &str, from: &str, to: &str) -> Option<String> {
+    let rest = path.strip_prefix(from)?;
+    (rest.is_empty() || rest.starts_with(['/', '.'])).then(|| format!("{to}{rest}"))
 }
 
 /// Parses `s` into an `sdf::Path`.
@@ -243,7 +272,14 @@ impl Stage {
                 UsdError::new(&root_layer, UsdErrorKind::Open(message))
             })?;
         let time = options.frame.unwrap_or_else(|| inner.start_time_code());
-        Ok(Stage { inner, root_layer, resolver, time, notes: RefCell::new(Vec::new()) })
+        Ok(Stage {
+            inner,
+            root_layer,
+            resolver,
+            time,
+            notes: RefCell::new(Vec::new()),
+            nested: RefCell::new(Vec::new()),
+        })
     }
 
     fn err(&self, e: anyhow::Error) -> UsdError {
@@ -252,18 +288,122 @@ impl Stage {
 
     /// Every prim of the default traversal region (active, loaded, defined, non-abstract), in
     /// depth-first pre-order, descending into instances (instance proxies).
+    ///
+    /// The contents of a nested instance openusd composes empty (see [`NestedInstance`]) are
+    /// listed from the prim it stands for inside the enclosing prototype.
     pub(crate) fn traverse(&self) -> Result<Vec<String>, UsdError> {
-        let mut out = Vec::new();
+        let mut composed = Vec::new();
         self.inner
-            .traverse(usd::PrimPredicate::DEFAULT_PROXIES, |p| out.push(p.as_str().to_string()))
+            .traverse(usd::PrimPredicate::DEFAULT_PROXIES, |p| composed.push(p.as_str().to_string()))
             .map_err(|e| self.err(e))?;
+        let mut out = Vec::with_capacity(composed.len());
+        let mut replaced: Option<String> = None;
+        for prim in composed {
+            if replaced.as_deref().is_some_and(|r| replace_prefix(&prim, r, "").is_some()) {
+                continue;
+            }
+            replaced = None;
+            out.push(prim.clone());
+            if let Some(in_prototype) = self.misplaced_nested_instance(&prim) {
+                self.redirect_nested(&prim, &in_prototype);
+                self.list_below(&prim, &in_prototype, &mut out)?;
+                replaced = Some(prim);
+            }
+        }
         Ok(out)
+    }
+
+    /// For an instance proxy that is itself an instance whose prototype differs from that of the
+    /// prim it stands for inside the enclosing prototype, that prim (see [`NestedInstance`]).
+    fn misplaced_nested_instance(&self, query: &str) -> Option<String> {
+        let prim = self.inner.prim(path(query));
+        if !prim.is_instance().unwrap_or(false) || !prim.is_instance_proxy().unwrap_or(false) {
+            return None;
+        }
+        let stands_for = prim.prim_in_prototype().ok().flatten()?;
+        let own = prim.prototype().ok().flatten();
+        let shared = stands_for.prototype().ok().flatten()?;
+        (own.as_ref() != Some(&shared)).then(|| stands_for.path().as_str().to_string())
+    }
+
+    fn redirect_nested(&self, proxy: &str, in_prototype: &str) {
+        let prototype = self
+            .inner
+            .prim(path(in_prototype))
+            .prototype()
+            .ok()
+            .flatten()
+            .map(|p| p.as_str().to_string())
+            .unwrap_or_default();
+        self.nested.borrow_mut().push(NestedInstance {
+            proxy: proxy.to_string(),
+            in_prototype: in_prototype.to_string(),
+            prototype,
+        });
+    }
+
+    /// Appends the default-region descendants of `proxy` in pre-order, composed at `query`.
+    fn list_below(&self, proxy: &str, query: &str, out: &mut Vec<String>) -> Result<(), UsdError> {
+        let children = self.inner.prim(path(query)).children().map_err(|e| self.err(e))?;
+        for child in children {
+            let in_region = child.is_active().unwrap_or(false)
+                && child.is_loaded().unwrap_or(false)
+                && child.is_defined().unwrap_or(false)
+                && !child.is_abstract().unwrap_or(true);
+            if !in_region {
+                continue;
+            }
+            let child_query = child.path().as_str().to_string();
+            let Some(child_proxy) = replace_prefix(&child_query, query, proxy) else { continue };
+            out.push(child_proxy.clone());
+            match self.misplaced_nested_instance(&child_query) {
+                Some(in_prototype) => {
+                    self.redirect_nested(&child_proxy, &in_prototype);
+                    self.list_below(&child_proxy, &in_prototype, out)?;
+                }
+                None => self.list_below(&child_proxy, &child_query, out)?,
+            }
+        }
+        Ok(())
+    }
+
+    /// The path openusd composes the reader's prim path `prim` at: itself, or for a prim below a
+    /// [`NestedInstance`] the same prim below the instance's stand-in.
+    fn query(&self, prim: &str) -> sdf::Path {
+        let nested = self.nested.borrow();
+        if nested.is_empty() {
+            return path(prim);
+        }
+        let deepest = nested
+            .iter()
+            .filter_map(|n| {
+                let rest = prim.strip_prefix(&n.proxy)?;
+                rest.starts_with('/').then(|| format!("{}{rest}", n.in_prototype))
+            })
+            .max_by_key(String::len);
+        path(deepest.as_deref().unwrap_or(prim))
+    }
+
+    /// Maps a path answered for a query on `prim` back to the reader's namespace (see
+    /// [`NestedInstance`]): paths below the stand-in or its prototype become paths below the proxy.
+    fn answer(&self, prim: &str, answer: String) -> String {
+        let nested = self.nested.borrow();
+        let owner = nested
+            .iter()
+            .filter(|n| prim.strip_prefix(&n.proxy).is_some_and(|rest| rest.starts_with('/')))
+            .max_by_key(|n| n.proxy.len());
+        let Some(n) = owner else { return answer };
+        replace_prefix(&answer, &n.in_prototype, &n.proxy)
+            .or_else(|| {
+                (!n.prototype.is_empty()).then(|| replace_prefix(&answer, &n.prototype, &n.proxy)).flatten()
+            })
+            .unwrap_or(answer)
     }
 
     /// The prim's schema type name (`""` when untyped).
     pub(crate) fn type_name(&self, prim: &str) -> String {
         self.inner
-            .prim(path(prim))
+            .prim(self.query(prim))
             .type_name()
             .ok()
             .flatten()
@@ -271,15 +411,20 @@ impl Stage {
             .unwrap_or_default()
     }
 
+    /// Whether a `def` (not only `over`s, or nothing) composes at the prim's path.
+    pub(crate) fn is_defined(&self, prim: &str) -> bool {
+        self.inner.prim(self.query(prim)).is_defined().unwrap_or(false)
+    }
+
     /// Whether the prim is an instance (instanceable with a composition arc).
     pub(crate) fn is_instance(&self, prim: &str) -> bool {
-        self.inner.prim(path(prim)).is_instance().unwrap_or(false)
+        self.inner.prim(self.query(prim)).is_instance().unwrap_or(false)
     }
 
     /// Composed property names of the prim.
     pub(crate) fn property_names(&self, prim: &str) -> Vec<String> {
         self.inner
-            .prim(path(prim))
+            .prim(self.query(prim))
             .property_names()
             .map(|v| v.iter().map(|t| t.as_str().to_string()).collect())
             .unwrap_or_default()
@@ -292,7 +437,10 @@ impl Stage {
         super::path_syntax::check_element(name, super::path_syntax::Element::Property).map_err(|e| {
             self.attr_err(prim, &name.escape_debug().to_string(), format!("not a property name: {e}"))
         })?;
-        let p = path(prim).append_property(name).map_err(|e| self.attr_err(prim, name, format!("{e:#}")))?;
+        let p = self
+            .query(prim)
+            .append_property(name)
+            .map_err(|e| self.attr_err(prim, name, format!("{e:#}")))?;
         Ok(self.inner.attribute(p))
     }
 
@@ -342,16 +490,19 @@ impl Stage {
     /// Connection sources of an attribute, as property paths (`/Mat/Shader.outputs:surface`).
     pub(crate) fn connections(&self, prim: &str, name: &str) -> Vec<String> {
         let Ok(handle) = self.attr_handle(prim, name) else { return Vec::new() };
-        handle.connections().map(|v| v.iter().map(|p| p.as_str().to_string()).collect()).unwrap_or_default()
+        handle
+            .connections()
+            .map(|v| v.iter().map(|p| self.answer(prim, p.as_str().to_string())).collect())
+            .unwrap_or_default()
     }
 
     /// Targets of a relationship.
     pub(crate) fn targets(&self, prim: &str, name: &str) -> Vec<String> {
-        let Ok(p) = path(prim).append_property(name) else { return Vec::new() };
+        let Ok(p) = self.query(prim).append_property(name) else { return Vec::new() };
         self.inner
             .relationship(p)
             .targets()
-            .map(|v| v.iter().map(|p| p.as_str().to_string()).collect())
+            .map(|v| v.iter().map(|p| self.answer(prim, p.as_str().to_string())).collect())
             .unwrap_or_default()
     }
 
@@ -361,7 +512,7 @@ impl Stage {
     /// A `.usdc` layer holds a real `int64ListOp`; a `.usda` layer holds the explicit items under
     /// `key` and each operation's items under [`list_op_field`] (see [`super::layer_fix`]).
     pub(crate) fn prim_id_list(&self, prim: &str, key: &str) -> Vec<i64> {
-        let Ok(stack) = self.inner.prim(path(prim)).prim_stack() else { return Vec::new() };
+        let Ok(stack) = self.inner.prim(self.query(prim)).prim_stack() else { return Vec::new() };
         let mut ids: Vec<i64> = Vec::new();
         for (layer_id, spec_path) in stack.iter().rev() {
             let Some(layer) = self.inner.layer(layer_id) else { continue };
@@ -404,7 +555,7 @@ impl Stage {
 
     /// A metadata field on a relationship (`bindMaterialAs`), from the strongest spec authoring it.
     pub(crate) fn rel_metadata(&self, prim: &str, name: &str, key: &str) -> Option<Value> {
-        let p = path(prim).append_property(name).ok()?;
+        let p = self.query(prim).append_property(name).ok()?;
         let stack = self.inner.relationship(p).property_stack().ok()?;
         stack.iter().find_map(|(layer_id, spec_path)| {
             let layer = self.inner.layer(layer_id)?;
@@ -551,4 +702,134 @@ fn authoring_layer(asset_path: &str) -> Option<String> {
         }
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::replace_prefix;
+    use crate::usd::{load, LoadOptions};
+
+    /// OpenUSD's ni_ni_* pattern: `/World/Outer` instances `/World/Inner`, inside which `Nested`
+    /// instances `/World/Inner/Proto`, whose mesh binds a material of its own subtree.
+    const NESTED: &str = r#"#usda 1.0
+def Xform "World"
+{
+    def Xform "Inner"
+    {
+        def Xform "Proto"
+        {
+            def Mesh "Tri" (prepend apiSchemas = ["MaterialBindingAPI"])
+            {
+                rel material:binding = </World/Inner/Proto/Red>
+                int[] faceVertexCounts = [3]
+                int[] faceVertexIndices = [0, 1, 2]
+                point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+                uniform token subdivisionScheme = "none"
+            }
+            def Material "Red"
+            {
+                token outputs:surface.connect = </World/Inner/Proto/Red/Surface.outputs:surface>
+                def Shader "Surface"
+                {
+                    uniform token info:id = "UsdPreviewSurface"
+                    color3f inputs:diffuseColor = (1, 0, 0)
+                    token outputs:surface
+                }
+            }
+        }
+        def "Nested" (instanceable = true references = </World/Inner/Proto>)
+        {
+            double3 xformOp:translate = (0, 3, 0)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+    }
+    def "Outer" (instanceable = true references = </World/Inner>)
+    {
+        double3 xformOp:translate = (5, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+"#;
+
+    #[test]
+    fn a_nested_instance_inside_a_prototype_is_drawn_with_its_own_material() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("nested.usda");
+        std::fs::write(&root, NESTED).unwrap();
+        let scene = load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let mut drawn: Vec<(String, [f32; 2], String)> = scene
+            .meshes
+            .iter()
+            .map(|m| {
+                let x = m.positions.iter().map(|p| p.x).fold(f32::INFINITY, f32::min);
+                let y = m.positions.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+                let material = scene.materials[m.triangle_materials[0] as usize].path.clone();
+                (m.path.clone(), [x, y], material)
+            })
+            .collect();
+        drawn.sort_by(|a, b| a.0.cmp(&b.0));
+        // usd-core lists the same four (test_usd_crosscheck's nested_instancing stage).
+        let expected = [
+            ("/World/Inner/Nested/Tri", [0.0, 3.0], "/World/Inner/Nested/Red"),
+            ("/World/Inner/Proto/Tri", [0.0, 0.0], "/World/Inner/Proto/Red"),
+            ("/World/Outer/Nested/Tri", [5.0, 3.0], "/World/Outer/Nested/Red"),
+            ("/World/Outer/Proto/Tri", [5.0, 0.0], "/World/Outer/Proto/Red"),
+        ];
+        let expected: Vec<_> =
+            expected.iter().map(|(p, xy, m)| (p.to_string(), *xy, m.to_string())).collect();
+        assert_eq!(drawn, expected);
+    }
+
+    #[test]
+    fn a_binding_to_a_material_no_layer_defines_is_warned_as_such() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("unbound.usda");
+        let text = r#"#usda 1.0
+def Mesh "Tri" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Looks/FromMtlx>
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+}
+over "Looks"
+{
+    over "FromMtlx"
+    {
+    }
+}
+def Scope "Scoped"
+{
+}
+def Mesh "Tri2" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Scoped>
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+}
+"#;
+        std::fs::write(&root, text).unwrap();
+        let scene = load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let warned = |prim: &str| -> Vec<String> {
+            scene.warnings.iter().filter(|w| w.prim == prim).map(|w| w.message.clone()).collect()
+        };
+        assert_eq!(
+            warned("/Looks/FromMtlx"),
+            ["bound material is not defined on the stage; using displayColor"]
+        );
+        assert_eq!(
+            warned("/Scoped"),
+            ["bound material is a \"Scope\" prim, not a Material; using displayColor"]
+        );
+    }
+
+    #[test]
+    fn prefixes_are_replaced_on_whole_path_elements_only() {
+        assert_eq!(replace_prefix("/A/B/C", "/A/B", "/P").as_deref(), Some("/P/C"));
+        assert_eq!(replace_prefix("/A/B.rel", "/A/B", "/P").as_deref(), Some("/P.rel"));
+        assert_eq!(replace_prefix("/A/B", "/A/B", "/P").as_deref(), Some("/P"));
+        assert_eq!(replace_prefix("/A/BC", "/A/B", "/P"), None);
+        assert_eq!(replace_prefix("/X", "/A/B", "/P"), None);
+    }
 }

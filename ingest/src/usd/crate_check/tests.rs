@@ -293,3 +293,43 @@ fn a_namespace_deeper_than_the_limit_is_refused() {
     let e = check(&with_path_chain(MAX_PATH_DEPTH as usize));
     assert!(e.as_ref().map_or_else(|e| e.section != "PATHS", |_| true), "{e:?}");
 }
+
+/// A triangle whose points are time-sampled at 1 (x up to 1) and 2 (x up to 2), startTimeCode 1,
+/// written by usd-core as crate `version` (`USD_WRITE_NEW_USDC_FILES_AS_VERSION`).
+fn time_sampled(version: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(format!("src/usd/crate_check/testdata/time_samples_{}.usdc", version.replace('.', "_")))
+}
+
+/// The largest x of the triangle's world points, ingested at `frame`.
+fn max_x(path: &std::path::Path, frame: f64) -> f32 {
+    let options = crate::usd::LoadOptions { frame: Some(frame), ..Default::default() };
+    let scene = crate::usd::load(path, &options).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let mesh = scene.meshes.iter().find(|m| m.path == "/Tri").expect("/Tri is drawn");
+    mesh.positions.iter().map(|p| p.x).fold(f32::NEG_INFINITY, f32::max)
+}
+
+#[test]
+fn time_sample_times_of_old_crate_files_are_rewritten_in_the_layout_openusd_reads() {
+    for version in ["0.4.0", "0.6.0"] {
+        let bytes = std::fs::read(time_sampled(version)).unwrap();
+        let repaired = repair(&bytes).unwrap_or_else(|| panic!("{version}: nothing repaired"));
+        // Only the times rep changes in place; the copy goes after everything else.
+        assert!(repaired.len() > bytes.len(), "{version}");
+        let changed = repaired[..bytes.len()].iter().zip(&bytes).filter(|(a, b)| a != b).count();
+        assert!(changed <= 8, "{version}: {changed} bytes changed");
+        check(&repaired).unwrap();
+        // Both samples decode (openusd alone rejects them: 'Invalid time samples count').
+        assert_eq!(max_x(&time_sampled(version), 1.0), 1.0, "{version}");
+        assert_eq!(max_x(&time_sampled(version), 2.0), 2.0, "{version}");
+        assert_eq!(max_x(&time_sampled(version), 1.5), 1.5, "{version}: linear between the samples");
+    }
+}
+
+#[test]
+fn crate_files_openusd_reads_as_written_are_not_rewritten() {
+    let bytes = std::fs::read(time_sampled("0.8.0")).unwrap();
+    assert!(repair(&bytes).is_none());
+    assert_eq!(max_x(&time_sampled("0.8.0"), 2.0), 2.0);
+}
