@@ -54,6 +54,7 @@ mod equivalence_tests;
 mod generate;
 mod intersect;
 pub mod lanes;
+pub mod material_lanes;
 mod occlusion;
 pub mod packet;
 pub mod roulette;
@@ -191,6 +192,10 @@ pub struct Worker {
     /// uv footprint), taken by shading instead of being rebuilt; `surface_slot` indexes it per path.
     surfaces: Vec<Option<crate::integrator::Surface>>,
     surface_slot: Vec<u32>,
+    /// The current chunk's surfaces (`None`: degenerate triangle) and their material programs'
+    /// outputs, by position in the chunk, waiting for phase 1.
+    chunk_surfaces: Vec<Option<crate::integrator::Surface>>,
+    chunk_inputs: Vec<Option<crate::shading::ShadingInputs>>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
     occlusion: Vec<u32>,
     /// Per-pixel running sums of the current tile.
@@ -255,6 +260,8 @@ impl Worker {
             area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),
             surface_slot: vec![u32::MAX; paths],
+            chunk_surfaces: Vec::with_capacity(shade::CHUNK),
+            chunk_inputs: Vec::with_capacity(shade::CHUNK),
             occlusion: Vec::with_capacity(paths),
             pixels: Vec::with_capacity(pixels),
             seconds: StageSeconds::default(),

@@ -1,9 +1,12 @@
 //! Stage 4: shading. Reads the sorted shade queue (one segment per material) and the hit side table;
 //! writes the occlusion queue, the shadow-ray side table and the next ray queue.
 //!
-//! The queue is shaded in chunks of [`CHUNK`] hits, each in two phases:
+//! The queue is shaded in chunks of [`CHUNK`] hits, each in these phases:
 //! 0. eight paths at a time: every random number of the paths' vertices ([`sampler_lanes`]);
-//! 1. per hit (scalar, material by material): stochastic transparency, the material program, the BSDF,
+//! 1a. per hit: the surface (or the one the sort key kept); then runs of up to eight consecutive hits
+//!    on one material (the queue is sorted by material) through the material program in lanes
+//!    ([`material_lanes::evaluate_lanes`]; a lone hit runs the scalar program);
+//! 1. per hit (scalar, material by material): stochastic transparency, the BSDF,
 //!    the first-hit AOVs, emission at the hit, the light sample, and the path's random numbers, into an
 //!    AoS [`ScatterPoint`] (the depth limit ends paths here);
 //! 2. eight points at a time, transposed to AoSoA lanes: the BSDF towards the light
@@ -16,6 +19,7 @@
 
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
+use super::material_lanes;
 use super::roulette::{self, RouletteLanes, RouletteOut};
 use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::{sort, Context, ShadowRay, Worker};
@@ -80,6 +84,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         draw(ctx, w, start, end);
         w.clock.lap(Phase::Integration);
         w.scatter.clear();
+        surfaces_and_programs(ctx, w, start, end);
         for (pos, k) in (start..end).enumerate() {
             prepare(ctx, w, sort::index(w.shade[k]), pos, rays);
         }
@@ -105,6 +110,66 @@ fn draw<T>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
     }
 }
 
+/// Phase 1a: the chunk's surfaces, then their material programs, eight hits of one material at a time.
+fn surfaces_and_programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
+    let scene: &Scene = ctx.scene;
+    w.chunk_surfaces.clear();
+    for &e in &w.shade[start..end] {
+        let i = sort::index(e) as usize;
+        let hit = w.hits[i];
+        let st = &w.states[i];
+        let slot = if ctx.textured { w.surface_slot[i] } else { u32::MAX };
+        let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
+        let surface = kept.or_else(|| scene.surface(&hit, -st.dir, st.cone().width_at(hit.t)));
+        w.chunk_surfaces.push(surface);
+    }
+    w.clock.lap(Phase::Shading);
+    let n = w.chunk_surfaces.len();
+    w.chunk_inputs.clear();
+    w.chunk_inputs.resize(n, None);
+    let (filter, touch) = (ctx.settings.filter, ctx.touch);
+    let mut pos = 0;
+    while pos < n {
+        let Some(material) = w.chunk_surfaces[pos].as_ref().map(|s| s.material) else {
+            pos += 1;
+            continue;
+        };
+        // The run: up to eight hits on `material` from `pos` on (degenerate hits skipped).
+        let (mut members, mut count) = ([0usize; LANES], 0);
+        while pos < n && count < LANES {
+            match &w.chunk_surfaces[pos] {
+                Some(s) if s.material != material => break,
+                Some(_) => {
+                    members[count] = pos;
+                    count += 1;
+                }
+                None => {}
+            }
+            pos += 1;
+        }
+        let surface = |k: usize| w.chunk_surfaces[members[k]].as_ref().expect("members have surfaces");
+        if count == 1 {
+            w.chunk_inputs[members[0]] = Some(scene.shade(surface(0), filter, touch));
+        } else {
+            let at: [&crate::shading::UvFootprint; LANES] =
+                std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
+            let inputs =
+                material_lanes::evaluate_lanes(&scene.shading, material, &at[..count], filter, touch);
+            for k in 0..count {
+                w.chunk_inputs[members[k]] = Some(inputs[k]);
+            }
+        }
+        w.clock.shader_evaluations += count as u64;
+        if w.clock.enabled() {
+            w.clock.lap(if w.textured_materials[material as usize] {
+                Phase::Texturing
+            } else {
+                Phase::Shading
+            });
+        }
+    }
+}
+
 /// Phase 1 for one hit, the `pos`-th of its chunk.
 fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usize, rays: &mut RayCounts) {
     let scene: &Scene = ctx.scene;
@@ -115,19 +180,7 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let r = |d: u32| w.randoms[pos / LANES][d as usize][pos % LANES];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
-    let slot = if ctx.textured { w.surface_slot[i as usize] } else { u32::MAX };
-    let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
-    let Some(mut s) = kept.or_else(|| scene.surface(&hit, wo, footprint)) else { return };
-    w.clock.lap(Phase::Shading);
-    let inputs = scene.shade(&s, filter, touch);
-    w.clock.shader_evaluations += 1;
-    if w.clock.enabled() {
-        w.clock.lap(if w.textured_materials[s.material as usize] {
-            Phase::Texturing
-        } else {
-            Phase::Shading
-        });
-    }
+    let (Some(mut s), Some(inputs)) = (w.chunk_surfaces[pos].take(), w.chunk_inputs[pos]) else { return };
 
     let opacity = inputs.effective_opacity();
     if opacity < 1.0 && r(dim::OPACITY) >= opacity {

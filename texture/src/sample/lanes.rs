@@ -10,6 +10,9 @@
 //!
 //! Lanes at or past `count` are not read (no texel touched) and come back zero.
 
+// Lane loops index several columns by the same lane number.
+#![allow(clippy::needless_range_loop)]
+
 use super::{sample_with, Decode, Lookup, Sampler, Srgb8, TextureView, Unorm8, F16};
 use crate::format::{Filter, TexelFormat, Wrap};
 use crate::layout::LevelLayout;
