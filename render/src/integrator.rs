@@ -121,6 +121,22 @@ struct CurveSurface {
 }
 
 impl Surface {
+    /// A triangle hit's surface from its parts (what [`Scene::surface`] builds; the wavefront's
+    /// surface lanes assemble theirs with it).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn on_triangle(
+        p: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        material: u32,
+        uv: UvFootprint,
+        dpdu: Vec3,
+        dpdv: Vec3,
+        triangle: u32,
+    ) -> Self {
+        Surface { p, ng, ns, material, uv, dpdu, dpdv, triangle, curve: None }
+    }
+
     /// Origin for a ray leaving the surface in direction `w`.
     fn spawn(&self, w: Vec3) -> Vec3 {
         match &self.curve {

@@ -61,6 +61,7 @@ pub mod roulette;
 pub mod sampler_lanes;
 mod shade;
 pub mod sort;
+pub mod surface_lanes;
 
 use crate::accel::Hit;
 use crate::camera::{Camera, RayCone};
