@@ -25,22 +25,39 @@ type Lanes = [f32; LANES];
 const REGISTERS: usize = MAX_REGISTERS as usize;
 const NO_DERIVATIVE: [Lanes; 2] = [[0.0; LANES]; 2];
 
-/// The register file of eight programs: values and the footprint derivatives of their `xy`.
+static ZERO_VALUE: [Lanes; 4] = [[0.0; LANES]; 4];
+
+/// The register file of eight programs: values and the footprint derivatives of their `xy`. Kept by
+/// the worker and reused: a mask of the registers the current program wrote stands in for zeroing the
+/// 4 KiB file per group (an unwritten register reads as zero, as in the scalar evaluator).
 #[derive(Clone, Debug, Default)]
 #[repr(C, align(32))]
-struct RegisterLanes {
+pub struct RegisterLanes {
     value: [[Lanes; 4]; REGISTERS],
     dx: [[Lanes; 2]; REGISTERS],
     dy: [[Lanes; 2]; REGISTERS],
+    written: u32,
 }
 
 impl RegisterLanes {
     #[inline]
     fn set(&mut self, r: u32, value: [Lanes; 4], dx: [Lanes; 2], dy: [Lanes; 2]) {
         let r = reg(r);
+        self.written |= 1 << r;
         self.value[r] = value;
         self.dx[r] = dx;
         self.dy[r] = dy;
+    }
+
+    /// Register `r`: value and derivatives, zero where the program has not written it.
+    #[inline]
+    fn get(&self, r: u32) -> (&[Lanes; 4], &[Lanes; 2], &[Lanes; 2]) {
+        let r = reg(r);
+        if self.written & (1 << r) != 0 {
+            (&self.value[r], &self.dx[r], &self.dy[r])
+        } else {
+            (&ZERO_VALUE, &NO_DERIVATIVE, &NO_DERIVATIVE)
+        }
     }
 }
 
@@ -56,13 +73,14 @@ struct UvLanes {
 /// The shading inputs of `material` at the first `min(at.len(), 8)` hits `at` (lane `k` at `at[k]`;
 /// the rest of the array holds the material's constants), looking textures up with `filter` and
 /// reporting texel reads to `touch`. Lane `k` equals `shading.evaluate(material, at[k], filter,
-/// touch)` exactly.
+/// touch)` exactly. `regs` is scratch.
 pub fn evaluate_lanes<T: Touch>(
     shading: &Shading,
     material: u32,
     at: &[&UvFootprint],
     filter: Filter,
     touch: &T,
+    regs: &mut RegisterLanes,
 ) -> [ShadingInputs; LANES] {
     let mut inputs = [ShadingInputs::constant(shading.material(material)); LANES];
     let program = shading.program(material);
@@ -79,17 +97,17 @@ pub fn evaluate_lanes<T: Touch>(
         }
         uv.has_uv[k] = a.has_uv;
     }
-    let mut regs = RegisterLanes::default();
+    regs.written = 0;
     for op in program {
         match op.kind {
             op_kind::OUTPUT => {
-                let v = &regs.value[reg(op.src)];
+                let (v, _, _) = regs.get(op.src);
                 for (k, lane) in inputs.iter_mut().enumerate().take(at.len()) {
                     lane.set(op.dst, swizzle([v[0][k], v[1][k], v[2][k], v[3][k]], op.flags));
                 }
             }
             op_kind::TEXTURE => {
-                let value = texture_lanes(shading, op, &regs, at.len(), filter, touch);
+                let value = texture_lanes(shading, op, regs, at.len(), filter, touch);
                 regs.set(op.dst, value, NO_DERIVATIVE, NO_DERIVATIVE);
             }
             op_kind::PRIMVAR => {
@@ -103,8 +121,8 @@ pub fn evaluate_lanes<T: Touch>(
                 regs.set(op.dst, value, NO_DERIVATIVE, NO_DERIVATIVE);
             }
             op_kind::CONST => regs.set(op.dst, broadcast(op.params[0]), NO_DERIVATIVE, NO_DERIVATIVE),
-            op_kind::PRIMVAR_UV => primvar_uv_lanes(&mut regs, op, &uv),
-            op_kind::TRANSFORM_2D => transform_lanes(&mut regs, op),
+            op_kind::PRIMVAR_UV => primvar_uv_lanes(regs, op, &uv),
+            op_kind::TRANSFORM_2D => transform_lanes(regs, op),
             _ => {}
         }
     }
@@ -137,7 +155,7 @@ fn primvar_uv_lanes(regs: &mut RegisterLanes, op: &ShaderOp, uv: &UvLanes) {
 fn transform_lanes(regs: &mut RegisterLanes, op: &ShaderOp) {
     let [a, b, c, d] = op.params[0];
     let t = op.params[1];
-    let src = reg(op.src);
+    let (v, dx, dy) = regs.get(op.src);
     let m = |v: &[Lanes; 2]| {
         let mut out = NO_DERIVATIVE;
         for k in 0..LANES {
@@ -146,14 +164,13 @@ fn transform_lanes(regs: &mut RegisterLanes, op: &ShaderOp) {
         }
         out
     };
-    let v = regs.value[src];
     let p = m(&[v[0], v[1]]);
-    let mut value = v;
+    let mut value = *v;
     for k in 0..LANES {
         value[0][k] = p[0][k] + t[0];
         value[1][k] = p[1][k] + t[1];
     }
-    let (dx, dy) = (m(&regs.dx[src]), m(&regs.dy[src]));
+    let (dx, dy) = (m(dx), m(dy));
     regs.set(op.dst, value, dx, dy);
 }
 
@@ -170,8 +187,7 @@ fn texture_lanes<T: Touch>(
     if op.texture == NONE {
         return broadcast(fallback);
     }
-    let src = reg(op.src);
-    let (value, dx, dy) = (&regs.value[src], &regs.dx[src], &regs.dy[src]);
+    let (value, dx, dy) = regs.get(op.src);
     if op.flags & blob::OP_UDIM != 0 {
         // The tile (a texture of its own) depends on each lane's uv.
         let mut out = [[0.0; LANES]; 4];
@@ -313,6 +329,9 @@ mod tests {
                     },
                     texture_node(1, 0, Some(2), Wrap::Repeat, Wrap::Repeat),
                     texture_node(2, 0, None, Wrap::Repeat, Wrap::Repeat),
+                    // Written here, read unwritten by the next material: the reused register file
+                    // must not leak it.
+                    ShaderNode::Const { dst: 6, value: [0.7; 4] },
                     out(DiffuseColor, 1, [0, 1, 2, 3]),
                     out(SpecularColor, 2, [0, 1, 2, 3]),
                 ],
@@ -415,13 +434,14 @@ mod tests {
         let triangles = view.triangles.len() as u32;
         let mut rng = Rng(11);
         let mut compared = 0;
+        let mut regs = RegisterLanes::default();
         for filter in Filter::ALL {
             for material in 0..view.materials.len() as u32 {
                 for round in 0..40 {
                     let count = 1 + round % LANES;
                     let hits: Vec<UvFootprint> = (0..count).map(|_| footprint(&mut rng, triangles)).collect();
                     let at: Vec<&UvFootprint> = hits.iter().collect();
-                    let got = evaluate_lanes(&shading, material, &at, filter, &texture::NoTouch);
+                    let got = evaluate_lanes(&shading, material, &at, filter, &texture::NoTouch, &mut regs);
                     for (k, hit) in hits.iter().enumerate() {
                         let want = shading.evaluate(material, hit, filter, &texture::NoTouch);
                         assert_eq!(

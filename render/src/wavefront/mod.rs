@@ -10,7 +10,9 @@
 //!                ▲            └► shade queue ─► sort (texture keys, radix sort, per-material segments)
 //!                │                   └► shade, in chunks of 256 hits:
 //!                │                        0. sampler lanes: every random number of the vertex, 8 paths at once
-//!                │                        1. per hit: surface, material program (textures), BSDF, light sample
+//!                │                        1a. 8 hits at once: surfaces; material programs + textures
+//!                │                            (runs of one material)
+//!                │                        1. per hit: BSDF, light sample
 //!                │                        2. 8 hits at once: BSDF eval ─► MIS ─► occlusion queue
 //!                │                                           BSDF sample ─► throughput + roulette ─┐
 //!                └──────────────────────────────────────────────────────── next ray queue ◄─────┘
@@ -21,7 +23,8 @@
 //! 64-bit `key << 32 | index` entries, see [`sort`]). Every random number comes from the stateless
 //! sampler keyed by (pixel, sample, vertex, dimension), and each path adds its radiance terms in the
 //! scalar integrator's order, so the image equals the scalar one bit for bit: every lane kernel
-//! ([`bsdf_lanes`], [`lanes`], [`roulette`], [`sampler_lanes`], [`emission_lanes`]) performs the scalar
+//! ([`bsdf_lanes`], [`lanes`], [`roulette`], [`sampler_lanes`], [`emission_lanes`], [`surface_lanes`],
+//! [`material_lanes`] with `texture::sample_lanes_with`) performs the scalar
 //! code's IEEE operations in the same order (no FMA contraction happens without fast-math) and has a
 //! test against its scalar reference on random inputs; `equivalence_tests` and the scene tests
 //! compare whole images (max and mean absolute difference 0).
@@ -41,10 +44,13 @@
 //! Experiments that did not pay (kept out): a smaller path pool (1024 or 512 paths instead of 4096:
 //! the same L1 misses, within timing noise); rebuilding the surface in shading instead of keeping the
 //! one the sort key reconstructs (5 % more instructions, 12 % fewer L1 misses, no clear time change);
-//! packet traversal ([`packet`]: no queue gained consistently). Not done yet: lane versions of the
-//! material program and texture lookups, of light sampling ([`crate::lights::Lights::sample`]), and
-//! of surface reconstruction; MoonRay-style queues that flush into their handler when full (stages
-//! here run a whole wave at a time).
+//! packet traversal ([`packet`]: no queue gained consistently). Not done yet: lane versions of light
+//! sampling ([`crate::lights::Lights::sample`]) and of the BSDF construction from the shading inputs
+//! (`Bsdf::from_inputs`, per hit in phase 1); MoonRay-style queues that flush into their handler when
+//! full (stages here run a whole wave at a time).
+//!
+//! # Surfaces, material programs and texture lookups in lanes
+//! BENCH_PLACEHOLDER
 
 mod accumulate;
 pub mod bsdf_lanes;
@@ -197,6 +203,8 @@ pub struct Worker {
     /// outputs, by position in the chunk, waiting for phase 1.
     chunk_surfaces: Vec<Option<crate::integrator::Surface>>,
     chunk_inputs: Vec<Option<crate::shading::ShadingInputs>>,
+    /// Register file of the material-program lanes.
+    registers: Box<material_lanes::RegisterLanes>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
     occlusion: Vec<u32>,
     /// Per-pixel running sums of the current tile.
@@ -263,6 +271,7 @@ impl Worker {
             surface_slot: vec![u32::MAX; paths],
             chunk_surfaces: Vec::with_capacity(shade::CHUNK),
             chunk_inputs: Vec::with_capacity(shade::CHUNK),
+            registers: Box::default(),
             occlusion: Vec::with_capacity(paths),
             pixels: Vec::with_capacity(pixels),
             seconds: StageSeconds::default(),

@@ -88,7 +88,8 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         draw(ctx, w, start, end);
         w.clock.lap(Phase::Integration);
         w.scatter.clear();
-        surfaces_and_programs(ctx, w, start, end);
+        surfaces(ctx, w, start, end);
+        programs(ctx, w);
         for (pos, k) in (start..end).enumerate() {
             prepare(ctx, w, sort::index(w.shade[k]), pos, rays);
         }
@@ -114,8 +115,8 @@ fn draw<T>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
     }
 }
 
-/// Phase 1a: the chunk's surfaces, then their material programs, eight hits of one material at a time.
-fn surfaces_and_programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
+/// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt eight at a time.
+fn surfaces<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
     let scene: &Scene = ctx.scene;
     w.chunk_surfaces.clear();
     // Hits without a kept surface, eight at a time through the surface lanes.
@@ -156,6 +157,12 @@ fn surfaces_and_programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, sta
         flush(&mut w.chunk_surfaces, &hits[..count], &positions[..count], &wo, &footprint);
     }
     w.clock.lap(Phase::Shading);
+}
+
+/// Phase 1a, second half: the material programs of the chunk's surfaces, run by run of up to eight
+/// consecutive hits on one material (a lone hit runs the scalar program).
+fn programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
+    let scene: &Scene = ctx.scene;
     let n = w.chunk_surfaces.len();
     w.chunk_inputs.clear();
     w.chunk_inputs.resize(n, None);
@@ -185,8 +192,14 @@ fn surfaces_and_programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, sta
         } else {
             let at: [&crate::shading::UvFootprint; LANES] =
                 std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
-            let inputs =
-                material_lanes::evaluate_lanes(&scene.shading, material, &at[..count], filter, touch);
+            let inputs = material_lanes::evaluate_lanes(
+                &scene.shading,
+                material,
+                &at[..count],
+                filter,
+                touch,
+                &mut w.registers,
+            );
             for k in 0..count {
                 w.chunk_inputs[members[k]] = Some(inputs[k]);
             }

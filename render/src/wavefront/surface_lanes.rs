@@ -43,6 +43,7 @@ fn put(a: &mut Lanes3, k: usize, v: Vec3) {
 
 /// The surfaces at `hits` (at most eight), seen along `-wo[k]`, with the uv footprints of ray cones of
 /// width `footprint[k]`: lane `k` is `scene.surface(&hits[k], wo[k], footprint[k])`.
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn surfaces(scene: &Scene, hits: &[Hit], wo: &Lanes3, footprint: &Lanes) -> [Option<Surface>; LANES] {
     let view = &scene.view;
     let count = hits.len().min(LANES);
