@@ -3,8 +3,7 @@
 //!
 //! The queue is shaded in chunks of [`CHUNK`] hits, each in these phases:
 //! 0. eight paths at a time: every random number of the paths' vertices ([`sampler_lanes`]);
-//! 1a. eight hits at a time: the surfaces the sort key did not keep ([`surface_lanes::surfaces`]);
-//!    then runs of up to eight consecutive hits
+//! 1a. per hit: the surface (or the one the sort key kept); then runs of up to eight consecutive hits
 //!    on one material (the queue is sorted by material) through the material program in lanes
 //!    ([`material_lanes::evaluate_lanes`]; a lone hit runs the scalar program);
 //! 1. per hit (scalar, material by material): stochastic transparency, the BSDF,
@@ -23,13 +22,10 @@ use super::lanes::{self, NeeLanes, NeeOut, LANES};
 use super::material_lanes;
 use super::roulette::{self, RouletteLanes, RouletteOut};
 use super::sampler_lanes::{self, KeyLanes, DIMS};
-use super::surface_lanes;
 use super::{sort, Context, ShadowRay, Worker};
-use crate::accel::{offset_ray_origin, Hit};
+use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
-use crate::integrator::{
-    FirstHit, RayCounts, Surface, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE,
-};
+use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32, SampleKey};
 use crate::scene::Scene;
@@ -115,46 +111,18 @@ fn draw<T>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
     }
 }
 
-/// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt eight at a time.
+/// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt per hit. (The lane
+/// version, [`super::surface_lanes::surfaces`], equals it bit for bit but executed 1.8× the instructions of
+/// the scalar calls it replaced; see the module docs of [`super`].)
 fn surfaces<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
     let scene: &Scene = ctx.scene;
     w.chunk_surfaces.clear();
-    // Hits without a kept surface, eight at a time through the surface lanes.
-    let mut hits = [Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: blob::NONE }; LANES];
-    let (mut positions, mut wo, mut footprint, mut count) =
-        ([0usize; LANES], [[0.0f32; LANES]; 3], [0.0; LANES], 0);
-    let flush = |surfaces: &mut Vec<Option<Surface>>,
-                 hits: &[Hit],
-                 positions: &[usize],
-                 wo: &[[f32; LANES]; 3],
-                 footprint: &[f32; LANES]| {
-        let mut out = surface_lanes::surfaces(scene, hits, wo, footprint);
-        for (k, &pos) in positions.iter().enumerate() {
-            surfaces[pos] = out[k].take();
-        }
-    };
-    for (pos, &e) in w.shade[start..end].iter().enumerate() {
+    for &e in &w.shade[start..end] {
         let i = sort::index(e) as usize;
         let slot = if ctx.textured { w.surface_slot[i] } else { u32::MAX };
         let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
-        let missing = kept.is_none();
-        w.chunk_surfaces.push(kept);
-        if missing {
-            let (hit, st) = (w.hits[i], &w.states[i]);
-            let dir = -st.dir;
-            (hits[count], positions[count], footprint[count]) = (hit, pos, st.cone().width_at(hit.t));
-            for c in 0..3 {
-                wo[c][count] = dir[c];
-            }
-            count += 1;
-            if count == LANES {
-                flush(&mut w.chunk_surfaces, &hits, &positions, &wo, &footprint);
-                count = 0;
-            }
-        }
-    }
-    if count > 0 {
-        flush(&mut w.chunk_surfaces, &hits[..count], &positions[..count], &wo, &footprint);
+        let (hit, st) = (&w.hits[i], &w.states[i]);
+        w.chunk_surfaces.push(kept.or_else(|| scene.surface(hit, -st.dir, st.cone().width_at(hit.t))));
     }
     w.clock.lap(Phase::Shading);
 }
