@@ -65,7 +65,12 @@
 //! 854.1 M (−0.6 %). Timed
 //! (contended, load average ~12 on the 2 cores, CPU seconds, wavefront/scalar side by side in one run
 //! each): before tractor 1.26×, shading-heavy 1.03×, simple 1.31×; with the material lanes 1.28×,
-//! 1.00×, 1.35× — within the ±10 % run-to-run noise there. Texturing is ~9 % of the shading-heavy
+//! 1.00×, 1.35× — within the ±10 % run-to-run noise there. Three more before/after pairs on a
+//! quieter machine (load ~2, best of 3): shading-heavy 1.27/1.16/1.20× before against
+//! 1.00/1.03/0.96× after, but the wavefront's own CPU time was level (1.79/1.92/1.62 s against
+//! 1.87/1.88/1.74 s) while the *scalar* one dropped (2.28/2.22/1.95 s against 1.87/1.93/1.67 s: the
+//! scalar evaluator and lookups are unchanged, so code placement and inlining moved). The texturing
+//! phase fell from 9.2–10.6 % to 5.9–6.3 % of the wavefront's CPU time; intersection took the share. Texturing is ~9 % of the shading-heavy
 //! scene's CPU time and programs are three or four ops, so lanes over them cannot move the total
 //! much; the ≥ 1.5× goal needs the intersection share (50 %) down.
 
