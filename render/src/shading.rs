@@ -12,8 +12,9 @@
 //! the triangle's barycentrics ([`MeshPoint`]).
 //!
 //! The op kind is matched once per op; programs are a handful of ops, so a per-kind batch (one queue per
-//! op kind, as a wavefront shade stage would run them) would not pay for itself in the scalar
-//! integrator.
+//! op kind) would not pay for itself in the scalar integrator. The wavefront integrator runs the same
+//! programs eight hits at a time instead ([`crate::wavefront::material_lanes`], equal to
+//! [`Shading::evaluate`] bit for bit).
 
 use blob::{op_kind, shading_input, ShaderOp, MAX_REGISTERS, NONE};
 use glam::Vec3;
@@ -108,7 +109,8 @@ impl ShadingInputs {
         }
     }
 
-    fn set(&mut self, input: u32, v: [f32; 4]) {
+    /// Binds `v` (an `OUTPUT` op's swizzled register) to shading input `input`.
+    pub(crate) fn set(&mut self, input: u32, v: [f32; 4]) {
         let rgb = Vec3::new(v[0], v[1], v[2]);
         match input {
             shading_input::DIFFUSE_COLOR => self.diffuse_color = rgb,
@@ -147,7 +149,7 @@ pub struct Shading<'a> {
 }
 
 /// Wrap code of a texture op (see [`blob::op_wrap_s`]).
-fn wrap(code: u32) -> Wrap {
+pub(crate) fn wrap(code: u32) -> Wrap {
     match code {
         1 => Wrap::Mirror,
         2 => Wrap::Clamp,
@@ -213,7 +215,14 @@ impl<'a> Shading<'a> {
         self.any_textured_opacity
     }
 
-    fn program(&self, material: u32) -> &'a [ShaderOp] {
+    /// The constants of material `material`.
+    #[inline]
+    pub(crate) fn material(&self, material: u32) -> &'a blob::Material {
+        &self.materials[material as usize]
+    }
+
+    /// The op list of material `material` (empty without a program).
+    pub(crate) fn program(&self, material: u32) -> &'a [ShaderOp] {
         let m = &self.materials[material as usize];
         // In range: validated by `SceneView::parse`.
         &self.ops[m.program_start as usize..][..m.program_len as usize]
@@ -249,9 +258,15 @@ impl<'a> Shading<'a> {
         inputs
     }
 
+    /// A `PRIMVAR` op at `at` (see [`Primvars::read`]).
+    #[inline]
+    pub(crate) fn primvar(&self, op: &ShaderOp, at: &UvFootprint) -> [f32; 4] {
+        self.primvars.read(op, at)
+    }
+
     /// One UsdUVTexture op: filtered texel · scale + bias, or the fallback where there is no data.
     #[inline]
-    fn lookup<T: Touch>(
+    pub(crate) fn lookup<T: Touch>(
         &self,
         op: &ShaderOp,
         uv: [f32; 2],
@@ -367,14 +382,14 @@ impl Primvars<'_> {
 /// Register index, masked into range (validated at parse; the mask keeps the compiler from
 /// inserting a bounds check).
 #[inline(always)]
-fn reg(r: u32) -> usize {
+pub(crate) fn reg(r: u32) -> usize {
     const { assert!(MAX_REGISTERS.is_power_of_two()) };
     (r & (MAX_REGISTERS - 1)) as usize
 }
 
 /// `OUTPUT`'s swizzle: four 2-bit channel selectors, lowest first.
 #[inline]
-fn swizzle(v: [f32; 4], flags: u32) -> [f32; 4] {
+pub(crate) fn swizzle(v: [f32; 4], flags: u32) -> [f32; 4] {
     std::array::from_fn(|i| v[((flags >> (2 * i)) & 3) as usize])
 }
 

@@ -81,7 +81,8 @@ pub use error::{Error, ErrorKind, Warning};
 pub use format::{ColorSpace, Filter, TexelFormat, Wrap};
 pub use record::{TextureRecord, UdimSetRecord, MAX_DIMENSION, MAX_MIP_LEVELS, NONE};
 pub use sample::{
-    mip_level, sample, sample_with, Lookup, TextureView, EWA_ALPHA, EWA_FOOTPRINT_SCALE, MAX_ANISOTROPY,
+    mip_level, sample, sample_lanes_with, sample_with, Lookup, LookupLanes, TextureView, EWA_ALPHA,
+    EWA_FOOTPRINT_SCALE, MAX_ANISOTROPY,
 };
 pub use set::{TextureRef, TextureSet, TextureSetBuilder, TextureSetView};
 pub use sort_key::{shading_sort_key, shading_sort_key_saturating};

@@ -8,8 +8,9 @@
 //! Coordinates follow USD: `(0, 0)` is the bottom-left corner of the image and `(1, 1)` the top-right; texel
 //! `(x, y)` of a `w × h` level covers `[x/w, (x+1)/w) × [y/h, (y+1)/h)` with its centre at `+0.5`.
 //!
-//! All filters are written as scalar code over one lookup; a SIMD pass would run the same steps across
-//! lanes (footprint → level → wrapped integer coordinates → gathers → weights).
+//! All filters are written as scalar code over one lookup; [`sample_lanes_with`] runs eight lookups
+//! on one texture at once with the same results (the MoonRay filter in lane loops: footprint → level →
+//! coordinates → gathers → weights).
 
 use crate::error::Error;
 use crate::format::{Filter, TexelFormat, Wrap};
@@ -18,6 +19,9 @@ use crate::mip::mip_count;
 use crate::record::{TextureRecord, MAX_DIMENSION};
 use crate::srgb::SRGB_TO_LINEAR;
 use crate::stats::{NoTouch, Touch};
+
+mod lanes;
+pub use lanes::{sample_lanes_with, Lanes, LookupLanes, LANES};
 
 /// Most taps the anisotropic filter takes along the footprint's major axis; footprints more elongated
 /// than this are blurred along the minor axis instead (their level is raised).

@@ -10,7 +10,9 @@
 //!                ▲            └► shade queue ─► sort (texture keys, radix sort, per-material segments)
 //!                │                   └► shade, in chunks of 256 hits:
 //!                │                        0. sampler lanes: every random number of the vertex, 8 paths at once
-//!                │                        1. per hit: surface, material program (textures), BSDF
+//!                │                        1a. 8 hits at once: material programs + textures
+//!                │                            (runs of one material); per hit: surface
+//!                │                        1. per hit: BSDF
 //!                │                           8 hits at once: light selection and sample, shadow ray
 //!                │                        2. 8 hits at once: BSDF eval ─► MIS ─► occlusion queue
 //!                │                                           BSDF sample ─► throughput + roulette ─┐
@@ -22,10 +24,11 @@
 //! 64-bit `key << 32 | index` entries, see [`sort`]). Every random number comes from the stateless
 //! sampler keyed by (pixel, sample, vertex, dimension), and each path adds its radiance terms in the
 //! scalar integrator's order, so the image equals the scalar one bit for bit: every lane kernel
-//! ([`bsdf_lanes`], [`lanes`], [`roulette`], [`sampler_lanes`], [`emission_lanes`], [`light_lanes`])
-//! performs the scalar code's IEEE operations in the same order (no FMA contraction happens without
-//! fast-math) and has a test against its scalar reference on random inputs; `equivalence_tests` and
-//! the scene tests compare whole images (max and mean absolute difference 0).
+//! ([`bsdf_lanes`], [`lanes`], [`roulette`], [`sampler_lanes`], [`emission_lanes`], [`light_lanes`],
+//! [`material_lanes`] with `texture::sample_lanes_with`) performs the scalar code's IEEE operations in
+//! the same order (no FMA contraction happens without fast-math) and has a test against its scalar
+//! reference on random inputs; `equivalence_tests` and the scene tests compare whole images (max and
+//! mean absolute difference 0).
 //!
 //! # Where it wins and where it loses (`bench integrators`; callgrind instruction counts, 1 thread)
 //! Render instructions scalar → wavefront: tractor 292 M → 260 M (1.12×), shading-heavy (textured, 48
@@ -56,9 +59,35 @@
 //! arithmetic and select (running the cone and the point-on-light arithmetic in separate loops,
 //! each only when a lane needs it, cost 0.1–0.7 % more instructions on all three: kept out).
 //!
-//! Not done yet: lane versions of the material program and texture lookups, and of surface
-//! reconstruction; MoonRay-style queues that flush into their handler when full (stages here run a
-//! whole wave at a time).
+//! Not done yet: lane versions of the BSDF construction from the shading inputs (`Bsdf::from_inputs`,
+//! per hit in phase 1) and of the hair BSDF (curve hits are shaded per hit, [`shade_curves`]);
+//! MoonRay-style queues that flush into their handler when full (stages here run a whole wave at a
+//! time).
+//!
+//! # Surfaces, material programs and texture lookups in lanes
+//! Phase 1a runs the material programs of runs of up to eight consecutive hits on one material
+//! ([`material_lanes`]: one pass over the op list with `[f32; 8]` registers, texture ops through
+//! `texture::sample_lanes_with`, whose MoonRay filter computes level, weights and blend in lane loops
+//! and gathers texels per lane; the other filters loop the scalar lookup). A lane version of surface
+//! reconstruction (bit-exact against `Scene::surface`, tested) lost and was removed:
+//! Callgrind, instructions inside the wavefront render, all three `bench integrators` scenes at 120 px
+//! wide, 2 spp, 1 thread: before 859.5 M; with the material lanes clearing a 4 KiB register file per
+//! group 886.7 M (the clear alone 34 M); with a reused file and a written-register mask the programs
+//! cost 57.0 M against 65.8 M for the scalar evaluations they replace (−13 %). The surface lanes took
+//! 23.2 M (under AVX2 multiversion; 28.0 M without) for surfaces that cost 12.7 M as scalar calls:
+//! every lane computes every branch (uv footprint, normal interpolation, instance transform gather)
+//! and the textured hits' surfaces are already built by the sort stage, so they stay scalar. Final:
+//! 854.1 M (−0.6 %). Timed
+//! (contended, load average ~12 on the 2 cores, CPU seconds, wavefront/scalar side by side in one run
+//! each): before tractor 1.26×, shading-heavy 1.03×, simple 1.31×; with the material lanes 1.28×,
+//! 1.00×, 1.35× — within the ±10 % run-to-run noise there. Three more before/after pairs on a
+//! quieter machine (load ~2, best of 3): shading-heavy 1.27/1.16/1.20× before against
+//! 1.00/1.03/0.96× after, but the wavefront's own CPU time was level (1.79/1.92/1.62 s against
+//! 1.87/1.88/1.74 s) while the *scalar* one dropped (2.28/2.22/1.95 s against 1.87/1.93/1.67 s: the
+//! scalar evaluator and lookups are unchanged, so code placement and inlining moved). The texturing
+//! phase fell from 9.2–10.6 % to 5.9–6.3 % of the wavefront's CPU time; intersection took the share. Texturing is ~9 % of the shading-heavy
+//! scene's CPU time and programs are three or four ops, so lanes over them cannot move the total
+//! much; the ≥ 1.5× goal needs the intersection share (50 %) down.
 
 mod accumulate;
 pub mod bsdf_lanes;
@@ -69,6 +98,7 @@ mod generate;
 mod intersect;
 pub mod lanes;
 pub mod light_lanes;
+pub mod material_lanes;
 mod occlusion;
 pub mod packet;
 pub mod roulette;
@@ -209,6 +239,12 @@ pub struct Worker {
     /// uv footprint), taken by shading instead of being rebuilt; `surface_slot` indexes it per path.
     surfaces: Vec<Option<crate::integrator::Surface>>,
     surface_slot: Vec<u32>,
+    /// The current chunk's surfaces (`None`: degenerate triangle) and their material programs'
+    /// outputs, by position in the chunk, waiting for phase 1.
+    chunk_surfaces: Vec<Option<crate::integrator::Surface>>,
+    chunk_inputs: Vec<Option<crate::shading::ShadingInputs>>,
+    /// Register file of the material-program lanes.
+    registers: Box<material_lanes::RegisterLanes>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
     occlusion: Vec<u32>,
     /// Per-pixel running sums of the current tile.
@@ -274,6 +310,9 @@ impl Worker {
             area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),
             surface_slot: vec![u32::MAX; paths],
+            chunk_surfaces: Vec::with_capacity(shade::CHUNK),
+            chunk_inputs: Vec::with_capacity(shade::CHUNK),
+            registers: Box::default(),
             occlusion: Vec::with_capacity(paths),
             pixels: Vec::with_capacity(pixels),
             seconds: StageSeconds::default(),

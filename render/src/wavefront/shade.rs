@@ -1,11 +1,14 @@
 //! Stage 4: shading. Reads the sorted shade queue (one segment per material) and the hit side table;
 //! writes the occlusion queue, the shadow-ray side table and the next ray queue.
 //!
-//! The queue is shaded in chunks of [`CHUNK`] hits, each in two phases:
+//! The queue is shaded in chunks of [`CHUNK`] hits, each in these phases:
 //! 0. eight paths at a time: every random number of the paths' vertices ([`sampler_lanes`]);
-//! 1. per hit (scalar, material by material): stochastic transparency, the material program, the BSDF,
-//!    the first-hit AOVs, emission at the hit, and the path's random numbers, into an AoS
-//!    [`ScatterPoint`] (the depth limit ends paths here);
+//! 1a. per hit: the surface (or the one the sort key kept); then runs of up to eight consecutive hits
+//!    on one material (the queue is sorted by material) through the material program in lanes
+//!    ([`material_lanes::evaluate_lanes`]; a lone hit runs the scalar program);
+//! 1. per hit (scalar, material by material): stochastic transparency, the BSDF, the first-hit AOVs,
+//!    emission at the hit, and the path's random numbers, into an AoS [`ScatterPoint`] (the depth
+//!    limit ends paths here); curve and point hits take their whole vertex per hit ([`super::shade_curves`]);
 //!    then eight points at a time, the light sample and its shadow ray ([`light_lanes`]);
 //! 2. eight points at a time, transposed to AoSoA lanes: the BSDF towards the light
 //!    ([`bsdf_lanes::eval_lanes`]), the MIS weight ([`lanes::weigh_lanes`], kept samples enter the
@@ -18,6 +21,7 @@
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
 use super::light_lanes;
+use super::material_lanes;
 use super::roulette::{self, RouletteLanes, RouletteOut};
 use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::{sort, Context, ShadowRay, Worker};
@@ -86,6 +90,8 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         draw(ctx, w, start, end);
         w.clock.lap(Phase::Integration);
         w.scatter.clear();
+        surfaces(ctx, w, start, end);
+        programs(ctx, w);
         for (pos, k) in (start..end).enumerate() {
             let i = sort::index(w.shade[k]);
             if super::intersect::is_curve(&w.hits[i as usize]) {
@@ -117,28 +123,92 @@ fn draw<T>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
     }
 }
 
+/// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt per hit (a lane version
+/// executed 1.8× the instructions of these calls; see the module docs of [`super`]).
+fn surfaces<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
+    let scene: &Scene = ctx.scene;
+    w.chunk_surfaces.clear();
+    for &e in &w.shade[start..end] {
+        let i = sort::index(e) as usize;
+        let slot = if ctx.textured { w.surface_slot[i] } else { u32::MAX };
+        let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
+        let (hit, st) = (&w.hits[i], &w.states[i]);
+        if super::intersect::is_curve(hit) {
+            // Curve and point hits build their own surface in `shade_curves`.
+            w.chunk_surfaces.push(None);
+            continue;
+        }
+        w.chunk_surfaces.push(kept.or_else(|| scene.surface(hit, -st.dir, st.cone().width_at(hit.t))));
+    }
+    w.clock.lap(Phase::Shading);
+}
+
+/// Phase 1a, second half: the material programs of the chunk's surfaces, run by run of up to eight
+/// consecutive hits on one material (a lone hit runs the scalar program).
+fn programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
+    let scene: &Scene = ctx.scene;
+    let n = w.chunk_surfaces.len();
+    w.chunk_inputs.clear();
+    w.chunk_inputs.resize(n, None);
+    let (filter, touch) = (ctx.settings.filter, ctx.touch);
+    let mut pos = 0;
+    while pos < n {
+        let Some(material) = w.chunk_surfaces[pos].as_ref().map(|s| s.material) else {
+            pos += 1;
+            continue;
+        };
+        // The run: up to eight hits on `material` from `pos` on (degenerate hits skipped).
+        let (mut members, mut count) = ([0usize; LANES], 0);
+        while pos < n && count < LANES {
+            match &w.chunk_surfaces[pos] {
+                Some(s) if s.material != material => break,
+                Some(_) => {
+                    members[count] = pos;
+                    count += 1;
+                }
+                None => {}
+            }
+            pos += 1;
+        }
+        let surface = |k: usize| w.chunk_surfaces[members[k]].as_ref().expect("members have surfaces");
+        if count == 1 {
+            w.chunk_inputs[members[0]] = Some(scene.shade(surface(0), filter, touch));
+        } else {
+            let at: [&crate::shading::UvFootprint; LANES] =
+                std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
+            let inputs = material_lanes::evaluate_lanes(
+                &scene.shading,
+                material,
+                &at[..count],
+                filter,
+                touch,
+                &mut w.registers,
+            );
+            for k in 0..count {
+                w.chunk_inputs[members[k]] = Some(inputs[k]);
+            }
+        }
+        w.clock.shader_evaluations += count as u64;
+        if w.clock.enabled() {
+            w.clock.lap(if w.textured_materials[material as usize] {
+                Phase::Texturing
+            } else {
+                Phase::Shading
+            });
+        }
+    }
+}
+
 /// Phase 1 for one hit, the `pos`-th of its chunk.
 fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usize, rays: &mut RayCounts) {
     let scene: &Scene = ctx.scene;
-    let (max_depth, filter, touch) = (ctx.settings.max_depth, ctx.settings.filter, ctx.touch);
+    let max_depth = ctx.settings.max_depth;
     let hit = w.hits[i as usize];
     let st = &mut w.states[i as usize];
     let r = |d: u32| w.randoms[pos / LANES][d as usize][pos % LANES];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
-    let slot = if ctx.textured { w.surface_slot[i as usize] } else { u32::MAX };
-    let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
-    let Some(mut s) = kept.or_else(|| scene.surface(&hit, wo, footprint)) else { return };
-    w.clock.lap(Phase::Shading);
-    let inputs = scene.shade(&s, filter, touch);
-    w.clock.shader_evaluations += 1;
-    if w.clock.enabled() {
-        w.clock.lap(if w.textured_materials[s.material as usize] {
-            Phase::Texturing
-        } else {
-            Phase::Shading
-        });
-    }
+    let (Some(mut s), Some(inputs)) = (w.chunk_surfaces[pos].take(), w.chunk_inputs[pos]) else { return };
 
     let opacity = inputs.effective_opacity();
     if opacity < 1.0 && r(dim::OPACITY) >= opacity {

@@ -2,6 +2,7 @@
 
 mod alloc;
 mod decoding;
+mod lanes;
 mod lookup;
 mod pyramid;
 mod udim;

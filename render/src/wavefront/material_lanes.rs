@@ -1,0 +1,465 @@
+//! Material programs run eight hits of one material at a time: the op list is interpreted once per
+//! group over a register file of `[f32; 8]` columns (MoonRay's shaders over SIMD lanes). The scalar
+//! reference is [`Shading::evaluate`]: each lane performs its IEEE operations in the same order, so
+//! every lane's [`ShadingInputs`] equal the scalar ones bit for bit (the test checks it on random hits
+//! for every filter).
+//!
+//! Per op: `CONST` broadcasts; `PRIMVAR_UV` selects per lane between the hit's uv footprint and the
+//! fallback; `TRANSFORM_2D` is lane arithmetic (value and both footprint derivatives); `PRIMVAR` gathers
+//! (each lane's triangle finds its own primvar record); `TEXTURE` hands the eight coordinates and
+//! footprints to [`texture::sample_lanes_with`] (one texture per op, so the format is resolved once),
+//! then applies scale and bias in lanes — a UDIM op picks a tile per lane, so it looks each lane up
+//! alone; `OUTPUT` writes the swizzled register into each lane's inputs.
+
+// Lane loops index several columns by the same lane number.
+#![allow(clippy::needless_range_loop)]
+
+use super::lanes::LANES;
+use crate::shading::{reg, swizzle, wrap, Shading, ShadingInputs, UvFootprint};
+use blob::{op_kind, ShaderOp, MAX_REGISTERS, NONE};
+use texture::{Filter, LookupLanes, Touch};
+
+/// One scalar per lane.
+type Lanes = [f32; LANES];
+
+const REGISTERS: usize = MAX_REGISTERS as usize;
+const NO_DERIVATIVE: [Lanes; 2] = [[0.0; LANES]; 2];
+
+static ZERO_VALUE: [Lanes; 4] = [[0.0; LANES]; 4];
+
+/// The register file of eight programs: values and the footprint derivatives of their `xy`. Kept by
+/// the worker and reused: a mask of the registers the current program wrote stands in for zeroing the
+/// 4 KiB file per group (an unwritten register reads as zero, as in the scalar evaluator).
+#[derive(Clone, Debug, Default)]
+#[repr(C, align(32))]
+pub struct RegisterLanes {
+    value: [[Lanes; 4]; REGISTERS],
+    dx: [[Lanes; 2]; REGISTERS],
+    dy: [[Lanes; 2]; REGISTERS],
+    written: u32,
+}
+
+impl RegisterLanes {
+    #[inline]
+    fn set(&mut self, r: u32, value: [Lanes; 4], dx: [Lanes; 2], dy: [Lanes; 2]) {
+        let r = reg(r);
+        self.written |= 1 << r;
+        self.value[r] = value;
+        self.dx[r] = dx;
+        self.dy[r] = dy;
+    }
+
+    /// Register `r`: value and derivatives, zero where the program has not written it.
+    #[inline]
+    fn get(&self, r: u32) -> (&[Lanes; 4], &[Lanes; 2], &[Lanes; 2]) {
+        let r = reg(r);
+        if self.written & (1 << r) != 0 {
+            (&self.value[r], &self.dx[r], &self.dy[r])
+        } else {
+            (&ZERO_VALUE, &NO_DERIVATIVE, &NO_DERIVATIVE)
+        }
+    }
+}
+
+/// The uv footprints of a group's hits, transposed.
+#[derive(Default)]
+struct UvLanes {
+    uv: [Lanes; 2],
+    dx: [Lanes; 2],
+    dy: [Lanes; 2],
+    has_uv: [bool; LANES],
+}
+
+/// The shading inputs of `material` at the first `min(at.len(), 8)` hits `at` (lane `k` at `at[k]`;
+/// the rest of the array holds the material's constants), looking textures up with `filter` and
+/// reporting texel reads to `touch`. Lane `k` equals `shading.evaluate(material, at[k], filter,
+/// touch)` exactly. `regs` is scratch.
+pub fn evaluate_lanes<T: Touch>(
+    shading: &Shading,
+    material: u32,
+    at: &[&UvFootprint],
+    filter: Filter,
+    touch: &T,
+    regs: &mut RegisterLanes,
+) -> [ShadingInputs; LANES] {
+    let mut inputs = [ShadingInputs::constant(shading.material(material)); LANES];
+    let program = shading.program(material);
+    if program.is_empty() {
+        return inputs;
+    }
+    let at = &at[..at.len().min(LANES)];
+    let mut uv = UvLanes::default();
+    for (k, a) in at.iter().enumerate() {
+        for c in 0..2 {
+            uv.uv[c][k] = a.uv[c];
+            uv.dx[c][k] = a.duv_dx[c];
+            uv.dy[c][k] = a.duv_dy[c];
+        }
+        uv.has_uv[k] = a.has_uv;
+    }
+    regs.written = 0;
+    for op in program {
+        match op.kind {
+            op_kind::OUTPUT => {
+                let (v, _, _) = regs.get(op.src);
+                for (k, lane) in inputs.iter_mut().enumerate().take(at.len()) {
+                    lane.set(op.dst, swizzle([v[0][k], v[1][k], v[2][k], v[3][k]], op.flags));
+                }
+            }
+            op_kind::TEXTURE => {
+                let value = texture_lanes(shading, op, regs, at.len(), filter, touch);
+                regs.set(op.dst, value, NO_DERIVATIVE, NO_DERIVATIVE);
+            }
+            op_kind::PRIMVAR => {
+                let mut value = [[0.0; LANES]; 4];
+                for (k, a) in at.iter().enumerate() {
+                    let v = shading.primvar(op, a);
+                    for c in 0..4 {
+                        value[c][k] = v[c];
+                    }
+                }
+                regs.set(op.dst, value, NO_DERIVATIVE, NO_DERIVATIVE);
+            }
+            op_kind::CONST => regs.set(op.dst, broadcast(op.params[0]), NO_DERIVATIVE, NO_DERIVATIVE),
+            op_kind::PRIMVAR_UV => primvar_uv_lanes(regs, op, &uv),
+            op_kind::TRANSFORM_2D => transform_lanes(regs, op),
+            _ => {}
+        }
+    }
+    inputs
+}
+
+fn broadcast(v: [f32; 4]) -> [Lanes; 4] {
+    v.map(|c| [c; LANES])
+}
+
+/// `PRIMVAR_UV`: `(u, v, 0, 1)` and the footprint where the mesh has uvs, else the fallback.
+fn primvar_uv_lanes(regs: &mut RegisterLanes, op: &ShaderOp, uv: &UvLanes) {
+    let fallback = op.params[0];
+    let (mut value, mut dx, mut dy) = ([[0.0; LANES]; 4], NO_DERIVATIVE, NO_DERIVATIVE);
+    for k in 0..LANES {
+        let has = uv.has_uv[k];
+        value[0][k] = if has { uv.uv[0][k] } else { fallback[0] };
+        value[1][k] = if has { uv.uv[1][k] } else { fallback[1] };
+        value[2][k] = if has { 0.0 } else { fallback[2] };
+        value[3][k] = if has { 1.0 } else { fallback[3] };
+        for c in 0..2 {
+            dx[c][k] = if has { uv.dx[c][k] } else { 0.0 };
+            dy[c][k] = if has { uv.dy[c][k] } else { 0.0 };
+        }
+    }
+    regs.set(op.dst, value, dx, dy);
+}
+
+/// `TRANSFORM_2D`: `xy ← M xy + t` and `M` applied to both derivatives (`zw` carried over).
+fn transform_lanes(regs: &mut RegisterLanes, op: &ShaderOp) {
+    let [a, b, c, d] = op.params[0];
+    let t = op.params[1];
+    let (v, dx, dy) = regs.get(op.src);
+    let m = |v: &[Lanes; 2]| {
+        let mut out = NO_DERIVATIVE;
+        for k in 0..LANES {
+            out[0][k] = a * v[0][k] + b * v[1][k];
+            out[1][k] = c * v[0][k] + d * v[1][k];
+        }
+        out
+    };
+    let p = m(&[v[0], v[1]]);
+    let mut value = *v;
+    for k in 0..LANES {
+        value[0][k] = p[0][k] + t[0];
+        value[1][k] = p[1][k] + t[1];
+    }
+    let (dx, dy) = (m(dx), m(dy));
+    regs.set(op.dst, value, dx, dy);
+}
+
+/// `TEXTURE` for the first `count` lanes: filtered texel · scale + bias, or the fallback without data.
+fn texture_lanes<T: Touch>(
+    shading: &Shading,
+    op: &ShaderOp,
+    regs: &RegisterLanes,
+    count: usize,
+    filter: Filter,
+    touch: &T,
+) -> [Lanes; 4] {
+    let [scale, bias, fallback] = op.params;
+    if op.texture == NONE {
+        return broadcast(fallback);
+    }
+    let (value, dx, dy) = regs.get(op.src);
+    if op.flags & blob::OP_UDIM != 0 {
+        // The tile (a texture of its own) depends on each lane's uv.
+        let mut out = [[0.0; LANES]; 4];
+        for k in 0..count {
+            let v = shading.lookup(
+                op,
+                [value[0][k], value[1][k]],
+                [dx[0][k], dx[1][k]],
+                [dy[0][k], dy[1][k]],
+                filter,
+                touch,
+            );
+            for c in 0..4 {
+                out[c][k] = v[c];
+            }
+        }
+        return out;
+    }
+    let Some(tex) = shading.textures().texture(op.texture) else { return broadcast(fallback) };
+    let q = LookupLanes {
+        uv: [value[0], value[1]],
+        duv_dx: *dx,
+        duv_dy: *dy,
+        filter,
+        wrap_s: wrap(blob::op_wrap_s(op.flags)),
+        wrap_t: wrap(blob::op_wrap_t(op.flags)),
+    };
+    let mut texel = texture::sample_lanes_with(&tex, &q, count, touch);
+    for c in 0..4 {
+        for k in 0..LANES {
+            texel[c][k] = texel[c][k] * scale[c] + bias[c];
+        }
+    }
+    texel
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testscene::{self, card, Rng};
+    use glam::{Vec2, Vec3};
+    use ingest::scene::{MeshPrimvar, PrimvarLayout, SceneTexture, ShaderNode, ShadingInput, TextureData};
+    use ingest::{Material, Scene};
+    use texture::Wrap;
+
+    fn image(seed: u32, w: u32, h: u32, channels: u32) -> texture::BakedTexture {
+        let texels =
+            (0..w * h * channels).map(|i| (crate::sampler::hash_u32(i ^ seed) >> 11) as u8).collect();
+        let src =
+            texture::SourceImage { width: w, height: h, channels, samples: texture::Samples::U8(texels) };
+        texture::bake(&src, &texture::BakeOptions::default()).expect("valid image")
+    }
+
+    fn texture_node(dst: u32, src: u32, texture: Option<u32>, wrap_s: Wrap, wrap_t: Wrap) -> ShaderNode {
+        ShaderNode::Texture {
+            dst,
+            src,
+            texture,
+            wrap_s,
+            wrap_t,
+            scale: [1.5, 0.5, 2.0, 1.0],
+            bias: [0.1, -0.2, 0.0, 0.25],
+            fallback: [0.3, 0.6, 0.9, 1.0],
+        }
+    }
+
+    fn out(input: ShadingInput, src: u32, swizzle: [u8; 4]) -> ShaderNode {
+        ShaderNode::Output { input, src, swizzle }
+    }
+
+    /// Materials covering every op kind: textures through a UsdTransform2d with every wrap, a UDIM set
+    /// with a hole, a missing file, primvars of every interpolation, a normal map, constants.
+    fn scene() -> Scene {
+        use ShadingInput::*;
+        let mut card0 = card(0.0, 1.0, 0);
+        card0.uvs = vec![Vec2::new(0.0, 0.0), Vec2::new(2.0, 0.0), Vec2::new(2.0, 1.5), Vec2::new(0.0, 1.5)];
+        let widen = |v: f32| [v, 0.5 * v, 1.0 - v, 1.0];
+        card0.primvars = vec![
+            MeshPrimvar {
+                name: "vert".into(),
+                layout: PrimvarLayout::PerVertex,
+                components: 3,
+                values: (0..4).map(|i| widen(0.2 * i as f32)).collect(),
+            },
+            MeshPrimvar {
+                name: "tri".into(),
+                layout: PrimvarLayout::PerTriangle,
+                components: 3,
+                values: vec![widen(0.7), widen(0.1)],
+            },
+            MeshPrimvar {
+                name: "corner".into(),
+                layout: PrimvarLayout::PerCorner,
+                components: 3,
+                values: (0..6).map(|i| widen(0.15 * i as f32)).collect(),
+            },
+            MeshPrimvar {
+                name: "one".into(),
+                layout: PrimvarLayout::Constant,
+                components: 1,
+                values: vec![widen(0.4)],
+            },
+        ];
+        let mut card1 = card(-1.0, 2.0, 1);
+        card1.positions.iter_mut().for_each(|p| *p += Vec3::new(0.3, 0.0, 0.0));
+        let primvar =
+            |dst, name: &str| ShaderNode::Primvar { dst, name: name.into(), fallback: [0.9, 0.8, 0.7, 0.6] };
+        let transformed = |wrap_s, wrap_t| {
+            vec![
+                ShaderNode::PrimvarUv { dst: 0, fallback: [0.25, 0.75, 0.0, 1.0] },
+                ShaderNode::Transform2d {
+                    dst: 3,
+                    src: 0,
+                    rotation_degrees: 33.0,
+                    scale: [1.7, -0.6],
+                    translation: [0.2, -0.35],
+                },
+                texture_node(1, 3, Some(0), wrap_s, wrap_t),
+                texture_node(2, 0, Some(1), Wrap::Repeat, Wrap::Black),
+                out(DiffuseColor, 1, [0, 1, 2, 3]),
+                out(Roughness, 2, [3; 4]),
+                out(Metallic, 1, [1; 4]),
+                out(Opacity, 2, [0; 4]),
+                out(Normal, 2, [2, 1, 0, 3]),
+            ]
+        };
+        let materials = vec![
+            Material { program: transformed(Wrap::Mirror, Wrap::Clamp), ..Material::default() },
+            Material { program: transformed(Wrap::Black, Wrap::Repeat), ..Material::default() },
+            Material {
+                program: vec![
+                    ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
+                    ShaderNode::Transform2d {
+                        dst: 0,
+                        src: 0,
+                        rotation_degrees: 0.0,
+                        scale: [1.0, 1.0],
+                        translation: [0.6, 0.4],
+                    },
+                    texture_node(1, 0, Some(2), Wrap::Repeat, Wrap::Repeat),
+                    texture_node(2, 0, None, Wrap::Repeat, Wrap::Repeat),
+                    // Written here, read unwritten by the next material: the reused register file
+                    // must not leak it.
+                    ShaderNode::Const { dst: 6, value: [0.7; 4] },
+                    out(DiffuseColor, 1, [0, 1, 2, 3]),
+                    out(SpecularColor, 2, [0, 1, 2, 3]),
+                ],
+                ..Material::default()
+            },
+            Material {
+                program: vec![
+                    primvar(0, "vert"),
+                    primvar(1, "tri"),
+                    primvar(2, "corner"),
+                    primvar(3, "one"),
+                    primvar(4, "absent"),
+                    ShaderNode::Const { dst: 5, value: [0.05, 0.15, 0.25, 0.35] },
+                    out(DiffuseColor, 0, [0, 1, 2, 3]),
+                    out(EmissiveColor, 1, [0, 1, 2, 3]),
+                    out(SpecularColor, 2, [0, 1, 2, 3]),
+                    out(Clearcoat, 3, [0; 4]),
+                    out(ClearcoatRoughness, 4, [1; 4]),
+                    out(Ior, 5, [3; 4]),
+                    out(Roughness, 6, [0; 4]),
+                ],
+                ..Material::default()
+            },
+            testscene::lambert(0.5),
+        ];
+        Scene {
+            meshes: vec![card0, card1],
+            materials,
+            textures: vec![
+                SceneTexture {
+                    path: "a".into(),
+                    color_space: texture::ColorSpace::Auto,
+                    data: TextureData::Image(image(1, 61, 37, 4)),
+                },
+                SceneTexture {
+                    path: "b".into(),
+                    color_space: texture::ColorSpace::Auto,
+                    data: TextureData::Image(image(2, 16, 16, 2)),
+                },
+                SceneTexture {
+                    path: "<UDIM>".into(),
+                    color_space: texture::ColorSpace::Auto,
+                    data: TextureData::Udim(vec![
+                        (0, 0, image(3, 8, 8, 3)),
+                        (1, 0, image(4, 32, 8, 1)),
+                        (1, 1, image(5, 4, 4, 4)),
+                    ]),
+                },
+            ],
+            ..Scene::default()
+        }
+    }
+
+    fn footprint(rng: &mut Rng, triangles: u32) -> UvFootprint {
+        let d = |rng: &mut Rng| (rng.next_f32() - 0.5) * 10f32.powf(rng.range(-4.0, 1.0));
+        let (b1, b2) = (rng.next_f32(), rng.next_f32());
+        let (b1, b2) = if b1 + b2 > 1.0 { (1.0 - b1, 1.0 - b2) } else { (b1, b2) };
+        let special = |rng: &mut Rng, v: f32| if rng.next_f32() < 0.03 { f32::NAN } else { v };
+        let (u, dxv) = (rng.range(-1.5, 3.0), d(rng));
+        UvFootprint {
+            uv: [special(rng, u), rng.range(-1.0, 2.5)],
+            duv_dx: [d(rng), special(rng, dxv)],
+            duv_dy: [d(rng), d(rng)],
+            has_uv: rng.next_f32() < 0.9,
+            point: (rng.next_f32() < 0.95).then(|| crate::shading::MeshPoint {
+                triangle: (rng.next_f32() * triangles as f32) as u32,
+                b1,
+                b2,
+            }),
+        }
+    }
+
+    /// Compares bit patterns, every NaN alike (which NaN an operation returns is unspecified).
+    fn bits(inputs: &ShadingInputs) -> Vec<u32> {
+        let b = |v: f32| if v.is_nan() { u32::MAX } else { v.to_bits() };
+        let mut out: Vec<u32> = [inputs.diffuse_color, inputs.emissive_color, inputs.specular_color]
+            .iter()
+            .flat_map(|v| v.to_array())
+            .chain([
+                inputs.roughness,
+                inputs.metallic,
+                inputs.ior,
+                inputs.opacity,
+                inputs.opacity_threshold,
+                inputs.clearcoat,
+                inputs.clearcoat_roughness,
+            ])
+            .map(b)
+            .collect();
+        out.push(inputs.use_specular_workflow as u32);
+        out.extend(inputs.normal.map_or([u32::MAX - 1; 3], |n| n.to_array().map(b)));
+        out
+    }
+
+    #[test]
+    fn lanes_equal_scalar_programs() {
+        let bytes = testscene::bytes(&scene());
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        let shading = Shading::new(&view);
+        let triangles = view.triangles.len() as u32;
+        let mut rng = Rng(11);
+        let mut compared = 0;
+        let mut regs = RegisterLanes::default();
+        for filter in Filter::ALL {
+            for material in 0..view.materials.len() as u32 {
+                for round in 0..40 {
+                    let count = 1 + round % LANES;
+                    let hits: Vec<UvFootprint> = (0..count).map(|_| footprint(&mut rng, triangles)).collect();
+                    let at: Vec<&UvFootprint> = hits.iter().collect();
+                    let got = evaluate_lanes(&shading, material, &at, filter, &texture::NoTouch, &mut regs);
+                    for (k, hit) in hits.iter().enumerate() {
+                        let want = shading.evaluate(material, hit, filter, &texture::NoTouch);
+                        assert_eq!(
+                            bits(&got[k]),
+                            bits(&want),
+                            "{filter:?}, material {material}, lane {k}: {hit:?}"
+                        );
+                        compared += 1;
+                    }
+                }
+            }
+        }
+        assert!(compared > 4000, "{compared}");
+        // The programs above produce varied inputs (not all fallbacks).
+        let hit = footprint(&mut Rng(3), triangles);
+        let a = shading.evaluate(0, &hit, Filter::Moonray, &texture::NoTouch);
+        let b =
+            shading.evaluate(0, &UvFootprint { uv: [0.37, 0.61], ..hit }, Filter::Moonray, &texture::NoTouch);
+        assert_ne!(a.diffuse_color, b.diffuse_color);
+    }
+}

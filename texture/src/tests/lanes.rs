@@ -1,0 +1,141 @@
+//! The lane entry point equals the scalar lookup bit for bit, lane by lane, for every filter, wrap and
+//! texel format, on random coordinates and footprints (magnifying, minifying, beyond the coarsest
+//! level, zero, NaN and infinite), and reads the same texels.
+
+use super::set_of;
+use crate::{
+    sample_lanes_with, sample_with, ColorSpace, Filter, LookupLanes, Samples, SourceImage, Touch, Wrap,
+};
+use std::cell::RefCell;
+
+/// Every texel read, in order.
+#[derive(Default)]
+struct Reads(RefCell<Vec<(usize, usize)>>);
+
+impl Touch for Reads {
+    fn touch(&self, byte_offset: usize, len: usize) {
+        self.0.borrow_mut().push((byte_offset, len));
+    }
+}
+
+/// SplitMix64: a tiny deterministic generator (the crate has no random-number dependency).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+    fn unit(&mut self) -> f32 {
+        (self.next() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    /// Mostly ordinary values in `[-lo, hi)`, now and then a special one.
+    fn coordinate(&mut self, lo: f32, hi: f32) -> f32 {
+        match self.next() % 40 {
+            0 => f32::NAN,
+            1 => f32::INFINITY,
+            2 => -1e30,
+            3 => 0.0,
+            _ => -lo + (lo + hi) * self.unit(),
+        }
+    }
+    /// A footprint component spanning magnification to beyond the whole texture.
+    fn derivative(&mut self) -> f32 {
+        match self.next() % 30 {
+            0 => 0.0,
+            1 => f32::NAN,
+            2 => f32::INFINITY,
+            _ => (self.unit() - 0.5) * 10f32.powf(-4.0 + 5.0 * self.unit()),
+        }
+    }
+}
+
+fn images(rng: &mut Rng) -> Vec<(SourceImage, ColorSpace)> {
+    let mut out = Vec::new();
+    for (w, h) in [(37, 21), (64, 64), (1, 5), (130, 9)] {
+        for channels in 1..=4u32 {
+            let n = (w * h * channels) as usize;
+            let bytes: Vec<u8> = (0..n).map(|_| rng.next() as u8).collect();
+            out.push((
+                SourceImage { width: w, height: h, channels, samples: Samples::U8(bytes.clone()) },
+                ColorSpace::Auto,
+            ));
+            out.push((
+                SourceImage { width: w, height: h, channels, samples: Samples::U8(bytes) },
+                ColorSpace::Raw,
+            ));
+            let floats = (0..n).map(|_| rng.unit() * 4.0 - 1.0).collect();
+            out.push((
+                SourceImage { width: w, height: h, channels, samples: Samples::F32(floats) },
+                ColorSpace::Raw,
+            ));
+        }
+    }
+    out
+}
+
+/// The bits of `v`, every NaN alike: Rust does not specify which NaN an operation on NaNs returns
+/// (LLVM may swap the operands of a commutative one), so only NaN-ness is comparable.
+fn bits(v: f32) -> u32 {
+    if v.is_nan() {
+        f32::NAN.to_bits()
+    } else {
+        v.to_bits()
+    }
+}
+
+#[test]
+fn lanes_equal_scalar_lookups() {
+    let mut rng = Rng(7);
+    let set = set_of(&images(&mut rng));
+    let view = set.view().unwrap();
+    let wraps = [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp, Wrap::Black];
+    let mut lanes_compared = 0;
+    for index in 0..view.texture_count() as u32 {
+        let tex = view.texture(index).unwrap();
+        for filter in Filter::ALL {
+            for round in 0..12 {
+                let mut q = LookupLanes {
+                    filter,
+                    wrap_s: wraps[round % 4],
+                    wrap_t: wraps[(round / 4 + index as usize) % 4],
+                    ..Default::default()
+                };
+                for k in 0..8 {
+                    for c in 0..2 {
+                        q.uv[c][k] = rng.coordinate(1.5, 3.0);
+                        q.duv_dx[c][k] = rng.derivative();
+                        q.duv_dy[c][k] = rng.derivative();
+                    }
+                }
+                let count = if round == 5 { 3 } else { 8 };
+                let (lane_touch, scalar_touch) = (Reads::default(), Reads::default());
+                let got = sample_lanes_with(&tex, &q, count, &lane_touch);
+                for k in 0..8 {
+                    let got: [f32; 4] = std::array::from_fn(|c| got[c][k]);
+                    if k >= count {
+                        assert_eq!(got, [0.0; 4], "idle lane {k}");
+                        continue;
+                    }
+                    let want = sample_with(&tex, &q.lane(k), &scalar_touch);
+                    assert_eq!(
+                        got.map(bits),
+                        want.map(bits),
+                        "texture {index}, {filter:?}, lane {k}: {:?}",
+                        q.lane(k)
+                    );
+                    lanes_compared += 1;
+                }
+                // Lanes read lane by lane, in the scalar lookups' order within each lane.
+                let (mut a, mut b) = (lane_touch.0.into_inner(), scalar_touch.0.into_inner());
+                a.sort_unstable();
+                b.sort_unstable();
+                assert_eq!(a, b, "texture {index}, {filter:?}: texels read");
+            }
+        }
+    }
+    assert!(lanes_compared > 5000, "{lanes_compared}");
+}
