@@ -761,8 +761,8 @@ def Xform "World"
             .meshes
             .iter()
             .map(|m| {
-                let x = m.positions.iter().map(|p| p.x).fold(f32::INFINITY, f32::min);
-                let y = m.positions.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+                let [lo, _] = m.world_bounds();
+                let (x, y) = (lo.x, lo.y);
                 let material = scene.materials[m.triangle_materials[0] as usize].path.clone();
                 (m.path.clone(), [x, y], material)
             })
