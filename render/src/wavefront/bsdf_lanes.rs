@@ -109,49 +109,53 @@ pub struct SampleInputs {
     pub u1: Lanes,
 }
 
-/// A 3-vector of one lane, with glam's operation order.
+/// A 3-vector of one lane, with glam's operation order (shared by the lane kernels).
 #[derive(Clone, Copy)]
-struct V {
-    x: f32,
-    y: f32,
-    z: f32,
+pub(super) struct V {
+    pub(super) x: f32,
+    pub(super) y: f32,
+    pub(super) z: f32,
 }
 
 impl V {
     #[inline(always)]
-    fn at(c: &Lanes3, k: usize) -> V {
+    pub(super) fn at(c: &Lanes3, k: usize) -> V {
         V { x: c[0][k], y: c[1][k], z: c[2][k] }
     }
     #[inline(always)]
-    fn dot(self, o: V) -> f32 {
+    pub(super) fn dot(self, o: V) -> f32 {
         (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
     }
     #[inline(always)]
-    fn scale(self, s: f32) -> V {
+    pub(super) fn scale(self, s: f32) -> V {
         V { x: self.x * s, y: self.y * s, z: self.z * s }
     }
     #[inline(always)]
-    fn add(self, o: V) -> V {
+    pub(super) fn div(self, s: f32) -> V {
+        V { x: self.x / s, y: self.y / s, z: self.z / s }
+    }
+    #[inline(always)]
+    pub(super) fn add(self, o: V) -> V {
         V { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
     }
     #[inline(always)]
-    fn sub(self, o: V) -> V {
+    pub(super) fn sub(self, o: V) -> V {
         V { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
     }
     #[inline(always)]
-    fn mul(self, o: V) -> V {
+    pub(super) fn mul(self, o: V) -> V {
         V { x: self.x * o.x, y: self.y * o.y, z: self.z * o.z }
     }
     #[inline(always)]
-    fn normalize(self) -> V {
+    pub(super) fn normalize(self) -> V {
         self.scale(1.0 / self.dot(self).sqrt())
     }
     #[inline(always)]
-    fn select(c: bool, a: V, b: V) -> V {
+    pub(super) fn select(c: bool, a: V, b: V) -> V {
         V { x: if c { a.x } else { b.x }, y: if c { a.y } else { b.y }, z: if c { a.z } else { b.z } }
     }
     #[inline(always)]
-    fn store(self, c: &mut Lanes3, k: usize) {
+    pub(super) fn store(self, c: &mut Lanes3, k: usize) {
         c[0][k] = self.x;
         c[1][k] = self.y;
         c[2][k] = self.z;

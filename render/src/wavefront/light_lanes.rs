@@ -24,7 +24,7 @@
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
 //! that sampled an emissive triangle, as the scalar integrator calls it.
 
-use super::bsdf_lanes::{Lanes, Lanes3};
+use super::bsdf_lanes::{Lanes, Lanes3, V};
 use super::lanes::LANES;
 use super::{Context, Worker};
 use crate::accel::offset_ray_origin;
@@ -225,53 +225,6 @@ struct Gathered {
     /// `u[0]`, or for a triangle its value stretched within the chosen CDF bucket.
     u0: Lanes,
     triangle: [u32; LANES],
-}
-
-/// A 3-vector of one lane, with glam's operation order.
-#[derive(Clone, Copy)]
-struct V {
-    x: f32,
-    y: f32,
-    z: f32,
-}
-
-impl V {
-    #[inline(always)]
-    fn at(c: &Lanes3, k: usize) -> V {
-        V { x: c[0][k], y: c[1][k], z: c[2][k] }
-    }
-    #[inline(always)]
-    fn dot(self, o: V) -> f32 {
-        (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
-    }
-    #[inline(always)]
-    fn scale(self, s: f32) -> V {
-        V { x: self.x * s, y: self.y * s, z: self.z * s }
-    }
-    #[inline(always)]
-    fn div(self, s: f32) -> V {
-        V { x: self.x / s, y: self.y / s, z: self.z / s }
-    }
-    #[inline(always)]
-    fn add(self, o: V) -> V {
-        V { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
-    }
-    #[inline(always)]
-    fn sub(self, o: V) -> V {
-        V { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
-    }
-    #[inline(always)]
-    fn normalize(self) -> V {
-        self.scale(1.0 / self.dot(self).sqrt())
-    }
-    #[inline(always)]
-    fn select(c: bool, a: V, b: V) -> V {
-        V { x: if c { a.x } else { b.x }, y: if c { a.y } else { b.y }, z: if c { a.z } else { b.z } }
-    }
-    #[inline(always)]
-    fn store(self, c: &mut Lanes3, k: usize) {
-        (c[0][k], c[1][k], c[2][k]) = (self.x, self.y, self.z);
-    }
 }
 
 /// `Frame::new(n).to_world(v)` (Duff et al. 2017), in its operation order.

@@ -165,6 +165,18 @@ impl RayState {
     fn cone(&self) -> RayCone {
         RayCone { width: self.cone_width, spread: self.cone_spread }
     }
+    /// Stochastic transparency: the path goes on straight through the surface it hit at distance `t`,
+    /// from `origin` (a null event: no bounce). False when it has used up its null events.
+    fn pass_through(&mut self, t: f32, footprint: f32, origin: Vec3, max_depth: u32) -> bool {
+        self.vertex += 1;
+        if self.vertex > max_depth + crate::integrator::MAX_NULL_EVENTS {
+            return false;
+        }
+        self.travelled += t;
+        self.cone_width = footprint;
+        self.origin = origin;
+        true
+    }
 }
 
 /// A shadow ray waiting for the occlusion stage, indexed like its path.

@@ -27,7 +27,7 @@ use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::{sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
-use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE};
+use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_u32};
 use crate::scene::Scene;
@@ -212,15 +212,11 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
 
     let opacity = inputs.effective_opacity();
     if opacity < 1.0 && r(dim::OPACITY) >= opacity {
-        st.vertex += 1;
-        if st.vertex > max_depth + MAX_NULL_EVENTS {
-            return;
+        let origin = offset_ray_origin(s.p, -s.ng);
+        if st.pass_through(hit.t, footprint, origin, max_depth) {
+            rays.bounce += 1;
+            w.next_rays.push(i);
         }
-        st.travelled += hit.t;
-        st.cone_width = footprint;
-        st.origin = offset_ray_origin(s.p, -s.ng);
-        rays.bounce += 1;
-        w.next_rays.push(i);
         return;
     }
     if let Some(n) = inputs.normal {

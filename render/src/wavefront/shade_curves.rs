@@ -9,9 +9,7 @@
 
 use super::lanes::LANES;
 use super::{Context, ShadowRay, Worker};
-use crate::integrator::{
-    shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS, RR_START_BOUNCE,
-};
+use crate::integrator::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32};
 use crate::stats::Phase;
@@ -50,15 +48,11 @@ pub(super) fn vertex<T: Touch>(
     // Stochastic transparency: straight on, from beyond the fibre.
     let opacity = inputs.effective_opacity();
     if opacity < 1.0 && r(dim::OPACITY) >= opacity {
-        st.vertex += 1;
-        if st.vertex > max_depth + MAX_NULL_EVENTS {
-            return;
+        let origin = s.spawn(st.dir);
+        if st.pass_through(hit.t, footprint, origin, max_depth) {
+            rays.bounce += 1;
+            w.next_rays.push(i);
         }
-        st.travelled += hit.t;
-        st.cone_width = footprint;
-        st.origin = s.spawn(st.dir);
-        rays.bounce += 1;
-        w.next_rays.push(i);
         return;
     }
     if let Some(n) = inputs.normal {
