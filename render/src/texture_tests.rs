@@ -29,6 +29,20 @@ fn textured_material() -> ingest::Material {
     m
 }
 
+/// The plane y = −1 from z = 0 to z = −`far`, `far` wide each side of the view, uv repeating every unit:
+/// a ground receding to the horizon from a camera at the origin looking down −z.
+fn ground_plane(far: f32) -> Mesh {
+    quad(
+        [
+            Vec3::new(-far, -1.0, 0.0),
+            Vec3::new(far, -1.0, 0.0),
+            Vec3::new(far, -1.0, -far),
+            Vec3::new(-far, -1.0, -far),
+        ],
+        far,
+    )
+}
+
 /// A quad with corners `corners` (counter-clockwise seen from the camera) and uvs spanning `[0, uv_max]²`.
 fn quad(corners: [Vec3; 4], uv_max: f32) -> Mesh {
     Mesh {
@@ -101,15 +115,7 @@ fn receding_plane_minor_axis_level_rises_by_one_per_doubling() {
     // what EWA picks its level from) grows linearly with distance, the major axis with distance².
     let far = 400.0;
     let scene_data = ingest::Scene {
-        meshes: vec![quad(
-            [
-                Vec3::new(-far, -1.0, 0.0),
-                Vec3::new(far, -1.0, 0.0),
-                Vec3::new(far, -1.0, -far),
-                Vec3::new(-far, -1.0, -far),
-            ],
-            far,
-        )],
+        meshes: vec![ground_plane(far)],
         materials: vec![textured_material()],
         cameras: vec![camera_looking_down_z(Vec3::ZERO, 20.0)],
         default_camera: Some(0),
@@ -172,15 +178,7 @@ fn ewa_error_on_a_receding_plane_is_at_most_the_anisotropic_filters() {
     let mut material = textured_material();
     material.ior = 1.0;
     let scene_data = ingest::Scene {
-        meshes: vec![quad(
-            [
-                Vec3::new(-far, -1.0, 0.0),
-                Vec3::new(far, -1.0, 0.0),
-                Vec3::new(far, -1.0, -far),
-                Vec3::new(-far, -1.0, -far),
-            ],
-            far,
-        )],
+        meshes: vec![ground_plane(far)],
         materials: vec![material],
         lights: vec![testscene::dome(1.0)],
         cameras: vec![camera_looking_down_z(Vec3::ZERO, 20.0)],

@@ -6,7 +6,8 @@ use std::collections::{HashMap, HashSet};
 
 use crate::limit::dot;
 use crate::tests::{
-    assert_unit_normals, cube, cube_with_uv_seams, dist, distance_to_line, f64x3, refine, CUBE_POINTS,
+    assert_unit_normals, creased_edge_cube, cube, cube_with_uv_seams, dist, distance_to_line, f64x3, refine,
+    CUBE_POINTS,
 };
 use crate::*;
 
@@ -233,14 +234,7 @@ fn crease_and_corners_hold_at_any_edge_rate() {
     // Edge 0–1 creased with corner ends: its limit curve is the straight cage edge, so all
     // rate + 1 points of that edge lie on it; without the crease only the corners do.
     let (a, b) = (f64x3(CUBE_POINTS[0]), f64x3(CUBE_POINTS[1]));
-    let creased = Cage {
-        crease_indices: &[0, 1],
-        crease_lengths: &[2],
-        crease_sharpnesses: &[10.0],
-        corner_indices: &[0, 1],
-        corner_sharpnesses: &[10.0, 10.0],
-        ..cube()
-    };
+    let creased = creased_edge_cube();
     let corners_only = Cage { corner_indices: &[0, 1], corner_sharpnesses: &[10.0, 10.0], ..cube() };
     for rate in [1u32, 3, 5, 16] {
         for (cage, expected) in [(creased, rate as usize + 1), (corners_only, 2)] {

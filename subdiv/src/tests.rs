@@ -28,6 +28,19 @@ pub(crate) fn cube() -> Cage<'static> {
     }
 }
 
+/// [`cube`] with edge 0–1 infinitely creased and its ends made corners: the limit curve of that edge
+/// is the straight cage edge.
+pub(crate) fn creased_edge_cube() -> Cage<'static> {
+    Cage {
+        crease_indices: &[0, 1],
+        crease_lengths: &[2],
+        crease_sharpnesses: &[10.0],
+        corner_indices: &[0, 1],
+        corner_sharpnesses: &[10.0, 10.0],
+        ..cube()
+    }
+}
+
 pub(crate) fn refine(cage: &Cage<'_>, level: u32) -> Refiner {
     Refiner::new(&Topology::new(cage).unwrap(), level).unwrap()
 }
@@ -74,14 +87,7 @@ fn infinitely_sharp_crease_with_corner_ends_stays_on_the_cage_edge() {
         mesh.positions.iter().filter(|&&p| distance_to_line(f64x3(p), a, b) < 1e-5).count()
     };
     for level in 1..=4u32 {
-        let creased = Cage {
-            crease_indices: &[0, 1],
-            crease_lengths: &[2],
-            crease_sharpnesses: &[10.0],
-            corner_indices: &[0, 1],
-            corner_sharpnesses: &[10.0, 10.0],
-            ..cube()
-        };
+        let creased = creased_edge_cube();
         let refiner = refine(&creased, level);
         assert_eq!(flipped_tangent_fraction(&refiner, &CUBE_POINTS), 0.0, "crease and corner vertices");
         let mesh = tessellate(&refiner, &CUBE_POINTS, None).unwrap();
