@@ -189,16 +189,20 @@ def Camera "BenchCamera" {{
     Ok(path)
 }
 
-/// Chordal error of one subdivision surface refined to `level`, in pixels at `camera`.
-fn chordal_error(s: &ingest::Subdivision, level: u32, camera: &DicingCamera) -> anyhow::Result<ErrorStats> {
-    // Subdivision commutes with affine maps: refine the world-space cage directly.
-    let world: Vec<[f32; 3]> = s
-        .points
+/// The cage points of `s` in world space (subdivision commutes with affine maps, so the world-space
+/// cage refines to the world-space surface).
+fn world_cage(s: &ingest::Subdivision) -> Vec<[f32; 3]> {
+    s.points
         .iter()
         .map(|p| {
             s.world_from_local.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array()
         })
-        .collect();
+        .collect()
+}
+
+/// Chordal error of one subdivision surface refined to `level`, in pixels at `camera`.
+fn chordal_error(s: &ingest::Subdivision, level: u32, camera: &DicingCamera) -> anyhow::Result<ErrorStats> {
+    let world = world_cage(s);
     let coarse = Refiner::new(&s.topology, level)?;
     let fine = Refiner::new(&s.topology, coarse.level() + 1)?;
     let (f0, f1) = (coarse.faces(None)?, fine.faces(None)?);
@@ -297,13 +301,7 @@ fn chordal_error(s: &ingest::Subdivision, level: u32, camera: &DicingCamera) -> 
 /// Chordal error of one adaptively tessellated surface, in pixels at `camera`: the flat
 /// triangle edges against the limit at their parametric midpoints (see the module docs).
 fn adaptive_chordal_error(s: &ingest::Subdivision, camera: &DicingCamera) -> anyhow::Result<ErrorStats> {
-    let world: Vec<[f32; 3]> = s
-        .points
-        .iter()
-        .map(|p| {
-            s.world_from_local.transform_point3(glam::Vec3::from_array(*p).as_dvec3()).as_vec3().to_array()
-        })
-        .collect();
+    let world = world_cage(s);
     let refiner = AdaptiveRefiner::new(&s.topology)?;
     let tess = refiner.tessellate(&world, None, &s.edge_rates, true)?;
     let mesh = &tess.mesh;
