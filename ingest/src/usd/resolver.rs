@@ -3,13 +3,14 @@
 //!
 //! The crate reads every layer's bytes through [`ar::Resolver::open_asset`], so a resolver is
 //! the one place where a `.usda` layer (plain, `.usd` holding text, or inside a `.usdz`) can be
-//! handed to the crate already normalized, without copying or patching the crate's parser.
+//! handed to the crate already normalized, and a crate file already checked, without copying or
+//! patching the crate's parser.
 //!
 //! Search paths follow usd-core's `ArDefaultResolver`: an asset path that is relative but not
 //! file-relative (`tex/a.usda`, not `./a.usda` or `../a.usda`) is looked up next to the layer
 //! that names it first, then in each search directory in order.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::io::{self, Cursor, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
@@ -21,15 +22,15 @@ use super::{crate_check, layer_fix};
 /// Magic bytes that open every text layer.
 const USDA_MAGIC: &[u8] = b"#usda";
 
-/// Extensions of the layers a text layer's asset paths may name that can hold text.
-const TEXT_LAYER_EXTENSIONS: &[&str] = &["usda", "usd"];
+/// Extensions of the layers a text layer's asset paths may name that are prepared ahead of need.
+const LAYER_EXTENSIONS: &[&str] = &["usda", "usd", "usdc"];
 
 /// [`DefaultResolver`] with search paths, `.usda` normalization and crate-file checks.
 ///
-/// Text layers are prepared once each and ahead of need: when a text layer is prepared, the text
-/// layers its asset paths name are prepared on rayon's pool while the crate parses this one
-/// (the crate opens and parses layers one at a time, and preparing a layer costs about half
-/// of parsing it).
+/// Layers are prepared once each and ahead of need: when a text layer is prepared, the layers
+/// its asset paths name are prepared on rayon's pool while the crate parses this one (the crate
+/// opens and parses layers one at a time; preparing a text layer costs about half of parsing
+/// it, and checking a crate file a few milliseconds per megabyte).
 pub(crate) struct IngestResolver {
     shared: Arc<Shared>,
 }
@@ -38,22 +39,24 @@ pub(crate) struct IngestResolver {
 struct Shared {
     inner: DefaultResolver,
     search_paths: Vec<PathBuf>,
-    /// Crate files already checked: openusd opens a `.usd` twice (once to sniff its format).
-    checked_crates: Mutex<HashSet<ResolvedPath>>,
-    /// Every file considered as a text layer, by resolved path, once prepared. openusd opens a
-    /// layer more than once (a `.usd` once to sniff its format and once to read it; the root
-    /// layer once for its expression variables and once for its stack); the cell makes a reader
-    /// that arrives while a prefetch task prepares the file wait for it instead of redoing it.
+    /// Every file opened or prefetched, by resolved path, once prepared. openusd opens a layer
+    /// more than once (a `.usd` once to sniff its format and once to read it; the root layer
+    /// once for its expression variables and once for its stack), so a file is read, checked
+    /// and normalized once, not per open; the cell makes a reader that arrives while a
+    /// prefetch task prepares the file wait for it instead of redoing it.
     prepared: Mutex<HashMap<ResolvedPath, Arc<OnceLock<Prepared>>>>,
 }
 
 /// A file as [`Shared::prepare`] left it.
 enum Prepared {
-    /// A text layer, checked and normalized: the bytes the crate is given.
-    Text(Arc<[u8]>),
-    /// A text layer [`layer_fix::prepare`] rejected, with the problem.
+    /// A text layer checked and normalized, or a crate file checked and repaired: the bytes the
+    /// crate is given.
+    Layer(Arc<[u8]>),
+    /// A text layer [`layer_fix::prepare`] or a crate file [`crate_check::check`] rejected, or
+    /// a crate file that could not be read, with the problem.
     Rejected(String),
-    /// Not a text layer (a crate file, a package, an image), or unreadable: opened the plain way.
+    /// Not a layer (a package, an image), or unopenable: opened the plain way, so the crate
+    /// reports a missing file as missing.
     Other,
 }
 
@@ -106,7 +109,6 @@ impl IngestResolver {
             shared: Arc::new(Shared {
                 inner: DefaultResolver::new(),
                 search_paths,
-                checked_crates: Mutex::default(),
                 prepared: Mutex::default(),
             }),
         }
@@ -129,20 +131,6 @@ impl IngestResolver {
 }
 
 impl Shared {
-    /// Runs [`crate_check::check`] on a crate file's bytes, once per file; the error names the
-    /// file, the section and the problem.
-    fn check_crate(&self, resolved: &ResolvedPath, bytes: &[u8]) -> io::Result<()> {
-        let mut checked = self.checked_crates.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-        if checked.contains(resolved) {
-            return Ok(());
-        }
-        crate_check::check(bytes).map_err(|e| {
-            io::Error::new(io::ErrorKind::InvalidData, format!("{}: {e}", file_name(resolved)))
-        })?;
-        checked.insert(resolved.clone());
-        Ok(())
-    }
-
     fn create_identifier(&self, asset_path: &str, anchor: Option<&ResolvedPath>) -> String {
         let anchored = self.inner.create_identifier(asset_path, anchor);
         if self.search_paths.is_empty()
@@ -172,22 +160,28 @@ impl Shared {
         }
     }
 
-    /// Reads `resolved` and, if it is a text layer, checks and normalizes it; then starts the
-    /// preparation of the text layers it names.
+    /// Reads `resolved` and, if it is a text layer, checks and normalizes it, then starts the
+    /// preparation of the layers it names; if it is a crate file, checks and repairs it.
     fn prepare(self: &Arc<Self>, resolved: &ResolvedPath) -> Prepared {
         let Ok(mut asset) = self.inner.open_asset(resolved) else { return Prepared::Other };
-        match read_magic(asset.as_mut(), USDA_MAGIC.len()) {
-            Ok(magic) if magic == USDA_MAGIC => {}
-            _ => return Prepared::Other,
+        let magic = match read_magic(asset.as_mut(), crate_check::MAGIC.len()) {
+            Ok(magic) => magic,
+            Err(_) => return Prepared::Other,
+        };
+        if magic == crate_check::MAGIC {
+            return Self::prepare_crate(resolved, asset.as_mut());
+        }
+        if !magic.starts_with(USDA_MAGIC) {
+            return Prepared::Other;
         }
         let Ok(bytes) = asset.read_all() else { return Prepared::Other };
         // Invalid UTF-8 is passed through for the crate to report.
-        let Ok(text) = std::str::from_utf8(&bytes) else { return Prepared::Text(bytes.into()) };
+        let Ok(text) = std::str::from_utf8(&bytes) else { return Prepared::Layer(bytes.into()) };
         match layer_fix::prepare(text) {
             Err(problem) => Prepared::Rejected(format!("{}: {problem}", file_name(resolved))),
             Ok(layer) => {
                 self.prefetch(resolved, &layer.asset_paths);
-                Prepared::Text(match layer.text {
+                Prepared::Layer(match layer.text {
                     std::borrow::Cow::Borrowed(_) => bytes.into(),
                     std::borrow::Cow::Owned(fixed) => fixed.into_bytes().into(),
                 })
@@ -195,15 +189,34 @@ impl Shared {
         }
     }
 
-    /// Starts preparing, on rayon's pool, each text layer `asset_paths` (authored in the layer
-    /// at `anchor`) names that no one has asked for yet. A file the crate never opens (an
+    /// A crate file (`.usdc`, binary `.usd`, either inside a `.usdz`) checked by
+    /// [`crate_check`], because openusd's crate reader trusts its counts and indices, and
+    /// repaired where openusd misreads old files; the error names the file, the section and
+    /// the problem.
+    fn prepare_crate(resolved: &ResolvedPath, asset: &mut dyn Asset) -> Prepared {
+        let rejected = |problem: &dyn std::fmt::Display| {
+            Prepared::Rejected(format!("{}: {problem}", file_name(resolved)))
+        };
+        let bytes = match asset.read_all() {
+            Ok(bytes) => bytes,
+            Err(e) => return rejected(&e),
+        };
+        if let Err(e) = crate_check::check(&bytes) {
+            return rejected(&e);
+        }
+        // Old files' time-sample times, in the layout openusd reads (checked again).
+        Prepared::Layer(crate_check::repair(&bytes).unwrap_or(bytes).into())
+    }
+
+    /// Starts preparing, on rayon's pool, each layer `asset_paths` (authored in the layer at
+    /// `anchor`) names that no one has asked for yet. A file the crate never opens (an
     /// unselected variant's, an unloaded payload's) costs background time only: its problems
     /// are reported if and when the crate opens it.
     fn prefetch(self: &Arc<Self>, anchor: &ResolvedPath, asset_paths: &[&str]) {
         for asset_path in asset_paths {
             let is_layer = Path::new(asset_path)
                 .extension()
-                .is_some_and(|e| TEXT_LAYER_EXTENSIONS.iter().any(|t| e.eq_ignore_ascii_case(t)));
+                .is_some_and(|e| LAYER_EXTENSIONS.iter().any(|t| e.eq_ignore_ascii_case(t)));
             if !is_layer || ar::is_package_relative_path(asset_path) {
                 continue;
             }
@@ -223,21 +236,10 @@ impl Shared {
     fn open_asset(self: &Arc<Self>, resolved: &ResolvedPath) -> io::Result<Box<dyn Asset>> {
         let (cell, _) = self.cell(resolved);
         match cell.get_or_init(|| self.prepare(resolved)) {
-            Prepared::Text(bytes) => return Ok(Box::new(SharedBytes(Cursor::new(Arc::clone(bytes))))),
-            Prepared::Rejected(problem) => {
-                return Err(io::Error::new(io::ErrorKind::InvalidData, problem.clone()))
-            }
-            Prepared::Other => {}
+            Prepared::Layer(bytes) => Ok(Box::new(SharedBytes(Cursor::new(Arc::clone(bytes))))),
+            Prepared::Rejected(problem) => Err(io::Error::new(io::ErrorKind::InvalidData, problem.clone())),
+            Prepared::Other => self.inner.open_asset(resolved),
         }
-        let mut asset = self.inner.open_asset(resolved)?;
-        if read_magic(asset.as_mut(), crate_check::MAGIC.len())? == *crate_check::MAGIC {
-            let bytes = asset.read_all()?;
-            self.check_crate(resolved, &bytes)?;
-            // Old files' time-sample times, in the layout openusd reads (checked again).
-            let bytes = crate_check::repair(&bytes).unwrap_or(bytes);
-            return Ok(Box::new(Cursor::new(bytes)));
-        }
-        Ok(asset)
     }
 }
 
@@ -254,9 +256,9 @@ impl Resolver for IngestResolver {
         self.shared.inner.resolve_for_new_asset(asset_path)
     }
 
-    /// Text layers are checked and normalized (once each, see [`IngestResolver`]); crate files
-    /// (`.usdc`, binary `.usd`, either inside a `.usdz`) are checked by [`crate_check`] first,
-    /// because openusd's crate reader trusts their counts and indices; every other asset
+    /// Text layers are checked and normalized and crate files (`.usdc`, binary `.usd`, either
+    /// inside a `.usdz`) checked by [`crate_check`] first, because openusd's crate reader trusts
+    /// their counts and indices (once each, see [`IngestResolver`]); every other asset
     /// (packages, images) is passed through. Only the first bytes are read to tell them apart,
     /// so packages and images are not buffered here.
     fn open_asset(&self, resolved: &ResolvedPath) -> io::Result<Box<dyn Asset>> {
@@ -372,6 +374,31 @@ mod tests {
                 "bad.usda: line 2, column 5: prim name \"a b\" is malformed: unexpected ' ' at character 1"
             );
         }
+    }
+
+    #[test]
+    fn crate_files_are_read_checked_and_repaired_once_and_ahead_of_need() {
+        let dir = tempfile::tempdir().unwrap();
+        let testdata = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/usd/crate_check/testdata");
+        // 0.6.0: a layout `crate_check::repair` rewrites, so the served bytes differ from the file.
+        let original = std::fs::read(testdata.join("time_samples_0_6_0.usdc")).unwrap();
+        let (root, geo) = (dir.path().join("root.usda"), dir.path().join("geo.usd"));
+        std::fs::write(&root, "#usda 1.0\ndef \"A\" (references = @./geo.usd@) {}\n").unwrap();
+        std::fs::write(&geo, &original).unwrap();
+        let resolver = IngestResolver::new(&[]);
+        let read = |p: &Path| resolver.open_asset(&ResolvedPath::new(p)).unwrap().read_all().unwrap();
+        read(&root);
+        let geo_resolved = resolver
+            .resolve(&resolver.create_identifier("./geo.usd", Some(&ResolvedPath::new(&root))))
+            .unwrap();
+        wait_prepared(&resolver, &geo_resolved);
+        // Truncated on disk after preparation: every open (the crate's sniff, then its read) is
+        // served the bytes checked and repaired once.
+        std::fs::write(&geo, b"PXR-USDC").unwrap();
+        let served = read(&geo);
+        assert_eq!(served, crate_check::repair(&original).expect("0.6.0 times are repaired"));
+        assert_eq!(read(&geo), served);
+        assert!(crate_check::check(&served).is_ok());
     }
 
     #[test]
