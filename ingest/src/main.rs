@@ -168,7 +168,7 @@ fn list_only(args: &Args, options: &ingest::usd::LoadOptions) -> anyhow::Result<
     let scene = if ingest::alembic::is_alembic(&args.asset) {
         ingest::alembic::load(&args.asset, options).map_err(anyhow::Error::from)
     } else {
-        ingest::usd::load(&args.asset, options).map_err(anyhow::Error::from)
+        ingest::usd::load_until_exit(&args.asset, options).map_err(anyhow::Error::from)
     }
     .map_err(|e| e.context(format!("cannot ingest {}", args.asset.display())))?;
     let load_seconds = start.elapsed().as_secs_f64();
@@ -176,6 +176,8 @@ fn list_only(args: &Args, options: &ingest::usd::LoadOptions) -> anyhow::Result<
         eprintln!("warning: {}: {}", w.prim, w.message);
     }
     write_dump(&scene, path)?;
+    // The process ends here: its memory goes back at exit, not one allocation at a time.
+    let scene = std::mem::ManuallyDrop::new(scene);
     if !args.quiet {
         eprintln!(
             "ingest: {} meshes, {} triangles, {} materials, {} lights, {} cameras listed in {}; load {:.2}s (no blob)",

@@ -245,10 +245,28 @@ impl std::error::Error for UsdError {}
 /// A panic while reading (a bug in the composition engine) is returned as
 /// [`UsdErrorKind::Internal`] naming the root layer; see [`quiet_reader_panics`].
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
-    reader_panic::catch(&path.display().to_string(), || load_stage(path, options))
+    reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::Free))
 }
 
-fn load_stage(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
+/// [`load`] for a process that exits once it has used the scene (the `ingest` binary): the
+/// composed stage and the reader's tables are left for the OS to reclaim at exit instead of
+/// being freed one allocation at a time (prim indices, specs, paths: 4-5 % of the CPU time of
+/// a listing of the shader ball or the teapot scene, measured with perf). Memory is not
+/// returned until the process exits, so a long-lived caller uses [`load`].
+pub fn load_until_exit(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
+    reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::AtExit))
+}
+
+/// What becomes of the composed stage once the scene is read.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Teardown {
+    /// Freed before returning.
+    Free,
+    /// Left to the OS at process exit (see [`load_until_exit`]).
+    AtExit,
+}
+
+fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<Scene, UsdError> {
     let stage = Stage::open(path, options)?;
     let prims = stage.traverse()?;
     // Prim indices compose lazily, so composition errors are complete only after the traversal.
@@ -276,7 +294,12 @@ fn load_stage(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     for (prim, message) in stage.take_notes() {
         reader.scene.warn(prim, message);
     }
-    Ok(reader.scene)
+    let scene = std::mem::take(&mut reader.scene);
+    if teardown == Teardown::AtExit {
+        std::mem::forget(reader);
+        std::mem::forget(stage);
+    }
+    Ok(scene)
 }
 
 /// `purpose` of a prim, inherited from the nearest ancestor that authors one.
@@ -673,5 +696,20 @@ impl<'a> Reader<'a> {
                 None => Err(self.invalid(prim, attr, "expected a 3-vector array".into())),
             },
         }
+    }
+}
+
+#[cfg(test)]
+mod teardown_tests {
+    use super::*;
+
+    #[test]
+    fn a_stage_left_until_exit_reads_the_same_scene() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/tractor.usda");
+        let options = LoadOptions { bake_textures: false, ..LoadOptions::default() };
+        let freed = load(&root, &options).unwrap();
+        let kept = load_until_exit(&root, &options).unwrap();
+        assert!(!freed.meshes.is_empty());
+        assert_eq!(crate::pipeline::dump_json(&freed), crate::pipeline::dump_json(&kept));
     }
 }
