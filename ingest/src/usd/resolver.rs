@@ -45,6 +45,8 @@ struct Shared {
     /// and normalized once, not per open; the cell makes a reader that arrives while a
     /// prefetch task prepares the file wait for it instead of redoing it.
     prepared: Mutex<HashMap<ResolvedPath, Arc<OnceLock<Prepared>>>>,
+    /// Identifiers already created, by (asset path, anchor); see [`Shared::create_identifier`].
+    identifiers: Mutex<HashMap<(String, Option<ResolvedPath>), String>>,
 }
 
 /// A file as [`Shared::prepare`] left it.
@@ -110,6 +112,7 @@ impl IngestResolver {
                 inner: DefaultResolver::new(),
                 search_paths,
                 prepared: Mutex::default(),
+                identifiers: Mutex::default(),
             }),
         }
     }
@@ -131,7 +134,24 @@ impl IngestResolver {
 }
 
 impl Shared {
+    /// [`Self::identify`], once per (asset path, anchor): openusd asks again for every arc
+    /// that names the same asset (a thousand references to one file in a layout), and each
+    /// answer canonicalizes the path on the filesystem (a `readlink` per path component: 1,600
+    /// system calls listing the teapot scene).
     fn create_identifier(&self, asset_path: &str, anchor: Option<&ResolvedPath>) -> String {
+        let key = (asset_path.to_string(), anchor.cloned());
+        let lock = || self.identifiers.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some(identifier) = lock().get(&key) {
+            return identifier.clone();
+        }
+        let identifier = self.identify(asset_path, anchor);
+        lock().insert(key, identifier.clone());
+        identifier
+    }
+
+    /// The identifier of `asset_path` authored in the layer at `anchor`: next to that layer,
+    /// else in the first search directory holding it.
+    fn identify(&self, asset_path: &str, anchor: Option<&ResolvedPath>) -> String {
         let anchored = self.inner.create_identifier(asset_path, anchor);
         if self.search_paths.is_empty()
             || !IngestResolver::is_search_path(asset_path)
@@ -307,6 +327,23 @@ mod tests {
         // File-relative paths never consult the search paths.
         let c = resolver.create_identifier("./sub/b.usda", Some(&anchor));
         assert!(resolver.resolve(&c).is_none());
+    }
+
+    #[test]
+    fn identifiers_are_created_once_per_asset_path_and_anchor() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.usda"), dir.path().join("b.usda"));
+        std::fs::write(&a, "#usda 1.0\n").unwrap();
+        let resolver = IngestResolver::new(&[]);
+        let anchor = ResolvedPath::new(dir.path().join("root.usda"));
+        let first = resolver.create_identifier("./a.usda", Some(&anchor));
+        assert_eq!(Path::new(&first), a.canonicalize().unwrap());
+        // Moved on disk afterwards: the identifier is the one created first, for this load.
+        std::fs::rename(&a, &b).unwrap();
+        assert_eq!(resolver.create_identifier("./a.usda", Some(&anchor)), first);
+        // Another anchor is another question.
+        let elsewhere = ResolvedPath::new(dir.path().join("sub/root.usda"));
+        assert_ne!(resolver.create_identifier("./a.usda", Some(&elsewhere)), first);
     }
 
     #[test]
