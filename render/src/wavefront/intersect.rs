@@ -8,35 +8,68 @@
 //! and is recorded in `curve_hits`, with [`blob::NONE`] as the triangle of its [`Hit`] (whose `t` is
 //! the curve's, so the cone footprint is taken at the right distance).
 
+use super::packet::{closest_packet, PACKET};
 use super::{sort, Context, Worker};
 use crate::accel::Hit;
 use crate::curves::CurveHit;
 use crate::scene::Scene;
+use glam::Vec3;
 use texture::Touch;
 
-/// Intersects every queued ray.
-pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
+/// Rays gathered per traversal batch: their origins, directions and hits (3 KiB) stay in L1 while
+/// the BVH streams through it.
+const BATCH: usize = 64;
+
+/// Intersects every queued ray. `coherent`: the queue holds camera rays (neighbouring pixels and
+/// samples side by side), traced as packets of [`PACKET`]; other waves trace ray by ray.
+pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, coherent: bool) {
     let scene = ctx.scene;
     w.shade.clear();
-    for &i in &w.rays {
-        let st = &mut w.states[i as usize];
-        let hit = scene.accel.closest_hit(st.origin, st.dir, f32::INFINITY);
-        let curve = scene.curves.closest_hit(st.origin, st.dir, hit.map_or(f32::INFINITY, |h| h.t));
-        let t_hit = curve.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
-        let prev = st.prev();
-        st.radiance += st.beta * w.area_lights.emission(&scene.lights, st.origin, st.dir, t_hit, prev);
-        w.hits[i as usize] = match (curve, hit) {
-            (Some(c), _) => {
-                w.curve_hits[i as usize] = c;
-                Hit { t: c.t, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE }
+    let mut origins = [Vec3::ZERO; BATCH];
+    let mut dirs = [Vec3::ZERO; BATCH];
+    let mut hits: [Option<Hit>; BATCH] = [None; BATCH];
+    for batch in w.rays.chunks(BATCH) {
+        for (j, &i) in batch.iter().enumerate() {
+            let st = &w.states[i as usize];
+            (origins[j], dirs[j]) = (st.origin, st.dir);
+        }
+        let n = batch.len();
+        if coherent {
+            for k in (0..n).step_by(PACKET) {
+                let r = k..(k + PACKET).min(n);
+                closest_packet(
+                    &scene.accel,
+                    &origins[r.clone()],
+                    &dirs[r.clone()],
+                    f32::INFINITY,
+                    &mut hits[r],
+                );
             }
-            (None, Some(h)) => h,
-            (None, None) => {
-                st.radiance += st.beta * scene.lights.escaped_emission(st.dir, prev.map(|p| p.1));
-                continue;
+        } else {
+            for j in 0..n {
+                hits[j] = scene.accel.closest_hit(origins[j], dirs[j], f32::INFINITY);
             }
-        };
-        w.shade.push(sort::entry(0, i));
+        }
+        for (j, &i) in batch.iter().enumerate() {
+            let st = &mut w.states[i as usize];
+            let hit = hits[j];
+            let curve = scene.curves.closest_hit(st.origin, st.dir, hit.map_or(f32::INFINITY, |h| h.t));
+            let t_hit = curve.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
+            let prev = st.prev();
+            st.radiance += st.beta * w.area_lights.emission(&scene.lights, st.origin, st.dir, t_hit, prev);
+            w.hits[i as usize] = match (curve, hit) {
+                (Some(c), _) => {
+                    w.curve_hits[i as usize] = c;
+                    Hit { t: c.t, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE }
+                }
+                (None, Some(h)) => h,
+                (None, None) => {
+                    st.radiance += st.beta * scene.lights.escaped_emission(st.dir, prev.map(|p| p.1));
+                    continue;
+                }
+            };
+            w.shade.push(sort::entry(0, i));
+        }
     }
 }
 

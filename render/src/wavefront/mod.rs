@@ -379,8 +379,10 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
             generate::camera_rays(ctx, tile, s0 as u32, samples as u32, w, &mut rays)
         });
         w.clock.lap(Phase::Overhead);
+        let mut camera_wave = true;
         while !w.rays.is_empty() {
-            timed(&mut secs.intersect, || intersect::closest(ctx, w));
+            timed(&mut secs.intersect, || intersect::closest(ctx, w, camera_wave));
+            camera_wave = false;
             w.clock.lap(Phase::Intersect);
             timed(&mut secs.sort, || intersect::sort_keys(ctx, w));
             w.clock.lap(Phase::Shading);

@@ -33,7 +33,7 @@
 //! [`Lanes::node`]: crate::accel::Kernels::node
 //! [`Lanes::block`]: crate::accel::Kernels::block
 
-use crate::accel::{Accel, BlockHits, Hit, NodeRay, WatertightRay};
+use crate::accel::{precedes, tie_limit, Accel, BlockHits, Hit, NodeRay, WatertightRay};
 use blob::{child_ref, BvhNode, TriangleBlock, BVH_WIDTH};
 use glam::Vec3;
 
@@ -48,22 +48,171 @@ pub fn octant(d: Vec3) -> u32 {
         | (d.z.is_sign_negative() as u32) << 2
 }
 
-/// Closest hits of up to [`PACKET`] rays (`origins[k] + t·dirs[k]`, `t` in (0, `tmax`)) into `out`.
+/// Closest hits of up to [`PACKET`] rays (`origins[k] + t·dirs[k]`, `t` in (0, `tmax`)) into `out`:
+/// the same hits as [`Accel::closest_hit`] per ray. The world BVH is walked by the packet, the
+/// instances (if any) by each ray alone.
 pub fn closest_packet(accel: &Accel, origins: &[Vec3], dirs: &[Vec3], tmax: f32, out: &mut [Option<Hit>]) {
     let n = origins.len().min(PACKET).min(dirs.len()).min(out.len());
-    if accel.nodes.is_empty() || n == 0 {
-        out[..n].fill(None);
+    out[..n].fill(None);
+    if n == 0 {
         return;
     }
-    closest_packet_simd(accel, &origins[..n], &dirs[..n], tmax, &mut out[..n]);
+    if !accel.nodes.is_empty() {
+        closest_packet_simd(accel, &origins[..n], &dirs[..n], tmax, &mut out[..n]);
+    }
+    for k in 0..n {
+        out[k] = accel.closest_in_instances(origins[k], dirs[k], tmax, out[k]);
+    }
+}
+
+/// Any-hit queries of up to [`PACKET`] rays (`origins[k] + t·dirs[k]`, `t` in (0, `tmax[k]`)): bit
+/// `k` of the result is set when ray `k` hits a triangle for which `blocks(k, triangle, instance)`
+/// holds, as [`Accel::any_hit`] answers per ray (`blocks` must be pure, as there). The world BVH is
+/// walked by the packet, the instances (if any) by each ray not yet blocked.
+pub fn any_packet(
+    accel: &Accel,
+    origins: &[Vec3],
+    dirs: &[Vec3],
+    tmax: &[f32],
+    mut blocks: impl FnMut(usize, u32, u32) -> bool,
+) -> u32 {
+    let n = origins.len().min(PACKET).min(dirs.len()).min(tmax.len());
+    if n == 0 {
+        return 0;
+    }
+    let mut blocked = 0;
+    if !accel.nodes.is_empty() {
+        blocked = any_packet_simd(accel, &origins[..n], &dirs[..n], &tmax[..n], &mut blocks);
+    }
+    for k in 0..n {
+        if blocked & (1 << k) == 0
+            && accel.any_in_instances(origins[k], dirs[k], tmax[k], |t, i| blocks(k, t, i))
+        {
+            blocked |= 1 << k;
+        }
+    }
+    blocked
 }
 
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn closest_packet_simd(accel: &Accel, origins: &[Vec3], dirs: &[Vec3], tmax: f32, out: &mut [Option<Hit>]) {
     let (node, block) = crate::accel::lane_kernels!();
-    traverse(accel, origins, dirs, tmax, out, node, block);
+    let rays = PacketRays::new(origins, dirs);
+    let mut limit = [tmax; PACKET];
+    walk(&accel.nodes, &rays, &mut limit, true, node, |leaf, mask, limit| {
+        leaf_closest(accel, leaf, mask, &rays, tmax, limit, out, &block);
+        0
+    });
 }
 
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn any_packet_simd<F: FnMut(usize, u32, u32) -> bool>(
+    accel: &Accel,
+    origins: &[Vec3],
+    dirs: &[Vec3],
+    tmax: &[f32],
+    blocks: &mut F,
+) -> u32 {
+    let (node, block) = crate::accel::lane_kernels!();
+    let rays = PacketRays::new(origins, dirs);
+    let mut limit: [f32; PACKET] = std::array::from_fn(|k| tmax[k.min(tmax.len() - 1)]);
+    let mut blocked = 0;
+    walk(&accel.nodes, &rays, &mut limit, false, node, |leaf, mask, limit| {
+        let now = leaf_any(accel, leaf, mask, &rays, limit, blocks, &block);
+        blocked |= now;
+        now
+    });
+    blocked
+}
+
+/// The per-ray data of the two kernels, for the `n` rays of a packet.
+struct PacketRays {
+    n: usize,
+    node: [NodeRay; PACKET],
+    triangle: [WatertightRay; PACKET],
+}
+
+impl PacketRays {
+    fn new(origins: &[Vec3], dirs: &[Vec3]) -> Self {
+        let n = origins.len();
+        PacketRays {
+            n,
+            node: std::array::from_fn(|k| NodeRay::new(origins[k.min(n - 1)], dirs[k.min(n - 1)])),
+            triangle: std::array::from_fn(|k| WatertightRay::new(origins[k.min(n - 1)], dirs[k.min(n - 1)])),
+        }
+    }
+}
+
+/// Tests the rays of `mask` against the triangles of `leaf`, keeping per ray the hit that
+/// [`precedes`] (so the visiting order never decides a tie) and shortening its limit.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn leaf_closest(
+    accel: &Accel,
+    leaf: u32,
+    mask: u32,
+    rays: &PacketRays,
+    tmax: f32,
+    limit: &mut [f32; PACKET],
+    out: &mut [Option<Hit>],
+    block_kernel: &impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+) {
+    let (first, count) = child_ref::leaf_range(leaf);
+    for b in &accel.blocks[first as usize..(first + count) as usize] {
+        let mut m = mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let hits = block_kernel(b, &rays.triangle[k], limit[k]);
+            let mut h = hits.mask;
+            while h != 0 {
+                let lane = h.trailing_zeros() as usize;
+                h &= h - 1;
+                let (t, triangle) = (hits.t[lane], b.triangles[lane]);
+                if t < tmax && out[k].is_none_or(|o| precedes(t, triangle, o.t, o.triangle)) {
+                    out[k] =
+                        Some(Hit { t, triangle, b1: hits.b1[lane], b2: hits.b2[lane], instance: blob::NONE });
+                    limit[k] = tie_limit(t);
+                }
+            }
+        }
+    }
+}
+
+/// Tests the rays of `mask` against the triangles of `leaf`; returns the rays a blocker stopped.
+#[inline(always)]
+fn leaf_any(
+    accel: &Accel,
+    leaf: u32,
+    mask: u32,
+    rays: &PacketRays,
+    limit: &[f32; PACKET],
+    blocks: &mut impl FnMut(usize, u32, u32) -> bool,
+    block_kernel: &impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+) -> u32 {
+    let (first, count) = child_ref::leaf_range(leaf);
+    let mut stopped = 0;
+    for b in &accel.blocks[first as usize..(first + count) as usize] {
+        let mut m = mask & !stopped;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let mut h = block_kernel(b, &rays.triangle[k], limit[k]).mask;
+            while h != 0 {
+                let lane = h.trailing_zeros() as usize;
+                h &= h - 1;
+                if blocks(k, b.triangles[lane], blob::NONE) {
+                    stopped |= 1 << k;
+                    break;
+                }
+            }
+        }
+    }
+    stopped
+}
+
+/// A subtree on the packet's stack: the rays that entered it and the nearest entry distance of
+/// theirs.
 #[derive(Clone, Copy, Default)]
 struct Entry {
     child: u32,
@@ -71,68 +220,43 @@ struct Entry {
     t: f32,
 }
 
-fn traverse(
-    accel: &Accel,
-    origins: &[Vec3],
-    dirs: &[Vec3],
-    tmax0: f32,
-    out: &mut [Option<Hit>],
+/// The packet's node walk. At an inner node each ray of the packet's mask runs the node kernel with
+/// its own `limit`, and each child hit is entered with the mask of the rays that hit it. `ordered`
+/// (closest hit): children visited near to far by their nearest ray's entry distance, and a popped
+/// subtree keeps only the rays whose limit still reaches it. `leaf(leaf, mask, limit)` tests a
+/// leaf, may shorten the limits, and returns rays that are finished (any hit): those leave every
+/// pending mask, and the walk ends when none is left.
+#[inline(always)]
+fn walk(
+    nodes: &[BvhNode],
+    rays: &PacketRays,
+    limit: &mut [f32; PACKET],
+    ordered: bool,
     node_kernel: impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
-    block_kernel: impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+    mut leaf: impl FnMut(u32, u32, &mut [f32; PACKET]) -> u32,
 ) {
-    let n = origins.len();
-    let nrays: [NodeRay; PACKET] =
-        std::array::from_fn(|k| NodeRay::new(origins[k.min(n - 1)], dirs[k.min(n - 1)]));
-    let wrays: [WatertightRay; PACKET] =
-        std::array::from_fn(|k| WatertightRay::new(origins[k.min(n - 1)], dirs[k.min(n - 1)]));
-    let mut tmax = [tmax0; PACKET];
-    out.fill(None);
-    // Eight rays push at most seven children per level; 64 levels of that never occur in a BVH
+    let mut live = (1u32 << rays.n) - 1;
+    // Eight rays push at most seven children per level; 96 entries are never exceeded by a BVH
     // built by ingest, and a deeper walk spills to the heap rather than fail.
     let mut stack = [Entry::default(); 96];
     let mut len = 0usize;
     let mut spill: Vec<Entry> = Vec::new();
-    let mut current = Entry { child: 0, mask: (1u32 << n) - 1, t: 0.0 };
+    let mut current = Entry { child: 0, mask: live, t: 0.0 };
     loop {
         if current.child & child_ref::LEAF != 0 {
-            let (first, count) = child_ref::leaf_range(current.child);
-            for b in &accel.blocks[first as usize..(first + count) as usize] {
-                let mut m = current.mask;
-                while m != 0 {
-                    let k = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    let hits = block_kernel(b, &wrays[k], tmax[k]);
-                    let mut best: Option<usize> = None;
-                    let mut h = hits.mask;
-                    while h != 0 {
-                        let lane = h.trailing_zeros() as usize;
-                        h &= h - 1;
-                        if best.is_none_or(|x| hits.t[lane] < hits.t[x]) {
-                            best = Some(lane);
-                        }
-                    }
-                    if let Some(lane) = best {
-                        tmax[k] = hits.t[lane];
-                        out[k] = Some(Hit {
-                            t: hits.t[lane],
-                            triangle: b.triangles[lane],
-                            b1: hits.b1[lane],
-                            b2: hits.b2[lane],
-                            // Packets walk the world BVH only; instanced scenes keep single rays.
-                            instance: blob::NONE,
-                        });
-                    }
-                }
+            live &= !leaf(current.child, current.mask, limit);
+            if live == 0 {
+                return;
             }
         } else {
-            let node = &accel.nodes[current.child as usize];
+            let node = &nodes[current.child as usize];
             let mut child_mask = [0u32; BVH_WIDTH];
             let mut child_t = [f32::INFINITY; BVH_WIDTH];
             let mut m = current.mask;
             while m != 0 {
                 let k = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let (mut hit, dist) = node_kernel(node, &nrays[k], tmax[k]);
+                let (mut hit, dist) = node_kernel(node, &rays.node[k], limit[k]);
                 while hit != 0 {
                     let i = hit.trailing_zeros() as usize;
                     hit &= hit - 1;
@@ -140,16 +264,24 @@ fn traverse(
                     child_t[i] = child_t[i].min(dist[i]);
                 }
             }
-            // Children far to near; push all but the nearest.
+            // Children far to near (closest hit) or in slot order; push all but the last.
             let mut order = [Entry::default(); BVH_WIDTH];
             let mut count = 0;
             for i in 0..BVH_WIDTH {
                 if child_mask[i] != 0 {
                     let e = Entry { child: node.children[i], mask: child_mask[i], t: child_t[i] };
                     let mut j = count;
-                    while j > 0 && order[j - 1].t < e.t {
-                        order[j] = order[j - 1];
-                        j -= 1;
+                    if ordered {
+                        while j > 0 && order[j - 1].t < e.t {
+                            order[j] = order[j - 1];
+                            j -= 1;
+                        }
+                    } else {
+                        // Slot order reversed, so the first slot is entered first, as single rays do.
+                        while j > 0 {
+                            order[j] = order[j - 1];
+                            j -= 1;
+                        }
                     }
                     order[j] = e;
                     count += 1;
@@ -177,14 +309,16 @@ fn traverse(
             } else {
                 return;
             };
-            // Drop the rays whose best hit is already nearer than the child's nearest entry.
-            let mut mask = e.mask;
-            let mut m = e.mask;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                if e.t > tmax[k] {
-                    mask &= !(1 << k);
+            let mut mask = e.mask & live;
+            if ordered {
+                // Drop the rays whose best hit is already nearer than the subtree's nearest entry.
+                let mut m = mask;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if e.t > limit[k] {
+                        mask &= !(1 << k);
+                    }
                 }
             }
             if mask != 0 {
@@ -198,39 +332,88 @@ fn traverse(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testscene::{self, Rng};
+
+    /// Packets of rays from random origins around the scene: coherent (one origin, directions within
+    /// ±0.02) for even `p`, incoherent for odd, every few rays a zero direction component.
+    fn packet_rays(rng: &mut Rng, p: usize, reach: f32) -> (Vec<Vec3>, Vec<Vec3>) {
+        let o = Vec3::new(rng.range(-0.5, 0.5) * reach, rng.range(-0.5, 0.5) * reach, reach);
+        let spread = if p % 2 == 0 { 0.02 } else { 1.0 };
+        let base = Vec3::new(rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), -1.0);
+        let dirs = (0..PACKET)
+            .map(|k| {
+                if k == 3 && p % 5 == 0 {
+                    return Vec3::NEG_Z;
+                }
+                (base + Vec3::new(rng.range(-spread, spread), rng.range(-spread, spread), 0.0)).normalize()
+            })
+            .collect();
+        let origins =
+            (0..PACKET).map(|k| if p % 3 == 0 { o + Vec3::splat(0.01 * k as f32) } else { o }).collect();
+        (origins, dirs)
+    }
+
+    /// Scenes: random triangles, transformed instances (with world-space triangles), exact ties.
+    fn scenes() -> Vec<(&'static str, blob::AlignedBytes)> {
+        vec![
+            ("random", testscene::encode(&testscene::random_triangles(3000, 5))),
+            ("instances", testscene::bytes(&testscene::instanced_spheres(40, 0xbeef))),
+            ("ties", testscene::encode(&testscene::stacked_copies(24, 400, 0x71e5))),
+        ]
+    }
 
     #[test]
-    fn packets_find_the_single_ray_hits() {
-        let data = crate::testscene::random_triangles(3000, 5);
-        let bytes = crate::testscene::encode(&data);
-        let view = blob::SceneView::parse(&bytes).unwrap();
-        let accel = Accel::new(&view);
-        let mut rng = crate::testscene::Rng(11);
-        let (mut hits, mut ties) = (0, 0);
-        for p in 0..400 {
-            let o = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 3.0);
-            // Coherent packets for even p, incoherent for odd.
-            let spread = if p % 2 == 0 { 0.02 } else { 1.0 };
-            let base = Vec3::new(rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), -1.0);
-            let dirs: Vec<Vec3> = (0..PACKET)
-                .map(|_| {
-                    (base + Vec3::new(rng.range(-spread, spread), rng.range(-spread, spread), 0.0))
-                        .normalize()
-                })
-                .collect();
-            let origins = vec![o; PACKET];
-            let mut out = [None; PACKET];
-            closest_packet(&accel, &origins, &dirs, f32::INFINITY, &mut out);
-            for k in 0..PACKET {
-                let single = accel.closest_hit(o, dirs[k], f32::INFINITY);
-                match (single, out[k]) {
-                    (Some(a), Some(b)) if a.t == b.t && a.triangle != b.triangle => ties += 1,
-                    (a, b) => assert_eq!(a, b, "packet {p} ray {k}"),
+    fn closest_packets_equal_single_rays() {
+        for (name, bytes) in scenes() {
+            let view = blob::SceneView::parse(&bytes).unwrap();
+            let accel = Accel::new(&view);
+            let mut rng = Rng(11);
+            let mut hits = 0;
+            for p in 0..400 {
+                let (origins, dirs) = packet_rays(&mut rng, p, 3.0);
+                // Partial packets too.
+                let n = if p % 7 == 0 { 1 + p % PACKET } else { PACKET };
+                let tmax = if p % 4 == 1 { 3.5 } else { f32::INFINITY };
+                let mut out = [None; PACKET];
+                closest_packet(&accel, &origins[..n], &dirs[..n], tmax, &mut out);
+                for k in 0..n {
+                    let single = accel.closest_hit(origins[k], dirs[k], tmax);
+                    assert_eq!(out[k], single, "{name}: packet {p} ray {k}");
+                    hits += single.is_some() as u32;
                 }
-                hits += single.is_some() as u32;
             }
+            assert!(hits > 1000, "{name}: {hits} hits");
         }
-        assert!(hits > 1000, "{hits} hits");
-        assert!(ties <= 2, "{ties} exact ties resolved differently");
+    }
+
+    #[test]
+    fn any_packets_equal_single_rays() {
+        // A pure blocker that differs per ray, triangle and instance, as the stochastic shadow
+        // decisions do.
+        let blocks = |k: usize, triangle: u32, instance: u32| {
+            (triangle.wrapping_mul(0x9e37_79b9) ^ instance ^ (k as u32).wrapping_mul(0x85eb_ca6b)) % 3 != 0
+        };
+        for (name, bytes) in scenes() {
+            let view = blob::SceneView::parse(&bytes).unwrap();
+            let accel = Accel::new(&view);
+            let mut rng = Rng(23);
+            let (mut blocked, mut clear) = (0, 0);
+            for p in 0..400 {
+                let (origins, dirs) = packet_rays(&mut rng, p, 3.0);
+                let n = if p % 7 == 0 { 1 + p % PACKET } else { PACKET };
+                let tmax: Vec<f32> = (0..n)
+                    .map(|k| if (p + k) % 3 == 0 { rng.range(0.5, 5.0) } else { f32::INFINITY })
+                    .collect();
+                let mask = any_packet(&accel, &origins[..n], &dirs[..n], &tmax, blocks);
+                for k in 0..n {
+                    let single = accel.any_hit(origins[k], dirs[k], tmax[k], |t, i| blocks(k, t, i));
+                    assert_eq!(mask & (1 << k) != 0, single, "{name}: packet {p} ray {k}");
+                    blocked += single as u32;
+                    clear += !single as u32;
+                }
+                assert_eq!(mask >> n, 0, "{name}: no bits past the packet");
+            }
+            assert!(blocked > 300 && clear > 300, "{name}: {blocked} blocked, {clear} clear");
+        }
     }
 }
