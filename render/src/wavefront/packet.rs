@@ -33,7 +33,9 @@
 //! [`Lanes::node`]: crate::accel::Kernels::node
 //! [`Lanes::block`]: crate::accel::Kernels::block
 
-use crate::accel::{precedes, tie_limit, Accel, BlockHits, Hit, NodeRay, WatertightRay};
+use crate::accel::{
+    interval_node, precedes, tie_limit, Accel, BlockHits, Hit, IntervalRay, NodeRay, WatertightRay,
+};
 use blob::{child_ref, BvhNode, TriangleBlock, BVH_WIDTH};
 use glam::Vec3;
 
@@ -99,10 +101,67 @@ fn closest_packet_simd(accel: &Accel, origins: &[Vec3], dirs: &[Vec3], tmax: f32
     let (node, block) = crate::accel::lane_kernels!();
     let rays = PacketRays::new(origins, dirs);
     let mut limit = [tmax; PACKET];
-    walk(&accel.nodes, &rays, &mut limit, true, node, |leaf, mask, limit| {
+    let leaf = |leaf, mask, limit: &mut [f32; PACKET]| {
         leaf_closest(accel, leaf, mask, &rays, tmax, limit, out, &block);
         0
-    });
+    };
+    match IntervalRay::new(&rays.node[..rays.n]) {
+        Some(interval) => {
+            #[multiversion::inherit_target]
+            #[inline(never)]
+            fn interval_kernel(node: &BvhNode, ray: &IntervalRay, tmax: f32) -> (u32, [f32; BVH_WIDTH]) {
+                interval_node(node, ray, tmax)
+            }
+            let per_ray = per_ray_children(&rays, node);
+            let children = |n: &BvhNode, mask: u32, limit: &[f32; PACKET]| {
+                let mut tmax = 0.0f32;
+                for_each_ray(mask, |k| tmax = tmax.max(limit[k]));
+                let (hit, near) = interval_kernel(n, &interval, tmax);
+                let leaves = (0..BVH_WIDTH)
+                    .fold(0u32, |m, i| m | ((n.children[i] & child_ref::LEAF != 0) as u32) << i);
+                if hit & leaves != 0 {
+                    // A leaf is entered only by the rays whose own box test admits it: a ray that
+                    // misses its box would run the triangle tests for nothing.
+                    return per_ray(n, mask, limit);
+                }
+                (std::array::from_fn(|i| if hit & (1 << i) != 0 { mask } else { 0 }), near)
+            };
+            walk(&accel.nodes, rays.n, &mut limit, true, children, leaf)
+        }
+        None => walk(&accel.nodes, rays.n, &mut limit, true, per_ray_children(&rays, node), leaf),
+    }
+}
+
+/// Calls `f` with the index of every set bit of `mask`, lowest first.
+#[inline(always)]
+fn for_each_ray(mut mask: u32, mut f: impl FnMut(usize)) {
+    while mask != 0 {
+        f(mask.trailing_zeros() as usize);
+        mask &= mask - 1;
+    }
+}
+
+/// The children test of a packet whose rays each run the node kernel: per child, the mask of the
+/// rays that hit it and the nearest of their entry distances.
+#[inline(always)]
+fn per_ray_children<'r>(
+    rays: &'r PacketRays,
+    node_kernel: impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]) + 'r,
+) -> impl Fn(&BvhNode, u32, &[f32; PACKET]) -> ([u32; BVH_WIDTH], [f32; BVH_WIDTH]) + 'r {
+    move |node, mask, limit| {
+        let mut child_mask = [0u32; BVH_WIDTH];
+        let mut child_t = [f32::INFINITY; BVH_WIDTH];
+        for_each_ray(mask, |k| {
+            let (mut hit, dist) = node_kernel(node, &rays.node[k], limit[k]);
+            while hit != 0 {
+                let i = hit.trailing_zeros() as usize;
+                hit &= hit - 1;
+                child_mask[i] |= 1 << k;
+                child_t[i] = child_t[i].min(dist[i]);
+            }
+        });
+        (child_mask, child_t)
+    }
 }
 
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
@@ -117,7 +176,7 @@ fn any_packet_simd<F: FnMut(usize, u32, u32) -> bool>(
     let rays = PacketRays::new(origins, dirs);
     let mut limit: [f32; PACKET] = std::array::from_fn(|k| tmax[k.min(tmax.len() - 1)]);
     let mut blocked = 0;
-    walk(&accel.nodes, &rays, &mut limit, false, node, |leaf, mask, limit| {
+    walk(&accel.nodes, rays.n, &mut limit, false, per_ray_children(&rays, node), |leaf, mask, limit| {
         let now = leaf_any(accel, leaf, mask, &rays, limit, blocks, &block);
         blocked |= now;
         now
@@ -229,13 +288,13 @@ struct Entry {
 #[inline(always)]
 fn walk(
     nodes: &[BvhNode],
-    rays: &PacketRays,
+    n: usize,
     limit: &mut [f32; PACKET],
     ordered: bool,
-    node_kernel: impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
+    children: impl Fn(&BvhNode, u32, &[f32; PACKET]) -> ([u32; BVH_WIDTH], [f32; BVH_WIDTH]),
     mut leaf: impl FnMut(u32, u32, &mut [f32; PACKET]) -> u32,
 ) {
-    let mut live = (1u32 << rays.n) - 1;
+    let mut live = (1u32 << n) - 1;
     // Eight rays push at most seven children per level; 96 entries are never exceeded by a BVH
     // built by ingest, and a deeper walk spills to the heap rather than fail.
     let mut stack = [Entry::default(); 96];
@@ -250,20 +309,7 @@ fn walk(
             }
         } else {
             let node = &nodes[current.child as usize];
-            let mut child_mask = [0u32; BVH_WIDTH];
-            let mut child_t = [f32::INFINITY; BVH_WIDTH];
-            let mut m = current.mask;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let (mut hit, dist) = node_kernel(node, &rays.node[k], limit[k]);
-                while hit != 0 {
-                    let i = hit.trailing_zeros() as usize;
-                    hit &= hit - 1;
-                    child_mask[i] |= 1 << k;
-                    child_t[i] = child_t[i].min(dist[i]);
-                }
-            }
+            let (child_mask, child_t) = children(node, current.mask, limit);
             // Children far to near (closest hit) or in slot order; push all but the last.
             let mut order = [Entry::default(); BVH_WIDTH];
             let mut count = 0;
