@@ -614,6 +614,9 @@ fn traversal(
     Ok(rows)
 }
 
+/// Best-of-3 CPU seconds of a ray loop, and the sum of what it returned.
+type Timer = dyn Fn(&mut dyn FnMut() -> usize) -> (f64, usize);
+
 /// The shadow rays as any-hit queries (what the occlusion queue asks): single rays against
 /// [`render::wavefront::packet::any_packet`], every triangle blocking.
 fn any_hit_row(
@@ -621,7 +624,7 @@ fn any_hit_row(
     scene: &render::Scene,
     origins: &[Vec3],
     dirs: &[Vec3],
-    time: &dyn Fn(&mut dyn FnMut() -> usize) -> (f64, usize),
+    time: &Timer,
 ) -> anyhow::Result<TraversalRow> {
     use render::wavefront::packet::{any_packet, PACKET};
     let mut single_blocked = vec![false; origins.len()];

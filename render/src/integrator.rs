@@ -327,20 +327,6 @@ impl<'a> Scene<'a> {
         self.shading.evaluate(s.material, &s.uv, filter, touch)
     }
 
-    /// The opacity of triangle `tri`'s material when it is not textured.
-    fn constant_opacity(&self, tri: u32) -> f32 {
-        let m = &self.view.materials[self.view.triangle_materials[tri as usize] as usize];
-        ShadingInputs::constant(m).effective_opacity()
-    }
-
-    /// Whether triangle `tri` (of `instance`, [`blob::NONE`] at the top level) stops the shadow ray
-    /// with pass-through seed `seed`, in a scene without textured opacity: the any-hit blocker of
-    /// [`Scene::shadow_transmits`] (and of the wavefront's packets of shadow rays).
-    #[inline]
-    pub(crate) fn blocks_shadow(&self, seed: u32, tri: u32, instance: u32) -> bool {
-        !shadow_passes(seed, tri, instance, self.constant_opacity(tri))
-    }
-
     /// Whether a shadow ray from `origin` along unit `dir` reaches distance `tmax` through transparent
     /// surfaces. Pass-through odds are decided once per triangle by a hash of `seed` (the same odds as
     /// camera and BSDF rays). When some material's opacity is textured, the ray walks closest hits
@@ -354,10 +340,19 @@ impl<'a> Scene<'a> {
         filter: Filter,
         touch: &T,
     ) -> bool {
-        let passes = |tri: u32, instance: u32, opacity: f32| shadow_passes(seed, tri, instance, opacity);
-        let constant_opacity = |tri: u32| self.constant_opacity(tri);
+        // Instances of one prototype triangle decide independently (the instance joins the hash).
+        let passes = |tri: u32, instance: u32, opacity: f32| {
+            let h = if instance == blob::NONE { seed } else { hash_combine(seed, instance) };
+            opacity < 1.0 && (hash_combine(h, tri) >> 8) as f32 * (1.0 / 16_777_216.0) >= opacity
+        };
+        let constant_opacity = |tri: u32| {
+            let m = &self.view.materials[self.view.triangle_materials[tri as usize] as usize];
+            ShadingInputs::constant(m).effective_opacity()
+        };
         if !self.shading.any_textured_opacity() {
-            return !self.accel.any_hit(origin, dir, tmax, |tri, inst| self.blocks_shadow(seed, tri, inst));
+            return !self
+                .accel
+                .any_hit(origin, dir, tmax, |tri, inst| !passes(tri, inst, constant_opacity(tri)));
         }
         let end = origin + dir * tmax;
         let mut o = origin;
@@ -580,13 +575,4 @@ impl<'a> Scene<'a> {
         self.surface(&hit, wo, 0.0)
             .map_or(Vec3::ZERO, |s| self.shade(&s, filter, touch).emissive_color.max(Vec3::ZERO))
     }
-}
-
-/// The stochastic pass-through decision of a shadow ray (seed `seed`) at triangle `tri` of `instance`
-/// with `opacity`: the same odds as camera and BSDF rays. Instances of one prototype triangle decide
-/// independently (the instance joins the hash).
-#[inline]
-fn shadow_passes(seed: u32, tri: u32, instance: u32, opacity: f32) -> bool {
-    let h = if instance == blob::NONE { seed } else { hash_combine(seed, instance) };
-    opacity < 1.0 && (hash_combine(h, tri) >> 8) as f32 * (1.0 / 16_777_216.0) >= opacity
 }

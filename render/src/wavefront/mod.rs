@@ -45,7 +45,9 @@
 //! Experiments that did not pay (kept out): a smaller path pool (1024 or 512 paths instead of 4096:
 //! the same L1 misses, within timing noise); rebuilding the surface in shading instead of keeping the
 //! one the sort key reconstructs (5 % more instructions, 12 % fewer L1 misses, no clear time change);
-//! packet traversal ([`packet`]: no queue gained consistently); ordering the occlusion queue by
+//! packet traversal ([`packet`]: closest-hit packets for the camera wave and any-hit packets for
+//! the occlusion queue ran 2–8 % more query instructions; its docs have the figures, and show the
+//! traversal missing L1 *less* than the scalar integrator's); ordering the occlusion queue by
 //! light (a sort by (light, path) before the any-hit stage, so shadow rays towards one light run
 //! together): the same image, 1.4 % more instructions (the sort) and no fewer D1 misses (cachegrind,
 //! shading-heavy at 120×80, 8 spp: 5.31 M against 5.29 M), occlusion time within the noise.
@@ -379,10 +381,8 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
             generate::camera_rays(ctx, tile, s0 as u32, samples as u32, w, &mut rays)
         });
         w.clock.lap(Phase::Overhead);
-        let mut camera_wave = true;
         while !w.rays.is_empty() {
-            timed(&mut secs.intersect, || intersect::closest(ctx, w, camera_wave));
-            camera_wave = false;
+            timed(&mut secs.intersect, || intersect::closest(ctx, w));
             w.clock.lap(Phase::Intersect);
             timed(&mut secs.sort, || intersect::sort_keys(ctx, w));
             w.clock.lap(Phase::Shading);

@@ -1,41 +1,62 @@
-//! Packet traversal of the BVH8 (an experiment measured against single-ray traversal; see below).
+//! Packet traversal of the BVH8: closest hit ([`closest_packet`]) and any hit ([`any_packet`]),
+//! measured against single-ray traversal and kept out of the wavefront (see below); the bench's
+//! traversal table uses them.
 //!
 //! Up to eight rays share one traversal: at an inner node each active ray runs the 8-wide slab test
 //! ([`Lanes::node`]) and each child is entered with the mask of the rays that hit it (its distance is
-//! the nearest of theirs); children are visited near to far and the packet narrows to those rays. At a
-//! leaf each ray of the mask runs the 4-wide triangle test ([`Lanes::block`]) with its own `tmax`. The
-//! node is fetched once for the packet: the saving packet tracers count on for coherent rays. Rays are
-//! grouped by direction octant first ([`octant`]), as in the streaming-traversal post, so a packet's
-//! rays agree on the near planes and on the visiting order.
+//! the nearest of theirs); children are visited near to far (closest hit) or in slot order (any
+//! hit) and the packet narrows to those rays. At a leaf each ray of the mask runs the 4-wide triangle
+//! test ([`Lanes::block`]) with its own limit. The node is fetched once for the packet: the saving
+//! packet tracers count on for coherent rays. Any hit: a ray leaves every pending mask once a
+//! triangle its `blocks` accepts is hit, and the walk ends when none is left; instances are walked
+//! per ray after the packet, for both queries.
 //!
-//! Per ray the closest hit is the nearest triangle the ray meets, as in [`Accel::closest_hit`]; only
-//! when two triangles are met at exactly the same `t` can the visiting order pick a different one
-//! (the bench counts these).
+//! The answers equal [`Accel::closest_hit`] and [`Accel::any_hit`] per ray, bit for bit (tested on
+//! random, instanced and exact-tie scenes): a closest hit is the least `(t, triangle index)`
+//! ([`crate::accel::precedes`]), so the visiting order, which differs between a packet and a single
+//! ray, never decides a tie; an any-hit answer does not depend on the order at all.
 //!
-//! # Measurement (`bench integrators`, traversal table)
-//! Against single-ray traversal on the same rays, per queue type: primary rays in packets of 8
-//! neighbouring pixels, diffuse bounce rays and shadow rays from the primary hits (octant-sorted),
-//! 320×213, one thread, best of 3 in CPU seconds on the loaded 2-core machine (load average ~10):
+//! # Measurements (what lost, and why)
+//! Traversal table of `bench integrators` (320×213, one thread, Mrays per CPU second, packet against
+//! single on the same rays; contended, load average 8–10, ±10 % between runs): primary rays in
+//! packets of 8 neighbouring pixels 1.06 / 1.02 / 0.88× (tractor / shading-heavy / simple; the
+//! packet kernel before the tie rule and the any-hit variant measured 1.27 / 1.14 / 1.28× and
+//! 1.28 / 1.17 / 1.31× in two earlier runs), bounce rays 0.93 / 0.83 / 0.98×, shadow rays
+//! (octant-sorted, from the primary hits) as closest-hit packets 1.02 / 0.95 / 0.98× and as any-hit
+//! packets 0.86 / 0.88 / 0.91×.
 //!
-//! | scene | primary | incoherent | occlusion |
-//! |---|---|---|---|
-//! | tractor (2 k triangles) | 1.14× | 0.74× | 0.97× |
-//! | shading-heavy (60 k) | 0.93× | 0.93× | 1.14× |
-//! | simple (4 k) | 1.25× | 1.02× | 0.94× |
+//! In the wavefront (cachegrind, 120×80, 8 spp, one thread) the camera wave as closest-hit packets
+//! of the eight samples of one pixel, and the occlusion queue as any-hit packets, made the BVH
+//! queries plus the intersect stage run +2.5 / +3.8 / +7.9 % instructions (simple / tractor /
+//! shading-heavy: 122 M against 120 M, 275 M against 265 M, 420 M against 390 M; the whole render
+//! +1.7 / +1.8 / +3.8 %): the shared per-node loop saved a little on camera rays, node and triangle
+//! tests stay one per ray, the gather into packets cost as much again, and shadow rays towards 48
+//! lights from points in shading order share few nodes (shading-heavy any hits 130 M against
+//! 107 M). Wavefront/scalar CPU time with them: 1.10 / 1.01 / 1.17× (tractor / shading-heavy /
+//! simple) against 1.26 / 1.01 / 1.23× without, same load. Two variants also lost:
+//! * an *interval* node test for one-origin packets (one slab test per node for the packet, from
+//!   the range of the rays' reciprocal directions: exactly conservative, as rounding is monotone)
+//!   cut the camera wave's node instructions 5× (simple: 12.4 M → 2.4 M), but every ray of the
+//!   packet then tested every leaf any of them reached: triangle tests +44 % (simple) and +127 %
+//!   (shading-heavy); with per-ray tests at nodes above leaves the queries still ran −2.3 / +4.2 /
+//!   +8.4 % instructions, and the bench's primary packets fell to 0.98 / 0.91 / 1.40×;
+//! * batching the ray queue (64 rays traversed, then their hits recorded) added 7–12 M
+//!   instructions to the intersect stage for no fewer D1 misses.
 //!
-//! Repeated runs move these by ±15 %, so no queue wins consistently, and the wavefront keeps
-//! single-ray traversal for every queue. Why packets gain little here: the node kernel is already
-//! 8-wide across children, so a packet adds no SIMD width, only a shared node fetch; these BVHs fit in
-//! L2, so the shared fetch is cheap, while the packet's looser culling (a child is entered while any
-//! ray of the packet still wants it) adds node tests. Scenes whose BVH spills out of cache are where
-//! primary-ray packets should be measured next.
+//! Why: the node kernel is already 8-wide across children, so a packet adds no SIMD width, only a
+//! shared node fetch, and these BVHs sit in L2, so the shared fetch is cheap. The wavefront's
+//! traversal is not its L1 problem either: it misses *less* than the scalar integrator's
+//! (shading-heavy, 120×80, 8 spp: node-test D1 misses 197 k against 261 k for closest hits, 314 k
+//! against 410 k for any hits; same instructions, 245 M and 107 M); the wavefront's extra D1 misses
+//! are in the shading stages (`memcpy` of queue records 1.36 M, `shade`/`scatter` 1.27 M). Scenes
+//! whose BVH spills out of L2, and a ray-major triangle test (one triangle against 8 rays in AVX2
+//! lanes, which would halve the per-ray triangle instructions of a packet) are where packets should
+//! be measured next.
 //!
 //! [`Lanes::node`]: crate::accel::Kernels::node
 //! [`Lanes::block`]: crate::accel::Kernels::block
 
-use crate::accel::{
-    interval_node, precedes, tie_limit, Accel, BlockHits, Hit, IntervalRay, NodeRay, WatertightRay,
-};
+use crate::accel::{precedes, tie_limit, Accel, BlockHits, Hit, NodeRay, WatertightRay};
 use blob::{child_ref, BvhNode, TriangleBlock, BVH_WIDTH};
 use glam::Vec3;
 
@@ -105,31 +126,7 @@ fn closest_packet_simd(accel: &Accel, origins: &[Vec3], dirs: &[Vec3], tmax: f32
         leaf_closest(accel, leaf, mask, &rays, tmax, limit, out, &block);
         0
     };
-    match IntervalRay::new(&rays.node[..rays.n]) {
-        Some(interval) => {
-            #[multiversion::inherit_target]
-            #[inline(never)]
-            fn interval_kernel(node: &BvhNode, ray: &IntervalRay, tmax: f32) -> (u32, [f32; BVH_WIDTH]) {
-                interval_node(node, ray, tmax)
-            }
-            let per_ray = per_ray_children(&rays, node);
-            let children = |n: &BvhNode, mask: u32, limit: &[f32; PACKET]| {
-                let mut tmax = 0.0f32;
-                for_each_ray(mask, |k| tmax = tmax.max(limit[k]));
-                let (hit, near) = interval_kernel(n, &interval, tmax);
-                let leaves = (0..BVH_WIDTH)
-                    .fold(0u32, |m, i| m | ((n.children[i] & child_ref::LEAF != 0) as u32) << i);
-                if hit & leaves != 0 {
-                    // A leaf is entered only by the rays whose own box test admits it: a ray that
-                    // misses its box would run the triangle tests for nothing.
-                    return per_ray(n, mask, limit);
-                }
-                (std::array::from_fn(|i| if hit & (1 << i) != 0 { mask } else { 0 }), near)
-            };
-            walk(&accel.nodes, rays.n, &mut limit, true, children, leaf)
-        }
-        None => walk(&accel.nodes, rays.n, &mut limit, true, per_ray_children(&rays, node), leaf),
-    }
+    walk(accel.nodes, rays.n, &mut limit, true, per_ray_children(&rays, node), leaf);
 }
 
 /// Calls `f` with the index of every set bit of `mask`, lowest first.
@@ -176,7 +173,7 @@ fn any_packet_simd<F: FnMut(usize, u32, u32) -> bool>(
     let rays = PacketRays::new(origins, dirs);
     let mut limit: [f32; PACKET] = std::array::from_fn(|k| tmax[k.min(tmax.len() - 1)]);
     let mut blocked = 0;
-    walk(&accel.nodes, rays.n, &mut limit, false, per_ray_children(&rays, node), |leaf, mask, limit| {
+    walk(accel.nodes, rays.n, &mut limit, false, per_ray_children(&rays, node), |leaf, mask, limit| {
         let now = leaf_any(accel, leaf, mask, &rays, limit, blocks, &block);
         blocked |= now;
         now
@@ -384,18 +381,19 @@ mod tests {
     /// ±0.02) for even `p`, incoherent for odd, every few rays a zero direction component.
     fn packet_rays(rng: &mut Rng, p: usize, reach: f32) -> (Vec<Vec3>, Vec<Vec3>) {
         let o = Vec3::new(rng.range(-0.5, 0.5) * reach, rng.range(-0.5, 0.5) * reach, reach);
-        let spread = if p % 2 == 0 { 0.02 } else { 1.0 };
+        let spread = if p.is_multiple_of(2) { 0.02 } else { 1.0 };
         let base = Vec3::new(rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), -1.0);
         let dirs = (0..PACKET)
             .map(|k| {
-                if k == 3 && p % 5 == 0 {
+                if k == 3 && p.is_multiple_of(5) {
                     return Vec3::NEG_Z;
                 }
                 (base + Vec3::new(rng.range(-spread, spread), rng.range(-spread, spread), 0.0)).normalize()
             })
             .collect();
-        let origins =
-            (0..PACKET).map(|k| if p % 3 == 0 { o + Vec3::splat(0.01 * k as f32) } else { o }).collect();
+        let origins = (0..PACKET)
+            .map(|k| if p.is_multiple_of(3) { o + Vec3::splat(0.01 * k as f32) } else { o })
+            .collect();
         (origins, dirs)
     }
 
@@ -418,7 +416,7 @@ mod tests {
             for p in 0..400 {
                 let (origins, dirs) = packet_rays(&mut rng, p, 3.0);
                 // Partial packets too.
-                let n = if p % 7 == 0 { 1 + p % PACKET } else { PACKET };
+                let n = if p.is_multiple_of(7) { 1 + p % PACKET } else { PACKET };
                 let tmax = if p % 4 == 1 { 3.5 } else { f32::INFINITY };
                 let mut out = [None; PACKET];
                 closest_packet(&accel, &origins[..n], &dirs[..n], tmax, &mut out);
@@ -437,7 +435,8 @@ mod tests {
         // A pure blocker that differs per ray, triangle and instance, as the stochastic shadow
         // decisions do.
         let blocks = |k: usize, triangle: u32, instance: u32| {
-            (triangle.wrapping_mul(0x9e37_79b9) ^ instance ^ (k as u32).wrapping_mul(0x85eb_ca6b)) % 3 != 0
+            !(triangle.wrapping_mul(0x9e37_79b9) ^ instance ^ (k as u32).wrapping_mul(0x85eb_ca6b))
+                .is_multiple_of(3)
         };
         for (name, bytes) in scenes() {
             let view = blob::SceneView::parse(&bytes).unwrap();
@@ -446,7 +445,7 @@ mod tests {
             let (mut blocked, mut clear) = (0, 0);
             for p in 0..400 {
                 let (origins, dirs) = packet_rays(&mut rng, p, 3.0);
-                let n = if p % 7 == 0 { 1 + p % PACKET } else { PACKET };
+                let n = if p.is_multiple_of(7) { 1 + p % PACKET } else { PACKET };
                 let tmax: Vec<f32> = (0..n)
                     .map(|k| if (p + k) % 3 == 0 { rng.range(0.5, 5.0) } else { f32::INFINITY })
                     .collect();
