@@ -19,8 +19,8 @@
 //! * **Dispatch**: the lane loops are plain safe Rust that LLVM vectorizes; the whole query function is
 //!   compiled per target with `multiversion` (AVX2+FMA and a baseline fallback) and the CPU is checked
 //!   once per call, outside the per-node loop.
-//! * **Ties**: the closest hit is the least `(t, triangle index)` ([`precedes`]), and once a hit at
-//!   `t` is known the walk goes on with the limit [`tie_limit`]`(t)`, 256 ulps beyond it, so no
+//! * **Ties**: the closest hit is the least `(t, triangle index)` (`precedes`), and once a hit at
+//!   `t` is known the walk goes on with the limit `tie_limit(t)`, 256 ulps beyond it, so no
 //!   rounding of a limit equal to `t` culls a triangle met at exactly `t`. The answer is then
 //!   independent of the order leaves are visited in: the wavefront's packets
 //!   ([`crate::wavefront::packet`]) and a tree with every node's children reversed give the same

@@ -13,7 +13,7 @@
 //!
 //! The answers equal [`Accel::closest_hit`] and [`Accel::any_hit`] per ray, bit for bit (tested on
 //! random, instanced and exact-tie scenes): a closest hit is the least `(t, triangle index)`
-//! ([`crate::accel::precedes`]), so the visiting order, which differs between a packet and a single
+//! (`accel::precedes`), so the visiting order, which differs between a packet and a single
 //! ray, never decides a tie; an any-hit answer does not depend on the order at all.
 //!
 //! # Measurements (what lost, and why)
