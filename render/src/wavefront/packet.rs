@@ -48,7 +48,7 @@
 //! traversal is not its L1 problem either: it misses *less* than the scalar integrator's
 //! (shading-heavy, 120×80, 8 spp: node-test D1 misses 197 k against 261 k for closest hits, 314 k
 //! against 410 k for any hits; same instructions, 245 M and 107 M); the wavefront's extra D1 misses
-//! are in the shading stages (`memcpy` of queue records 1.36 M, `shade`/`scatter` 1.27 M). Scenes
+//! are in the shading stages (`memcpy` 1.36 M, `shade::shade` and `shade::scatter` 1.30 M). Scenes
 //! whose BVH spills out of L2, and a ray-major triangle test (one triangle against 8 rays in AVX2
 //! lanes, which would halve the per-ray triangle instructions of a packet) are where packets should
 //! be measured next.
