@@ -148,6 +148,34 @@ pub fn random_triangles_mesh(count: usize, seed: u64) -> Mesh {
     mesh
 }
 
+/// Exact ties: `copies` copies of one large triangle in the z = 0 plane (identical vertices, so every
+/// ray meets them all at the same `t` with the same barycentrics), interleaved in index order with
+/// `clutter` random triangles around z = 1; more copies than a leaf holds spread them over leaves.
+pub fn stacked_copies(copies: usize, clutter: usize, seed: u64) -> SceneData {
+    let random = random_triangles_mesh(clutter, seed);
+    let mut mesh = Mesh { path: "/ties".into(), ..Mesh::default() };
+    let big = [Vec3::new(-2.0, -2.0, 0.0), Vec3::new(2.0, -2.0, 0.0), Vec3::new(0.0, 2.0, 0.0)];
+    let every = (clutter / copies.max(1)).max(1);
+    let mut copies_left = copies;
+    let push = |mesh: &mut Mesh, corners: [Vec3; 3]| {
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend(corners);
+        mesh.triangles.push([base, base + 1, base + 2]);
+        mesh.triangle_materials.push(0);
+    };
+    for (j, [a, b, c]) in random.triangles.iter().enumerate() {
+        if j % every == 0 && copies_left > 0 {
+            push(&mut mesh, big);
+            copies_left -= 1;
+        }
+        push(&mut mesh, [a, b, c].map(|v| random.positions[*v as usize] + Vec3::Z));
+    }
+    for _ in 0..copies_left {
+        push(&mut mesh, big);
+    }
+    pack(&Scene { meshes: vec![mesh], materials: vec![lambert(0.5)], ..Scene::default() })
+}
+
 /// `count` instances of a smooth sphere plus one random-triangle cloud in world space, under
 /// random rotations, non-uniform scales (some mirrored) and translations inside [−3, 3]³: every
 /// gprim carries its instance-space copy, as the USD reader writes it.

@@ -1,5 +1,6 @@
 //! Stage 5: occlusion. Reads the occlusion queue and the shadow-ray side table; adds the contribution of
-//! every unoccluded light sample to its path.
+//! every unoccluded light sample to its path. One ray at a time: any-hit packets
+//! ([`super::packet::any_packet`]) lost here (see [`super::packet`]).
 
 use super::{Context, Worker};
 use crate::integrator::RayCounts;

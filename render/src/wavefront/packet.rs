@@ -1,39 +1,62 @@
-//! Packet traversal of the BVH8 (an experiment measured against single-ray traversal; see below).
+//! Packet traversal of the BVH8: closest hit ([`closest_packet`]) and any hit ([`any_packet`]),
+//! measured against single-ray traversal and kept out of the wavefront (see below); the bench's
+//! traversal table uses them.
 //!
 //! Up to eight rays share one traversal: at an inner node each active ray runs the 8-wide slab test
 //! ([`Lanes::node`]) and each child is entered with the mask of the rays that hit it (its distance is
-//! the nearest of theirs); children are visited near to far and the packet narrows to those rays. At a
-//! leaf each ray of the mask runs the 4-wide triangle test ([`Lanes::block`]) with its own `tmax`. The
-//! node is fetched once for the packet: the saving packet tracers count on for coherent rays. Rays are
-//! grouped by direction octant first ([`octant`]), as in the streaming-traversal post, so a packet's
-//! rays agree on the near planes and on the visiting order.
+//! the nearest of theirs); children are visited near to far (closest hit) or in slot order (any
+//! hit) and the packet narrows to those rays. At a leaf each ray of the mask runs the 4-wide triangle
+//! test ([`Lanes::block`]) with its own limit. The node is fetched once for the packet: the saving
+//! packet tracers count on for coherent rays. Any hit: a ray leaves every pending mask once a
+//! triangle its `blocks` accepts is hit, and the walk ends when none is left; instances are walked
+//! per ray after the packet, for both queries.
 //!
-//! Per ray the closest hit is the nearest triangle the ray meets, as in [`Accel::closest_hit`]; only
-//! when two triangles are met at exactly the same `t` can the visiting order pick a different one
-//! (the bench counts these).
+//! The answers equal [`Accel::closest_hit`] and [`Accel::any_hit`] per ray, bit for bit (tested on
+//! random, instanced and exact-tie scenes): a closest hit is the least `(t, triangle index)`
+//! (`accel::precedes`), so the visiting order, which differs between a packet and a single
+//! ray, never decides a tie; an any-hit answer does not depend on the order at all.
 //!
-//! # Measurement (`bench integrators`, traversal table)
-//! Against single-ray traversal on the same rays, per queue type: primary rays in packets of 8
-//! neighbouring pixels, diffuse bounce rays and shadow rays from the primary hits (octant-sorted),
-//! 320×213, one thread, best of 3 in CPU seconds on the loaded 2-core machine (load average ~10):
+//! # Measurements (what lost, and why)
+//! Traversal table of `bench integrators` (320×213, one thread, Mrays per CPU second, packet against
+//! single on the same rays; contended, load average 8–10, ±10 % between runs): primary rays in
+//! packets of 8 neighbouring pixels 1.06 / 1.02 / 0.88× (tractor / shading-heavy / simple; the
+//! packet kernel before the tie rule and the any-hit variant measured 1.27 / 1.14 / 1.28× and
+//! 1.28 / 1.17 / 1.31× in two earlier runs), bounce rays 0.93 / 0.83 / 0.98×, shadow rays
+//! (octant-sorted, from the primary hits) as closest-hit packets 1.02 / 0.95 / 0.98× and as any-hit
+//! packets 0.86 / 0.88 / 0.91×.
 //!
-//! | scene | primary | incoherent | occlusion |
-//! |---|---|---|---|
-//! | tractor (2 k triangles) | 1.14× | 0.74× | 0.97× |
-//! | shading-heavy (60 k) | 0.93× | 0.93× | 1.14× |
-//! | simple (4 k) | 1.25× | 1.02× | 0.94× |
+//! In the wavefront (cachegrind, 120×80, 8 spp, one thread) the camera wave as closest-hit packets
+//! of the eight samples of one pixel, and the occlusion queue as any-hit packets, made the BVH
+//! queries plus the intersect stage run +2.5 / +3.8 / +7.9 % instructions (simple / tractor /
+//! shading-heavy: 122 M against 120 M, 275 M against 265 M, 420 M against 390 M; the whole render
+//! +1.7 / +1.8 / +3.8 %): the shared per-node loop saved a little on camera rays, node and triangle
+//! tests stay one per ray, the gather into packets cost as much again, and shadow rays towards 48
+//! lights from points in shading order share few nodes (shading-heavy any hits 130 M against
+//! 107 M). Wavefront/scalar CPU time with them: 1.10 / 1.01 / 1.17× (tractor / shading-heavy /
+//! simple) against 1.26 / 1.01 / 1.23× without, same load. Two variants also lost:
+//! * an *interval* node test for one-origin packets (one slab test per node for the packet, from
+//!   the range of the rays' reciprocal directions: exactly conservative, as rounding is monotone)
+//!   cut the camera wave's node instructions 5× (simple: 12.4 M → 2.4 M), but every ray of the
+//!   packet then tested every leaf any of them reached: triangle tests +44 % (simple) and +127 %
+//!   (shading-heavy); with per-ray tests at nodes above leaves the queries still ran −2.3 / +4.2 /
+//!   +8.4 % instructions, and the bench's primary packets fell to 0.98 / 0.91 / 1.40×;
+//! * batching the ray queue (64 rays traversed, then their hits recorded) added 7–12 M
+//!   instructions to the intersect stage for no fewer D1 misses.
 //!
-//! Repeated runs move these by ±15 %, so no queue wins consistently, and the wavefront keeps
-//! single-ray traversal for every queue. Why packets gain little here: the node kernel is already
-//! 8-wide across children, so a packet adds no SIMD width, only a shared node fetch; these BVHs fit in
-//! L2, so the shared fetch is cheap, while the packet's looser culling (a child is entered while any
-//! ray of the packet still wants it) adds node tests. Scenes whose BVH spills out of cache are where
-//! primary-ray packets should be measured next.
+//! Why: the node kernel is already 8-wide across children, so a packet adds no SIMD width, only a
+//! shared node fetch, and these BVHs sit in L2, so the shared fetch is cheap. The wavefront's
+//! traversal is not its L1 problem either: it misses *less* than the scalar integrator's
+//! (shading-heavy, 120×80, 8 spp: node-test D1 misses 197 k against 261 k for closest hits, 314 k
+//! against 410 k for any hits; same instructions, 245 M and 107 M); the wavefront's extra D1 misses
+//! are in the shading stages (`memcpy` 1.36 M, `shade::shade` and `shade::scatter` 1.30 M). Scenes
+//! whose BVH spills out of L2, and a ray-major triangle test (one triangle against 8 rays in AVX2
+//! lanes, which would halve the per-ray triangle instructions of a packet) are where packets should
+//! be measured next.
 //!
 //! [`Lanes::node`]: crate::accel::Kernels::node
 //! [`Lanes::block`]: crate::accel::Kernels::block
 
-use crate::accel::{Accel, BlockHits, Hit, NodeRay, WatertightRay};
+use crate::accel::{precedes, tie_limit, Accel, BlockHits, Hit, NodeRay, WatertightRay};
 use blob::{child_ref, BvhNode, TriangleBlock, BVH_WIDTH};
 use glam::Vec3;
 
@@ -48,22 +71,204 @@ pub fn octant(d: Vec3) -> u32 {
         | (d.z.is_sign_negative() as u32) << 2
 }
 
-/// Closest hits of up to [`PACKET`] rays (`origins[k] + t·dirs[k]`, `t` in (0, `tmax`)) into `out`.
+/// Closest hits of up to [`PACKET`] rays (`origins[k] + t·dirs[k]`, `t` in (0, `tmax`)) into `out`:
+/// the same hits as [`Accel::closest_hit`] per ray. The world BVH is walked by the packet, the
+/// instances (if any) by each ray alone.
 pub fn closest_packet(accel: &Accel, origins: &[Vec3], dirs: &[Vec3], tmax: f32, out: &mut [Option<Hit>]) {
     let n = origins.len().min(PACKET).min(dirs.len()).min(out.len());
-    if accel.nodes.is_empty() || n == 0 {
-        out[..n].fill(None);
+    out[..n].fill(None);
+    if n == 0 {
         return;
     }
-    closest_packet_simd(accel, &origins[..n], &dirs[..n], tmax, &mut out[..n]);
+    if !accel.nodes.is_empty() {
+        closest_packet_simd(accel, &origins[..n], &dirs[..n], tmax, &mut out[..n]);
+    }
+    for k in 0..n {
+        out[k] = accel.closest_in_instances(origins[k], dirs[k], tmax, out[k]);
+    }
+}
+
+/// Any-hit queries of up to [`PACKET`] rays (`origins[k] + t·dirs[k]`, `t` in (0, `tmax[k]`)): bit
+/// `k` of the result is set when ray `k` hits a triangle for which `blocks(k, triangle, instance)`
+/// holds, as [`Accel::any_hit`] answers per ray (`blocks` must be pure, as there). The world BVH is
+/// walked by the packet, the instances (if any) by each ray not yet blocked.
+pub fn any_packet(
+    accel: &Accel,
+    origins: &[Vec3],
+    dirs: &[Vec3],
+    tmax: &[f32],
+    mut blocks: impl FnMut(usize, u32, u32) -> bool,
+) -> u32 {
+    let n = origins.len().min(PACKET).min(dirs.len()).min(tmax.len());
+    if n == 0 {
+        return 0;
+    }
+    let mut blocked = 0;
+    if !accel.nodes.is_empty() {
+        blocked = any_packet_simd(accel, &origins[..n], &dirs[..n], &tmax[..n], &mut blocks);
+    }
+    for k in 0..n {
+        if blocked & (1 << k) == 0
+            && accel.any_in_instances(origins[k], dirs[k], tmax[k], |t, i| blocks(k, t, i))
+        {
+            blocked |= 1 << k;
+        }
+    }
+    blocked
 }
 
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
 fn closest_packet_simd(accel: &Accel, origins: &[Vec3], dirs: &[Vec3], tmax: f32, out: &mut [Option<Hit>]) {
     let (node, block) = crate::accel::lane_kernels!();
-    traverse(accel, origins, dirs, tmax, out, node, block);
+    let rays = PacketRays::new(origins, dirs);
+    let mut limit = [tmax; PACKET];
+    let leaf = |leaf, mask, limit: &mut [f32; PACKET]| {
+        leaf_closest(accel, leaf, mask, &rays, tmax, limit, out, &block);
+        0
+    };
+    walk(accel.nodes, rays.n, &mut limit, true, per_ray_children(&rays, node), leaf);
 }
 
+/// Calls `f` with the index of every set bit of `mask`, lowest first.
+#[inline(always)]
+fn for_each_ray(mut mask: u32, mut f: impl FnMut(usize)) {
+    while mask != 0 {
+        f(mask.trailing_zeros() as usize);
+        mask &= mask - 1;
+    }
+}
+
+/// The children test of a packet whose rays each run the node kernel: per child, the mask of the
+/// rays that hit it and the nearest of their entry distances.
+#[inline(always)]
+fn per_ray_children<'r>(
+    rays: &'r PacketRays,
+    node_kernel: impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]) + 'r,
+) -> impl Fn(&BvhNode, u32, &[f32; PACKET]) -> ([u32; BVH_WIDTH], [f32; BVH_WIDTH]) + 'r {
+    move |node, mask, limit| {
+        let mut child_mask = [0u32; BVH_WIDTH];
+        let mut child_t = [f32::INFINITY; BVH_WIDTH];
+        for_each_ray(mask, |k| {
+            let (mut hit, dist) = node_kernel(node, &rays.node[k], limit[k]);
+            while hit != 0 {
+                let i = hit.trailing_zeros() as usize;
+                hit &= hit - 1;
+                child_mask[i] |= 1 << k;
+                child_t[i] = child_t[i].min(dist[i]);
+            }
+        });
+        (child_mask, child_t)
+    }
+}
+
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn any_packet_simd<F: FnMut(usize, u32, u32) -> bool>(
+    accel: &Accel,
+    origins: &[Vec3],
+    dirs: &[Vec3],
+    tmax: &[f32],
+    blocks: &mut F,
+) -> u32 {
+    let (node, block) = crate::accel::lane_kernels!();
+    let rays = PacketRays::new(origins, dirs);
+    let mut limit: [f32; PACKET] = std::array::from_fn(|k| tmax[k.min(tmax.len() - 1)]);
+    let mut blocked = 0;
+    walk(accel.nodes, rays.n, &mut limit, false, per_ray_children(&rays, node), |leaf, mask, limit| {
+        let now = leaf_any(accel, leaf, mask, &rays, limit, blocks, &block);
+        blocked |= now;
+        now
+    });
+    blocked
+}
+
+/// The per-ray data of the two kernels, for the `n` rays of a packet.
+struct PacketRays {
+    n: usize,
+    node: [NodeRay; PACKET],
+    triangle: [WatertightRay; PACKET],
+}
+
+impl PacketRays {
+    fn new(origins: &[Vec3], dirs: &[Vec3]) -> Self {
+        let n = origins.len();
+        PacketRays {
+            n,
+            node: std::array::from_fn(|k| NodeRay::new(origins[k.min(n - 1)], dirs[k.min(n - 1)])),
+            triangle: std::array::from_fn(|k| WatertightRay::new(origins[k.min(n - 1)], dirs[k.min(n - 1)])),
+        }
+    }
+}
+
+/// Tests the rays of `mask` against the triangles of `leaf`, keeping per ray the hit that
+/// [`precedes`] (so the visiting order never decides a tie) and shortening its limit.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn leaf_closest(
+    accel: &Accel,
+    leaf: u32,
+    mask: u32,
+    rays: &PacketRays,
+    tmax: f32,
+    limit: &mut [f32; PACKET],
+    out: &mut [Option<Hit>],
+    block_kernel: &impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+) {
+    let (first, count) = child_ref::leaf_range(leaf);
+    for b in &accel.blocks[first as usize..(first + count) as usize] {
+        let mut m = mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let hits = block_kernel(b, &rays.triangle[k], limit[k]);
+            let mut h = hits.mask;
+            while h != 0 {
+                let lane = h.trailing_zeros() as usize;
+                h &= h - 1;
+                let (t, triangle) = (hits.t[lane], b.triangles[lane]);
+                if t < tmax && out[k].is_none_or(|o| precedes(t, triangle, o.t, o.triangle)) {
+                    out[k] =
+                        Some(Hit { t, triangle, b1: hits.b1[lane], b2: hits.b2[lane], instance: blob::NONE });
+                    limit[k] = tie_limit(t);
+                }
+            }
+        }
+    }
+}
+
+/// Tests the rays of `mask` against the triangles of `leaf`; returns the rays a blocker stopped.
+#[inline(always)]
+fn leaf_any(
+    accel: &Accel,
+    leaf: u32,
+    mask: u32,
+    rays: &PacketRays,
+    limit: &[f32; PACKET],
+    blocks: &mut impl FnMut(usize, u32, u32) -> bool,
+    block_kernel: &impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+) -> u32 {
+    let (first, count) = child_ref::leaf_range(leaf);
+    let mut stopped = 0;
+    for b in &accel.blocks[first as usize..(first + count) as usize] {
+        let mut m = mask & !stopped;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let mut h = block_kernel(b, &rays.triangle[k], limit[k]).mask;
+            while h != 0 {
+                let lane = h.trailing_zeros() as usize;
+                h &= h - 1;
+                if blocks(k, b.triangles[lane], blob::NONE) {
+                    stopped |= 1 << k;
+                    break;
+                }
+            }
+        }
+    }
+    stopped
+}
+
+/// A subtree on the packet's stack: the rays that entered it and the nearest entry distance of
+/// theirs.
 #[derive(Clone, Copy, Default)]
 struct Entry {
     child: u32,
@@ -71,85 +276,55 @@ struct Entry {
     t: f32,
 }
 
-fn traverse(
-    accel: &Accel,
-    origins: &[Vec3],
-    dirs: &[Vec3],
-    tmax0: f32,
-    out: &mut [Option<Hit>],
-    node_kernel: impl Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
-    block_kernel: impl Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
+/// The packet's node walk. At an inner node each ray of the packet's mask runs the node kernel with
+/// its own `limit`, and each child hit is entered with the mask of the rays that hit it. `ordered`
+/// (closest hit): children visited near to far by their nearest ray's entry distance, and a popped
+/// subtree keeps only the rays whose limit still reaches it. `leaf(leaf, mask, limit)` tests a
+/// leaf, may shorten the limits, and returns rays that are finished (any hit): those leave every
+/// pending mask, and the walk ends when none is left.
+#[inline(always)]
+fn walk(
+    nodes: &[BvhNode],
+    n: usize,
+    limit: &mut [f32; PACKET],
+    ordered: bool,
+    children: impl Fn(&BvhNode, u32, &[f32; PACKET]) -> ([u32; BVH_WIDTH], [f32; BVH_WIDTH]),
+    mut leaf: impl FnMut(u32, u32, &mut [f32; PACKET]) -> u32,
 ) {
-    let n = origins.len();
-    let nrays: [NodeRay; PACKET] =
-        std::array::from_fn(|k| NodeRay::new(origins[k.min(n - 1)], dirs[k.min(n - 1)]));
-    let wrays: [WatertightRay; PACKET] =
-        std::array::from_fn(|k| WatertightRay::new(origins[k.min(n - 1)], dirs[k.min(n - 1)]));
-    let mut tmax = [tmax0; PACKET];
-    out.fill(None);
-    // Eight rays push at most seven children per level; 64 levels of that never occur in a BVH
+    let mut live = (1u32 << n) - 1;
+    // Eight rays push at most seven children per level; 96 entries are never exceeded by a BVH
     // built by ingest, and a deeper walk spills to the heap rather than fail.
     let mut stack = [Entry::default(); 96];
     let mut len = 0usize;
     let mut spill: Vec<Entry> = Vec::new();
-    let mut current = Entry { child: 0, mask: (1u32 << n) - 1, t: 0.0 };
+    let mut current = Entry { child: 0, mask: live, t: 0.0 };
     loop {
         if current.child & child_ref::LEAF != 0 {
-            let (first, count) = child_ref::leaf_range(current.child);
-            for b in &accel.blocks[first as usize..(first + count) as usize] {
-                let mut m = current.mask;
-                while m != 0 {
-                    let k = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    let hits = block_kernel(b, &wrays[k], tmax[k]);
-                    let mut best: Option<usize> = None;
-                    let mut h = hits.mask;
-                    while h != 0 {
-                        let lane = h.trailing_zeros() as usize;
-                        h &= h - 1;
-                        if best.is_none_or(|x| hits.t[lane] < hits.t[x]) {
-                            best = Some(lane);
-                        }
-                    }
-                    if let Some(lane) = best {
-                        tmax[k] = hits.t[lane];
-                        out[k] = Some(Hit {
-                            t: hits.t[lane],
-                            triangle: b.triangles[lane],
-                            b1: hits.b1[lane],
-                            b2: hits.b2[lane],
-                            // Packets walk the world BVH only; instanced scenes keep single rays.
-                            instance: blob::NONE,
-                        });
-                    }
-                }
+            live &= !leaf(current.child, current.mask, limit);
+            if live == 0 {
+                return;
             }
         } else {
-            let node = &accel.nodes[current.child as usize];
-            let mut child_mask = [0u32; BVH_WIDTH];
-            let mut child_t = [f32::INFINITY; BVH_WIDTH];
-            let mut m = current.mask;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let (mut hit, dist) = node_kernel(node, &nrays[k], tmax[k]);
-                while hit != 0 {
-                    let i = hit.trailing_zeros() as usize;
-                    hit &= hit - 1;
-                    child_mask[i] |= 1 << k;
-                    child_t[i] = child_t[i].min(dist[i]);
-                }
-            }
-            // Children far to near; push all but the nearest.
+            let node = &nodes[current.child as usize];
+            let (child_mask, child_t) = children(node, current.mask, limit);
+            // Children far to near (closest hit) or in slot order; push all but the last.
             let mut order = [Entry::default(); BVH_WIDTH];
             let mut count = 0;
             for i in 0..BVH_WIDTH {
                 if child_mask[i] != 0 {
                     let e = Entry { child: node.children[i], mask: child_mask[i], t: child_t[i] };
                     let mut j = count;
-                    while j > 0 && order[j - 1].t < e.t {
-                        order[j] = order[j - 1];
-                        j -= 1;
+                    if ordered {
+                        while j > 0 && order[j - 1].t < e.t {
+                            order[j] = order[j - 1];
+                            j -= 1;
+                        }
+                    } else {
+                        // Slot order reversed, so the first slot is entered first, as single rays do.
+                        while j > 0 {
+                            order[j] = order[j - 1];
+                            j -= 1;
+                        }
                     }
                     order[j] = e;
                     count += 1;
@@ -177,14 +352,16 @@ fn traverse(
             } else {
                 return;
             };
-            // Drop the rays whose best hit is already nearer than the child's nearest entry.
-            let mut mask = e.mask;
-            let mut m = e.mask;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                if e.t > tmax[k] {
-                    mask &= !(1 << k);
+            let mut mask = e.mask & live;
+            if ordered {
+                // Drop the rays whose best hit is already nearer than the subtree's nearest entry.
+                let mut m = mask;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if e.t > limit[k] {
+                        mask &= !(1 << k);
+                    }
                 }
             }
             if mask != 0 {
@@ -198,39 +375,90 @@ fn traverse(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testscene::{self, Rng};
+
+    /// Packets of rays from random origins around the scene: coherent (one origin, directions within
+    /// ±0.02) for even `p`, incoherent for odd, every few rays a zero direction component.
+    fn packet_rays(rng: &mut Rng, p: usize, reach: f32) -> (Vec<Vec3>, Vec<Vec3>) {
+        let o = Vec3::new(rng.range(-0.5, 0.5) * reach, rng.range(-0.5, 0.5) * reach, reach);
+        let spread = if p.is_multiple_of(2) { 0.02 } else { 1.0 };
+        let base = Vec3::new(rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), -1.0);
+        let dirs = (0..PACKET)
+            .map(|k| {
+                if k == 3 && p.is_multiple_of(5) {
+                    return Vec3::NEG_Z;
+                }
+                (base + Vec3::new(rng.range(-spread, spread), rng.range(-spread, spread), 0.0)).normalize()
+            })
+            .collect();
+        let origins = (0..PACKET)
+            .map(|k| if p.is_multiple_of(3) { o + Vec3::splat(0.01 * k as f32) } else { o })
+            .collect();
+        (origins, dirs)
+    }
+
+    /// Scenes: random triangles, transformed instances (with world-space triangles), exact ties.
+    fn scenes() -> Vec<(&'static str, blob::AlignedBytes)> {
+        vec![
+            ("random", testscene::encode(&testscene::random_triangles(3000, 5))),
+            ("instances", testscene::bytes(&testscene::instanced_spheres(40, 0xbeef))),
+            ("ties", testscene::encode(&testscene::stacked_copies(24, 400, 0x71e5))),
+        ]
+    }
 
     #[test]
-    fn packets_find_the_single_ray_hits() {
-        let data = crate::testscene::random_triangles(3000, 5);
-        let bytes = crate::testscene::encode(&data);
-        let view = blob::SceneView::parse(&bytes).unwrap();
-        let accel = Accel::new(&view);
-        let mut rng = crate::testscene::Rng(11);
-        let (mut hits, mut ties) = (0, 0);
-        for p in 0..400 {
-            let o = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 3.0);
-            // Coherent packets for even p, incoherent for odd.
-            let spread = if p % 2 == 0 { 0.02 } else { 1.0 };
-            let base = Vec3::new(rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), -1.0);
-            let dirs: Vec<Vec3> = (0..PACKET)
-                .map(|_| {
-                    (base + Vec3::new(rng.range(-spread, spread), rng.range(-spread, spread), 0.0))
-                        .normalize()
-                })
-                .collect();
-            let origins = vec![o; PACKET];
-            let mut out = [None; PACKET];
-            closest_packet(&accel, &origins, &dirs, f32::INFINITY, &mut out);
-            for k in 0..PACKET {
-                let single = accel.closest_hit(o, dirs[k], f32::INFINITY);
-                match (single, out[k]) {
-                    (Some(a), Some(b)) if a.t == b.t && a.triangle != b.triangle => ties += 1,
-                    (a, b) => assert_eq!(a, b, "packet {p} ray {k}"),
+    fn closest_packets_equal_single_rays() {
+        for (name, bytes) in scenes() {
+            let view = blob::SceneView::parse(&bytes).unwrap();
+            let accel = Accel::new(&view);
+            let mut rng = Rng(11);
+            let mut hits = 0;
+            for p in 0..400 {
+                let (origins, dirs) = packet_rays(&mut rng, p, 3.0);
+                // Partial packets too.
+                let n = if p.is_multiple_of(7) { 1 + p % PACKET } else { PACKET };
+                let tmax = if p % 4 == 1 { 3.5 } else { f32::INFINITY };
+                let mut out = [None; PACKET];
+                closest_packet(&accel, &origins[..n], &dirs[..n], tmax, &mut out);
+                for k in 0..n {
+                    let single = accel.closest_hit(origins[k], dirs[k], tmax);
+                    assert_eq!(out[k], single, "{name}: packet {p} ray {k}");
+                    hits += single.is_some() as u32;
                 }
-                hits += single.is_some() as u32;
             }
+            assert!(hits > 1000, "{name}: {hits} hits");
         }
-        assert!(hits > 1000, "{hits} hits");
-        assert!(ties <= 2, "{ties} exact ties resolved differently");
+    }
+
+    #[test]
+    fn any_packets_equal_single_rays() {
+        // A pure blocker that differs per ray, triangle and instance, as the stochastic shadow
+        // decisions do.
+        let blocks = |k: usize, triangle: u32, instance: u32| {
+            !(triangle.wrapping_mul(0x9e37_79b9) ^ instance ^ (k as u32).wrapping_mul(0x85eb_ca6b))
+                .is_multiple_of(3)
+        };
+        for (name, bytes) in scenes() {
+            let view = blob::SceneView::parse(&bytes).unwrap();
+            let accel = Accel::new(&view);
+            let mut rng = Rng(23);
+            let (mut blocked, mut clear) = (0, 0);
+            for p in 0..400 {
+                let (origins, dirs) = packet_rays(&mut rng, p, 3.0);
+                let n = if p.is_multiple_of(7) { 1 + p % PACKET } else { PACKET };
+                let tmax: Vec<f32> = (0..n)
+                    .map(|k| if (p + k) % 3 == 0 { rng.range(0.5, 5.0) } else { f32::INFINITY })
+                    .collect();
+                let mask = any_packet(&accel, &origins[..n], &dirs[..n], &tmax, blocks);
+                for k in 0..n {
+                    let single = accel.any_hit(origins[k], dirs[k], tmax[k], |t, i| blocks(k, t, i));
+                    assert_eq!(mask & (1 << k) != 0, single, "{name}: packet {p} ray {k}");
+                    blocked += single as u32;
+                    clear += !single as u32;
+                }
+                assert_eq!(mask >> n, 0, "{name}: no bits past the packet");
+            }
+            assert!(blocked > 300 && clear > 300, "{name}: {blocked} blocked, {clear} clear");
+        }
     }
 }
