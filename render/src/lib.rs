@@ -38,6 +38,7 @@ pub mod bsdf;
 pub mod camera;
 pub mod cli;
 pub mod curves;
+pub mod dome_map;
 pub mod error;
 pub mod film;
 pub mod hair;
