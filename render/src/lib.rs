@@ -39,6 +39,8 @@ pub mod camera;
 pub mod cli;
 pub mod curves;
 pub mod dome_map;
+#[cfg(test)]
+mod dome_tests;
 pub mod error;
 pub mod film;
 pub mod hair;
