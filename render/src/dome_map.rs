@@ -100,10 +100,11 @@ impl<'a> DomeMap<'a> {
         (s - s.floor(), theta / PI, sin_theta)
     }
 
-    /// The map's value seen along world direction `d` (unit).
-    pub fn texel_towards(&self, d: Vec3) -> Vec3 {
-        let (s, v, _) = self.coordinates(d);
-        self.texel(s, 1.0 - v)
+    /// The map's value seen along world direction `d` (unit), and the solid-angle pdf that
+    /// [`DomeMap::sample`] picks `d` (one coordinate transform for both: escaping rays need both).
+    pub fn texel_and_pdf(&self, d: Vec3) -> (Vec3, f32) {
+        let (s, v, sin_theta) = self.coordinates(d);
+        (self.texel(s, 1.0 - v), self.pdf_at(s, v, sin_theta))
     }
 
     /// Probability of cell `(i, j)` per unit `(s, v)` area.
@@ -117,6 +118,10 @@ impl<'a> DomeMap<'a> {
     /// Solid-angle pdf that [`DomeMap::sample`] picks world direction `d` (unit).
     pub fn pdf(&self, d: Vec3) -> f32 {
         let (s, v, sin_theta) = self.coordinates(d);
+        self.pdf_at(s, v, sin_theta)
+    }
+
+    fn pdf_at(&self, s: f32, v: f32, sin_theta: f32) -> f32 {
         if sin_theta <= 0.0 {
             return 0.0;
         }

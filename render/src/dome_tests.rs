@@ -410,3 +410,53 @@ fn wavefront_image_equals_the_scalar_one_under_a_textured_dome() {
         "max |Δ| {max_diff}"
     );
 }
+
+#[test]
+fn importance_sampling_the_map_beats_uniform_directions_on_a_bright_patch() {
+    // Irradiance on a +Z card under the one-patch map, estimated per sample as L cos / pdf: by the
+    // map's distribution and by uniform directions. Both must agree with the quadrature; the map's
+    // estimator must have a far smaller variance.
+    let map = Map::from_fn(64, 32, |x, y| {
+        if (20..24).contains(&x) && (10..12).contains(&y) {
+            [100.0; 3]
+        } else {
+            [0.01; 3]
+        }
+    });
+    let expected = map.irradiance([0.0, 0.0, 1.0])[0];
+    let scene = scene_with(&map, dome_light(Vec3::ONE, Mat4::IDENTITY), vec![], 0.5);
+    let bytes = testscene::bytes(&scene);
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    let dome = DomeMap::new(&view, 0, Mat3::IDENTITY).expect("a map");
+    let mut rng = Rng(21);
+    let n = 100_000;
+    let moments = |sample: &mut dyn FnMut() -> f64| {
+        let (mut sum, mut sum2) = (0.0, 0.0);
+        for _ in 0..n {
+            let x = sample();
+            sum += x;
+            sum2 += x * x;
+        }
+        let mean = sum / n as f64;
+        (mean, sum2 / n as f64 - mean * mean)
+    };
+    let (by_map, var_map) = moments(&mut || {
+        let Some(s) = dome.sample([rng.next_f32(), rng.next_f32()]) else { return 0.0 };
+        (s.texel.x * s.wi.z.max(0.0) / s.pdf) as f64
+    });
+    let mut rng = Rng(22);
+    let (uniform, var_uniform) = moments(&mut || {
+        let z = 1.0 - 2.0 * rng.next_f32();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = std::f32::consts::TAU * rng.next_f32();
+        let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+        (dome.texel_and_pdf(d).0.x * z.max(0.0)) as f64 * 4.0 * PI
+    });
+    eprintln!(
+        "E: quadrature {expected:.4}, by the map {by_map:.4} (variance {var_map:.3}), uniform {uniform:.4} (variance {var_uniform:.1}); ratio {:.0}",
+        var_uniform / var_map
+    );
+    assert!((by_map / expected - 1.0).abs() < 0.01, "by the map {by_map} vs {expected}");
+    assert!((uniform / expected - 1.0).abs() < 0.1, "uniform {uniform} vs {expected}");
+    assert!(var_uniform > 20.0 * var_map, "variance: map {var_map}, uniform {var_uniform}");
+}

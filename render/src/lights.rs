@@ -607,8 +607,8 @@ impl<'a> Lights<'a> {
             let (le, pdf) = match light.shape {
                 Shape::Dome => (light.radiance, 1.0 / (4.0 * PI)),
                 Shape::TexturedDome { map } => {
-                    let map = &self.dome_maps[map as usize];
-                    (light.radiance * map.texel_towards(d), map.pdf(d))
+                    let (texel, pdf) = self.dome_maps[map as usize].texel_and_pdf(d);
+                    (light.radiance * texel, pdf)
                 }
                 Shape::Distant { to_light, one_minus_cos_max } => {
                     if 1.0 - d.dot(to_light) > one_minus_cos_max {
