@@ -5,6 +5,8 @@
 //! * Every light's radiance is `color · intensity · 2^exposure` (the blob's `radiance`).
 //! * `normalize` divides the radiance of rect, disk and sphere lights by their world-space surface area
 //!   (rect w·h, disk πr², sphere 4πr²), so power does not depend on size. Dome lights ignore it.
+//! * A DomeLight with a lat-long `texture:file` shows `radiance × map(direction)` and is sampled by
+//!   the map's luminance distribution ([`crate::dome_map`]); an untextured one is uniform.
 //! * DistantLight: with `normalize` the intensity is the illuminance E at normal incidence whatever the
 //!   angle, so the radiance over the cone of half-angle θ/2 is E / (π sin²(θ/2)); without `normalize`
 //!   the radiance over the cone is the intensity itself. An angle of 0 is a delta light of illuminance

@@ -22,7 +22,8 @@
 //!
 //! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
-//! that sampled an emissive triangle, as the scalar integrator calls it.
+//! that sampled an emissive triangle, as the scalar integrator calls it, and `Lights::sample` itself
+//! per lane that picked a textured dome (its map's CDF search and lookup).
 
 use super::bsdf_lanes::{Lanes, Lanes3, V};
 use super::lanes::LANES;
