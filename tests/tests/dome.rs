@@ -11,7 +11,12 @@ const RIGHT: [f32; 3] = [2.0, 1.0, 0.5];
 
 /// The bytes of a 32 × 16 Radiance `.hdr` with `LEFT` and `RIGHT` halves.
 fn hdr_bytes() -> Vec<u8> {
-    let img = image::Rgb32FImage::from_fn(32, 16, |x, _| image::Rgb(if x < 16 { LEFT } else { RIGHT }));
+    hdr_halves(LEFT, RIGHT)
+}
+
+/// The bytes of a 32 × 16 Radiance `.hdr` with halves `left` and `right`.
+fn hdr_halves(left: [f32; 3], right: [f32; 3]) -> Vec<u8> {
+    let img = image::Rgb32FImage::from_fn(32, 16, |x, _| image::Rgb(if x < 16 { left } else { right }));
     let mut bytes = std::io::Cursor::new(Vec::new());
     image::DynamicImage::ImageRgb32F(img).write_to(&mut bytes, image::ImageFormat::Hdr).expect("encode hdr");
     bytes.into_inner()
@@ -123,6 +128,34 @@ fn textured_dome_from_an_hdr_file_shows_its_map_turned_by_the_light_transform() 
     );
     let (rgb, _, _) = render_root(&root);
     assert_rgb(rgb, scale(RIGHT), 0.01, "right half of the map, rotated −90°");
+}
+
+#[test]
+fn a_sun_brighter_than_half_floats_hold_keeps_its_radiance() {
+    // 2¹⁷ is past the half-float maximum (65504) the bake stores float maps in: the map is scaled
+    // down by a power of two at ingest and the light's radiance carries the factor back. (Values
+    // RGBE holds exactly: mantissas 128, 96, 64 under one exponent.)
+    let sun = [131_072.0, 98_304.0, 65_536.0];
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "sun.hdr", &hdr_halves(sun, RIGHT));
+    let root =
+        write(dir.path(), "scene.usda", stage("        asset inputs:texture:file = @sun.hdr@").as_bytes());
+    let (rgb, warnings, bytes) = render_root(&root);
+    eprintln!("sun background {rgb:?} (expected {:?})", scale(sun));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_rgb(rgb, scale(sun), 1e-6, "sun half");
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    assert_eq!(view.lights[0].radiance, [4.0 * 0.5 * 4.0, 4.0 * 4.0, 4.0 * 4.0], "× 2² to fit 65504");
+    // The other half, now stored four times smaller, still reads its value.
+    let root = write(
+        dir.path(),
+        "turned.usda",
+        stage("        asset inputs:texture:file = @sun.hdr@")
+            .replace("rotateY = 90", "rotateY = -90")
+            .as_bytes(),
+    );
+    let (rgb, _, _) = render_root(&root);
+    assert_rgb(rgb, scale(RIGHT), 0.01, "dim half beside the sun");
 }
 
 #[test]

@@ -33,8 +33,9 @@ impl Reader<'_> {
 
     /// The baked lat-long map of a dome light's `texture:file`, or `None` (uniform colour): none
     /// authored, texture baking off (listing only), or, with a warning naming the prim and the file,
-    /// a format other than `automatic`/`latlong`, a file that cannot be found or read.
-    fn dome_texture(&mut self, path: &str) -> Result<Option<u32>, UsdError> {
+    /// a format other than `automatic`/`latlong`, a file that cannot be found or read. With the
+    /// texture index comes the factor the light's radiance must carry (see [`fit_half_float_range`]).
+    fn dome_texture(&mut self, path: &str) -> Result<Option<(u32, f32)>, UsdError> {
         let attr = if self.stage.attr(path, "inputs:texture:file")?.is_some() {
             "inputs:texture:file"
         } else {
@@ -67,17 +68,24 @@ impl Reader<'_> {
         if let Some(i) =
             self.scene.textures.iter().position(|t| t.path == file && t.color_space == color_space)
         {
-            return Ok(Some(i as u32));
+            return Ok(Some((i as u32, 1.0)));
         }
         let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
-        match decode_dome_texture(&file).and_then(|src| texture::bake(&src, &options)) {
-            Ok(baked) => {
+        let baked = decode_dome_texture(&file).and_then(|mut src| {
+            let scale = fit_half_float_range(&mut src);
+            texture::bake(&src, &options).map(|baked| (baked, scale))
+        });
+        match baked {
+            Ok((baked, scale)) => {
+                // A scaled copy must not be found by a material reading the same file.
+                let key =
+                    if scale == 1.0 { file } else { PathBuf::from(format!("{}#/{scale}", file.display())) };
                 self.scene.textures.push(SceneTexture {
-                    path: file,
+                    path: key,
                     color_space,
                     data: TextureData::Image(baked),
                 });
-                Ok(Some(self.scene.textures.len() as u32 - 1))
+                Ok(Some((self.scene.textures.len() as u32 - 1, scale)))
             }
             Err(e) => {
                 let packaged = file.to_str().is_some_and(ar::is_package_relative_path);
@@ -96,7 +104,7 @@ impl Reader<'_> {
     pub(super) fn read_light(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
         let intensity = self.light_f32(path, "intensity", fallback::LIGHT_INTENSITY)?;
         let exposure = self.light_f32(path, "exposure", fallback::LIGHT_EXPOSURE)?;
-        let color = self
+        let mut color = self
             .light_input(path, "color")?
             .and_then(|v| v.as_tuple::<3>())
             .map_or(Vec3::from_array(fallback::LIGHT_COLOR), |c| {
@@ -122,7 +130,10 @@ impl Reader<'_> {
             }
             "DiskLight" => LightKind::Disk { radius: self.light_f32(path, "radius", fallback::DISK_RADIUS)? },
             _ => match self.dome_texture(path)? {
-                Some(texture) => LightKind::TexturedDome { texture },
+                Some((texture, scale)) => {
+                    color *= scale;
+                    LightKind::TexturedDome { texture }
+                }
                 None => LightKind::Dome,
             },
         };
@@ -218,6 +229,23 @@ fn resolve_dome_asset(layer: &str, asset: &str) -> Result<PathBuf, String> {
     }
     let base = Path::new(layer).parent().unwrap_or(Path::new("."));
     Ok(base.join(asset_path.strip_prefix("./").unwrap_or(asset_path)))
+}
+
+/// Scales a float image by a power of two so that its largest finite sample fits a half float (65504;
+/// bakes store float sources as halves, which would turn a bright sun into infinity), and returns the
+/// inverse factor for the light's radiance. Powers of two keep every sample's mantissa; only values
+/// far below the largest lose precision, at less than 2⁻²⁴ of it.
+fn fit_half_float_range(src: &mut texture::SourceImage) -> f32 {
+    const HALF_MAX: f32 = 65504.0;
+    let texture::Samples::F32(samples) = &mut src.samples else { return 1.0 };
+    let largest = samples.iter().copied().filter(|v| v.is_finite()).fold(0.0f32, f32::max);
+    if largest <= HALF_MAX {
+        return 1.0;
+    }
+    let exponent = (largest / HALF_MAX).log2().ceil() as i32;
+    let factor = 2.0f32.powi(exponent);
+    samples.iter_mut().for_each(|v| *v /= factor);
+    factor
 }
 
 /// Decodes a dome texture file, or a `.usdz` entry from the zip.
