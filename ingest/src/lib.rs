@@ -21,6 +21,7 @@ pub mod dicing;
 pub mod instancing;
 pub mod pack;
 pub mod pack_curves;
+mod pack_dome;
 mod pack_instances;
 pub mod pipeline;
 pub mod scene;

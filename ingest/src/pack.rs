@@ -91,6 +91,14 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
                     dome_light = i as u32;
                 }
             }
+            LightKind::TexturedDome { texture } => {
+                record.kind = rec::light_kind::TEXTURED_DOME;
+                record.dome_map =
+                    crate::pack_dome::pack_dome_map(scene, &light.path, texture, &texture_refs, &mut data)?;
+                if dome_light == rec::NONE {
+                    dome_light = i as u32;
+                }
+            }
             LightKind::Distant { angle_degrees } => {
                 record.kind = rec::light_kind::DISTANT;
                 record.angle_degrees = angle_degrees;

@@ -682,6 +682,8 @@ pub struct Light {
 pub enum LightKind {
     /// DomeLight (untextured).
     Dome,
+    /// DomeLight with a lat-long `texture:file`: [`Scene::textures`] index of the baked map.
+    TexturedDome { texture: u32 },
     /// DistantLight with `angle` in degrees (fallback 0.53).
     Distant { angle_degrees: f32 },
     /// SphereLight with `radius` (fallback 0.5) and `treatAsPoint`.

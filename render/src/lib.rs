@@ -38,6 +38,9 @@ pub mod bsdf;
 pub mod camera;
 pub mod cli;
 pub mod curves;
+pub mod dome_map;
+#[cfg(test)]
+mod dome_tests;
 pub mod error;
 pub mod film;
 pub mod hair;

@@ -5,6 +5,8 @@
 //! * Every light's radiance is `color · intensity · 2^exposure` (the blob's `radiance`).
 //! * `normalize` divides the radiance of rect, disk and sphere lights by their world-space surface area
 //!   (rect w·h, disk πr², sphere 4πr²), so power does not depend on size. Dome lights ignore it.
+//! * A DomeLight with a lat-long `texture:file` shows `radiance × map(direction)` and is sampled by
+//!   the map's luminance distribution ([`crate::dome_map`]); an untextured one is uniform.
 //! * DistantLight: with `normalize` the intensity is the illuminance E at normal incidence whatever the
 //!   angle, so the radiance over the cone of half-angle θ/2 is E / (π sin²(θ/2)); without `normalize`
 //!   the radiance over the cone is the intensity itself. An angle of 0 is a delta light of illuminance
@@ -21,6 +23,7 @@
 
 use crate::bsdf::{sample_concentric_disk, Frame};
 use crate::camera::affine_from_rows;
+use crate::dome_map::DomeMap;
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
 
@@ -29,6 +32,11 @@ use std::f32::consts::{PI, TAU};
 pub enum Shape {
     /// Uniform radiance from every direction.
     Dome,
+    /// A lat-long map ([`crate::dome_map`]): `radiance` times the map's value in each direction.
+    TexturedDome {
+        /// Index into the scene's dome maps (in [`Lights`]).
+        map: u32,
+    },
     /// A cone of directions around `to_light`; `one_minus_cos_max == 0` is a delta direction.
     Distant {
         /// Unit direction towards the light.
@@ -109,6 +117,8 @@ pub struct LightSample {
 #[derive(Clone, Debug)]
 pub struct Lights<'a> {
     lights: Vec<Light>,
+    /// The textured domes' maps, by [`Shape::TexturedDome::map`].
+    dome_maps: Vec<DomeMap<'a>>,
     /// Indices into `lights` of the rect/disk/sphere lights rays can hit.
     area: Vec<usize>,
     /// Indices into `lights` of the dome and non-delta distant lights escaping rays can see.
@@ -240,6 +250,8 @@ impl Light {
                 let normal = emission_normal(ex, ey);
                 Light { shape: Shape::Disk { center, ex, ey, normal, area }, radiance: scale_by(area) }
             }
+            // The map index is set by `Lights::new`, which builds the maps.
+            blob::light_kind::TEXTURED_DOME => Light { shape: Shape::TexturedDome { map: 0 }, radiance },
             _ => Light { shape: Shape::Dome, radiance },
         }
     }
@@ -307,6 +319,21 @@ impl<'a> Lights<'a> {
     /// Collects the lights of a validated scene.
     pub fn new(view: &blob::SceneView<'a>) -> Self {
         let mut lights: Vec<Light> = view.lights.iter().map(Light::from_blob).collect();
+        // One map per textured dome (each with its own rotation); a map that cannot be viewed (never,
+        // on a validated blob) leaves the dome uniform.
+        let mut dome_maps = Vec::new();
+        for (light, rec) in lights.iter_mut().zip(view.lights) {
+            if let Shape::TexturedDome { map } = &mut light.shape {
+                let m = affine_from_rows(&rec.world_from_light).matrix3.into();
+                match DomeMap::new(view, rec.dome_map, m) {
+                    Some(dome) => {
+                        *map = dome_maps.len() as u32;
+                        dome_maps.push(dome);
+                    }
+                    None => light.shape = Shape::Dome,
+                }
+            }
+        }
         if !view.emissive_triangles.is_empty() {
             lights.push(Light { shape: Shape::Triangles, radiance: Vec3::ONE });
         }
@@ -317,7 +344,7 @@ impl<'a> Lights<'a> {
             .collect();
         let infinite = (0..lights.len())
             .filter(|&i| match lights[i].shape {
-                Shape::Dome => true,
+                Shape::Dome | Shape::TexturedDome { .. } => true,
                 Shape::Distant { one_minus_cos_max, .. } => one_minus_cos_max > 0.0,
                 _ => false,
             })
@@ -328,6 +355,7 @@ impl<'a> Lights<'a> {
         Lights {
             select_pmf: if lights.is_empty() { 0.0 } else { 1.0 / lights.len() as f32 },
             lights,
+            dome_maps,
             area,
             infinite,
             emissive: view.emissive_triangles,
@@ -375,6 +403,14 @@ impl<'a> Lights<'a> {
         Vec3::from(m.emissive_color).max(Vec3::ZERO)
     }
 
+    /// Whether [`Lights::sample`] with `u_select` picks a textured dome.
+    pub(crate) fn is_textured_dome(&self, u_select: f32) -> bool {
+        !self.dome_maps.is_empty() && {
+            let index = ((u_select * self.lights.len() as f32) as usize).min(self.lights.len() - 1);
+            matches!(self.lights[index].shape, Shape::TexturedDome { .. })
+        }
+    }
+
     /// Samples a light as seen from `p`.
     pub fn sample(&self, p: Vec3, u_select: f32, u: [f32; 2]) -> Option<LightSample> {
         if self.lights.is_empty() {
@@ -408,6 +444,17 @@ impl<'a> Lights<'a> {
                 delta: false,
                 emitter: None,
             }),
+            Shape::TexturedDome { map } => {
+                let s = self.dome_maps[map as usize].sample(u)?;
+                Some(LightSample {
+                    wi: s.wi,
+                    distance: f32::INFINITY,
+                    li: light.radiance * s.texel,
+                    pdf: sel * s.pdf,
+                    delta: false,
+                    emitter: None,
+                })
+            }
             Shape::Distant { to_light, one_minus_cos_max } => {
                 if one_minus_cos_max == 0.0 {
                     Some(LightSample {
@@ -559,18 +606,22 @@ impl<'a> Lights<'a> {
         let mut sum = Vec3::ZERO;
         for &i in &self.infinite {
             let light = &self.lights[i];
-            let pdf = match light.shape {
-                Shape::Dome => 1.0 / (4.0 * PI),
+            let (le, pdf) = match light.shape {
+                Shape::Dome => (light.radiance, 1.0 / (4.0 * PI)),
+                Shape::TexturedDome { map } => {
+                    let (texel, pdf) = self.dome_maps[map as usize].texel_and_pdf(d);
+                    (light.radiance * texel, pdf)
+                }
                 Shape::Distant { to_light, one_minus_cos_max } => {
                     if 1.0 - d.dot(to_light) > one_minus_cos_max {
                         continue;
                     }
-                    1.0 / (TAU * one_minus_cos_max)
+                    (light.radiance, 1.0 / (TAU * one_minus_cos_max))
                 }
                 _ => continue,
             };
             let w = bsdf_pdf.map_or(1.0, |b| power_heuristic(b, self.select_pmf * pdf));
-            sum += light.radiance * w;
+            sum += le * w;
         }
         sum
     }
@@ -610,6 +661,7 @@ mod tests {
     fn lights_of(records: &[blob::Light]) -> Lights<'static> {
         Lights {
             lights: records.iter().map(Light::from_blob).collect(),
+            dome_maps: vec![],
             area: vec![],
             infinite: vec![],
             select_pmf: 1.0 / records.len() as f32,

@@ -33,7 +33,7 @@ FEATURES = [
     ("UDIM tile missing", r"UDIM tile .* is missing|UDIM: no tile file"),
     ("texture file missing", r"texture file .* not found"),
     ("texture without inputs:file", r"texture has no inputs:file"),
-    ("textured dome light", r"textured dome light"),
+    ("dome texture unusable (format, missing or unreadable file)", r"dome texture .*using its uniform color"),
     ("collection-based material binding", r"collection-based material bindings"),
     ("preview-purpose binding only", r"only a preview-purpose material binding"),
     ("displacement", r"displacement ignored"),

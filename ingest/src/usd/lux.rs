@@ -1,10 +1,13 @@
 //! UsdLux lights, UsdGeomCamera and UsdRenderSettings.
 
+use std::path::{Path, PathBuf};
+
 use glam::Vec3;
+use openusd::ar::{self, Resolver};
 
 use super::stage::Value;
 use super::{fallback, Inherited, Reader, UsdError};
-use crate::scene::{Camera, Light, LightKind};
+use crate::scene::{Camera, Light, LightKind, SceneTexture, TextureData};
 
 impl Reader<'_> {
     /// A light input: `inputs:<name>` (current UsdLux) wins over plain `<name>` (pre-2021 assets).
@@ -28,11 +31,80 @@ impl Reader<'_> {
         Ok(file.as_ref().and_then(Value::as_str).is_some_and(|f| !f.is_empty()))
     }
 
+    /// The baked lat-long map of a dome light's `texture:file`, or `None` (uniform colour): none
+    /// authored, texture baking off (listing only), or, with a warning naming the prim and the file,
+    /// a format other than `automatic`/`latlong`, a file that cannot be found or read. With the
+    /// texture index comes the factor the light's radiance must carry (see [`fit_half_float_range`]).
+    fn dome_texture(&mut self, path: &str) -> Result<Option<(u32, f32)>, UsdError> {
+        let attr = if self.stage.attr(path, "inputs:texture:file")?.is_some() {
+            "inputs:texture:file"
+        } else {
+            "texture:file"
+        };
+        let Some(asset) = self.stage.attr(path, attr)?.and_then(|v| v.as_str().map(str::to_string)) else {
+            return Ok(None);
+        };
+        if asset.is_empty() || !self.bake_textures {
+            return Ok(None);
+        }
+        let format = self.light_input(path, "texture:format")?;
+        let format = format.as_ref().and_then(Value::as_str).unwrap_or("automatic");
+        if !matches!(format, "automatic" | "latlong") {
+            self.warn(
+                path,
+                format!("dome texture {asset:?}: texture:format {format:?} not supported yet (automatic and latlong are); using its uniform color"),
+            );
+            return Ok(None);
+        }
+        let layer = self.stage.authoring_layer(path, attr);
+        let file = match resolve_dome_asset(&layer, &asset) {
+            Ok(file) => file,
+            Err(why) => {
+                self.warn(path, format!("dome texture {asset:?}: {why}; using its uniform color"));
+                return Ok(None);
+            }
+        };
+        let color_space = texture::ColorSpace::Auto;
+        if let Some(i) =
+            self.scene.textures.iter().position(|t| t.path == file && t.color_space == color_space)
+        {
+            return Ok(Some((i as u32, 1.0)));
+        }
+        let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
+        let baked = decode_dome_texture(&file).and_then(|mut src| {
+            let scale = fit_half_float_range(&mut src);
+            texture::bake(&src, &options).map(|baked| (baked, scale))
+        });
+        match baked {
+            Ok((baked, scale)) => {
+                // A scaled copy must not be found by a material reading the same file.
+                let key =
+                    if scale == 1.0 { file } else { PathBuf::from(format!("{}#/{scale}", file.display())) };
+                self.scene.textures.push(SceneTexture {
+                    path: key,
+                    color_space,
+                    data: TextureData::Image(baked),
+                });
+                Ok(Some((self.scene.textures.len() as u32 - 1, scale)))
+            }
+            Err(e) => {
+                let packaged = file.to_str().is_some_and(ar::is_package_relative_path);
+                let why = if file.exists() || packaged {
+                    format!("cannot be read ({e})")
+                } else {
+                    "not found".into()
+                };
+                self.warn(path, format!("dome texture {} {why}; using its uniform color", file.display()));
+                Ok(None)
+            }
+        }
+    }
+
     /// Reads a DomeLight, DistantLight, SphereLight, RectLight or DiskLight.
     pub(super) fn read_light(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
         let intensity = self.light_f32(path, "intensity", fallback::LIGHT_INTENSITY)?;
         let exposure = self.light_f32(path, "exposure", fallback::LIGHT_EXPOSURE)?;
-        let color = self
+        let mut color = self
             .light_input(path, "color")?
             .and_then(|v| v.as_tuple::<3>())
             .map_or(Vec3::from_array(fallback::LIGHT_COLOR), |c| {
@@ -57,12 +129,13 @@ impl Reader<'_> {
                 }
             }
             "DiskLight" => LightKind::Disk { radius: self.light_f32(path, "radius", fallback::DISK_RADIUS)? },
-            _ => {
-                if self.light_has_texture(path)? {
-                    self.warn(path, "textured dome light not supported yet; using its uniform color");
+            _ => match self.dome_texture(path)? {
+                Some((texture, scale)) => {
+                    color *= scale;
+                    LightKind::TexturedDome { texture }
                 }
-                LightKind::Dome
-            }
+                None => LightKind::Dome,
+            },
         };
         self.scene.lights.push(Light {
             path: path.to_string(),
@@ -128,4 +201,61 @@ impl Reader<'_> {
         }
         Ok(())
     }
+}
+
+// The two helpers below repeat, for dome textures, what `material.rs` does privately for UsdUVTexture
+// files (resolution against the authoring layer, `.usdz` entries read in place); they belong in one
+// shared module once `material.rs` can be edited.
+
+/// Resolves a dome texture asset path against the layer that authored it: absolute as it is, relative
+/// beside the layer, and inside a `.usdz` package (or package-relative) as USD's resolver anchors it.
+fn resolve_dome_asset(layer: &str, asset: &str) -> Result<PathBuf, String> {
+    let packaged = ar::is_package_relative_path(asset)
+        || ar::is_package_relative_path(layer)
+        || layer.to_ascii_lowercase().ends_with(".usdz");
+    if packaged {
+        let anchor = ar::ResolvedPath::new(layer);
+        let id = ar::DefaultResolver::new().create_identifier(asset, Some(&anchor));
+        if ar::split_package_relative_path_inner(&id)
+            .is_some_and(|(package, _)| ar::is_package_relative_path(&package))
+        {
+            return Err("textures inside nested packages are not supported".into());
+        }
+        return Ok(PathBuf::from(id));
+    }
+    let asset_path = Path::new(asset);
+    if asset_path.is_absolute() {
+        return Ok(asset_path.to_path_buf());
+    }
+    let base = Path::new(layer).parent().unwrap_or(Path::new("."));
+    Ok(base.join(asset_path.strip_prefix("./").unwrap_or(asset_path)))
+}
+
+/// Scales a float image by a power of two so that its largest finite sample fits a half float (65504;
+/// bakes store float sources as halves, which would turn a bright sun into infinity), and returns the
+/// inverse factor for the light's radiance. Powers of two keep every sample's mantissa; only values
+/// far below the largest lose precision, at less than 2⁻²⁴ of it.
+fn fit_half_float_range(src: &mut texture::SourceImage) -> f32 {
+    const HALF_MAX: f32 = 65504.0;
+    let texture::Samples::F32(samples) = &mut src.samples else { return 1.0 };
+    let largest = samples.iter().copied().filter(|v| v.is_finite()).fold(0.0f32, f32::max);
+    if largest <= HALF_MAX {
+        return 1.0;
+    }
+    let exponent = (largest / HALF_MAX).log2().ceil() as i32;
+    let factor = 2.0f32.powi(exponent);
+    samples.iter_mut().for_each(|v| *v /= factor);
+    factor
+}
+
+/// Decodes a dome texture file, or a `.usdz` entry from the zip.
+fn decode_dome_texture(path: &Path) -> Result<texture::SourceImage, texture::Error> {
+    let packaged = path.to_str().and_then(ar::split_package_relative_path_outer);
+    let Some((_, inner)) = packaged else { return texture::decode(path) };
+    let io = |e: std::io::Error| texture::Error { path: path.to_path_buf(), kind: texture::ErrorKind::Io(e) };
+    let resolved = ar::ResolvedPath::new(path);
+    let bytes =
+        ar::DefaultResolver::new().open_asset(&resolved).and_then(|mut a| a.read_all()).map_err(io)?;
+    texture::decode_bytes(&bytes, Path::new(&inner))
+        .map_err(|e| texture::Error { path: path.to_path_buf(), ..e })
 }

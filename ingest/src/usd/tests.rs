@@ -530,7 +530,11 @@ def CylinderLight "Cyl" {}"#,
     assert!(light("/Both").normalize);
     assert_eq!(light("/Both").kind, LightKind::Disk { radius: 0.5 });
     assert_eq!(light("/Dome").kind, LightKind::Dome);
-    assert!(has_warning(&scene, "/Dome", "textured dome light not supported yet; using its uniform color"));
+    assert!(
+        has_warning(&scene, "/Dome", "sky.exr not found; using its uniform color"),
+        "{:?}",
+        scene.warnings
+    );
     assert!(has_warning(&scene, "/Cyl", "CylinderLight"));
     assert_eq!(scene.lights.len(), 5);
     assert_eq!(

@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -166,4 +166,8 @@ section_kinds! {
     PrototypeBvhNodes = 54,
     /// [`crate::TriangleBlock`] of every prototype's BVH, vertices in prototype space.
     PrototypeBvhBlocks = 55,
+    /// [`crate::DomeMap`] (textured dome lights; format 6).
+    DomeMaps = 60,
+    /// `f32` CDF values of the dome maps' distributions.
+    DomeCdfValues = 61,
 }

@@ -18,7 +18,7 @@
 //! ```
 //!
 //! Modules: [`records`] (the Pod records), [`curves`] (curve and point records, format 2), [`instances`] (prototypes, instances and
-//! the top-level BVH, format 5), `container` (header and section table), `scene` (encode and
+//! the top-level BVH, format 5), [`dome`] (textured dome lights' maps and distributions, format 6), `container` (header and section table), `scene` (encode and
 //! parse), `checksum`, `error`, `io` (atomic write, aligned buffers).
 
 #![deny(missing_docs)]
@@ -26,6 +26,7 @@
 mod checksum;
 mod container;
 pub mod curves;
+pub mod dome;
 mod error;
 pub mod instances;
 mod io;
@@ -35,6 +36,7 @@ mod scene;
 pub use checksum::checksum;
 pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};
 pub use curves::{CurveAttributes, CurveData, CurveGroup, CurveSegment, CurveView, PointSphere};
+pub use dome::{DomeData, DomeMap, DomeView};
 pub use error::BlobError;
 pub use instances::{Instance, InstanceData, InstanceView, Prototype};
 pub use io::{write_atomic, AlignedBytes};

@@ -144,6 +144,9 @@ pub mod light_kind {
     pub const RECT: u32 = 3;
     /// UsdLuxDiskLight in the light's XY plane, emitting along −Z.
     pub const DISK: u32 = 4;
+    /// UsdLuxDomeLight with a lat-long texture: [`crate::Light::dome_map`] names its
+    /// [`crate::DomeMap`] (format 6).
+    pub const TEXTURED_DOME: u32 = 5;
 }
 
 /// `inputs:normalize`: power does not depend on size.
@@ -171,8 +174,8 @@ pub struct Light {
     pub height: f32,
     /// Distant light angular diameter, degrees.
     pub angle_degrees: f32,
-    /// Reserved, zero.
-    pub reserved: f32,
+    /// [`crate::DomeMap`] index of a [`light_kind::TEXTURED_DOME`]; zero for other kinds.
+    pub dome_map: u32,
     /// Row-major 3×4 affine `world_from_light` (rows 0..3 of the 4×4, column vectors convention).
     pub world_from_light: [[f32; 4]; 3],
 }

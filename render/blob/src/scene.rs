@@ -61,6 +61,8 @@ pub struct SceneData {
     pub curves: crate::CurveData,
     /// Prototypes, instances and the top-level BVH.
     pub instancing: crate::InstanceData,
+    /// Textured dome lights' maps and distributions.
+    pub dome: crate::DomeData,
 }
 
 impl SceneData {
@@ -110,6 +112,8 @@ impl SceneData {
             section(SectionKind::InstanceBvhItems, &self.instancing.bvh_items),
             section(SectionKind::PrototypeBvhNodes, &self.instancing.prototype_nodes),
             section(SectionKind::PrototypeBvhBlocks, &self.instancing.prototype_blocks),
+            section(SectionKind::DomeMaps, &self.dome.maps),
+            section(SectionKind::DomeCdfValues, &self.dome.cdf_values),
         ];
         let table_len = sections.len() * std::mem::size_of::<SectionEntry>();
         let mut cursor = align_up(std::mem::size_of::<Header>() + table_len);
@@ -211,6 +215,8 @@ pub struct SceneView<'a> {
     pub curves: crate::CurveView<'a>,
     /// Prototypes, instances and the top-level BVH.
     pub instancing: crate::InstanceView<'a>,
+    /// Textured dome lights' maps and distributions (texture indices and every CDF checked).
+    pub dome: crate::DomeView<'a>,
 }
 
 impl<'a> SceneView<'a> {
@@ -283,6 +289,10 @@ impl<'a> SceneView<'a> {
                     get(SectionKind::PrototypeBvhBlocks)?,
                     SectionKind::PrototypeBvhBlocks,
                 )?,
+            },
+            dome: crate::DomeView {
+                maps: typed(bytes, get(SectionKind::DomeMaps)?, SectionKind::DomeMaps)?,
+                cdf_values: typed(bytes, get(SectionKind::DomeCdfValues)?, SectionKind::DomeCdfValues)?,
             },
         };
         view.validate_indices()?;
@@ -434,10 +444,14 @@ impl<'a> SceneView<'a> {
         self.validate_textures()?;
         self.validate_primvars(strings_ok)?;
         for (i, l) in self.lights.iter().enumerate() {
-            if !strings_ok(l.name) || l.kind > light_kind::DISK {
+            if !strings_ok(l.name) || l.kind > light_kind::TEXTURED_DOME {
                 return bad(K::Lights, i, "bad name or unknown light kind");
             }
+            if l.kind == light_kind::TEXTURED_DOME && l.dome_map as usize >= self.dome.maps.len() {
+                return bad(K::Lights, i, "dome map index out of range");
+            }
         }
+        self.dome.validate(self.texture_records.len()).or_else(|(i, what)| bad(K::DomeMaps, i, what))?;
         for (i, c) in self.cameras.iter().enumerate() {
             if !strings_ok(c.name) || c.projection > PROJECTION_ORTHOGRAPHIC {
                 return bad(K::Cameras, i, "bad name or unknown projection");
@@ -457,7 +471,10 @@ impl<'a> SceneView<'a> {
             return bad(K::SceneInfo, 0, "default camera out of range");
         }
         if self.info.dome_light != NONE
-            && self.lights.get(self.info.dome_light as usize).map(|l| l.kind) != Some(light_kind::DOME)
+            && !matches!(
+                self.lights.get(self.info.dome_light as usize).map(|l| l.kind),
+                Some(light_kind::DOME | light_kind::TEXTURED_DOME)
+            )
         {
             return bad(K::SceneInfo, 0, "dome light index does not name a dome light");
         }
@@ -672,6 +689,8 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::Instances => size_of::<crate::Instance>(),
         SectionKind::InstanceBvhNodes | SectionKind::PrototypeBvhNodes => size_of::<BvhNode>(),
         SectionKind::PrototypeBvhBlocks => size_of::<TriangleBlock>(),
+        SectionKind::DomeMaps => size_of::<crate::DomeMap>(),
+        SectionKind::DomeCdfValues => size_of::<f32>(),
     }) as u32
 }
 

@@ -22,7 +22,8 @@
 //!
 //! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
-//! that sampled an emissive triangle, as the scalar integrator calls it.
+//! that sampled an emissive triangle, as the scalar integrator calls it, and `Lights::sample` itself
+//! per lane that picked a textured dome (its map's CDF search and lookup).
 
 use super::bsdf_lanes::{Lanes, Lanes3, V};
 use super::lanes::LANES;
@@ -111,7 +112,8 @@ impl LightTable {
             .map(|light| {
                 let mut r = LaneLight { radiance: light.radiance.to_array(), ..LaneLight::default() };
                 match light.shape {
-                    Shape::Dome => r.kind = KIND_DOME,
+                    // A textured dome's lanes are replaced by the scalar sample (`sample_scatter_points`).
+                    Shape::Dome | Shape::TexturedDome { .. } => r.kind = KIND_DOME,
                     Shape::Distant { to_light, one_minus_cos_max } => {
                         r.kind = if one_minus_cos_max == 0.0 { KIND_DELTA } else { KIND_CONE };
                         r.center = to_light.to_array();
@@ -455,6 +457,17 @@ pub(super) fn sample_scatter_points<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut 
         }
         sample_lanes(table, &inp, &mut out);
         for (k, sp) in group.iter_mut().enumerate() {
+            // Textured domes sample by their map on the scalar path (the kernel has no map lookups).
+            if scene.lights.is_textured_dome(sp.u_light_select) {
+                let s = scene.lights.sample(sp.p, sp.u_light_select, sp.u_light);
+                out.ok[k] = s.is_some() as u32;
+                if let Some(s) = s {
+                    for c in 0..3 {
+                        (out.wi[c][k], out.li[c][k]) = (s.wi[c], s.li[c]);
+                    }
+                    (out.distance[k], out.pdf[k], out.delta[k]) = (s.distance, s.pdf, 0);
+                }
+            }
             if out.ok[k] == 0 {
                 continue;
             }
