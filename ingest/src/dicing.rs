@@ -65,6 +65,11 @@ pub struct SubdivOptions {
     pub max_level: u32,
     /// Uniform or adaptive dicing (`--subdiv-mode`); ignored with `forced_level`.
     pub mode: SubdivMode,
+    /// Tessellate the limit surfaces (default `true`). Off, the level or edge rates are chosen
+    /// and the triangle counts planned from the topology ([`crate::scene::Subdivision`]), but no
+    /// limit surface is evaluated: for listings (`ingest --dump-json` without `-o`), which report
+    /// counts and cage bounds only.
+    pub tessellate: bool,
 }
 
 impl SubdivOptions {
@@ -76,7 +81,13 @@ impl SubdivOptions {
 
 impl Default for SubdivOptions {
     fn default() -> Self {
-        SubdivOptions { forced_level: None, dicing_rate: 1.0, max_level: 5, mode: SubdivMode::default() }
+        SubdivOptions {
+            forced_level: None,
+            dicing_rate: 1.0,
+            max_level: 5,
+            mode: SubdivMode::default(),
+            tessellate: true,
+        }
     }
 }
 

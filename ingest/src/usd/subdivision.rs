@@ -24,7 +24,7 @@ use rayon::prelude::*;
 use subdiv::{
     tessellate, AdaptiveRefiner, AdaptiveUv, BoundaryInterpolation, Cage, Evaluation, FaceVaryingChannel,
     FaceVaryingInterpolation, Options, Refiner, Scheme, Tessellation, Topology, TriangleSubdivision,
-    UvSource,
+    UniformPlan, UvSource,
 };
 
 use super::mesh::{placed_with, world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
@@ -111,16 +111,45 @@ fn cage_hash(cage: &PolygonCage) -> u64 {
     h.finish()
 }
 
-/// A diced, tessellated subdivision mesh in local space.
+/// A diced subdivision mesh: its plan, and its tessellation in local space unless only planned.
 struct Diced {
-    local: LocalMesh,
-    /// Cage face per triangle (for the followers' materials).
-    coarse_face: Vec<u32>,
+    /// The tessellation and the cage face of each triangle (for the followers' materials);
+    /// `None` when only planned ([`SubdivOptions::tessellate`] off).
+    tessellated: Option<(LocalMesh, Vec<u32>)>,
     level: u32,
     /// Segments per cage edge (adaptive tessellation; empty for uniform).
     edge_rates: Vec<u32>,
+    /// Planned triangles per cage face.
+    face_triangles: Vec<u64>,
     triangles_at_max_level: u64,
     note: Option<String>,
+}
+
+impl Diced {
+    /// The subdivision record of one placement, whose cage faces are bound to `face_materials`.
+    fn record(
+        &self,
+        mesh: usize,
+        q: &QueuedSubdivision,
+        world_from_local: DMat4,
+        face_materials: &[u32],
+    ) -> Subdivision {
+        let mut materials: Vec<u32> =
+            self.face_triangles.iter().zip(face_materials).filter(|(&n, _)| n > 0).map(|(_, &m)| m).collect();
+        materials.sort_unstable();
+        materials.dedup();
+        Subdivision {
+            mesh,
+            topology: q.topology.clone(),
+            points: q.points.clone(),
+            world_from_local,
+            level: self.level,
+            edge_rates: self.edge_rates.clone(),
+            triangles_at_max_level: self.triangles_at_max_level,
+            triangles: self.face_triangles.iter().sum(),
+            materials,
+        }
+    }
 }
 
 /// USD stores indices as `int`; anything beyond is out of range for OpenSubdiv as well.
@@ -374,19 +403,27 @@ impl Reader<'_> {
         for (mut q, result) in queued.into_iter().zip(diced) {
             let followers = std::mem::take(&mut q.followers);
             match result {
-                Ok(d) => {
-                    if let Some(note) = d.note {
+                Ok(mut d) => {
+                    if let Some(note) = d.note.take() {
                         self.warn(&q.path, note);
                     }
+                    for f in &followers {
+                        let record = d.record(f.slot, &q, f.world_from_local, &f.face_materials);
+                        self.scene.subdivisions.push(record);
+                    }
+                    let record = d.record(q.slot, &q, q.world_from_points, &q.cage.face_materials);
+                    self.scene.subdivisions.push(record);
+                    // A listing keeps the placeholders pushed during the walk.
+                    let Some((local, coarse_face)) = d.tessellated else { continue };
                     self.scene.meshes[q.slot] = match q.instance {
                         // One geometry for the queued instance and its followers; each keeps its
                         // own materials (per cage face, through the face each triangle comes from).
                         Some(frame) => {
-                            let (geometry, materials, double_sided) = d.local.split();
+                            let (geometry, materials, double_sided) = local.split();
                             let geometry = self.geometry.intern(geometry);
-                            for f in &followers {
+                            for f in followers {
                                 let materials =
-                                    d.coarse_face.iter().map(|&c| f.face_materials[c as usize]).collect();
+                                    coarse_face.iter().map(|&c| f.face_materials[c as usize]).collect();
                                 self.scene.meshes[f.slot] = placed_with(
                                     &f.path,
                                     Arc::clone(&geometry),
@@ -395,15 +432,6 @@ impl Reader<'_> {
                                     f.frame,
                                     f.world_from_local,
                                 );
-                                self.scene.subdivisions.push(Subdivision {
-                                    mesh: f.slot,
-                                    topology: q.topology.clone(),
-                                    points: q.points.clone(),
-                                    world_from_local: f.world_from_local,
-                                    level: d.level,
-                                    edge_rates: d.edge_rates.clone(),
-                                    triangles_at_max_level: d.triangles_at_max_level,
-                                });
                             }
                             placed_with(
                                 &q.path,
@@ -414,17 +442,8 @@ impl Reader<'_> {
                                 q.world_from_points,
                             )
                         }
-                        None => world_mesh(&q.path, d.local, q.world_from_points),
+                        None => world_mesh(&q.path, local, q.world_from_points),
                     };
-                    self.scene.subdivisions.push(Subdivision {
-                        mesh: q.slot,
-                        topology: q.topology,
-                        points: q.points,
-                        world_from_local: q.world_from_points,
-                        level: d.level,
-                        edge_rates: d.edge_rates,
-                        triangles_at_max_level: d.triangles_at_max_level,
-                    });
                 }
                 Err(e) => {
                     let message = format!("cannot subdivide: {e}; rendering the triangulated cage instead");
@@ -503,8 +522,8 @@ fn refined_primvars(
     Ok(out)
 }
 
-/// Chooses the level (uniform) or edge rates (adaptive) of one queued mesh and tessellates it
-/// (local space).
+/// Chooses the level (uniform) or edge rates (adaptive) of one queued mesh, plans its triangles
+/// and, with [`SubdivOptions::tessellate`], tessellates it (local space).
 fn dice(
     q: &QueuedSubdivision,
     options: &SubdivOptions,
@@ -515,62 +534,65 @@ fn dice(
         .placements()
         .map(|m| q.points.iter().map(|p| m.transform_point3(glam::Vec3::from_array(*p).as_dvec3())).collect())
         .collect();
-    let (tess, uvs, primvars, level, edge_rates, note) = if options.adaptive() {
-        dice_adaptive(q, options, camera, &worlds)?
+    let (level, edge_rates, face_triangles, note, tessellated) = if options.adaptive() {
+        let refiner = AdaptiveRefiner::new(&q.topology)?;
+        let rates = adaptive_rates(options, camera, &worlds, &refiner);
+        let face_triangles = refiner.planned_face_triangles(&rates)?;
+        let tessellated = options.tessellate.then(|| tessellate_adaptive(q, &refiner, &rates)).transpose()?;
+        let level = subdiv::level_for_rate(rates.iter().copied().max().unwrap_or(1));
+        (level, rates, face_triangles, None, tessellated)
     } else {
-        dice_uniform(q, options, camera, &worlds)?
+        let mut level = 0;
+        for world in &worlds {
+            level = level.max(uniform_level(q, options, camera, world)?);
+        }
+        let (plan, note) = match UniformPlan::new(&q.topology, level) {
+            Err(subdiv::Error::LevelTooHigh { level, max }) => (
+                UniformPlan::new(&q.topology, max)?,
+                Some(format!("level {level} is too fine for this cage's size; refined to level {max}")),
+            ),
+            other => (other?, None),
+        };
+        let tessellated = options.tessellate.then(|| refine_uniform(q, plan.level)).transpose()?;
+        (plan.level, Vec::new(), plan.face_triangles, note, tessellated)
     };
 
-    // Faces that made it to the surface (not holes, not dropped by interpolateBoundary = none),
-    // for the triangle count at the level cap.
+    // Faces that reach the surface (not holes, not dropped by interpolateBoundary = none), for
+    // the triangle count at the level cap.
     let all_quads = q.cage.counts.iter().all(|&n| n == 4);
-    let mut drawn = vec![false; q.cage.counts.len()];
-    for &f in &tess.coarse_face {
-        drawn[f as usize] = true;
-    }
-    let drawn_sizes = q.cage.counts.iter().zip(&drawn).filter(|(_, &d)| d).map(|(&n, _)| n);
+    let drawn_sizes = q.cage.counts.iter().zip(&face_triangles).filter(|(_, &t)| t > 0).map(|(&n, _)| n);
     let triangles_at_max_level =
         triangles_at_level(q.topology.options().scheme, drawn_sizes, all_quads, options.max_level);
 
-    let f64x3 = |p: &[f32; 3]| glam::Vec3::from_array(*p).as_dvec3();
-    let mut local = LocalMesh {
-        positions: tess.positions.iter().map(f64x3).collect(),
-        normals: tess.normals.iter().map(f64x3).collect(),
-        uvs,
-        triangle_materials: tess.coarse_face.iter().map(|&f| q.cage.face_materials[f as usize]).collect(),
-        triangles: tess.triangles,
-        double_sided: q.cage.double_sided,
-        primvars,
-    };
-    if q.mirrored {
-        local.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-        local.normals.iter_mut().for_each(|n| *n = -*n);
-    }
-    Ok(Diced { local, coarse_face: tess.coarse_face, level, edge_rates, triangles_at_max_level, note })
+    let tessellated = tessellated.map(|(tess, uvs, primvars)| {
+        debug_assert_eq!(tess.triangles.len() as u64, face_triangles.iter().sum::<u64>(), "{}", q.path);
+        let f64x3 = |p: &[f32; 3]| glam::Vec3::from_array(*p).as_dvec3();
+        let mut local = LocalMesh {
+            positions: tess.positions.iter().map(f64x3).collect(),
+            normals: tess.normals.iter().map(f64x3).collect(),
+            uvs,
+            triangle_materials: tess.coarse_face.iter().map(|&f| q.cage.face_materials[f as usize]).collect(),
+            triangles: tess.triangles,
+            double_sided: q.cage.double_sided,
+            primvars,
+        };
+        if q.mirrored {
+            local.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+            local.normals.iter_mut().for_each(|n| *n = -*n);
+        }
+        (local, tess.coarse_face)
+    });
+    Ok(Diced { tessellated, level, edge_rates, face_triangles, triangles_at_max_level, note })
 }
 
 /// Refines one `vec4` per cage point onto a tessellation's vertices.
 type RefineVertexValues<'a> = dyn Fn(&[[f32; 4]]) -> subdiv::Result<Vec<[f32; 4]>> + 'a;
 
-/// A tessellation with its UVs, primvars, level, edge rates and a note for the log.
-type Tessellated = (Tessellation, Vec<Vec2>, Vec<MeshPrimvar>, u32, Vec<u32>, Option<String>);
+/// A tessellation with its UVs and primvars.
+type Tessellated = (Tessellation, Vec<Vec2>, Vec<MeshPrimvar>);
 
-/// One uniform level for the whole mesh (`--subdiv-level`, `--subdiv-mode uniform`): the finest
-/// any of its instances (`worlds`, the cage as each places it) needs.
-fn dice_uniform(
-    q: &QueuedSubdivision,
-    options: &SubdivOptions,
-    camera: Option<&DicingCamera>,
-    worlds: &[Vec<DVec3>],
-) -> subdiv::Result<Tessellated> {
-    let mut level = 0;
-    for world in worlds {
-        level = level.max(uniform_level(q, options, camera, world)?);
-    }
-    refine_uniform(q, level)
-}
-
-/// The uniform level one placement of the cage (`world`) needs.
+/// The uniform level one placement of the cage (`world`) needs (`--subdiv-level`,
+/// `--subdiv-mode uniform`); the mesh is refined to the finest any placement needs.
 fn uniform_level(
     q: &QueuedSubdivision,
     options: &SubdivOptions,
@@ -595,16 +617,9 @@ fn uniform_level(
     }))
 }
 
-/// Tessellates the cage at uniform `level`.
+/// Tessellates the cage at uniform `level` (as planned: at most [`Refiner::highest_level`]).
 fn refine_uniform(q: &QueuedSubdivision, level: u32) -> subdiv::Result<Tessellated> {
-    let mut note = None;
-    let refiner = match Refiner::new(&q.topology, level) {
-        Err(subdiv::Error::LevelTooHigh { level, max }) => {
-            note = Some(format!("level {level} is too fine for this cage's size; refined to level {max}"));
-            Refiner::new(&q.topology, max)?
-        }
-        other => other?,
-    };
+    let refiner = Refiner::new(&q.topology, level)?;
     let uv_source = match &q.uv {
         UvInput::FaceVarying(values) => Some(UvSource { channel: 0, values }),
         _ => None,
@@ -625,33 +640,41 @@ fn refine_uniform(q: &QueuedSubdivision, level: u32) -> subdiv::Result<Tessellat
         let refined = refiner.vertex_primvar(&flat, 4, Evaluation::Limit)?;
         tess.gather::<4>(&refined)
     })?;
-    Ok((tess, uvs, primvars, refiner.level(), Vec::new(), note))
+    Ok((tess, uvs, primvars))
 }
 
-/// Segments per cage edge from the camera, each face tessellated on its limit surface.
-fn dice_adaptive(
-    q: &QueuedSubdivision,
+/// Segments per cage edge from the camera: per edge, the finest rate any placement (`worlds`,
+/// the cage as each instance places it) needs.
+fn adaptive_rates(
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
     worlds: &[Vec<DVec3>],
-) -> subdiv::Result<Tessellated> {
-    let refiner = AdaptiveRefiner::new(&q.topology)?;
-    // Per cage edge, the finest rate any placement needs.
+    refiner: &AdaptiveRefiner,
+) -> Vec<u32> {
     let mut rates: Vec<u32> = Vec::new();
     for world in worlds {
-        let need = choose_edge_rates(options, camera, world, &refiner);
+        let need = choose_edge_rates(options, camera, world, refiner);
         if rates.is_empty() {
             rates = need;
         } else {
             rates.iter_mut().zip(need).for_each(|(r, n)| *r = (*r).max(n));
         }
     }
+    rates
+}
+
+/// Each face tessellated on its limit surface at `rates`.
+fn tessellate_adaptive(
+    q: &QueuedSubdivision,
+    refiner: &AdaptiveRefiner,
+    rates: &[u32],
+) -> subdiv::Result<Tessellated> {
     let uv = match &q.uv {
         UvInput::FaceVarying(values) => Some(AdaptiveUv::FaceVarying(UvSource { channel: 0, values })),
         UvInput::Vertex(values) => Some(AdaptiveUv::Vertex(values)),
         UvInput::None | UvInput::Constant(_) => None,
     };
-    let tess = refiner.tessellate(&q.points, uv, &rates, false)?.mesh;
+    let tess = refiner.tessellate(&q.points, uv, rates, false)?.mesh;
     let uvs: Vec<Vec2> = match &q.uv {
         UvInput::None => Vec::new(),
         UvInput::Constant(uv) => vec![*uv; tess.positions.len()],
@@ -665,7 +688,7 @@ fn dice_adaptive(
         let mut out = vec![[0.0f32; 4]; tess.positions.len()];
         for half in 0..2 {
             let pairs: Vec<[f32; 2]> = cage.iter().map(|v| [v[2 * half], v[2 * half + 1]]).collect();
-            let pass = refiner.tessellate(&q.points, Some(AdaptiveUv::Vertex(&pairs)), &rates, false)?.mesh;
+            let pass = refiner.tessellate(&q.points, Some(AdaptiveUv::Vertex(&pairs)), rates, false)?.mesh;
             for (o, uv) in out.iter_mut().zip(pass.uvs.iter().flatten()) {
                 o[2 * half] = uv[0];
                 o[2 * half + 1] = uv[1];
@@ -673,6 +696,5 @@ fn dice_adaptive(
         }
         Ok(out)
     })?;
-    let level = subdiv::level_for_rate(rates.iter().copied().max().unwrap_or(1));
-    Ok((tess, uvs, primvars, level, rates, None))
+    Ok((tess, uvs, primvars))
 }
