@@ -48,17 +48,35 @@ impl UniformPlan {
     /// rejects fails here as it would there; a level past [`Refiner::highest_level`] is
     /// [`crate::Error::LevelTooHigh`], as from [`Refiner::new`].
     pub fn new(topology: &Topology, level: u32) -> Result<Self> {
+        Self::with_holes(topology, level, &Self::holes(topology)?)
+    }
+
+    /// Per cage face, whether it has no surface ([`Refiner::base_face_holes`] of the unrefined
+    /// refiner, which this builds): what [`UniformPlan::with_holes`] takes, to be shared by
+    /// cages with one topology.
+    pub fn holes(topology: &Topology) -> Result<Vec<bool>> {
+        Refiner::unrefined(topology)?.base_face_holes()
+    }
+
+    /// [`UniformPlan::new`] with the holes already read ([`UniformPlan::holes`]).
+    pub fn with_holes(topology: &Topology, level: u32, holes: &[bool]) -> Result<Self> {
         let level = Refiner::level_for(topology, level);
         let max = Refiner::highest_level(topology);
         if level > max {
             return Err(crate::Error::LevelTooHigh { level, max });
         }
-        let holes = Refiner::unrefined(topology)?.base_face_holes()?;
+        if holes.len() != topology.face_count() {
+            return Err(crate::Error::PrimvarSize {
+                what: "face hole flags",
+                expected: topology.face_count(),
+                got: holes.len(),
+            });
+        }
         let scheme = topology.options.scheme;
         let face_triangles = topology
             .face_vertex_counts
             .iter()
-            .zip(&holes)
+            .zip(holes)
             .map(|(&n, &hole)| if hole { 0 } else { uniform_face_triangles(scheme, n as usize, level) })
             .collect();
         Ok(Self { level, face_triangles })

@@ -399,7 +399,14 @@ impl Reader<'_> {
             }
         };
         let camera = Some(camera);
-        let diced: Vec<_> = queued.par_iter().map(|q| dice(q, options, camera.as_ref())).collect();
+        let (shape_of, shapes) = shared_topologies(&queued);
+        let shapes: Vec<subdiv::Result<Shape>> =
+            shapes.par_iter().map(|&i| Shape::new(&queued[i].topology, options)).collect();
+        let diced: Vec<_> = queued
+            .par_iter()
+            .zip(&shape_of)
+            .map(|(q, &s)| dice(q, options, camera.as_ref(), shapes[s].as_ref().map_err(Clone::clone)?))
+            .collect();
         for (mut q, result) in queued.into_iter().zip(diced) {
             let followers = std::mem::take(&mut q.followers);
             match result {
@@ -524,37 +531,70 @@ fn refined_primvars(
 
 /// Chooses the level (uniform) or edge rates (adaptive) of one queued mesh, plans its triangles
 /// and, with [`SubdivOptions::tessellate`], tessellates it (local space).
+/// What dicing reads from a cage's topology alone, built once for every queued cage with that
+/// topology: the unrefined refiner with its edges (adaptive), or the faces without a surface
+/// (uniform).
+enum Shape {
+    Adaptive(AdaptiveRefiner),
+    Uniform { holes: Vec<bool> },
+}
+
+impl Shape {
+    fn new(topology: &Topology, options: &SubdivOptions) -> subdiv::Result<Self> {
+        Ok(if options.adaptive() {
+            Shape::Adaptive(AdaptiveRefiner::new(topology)?)
+        } else {
+            Shape::Uniform { holes: UniformPlan::holes(topology)? }
+        })
+    }
+}
+
+/// Groups the queued cages by topology: per cage the index of its group, and per group its
+/// first cage. An asset referenced many times without instancing (the teapot scene's 35 teapots)
+/// then builds one `Far::TopologyRefiner`, not 35: building it was most of a listing's
+/// subdivision time.
+fn shared_topologies(queued: &[QueuedSubdivision]) -> (Vec<usize>, Vec<usize>) {
+    let mut by_key: std::collections::HashMap<u64, Vec<usize>> = std::collections::HashMap::new();
+    let mut first: Vec<usize> = Vec::new();
+    let shape_of = queued
+        .iter()
+        .enumerate()
+        .map(|(i, q)| {
+            let groups = by_key.entry(q.topology.sharing_key()).or_default();
+            match groups.iter().find(|&&g: &&usize| queued[first[g]].topology == q.topology) {
+                Some(&g) => g,
+                None => {
+                    groups.push(first.len());
+                    first.push(i);
+                    first.len() - 1
+                }
+            }
+        })
+        .collect();
+    (shape_of, first)
+}
+
 fn dice(
     q: &QueuedSubdivision,
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
+    shape: &Shape,
 ) -> subdiv::Result<Diced> {
     // The cage as each instance places it.
     let worlds: Vec<Vec<DVec3>> = q
         .placements()
         .map(|m| q.points.iter().map(|p| m.transform_point3(glam::Vec3::from_array(*p).as_dvec3())).collect())
         .collect();
-    let (level, edge_rates, face_triangles, note, tessellated) = if options.adaptive() {
-        let refiner = AdaptiveRefiner::new(&q.topology)?;
-        let rates = adaptive_rates(options, camera, &worlds, &refiner);
-        let face_triangles = refiner.planned_face_triangles(&rates)?;
-        let tessellated = options.tessellate.then(|| tessellate_adaptive(q, &refiner, &rates)).transpose()?;
-        let level = subdiv::level_for_rate(rates.iter().copied().max().unwrap_or(1));
-        (level, rates, face_triangles, None, tessellated)
-    } else {
-        let mut level = 0;
-        for world in &worlds {
-            level = level.max(uniform_level(q, options, camera, world)?);
+    let (level, edge_rates, face_triangles, note, tessellated) = match shape {
+        Shape::Adaptive(refiner) => {
+            let rates = adaptive_rates(options, camera, &worlds, refiner);
+            let face_triangles = refiner.planned_face_triangles(&rates)?;
+            let tessellated =
+                options.tessellate.then(|| tessellate_adaptive(q, refiner, &rates)).transpose()?;
+            let level = subdiv::level_for_rate(rates.iter().copied().max().unwrap_or(1));
+            (level, rates, face_triangles, None, tessellated)
         }
-        let (plan, note) = match UniformPlan::new(&q.topology, level) {
-            Err(subdiv::Error::LevelTooHigh { level, max }) => (
-                UniformPlan::new(&q.topology, max)?,
-                Some(format!("level {level} is too fine for this cage's size; refined to level {max}")),
-            ),
-            other => (other?, None),
-        };
-        let tessellated = options.tessellate.then(|| refine_uniform(q, plan.level)).transpose()?;
-        (plan.level, Vec::new(), plan.face_triangles, note, tessellated)
+        Shape::Uniform { holes } => dice_uniform(q, options, camera, &worlds, holes)?,
     };
 
     // Faces that reach the surface (not holes, not dropped by interpolateBoundary = none), for
@@ -590,6 +630,34 @@ type RefineVertexValues<'a> = dyn Fn(&[[f32; 4]]) -> subdiv::Result<Vec<[f32; 4]
 
 /// A tessellation with its UVs and primvars.
 type Tessellated = (Tessellation, Vec<Vec2>, Vec<MeshPrimvar>);
+
+/// A mesh's level, edge rates (none), planned triangles per cage face, note for the log and
+/// tessellation (unless only planned).
+type Planned = (u32, Vec<u32>, Vec<u64>, Option<String>, Option<Tessellated>);
+
+/// One uniform level for the whole mesh, the finest any placement (`worlds`) needs, planned
+/// over the cage's `holes` and tessellated with [`SubdivOptions::tessellate`].
+fn dice_uniform(
+    q: &QueuedSubdivision,
+    options: &SubdivOptions,
+    camera: Option<&DicingCamera>,
+    worlds: &[Vec<DVec3>],
+    holes: &[bool],
+) -> subdiv::Result<Planned> {
+    let mut level = 0;
+    for world in worlds {
+        level = level.max(uniform_level(q, options, camera, world)?);
+    }
+    let (plan, note) = match UniformPlan::with_holes(&q.topology, level, holes) {
+        Err(subdiv::Error::LevelTooHigh { level, max }) => (
+            UniformPlan::with_holes(&q.topology, max, holes)?,
+            Some(format!("level {level} is too fine for this cage's size; refined to level {max}")),
+        ),
+        other => (other?, None),
+    };
+    let tessellated = options.tessellate.then(|| refine_uniform(q, plan.level)).transpose()?;
+    Ok((plan.level, Vec::new(), plan.face_triangles, note, tessellated))
+}
 
 /// The uniform level one placement of the cage (`world`) needs (`--subdiv-level`,
 /// `--subdiv-mode uniform`); the mesh is refined to the finest any placement needs.

@@ -680,3 +680,21 @@ fn shared_subdivision_assets_dice_as_planned() {
     }
     assert!(meshes > 100, "{meshes} subdivision meshes checked");
 }
+
+#[test]
+fn copies_of_one_cage_share_a_refiner_but_not_their_rates() {
+    // Two identical grids (not instances) at 10 and 40 units: one topology, so one refiner, but
+    // each is diced for its own distance, in both modes.
+    let grid = |name: &str, z: f32| {
+        grid_prim(name, 4, 4, move |i, j| [i as f32 * 0.5 - 1.0, j as f32 * 0.5 - 1.0, z])
+    };
+    let body = format!("{CAMERA_1000}{}{}", grid("Near", -10.0), grid("Far", -40.0));
+    for mode in [SubdivMode::Adaptive, SubdivMode::Uniform] {
+        let options = SubdivOptions { dicing_rate: 4.0, max_level: 6, mode, ..SubdivOptions::default() };
+        let scene = load_with(&body, options);
+        let (near, far) = (mesh(&scene, "/Near").triangle_count(), mesh(&scene, "/Far").triangle_count());
+        assert!(near > far && far > 0, "{mode:?}: near {near}, far {far}");
+        assert_eq!(dump_entry(&scene, "/Near")["triangles"], near);
+        assert_eq!(dump_entry(&scene, "/Far")["triangles"], far);
+    }
+}
