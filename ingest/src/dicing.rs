@@ -209,6 +209,38 @@ impl DicingCamera {
         })
     }
 
+    /// Whether the world box `lo..hi` lies wholly inside the view frustum: its corner nearest
+    /// each side is on the inner side.
+    pub fn inside(&self, lo: DVec3, hi: DVec3) -> bool {
+        self.world_planes.iter().all(|plane| {
+            let n = plane.truncate();
+            let nearest = DVec3::select(n.cmpge(DVec3::ZERO), lo, hi);
+            n.dot(nearest) + plane.w >= 0.0
+        })
+    }
+
+    /// [`DicingCamera::segment_pixels`] of every edge (vertex pairs into `points`), with each
+    /// point's depth computed once rather than once per edge; the same values.
+    pub fn edge_pixels(&self, points: &[DVec3], edges: &[[u32; 2]]) -> Vec<f64> {
+        let length = |[a, b]: [u32; 2]| points[a as usize].distance(points[b as usize]);
+        match self.projection {
+            Projection::Orthographic { px_per_unit } => {
+                edges.iter().map(|&e| length(e) * px_per_unit).collect()
+            }
+            Projection::Perspective { focal_px } => {
+                let depth: Vec<f64> =
+                    points.iter().map(|&p| -self.camera_from_world.transform_point3(p).z).collect();
+                edges
+                    .iter()
+                    .map(|&e| {
+                        let [a, b] = e.map(|v| depth[v as usize]);
+                        length(e) * focal_px / a.min(b).max(self.near)
+                    })
+                    .collect()
+            }
+        }
+    }
+
     /// Conservative on-screen length, in pixels, of a world length `length` anywhere in the world
     /// box `lo..hi`.
     pub fn pixels(&self, length: f64, lo: DVec3, hi: DVec3) -> f64 {
@@ -329,20 +361,24 @@ pub fn choose_edge_rates(
 
     // An edge is on screen when one of its faces may be. A face's limit surface is pulled
     // towards its neighbours' points, so its cage box is grown by half its size on every side.
+    // A mesh wholly in view has every face on screen: no box per face to test.
+    let whole_mesh_in_view = camera.inside(lo, hi);
     let mut visible = vec![false; edges.len()];
     for f in (0..refiner.face_count()).filter(|&f| !refiner.is_hole(f)) {
         let (vertices, face_edges) = refiner.face(f);
-        let (lo, hi) = vertices
-            .iter()
-            .map(|&v| world[v as usize])
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
-        let grow = (hi - lo) / 2.0;
-        if !camera.outside(lo - grow, hi + grow) {
+        let on_screen = whole_mesh_in_view || {
+            let (lo, hi) = vertices
+                .iter()
+                .map(|&v| world[v as usize])
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            let grow = (hi - lo) / 2.0;
+            !camera.outside(lo - grow, hi + grow)
+        };
+        if on_screen {
             face_edges.iter().for_each(|&e| visible[e as usize] = true);
         }
     }
-    let pixels: Vec<f64> =
-        edges.iter().map(|&[a, b]| camera.segment_pixels(world[a as usize], world[b as usize])).collect();
+    let pixels = camera.edge_pixels(world, edges);
     let max_rate = rate_of_level(max_level);
     let rates_at = |scale: f64| -> Vec<u32> {
         pixels
@@ -532,6 +568,39 @@ mod tests {
             }
             assert!(inside > 100 && outside > 100, "{inside} in view, {outside} outside");
         }
+    }
+
+    #[test]
+    fn edge_pixels_equal_segment_pixels_and_inside_means_no_corner_outside() {
+        let mut c = camera(Vec3::new(0.5, 0.2, 1.0), false);
+        c.world_from_camera *= Mat4::from_rotation_y(0.4);
+        let points: Vec<DVec3> = (0..50)
+            .map(|i| DVec3::new((i % 7) as f64 - 3.0, (i % 5) as f64 - 2.0, -(i as f64) * 0.7))
+            .collect();
+        let edges: Vec<[u32; 2]> = (0..49).map(|i| [i, (i * 17 + 3) % 50]).collect();
+        for orthographic in [false, true] {
+            c.orthographic = orthographic;
+            let cam = DicingCamera::new(&c, Some([300, 200]));
+            let expected: Vec<f64> = edges
+                .iter()
+                .map(|&[a, b]| cam.segment_pixels(points[a as usize], points[b as usize]))
+                .collect();
+            assert_eq!(cam.edge_pixels(&points, &edges), expected);
+            // Inside: every corner in view; a box reaching past a side is not inside.
+            for w in points.windows(2) {
+                let (lo, hi) = (w[0].min(w[1]), w[0].max(w[1]));
+                if cam.inside(lo, hi) {
+                    for i in 0..8 {
+                        let p = DVec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo);
+                        assert!(!outside_by_corners(&cam, p, p), "{p} of {lo}..{hi}");
+                    }
+                }
+            }
+        }
+        let cam = DicingCamera::new(&camera(Vec3::ZERO, false), Some([100, 100]));
+        assert!(cam.inside(DVec3::new(-0.5, -0.5, -5.0), DVec3::new(0.5, 0.5, -4.0)));
+        assert!(!cam.inside(DVec3::new(-0.5, -0.5, -5.0), DVec3::new(4.0, 0.5, -4.0)));
+        assert!(!cam.inside(DVec3::new(-0.5, -0.5, -5.0), DVec3::new(0.5, 0.5, 1.0)));
     }
 
     #[test]
