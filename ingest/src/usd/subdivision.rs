@@ -399,14 +399,26 @@ impl Reader<'_> {
             }
         };
         let camera = Some(camera);
-        let (shape_of, shapes) = shared_topologies(&queued);
-        let shapes: Vec<subdiv::Result<Shape>> =
-            shapes.par_iter().map(|&i| Shape::new(&queued[i].topology, options)).collect();
-        let diced: Vec<_> = queued
+        // One task per topology builds its shape and dices the cages that share it (in
+        // parallel too), so a large mesh's refiner is not waited for by the other meshes.
+        let per_shape: Vec<Vec<(usize, subdiv::Result<Diced>)>> = shared_topologies(&queued)
             .par_iter()
-            .zip(&shape_of)
-            .map(|(q, &s)| dice(q, options, camera.as_ref(), shapes[s].as_ref().map_err(Clone::clone)?))
+            .map(|members| {
+                let shape = Shape::new(&queued[members[0]].topology, options);
+                members
+                    .par_iter()
+                    .map(|&i| {
+                        let shape = shape.as_ref().map_err(Clone::clone);
+                        (i, shape.and_then(|shape| dice(&queued[i], options, camera.as_ref(), shape)))
+                    })
+                    .collect()
+            })
             .collect();
+        let mut diced: Vec<Option<subdiv::Result<Diced>>> = (0..queued.len()).map(|_| None).collect();
+        for (i, result) in per_shape.into_iter().flatten() {
+            diced[i] = Some(result);
+        }
+        let diced = diced.into_iter().map(|d| d.expect("every queued cage belongs to one shape"));
         for (mut q, result) in queued.into_iter().zip(diced) {
             let followers = std::mem::take(&mut q.followers);
             match result {
@@ -549,29 +561,24 @@ impl Shape {
     }
 }
 
-/// Groups the queued cages by topology: per cage the index of its group, and per group its
-/// first cage. An asset referenced many times without instancing (the teapot scene's 35 teapots)
-/// then builds one `Far::TopologyRefiner`, not 35: building it was most of a listing's
-/// subdivision time.
-fn shared_topologies(queued: &[QueuedSubdivision]) -> (Vec<usize>, Vec<usize>) {
+/// Groups the queued cages by topology (indices into `queued`, in queue order, groups in the
+/// order of their first cage). An asset referenced many times without instancing (the teapot
+/// scene's 35 teapots) then builds one `Far::TopologyRefiner`, not 35: building it was most of a
+/// listing's subdivision time.
+fn shared_topologies(queued: &[QueuedSubdivision]) -> Vec<Vec<usize>> {
     let mut by_key: std::collections::HashMap<u64, Vec<usize>> = std::collections::HashMap::new();
-    let mut first: Vec<usize> = Vec::new();
-    let shape_of = queued
-        .iter()
-        .enumerate()
-        .map(|(i, q)| {
-            let groups = by_key.entry(q.topology.sharing_key()).or_default();
-            match groups.iter().find(|&&g: &&usize| queued[first[g]].topology == q.topology) {
-                Some(&g) => g,
-                None => {
-                    groups.push(first.len());
-                    first.push(i);
-                    first.len() - 1
-                }
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (i, q) in queued.iter().enumerate() {
+        let candidates = by_key.entry(q.topology.sharing_key()).or_default();
+        match candidates.iter().find(|&&g| queued[groups[g][0]].topology == q.topology) {
+            Some(&g) => groups[g].push(i),
+            None => {
+                candidates.push(groups.len());
+                groups.push(vec![i]);
             }
-        })
-        .collect();
-    (shape_of, first)
+        }
+    }
+    groups
 }
 
 fn dice(
