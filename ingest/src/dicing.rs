@@ -32,7 +32,7 @@
 //! watertight (`subdiv::AdaptiveRefiner`). `--subdiv-level N` and `--subdiv-mode uniform` keep
 //! uniform refinement.
 
-use glam::{DMat4, DVec3};
+use glam::{DMat4, DVec3, DVec4};
 
 use crate::scene::Camera;
 
@@ -65,6 +65,11 @@ pub struct SubdivOptions {
     pub max_level: u32,
     /// Uniform or adaptive dicing (`--subdiv-mode`); ignored with `forced_level`.
     pub mode: SubdivMode,
+    /// Tessellate the limit surfaces (default `true`). Off, the level or edge rates are chosen
+    /// and the triangle counts planned from the topology ([`crate::scene::Subdivision`]), but no
+    /// limit surface is evaluated: for listings (`ingest --dump-json` without `-o`), which report
+    /// counts and cage bounds only.
+    pub tessellate: bool,
 }
 
 impl SubdivOptions {
@@ -76,7 +81,13 @@ impl SubdivOptions {
 
 impl Default for SubdivOptions {
     fn default() -> Self {
-        SubdivOptions { forced_level: None, dicing_rate: 1.0, max_level: 5, mode: SubdivMode::default() }
+        SubdivOptions {
+            forced_level: None,
+            dicing_rate: 1.0,
+            max_level: 5,
+            mode: SubdivMode::default(),
+            tessellate: true,
+        }
     }
 }
 
@@ -102,6 +113,9 @@ pub struct DicingCamera {
     /// The image window `[x_min, x_max, y_min, y_max]`: at unit distance in front of the camera
     /// (perspective) or in camera-space units (orthographic).
     window: [f64; 4],
+    /// The view frustum's sides (behind the camera, then left, right, bottom, top of the image)
+    /// as world-space planes `n·x + d` (`xyz` = n, `w` = d), negative outside.
+    world_planes: [DVec4; 5],
 }
 
 impl DicingCamera {
@@ -129,13 +143,15 @@ impl DicingCamera {
             let focal = f64::from(camera.focal_length).max(1e-6);
             (Projection::Perspective { focal_px: focal / h_ap * width }, film.map(|v| v / focal))
         };
+        let camera_from_world = world_from_camera.inverse();
         DicingCamera {
             resolution,
-            camera_from_world: world_from_camera.inverse(),
+            camera_from_world,
             eye: world_from_camera.transform_point3(DVec3::ZERO),
             near: f64::from(camera.clipping_range[0]).max(1e-6),
             projection,
             window,
+            world_planes: frustum_planes(camera.orthographic, window, camera_from_world),
         }
     }
 
@@ -183,27 +199,46 @@ impl DicingCamera {
     /// beyond one side of the image). Conservative: a box straddling the frustum's corner
     /// planes counts as visible.
     pub fn outside(&self, lo: DVec3, hi: DVec3) -> bool {
-        let corners: [DVec3; 8] = std::array::from_fn(|i| {
-            let p = DVec3::new(
-                if i & 1 == 0 { lo.x } else { hi.x },
-                if i & 2 == 0 { lo.y } else { hi.y },
-                if i & 4 == 0 { lo.z } else { hi.z },
-            );
-            self.camera_from_world.transform_point3(p)
-        });
-        let [x_min, x_max, y_min, y_max] = self.window;
-        // Signed distances that are negative outside each plane (the camera looks down −Z).
-        let planes: [&dyn Fn(DVec3) -> f64; 5] = match self.projection {
-            Projection::Perspective { .. } => {
-                [&|p| -p.z, &|p| p.x + x_min * p.z, &|p| -x_max * p.z - p.x, &|p| p.y + y_min * p.z, &|p| {
-                    -y_max * p.z - p.y
-                }]
+        // A box is wholly outside a plane when its corner furthest along the normal is: per axis,
+        // `hi` where the normal is positive, `lo` elsewhere. (Run per cage face by adaptive
+        // dicing: transforming the eight corners to camera space instead was 4 % of a listing.)
+        self.world_planes.iter().any(|plane| {
+            let n = plane.truncate();
+            let furthest = DVec3::select(n.cmpge(DVec3::ZERO), hi, lo);
+            n.dot(furthest) + plane.w < 0.0
+        })
+    }
+
+    /// Whether the world box `lo..hi` lies wholly inside the view frustum: its corner nearest
+    /// each side is on the inner side.
+    pub fn inside(&self, lo: DVec3, hi: DVec3) -> bool {
+        self.world_planes.iter().all(|plane| {
+            let n = plane.truncate();
+            let nearest = DVec3::select(n.cmpge(DVec3::ZERO), lo, hi);
+            n.dot(nearest) + plane.w >= 0.0
+        })
+    }
+
+    /// [`DicingCamera::segment_pixels`] of every edge (vertex pairs into `points`), with each
+    /// point's depth computed once rather than once per edge; the same values.
+    pub fn edge_pixels(&self, points: &[DVec3], edges: &[[u32; 2]]) -> Vec<f64> {
+        let length = |[a, b]: [u32; 2]| points[a as usize].distance(points[b as usize]);
+        match self.projection {
+            Projection::Orthographic { px_per_unit } => {
+                edges.iter().map(|&e| length(e) * px_per_unit).collect()
             }
-            Projection::Orthographic { .. } => {
-                [&|p| -p.z, &|p| p.x - x_min, &|p| x_max - p.x, &|p| p.y - y_min, &|p| y_max - p.y]
+            Projection::Perspective { focal_px } => {
+                let depth: Vec<f64> =
+                    points.iter().map(|&p| -self.camera_from_world.transform_point3(p).z).collect();
+                edges
+                    .iter()
+                    .map(|&e| {
+                        let [a, b] = e.map(|v| depth[v as usize]);
+                        length(e) * focal_px / a.min(b).max(self.near)
+                    })
+                    .collect()
             }
-        };
-        planes.iter().any(|plane| corners.iter().all(|&c| plane(c) < 0.0))
+        }
     }
 
     /// Conservative on-screen length, in pixels, of a world length `length` anywhere in the world
@@ -245,6 +280,34 @@ impl DicingCamera {
             }
         }
     }
+}
+
+/// The sides of the view frustum as world-space planes, negative outside (see
+/// [`DicingCamera::outside`]). In camera space (looking down −Z) each side is `a·p + b`:
+/// perspective sides pass through the eye (`window` is at unit depth), orthographic ones are
+/// offset by the window; `p = L·x + t` makes it `(Lᵀa)·x + (a·t + b)` in world space.
+fn frustum_planes(orthographic: bool, window: [f64; 4], camera_from_world: DMat4) -> [DVec4; 5] {
+    let [x_min, x_max, y_min, y_max] = window;
+    let camera_space: [(DVec3, f64); 5] = if orthographic {
+        [
+            (DVec3::NEG_Z, 0.0),
+            (DVec3::X, -x_min),
+            (DVec3::NEG_X, x_max),
+            (DVec3::Y, -y_min),
+            (DVec3::NEG_Y, y_max),
+        ]
+    } else {
+        [
+            (DVec3::NEG_Z, 0.0),
+            (DVec3::new(1.0, 0.0, x_min), 0.0),
+            (DVec3::new(-1.0, 0.0, -x_max), 0.0),
+            (DVec3::new(0.0, 1.0, y_min), 0.0),
+            (DVec3::new(0.0, -1.0, -y_max), 0.0),
+        ]
+    };
+    let linear = glam::DMat3::from_mat4(camera_from_world);
+    let offset = camera_from_world.w_axis.truncate();
+    camera_space.map(|(a, b)| (linear.transpose() * a).extend(a.dot(offset) + b))
 }
 
 /// The level of one mesh: forced, else diced against `camera` (off-screen meshes ≤
@@ -298,20 +361,24 @@ pub fn choose_edge_rates(
 
     // An edge is on screen when one of its faces may be. A face's limit surface is pulled
     // towards its neighbours' points, so its cage box is grown by half its size on every side.
+    // A mesh wholly in view has every face on screen: no box per face to test.
+    let whole_mesh_in_view = camera.inside(lo, hi);
     let mut visible = vec![false; edges.len()];
     for f in (0..refiner.face_count()).filter(|&f| !refiner.is_hole(f)) {
         let (vertices, face_edges) = refiner.face(f);
-        let (lo, hi) = vertices
-            .iter()
-            .map(|&v| world[v as usize])
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
-        let grow = (hi - lo) / 2.0;
-        if !camera.outside(lo - grow, hi + grow) {
+        let on_screen = whole_mesh_in_view || {
+            let (lo, hi) = vertices
+                .iter()
+                .map(|&v| world[v as usize])
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            let grow = (hi - lo) / 2.0;
+            !camera.outside(lo - grow, hi + grow)
+        };
+        if on_screen {
             face_edges.iter().for_each(|&e| visible[e as usize] = true);
         }
     }
-    let pixels: Vec<f64> =
-        edges.iter().map(|&[a, b]| camera.segment_pixels(world[a as usize], world[b as usize])).collect();
+    let pixels = camera.edge_pixels(world, edges);
     let max_rate = rate_of_level(max_level);
     let rates_at = |scale: f64| -> Vec<u32> {
         pixels
@@ -442,6 +509,98 @@ mod tests {
         // Straddling the edge of the image: visible.
         let (lo, hi) = unit(DVec3::new(2.6, 0.0, -5.0));
         assert!(!cam.outside(lo, hi));
+    }
+
+    /// The definition [`DicingCamera::outside`] computes with world planes: some side of the
+    /// frustum has all eight corners, in camera space, outside.
+    fn outside_by_corners(cam: &DicingCamera, lo: DVec3, hi: DVec3) -> bool {
+        let corners: [DVec3; 8] = std::array::from_fn(|i| {
+            let p = DVec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo);
+            cam.camera_from_world.transform_point3(p)
+        });
+        let [x_min, x_max, y_min, y_max] = cam.window;
+        let planes: [&dyn Fn(DVec3) -> f64; 5] = match cam.projection {
+            Projection::Perspective { .. } => {
+                [&|p| -p.z, &|p| p.x + x_min * p.z, &|p| -x_max * p.z - p.x, &|p| p.y + y_min * p.z, &|p| {
+                    -y_max * p.z - p.y
+                }]
+            }
+            Projection::Orthographic { .. } => {
+                [&|p| -p.z, &|p| p.x - x_min, &|p| x_max - p.x, &|p| p.y - y_min, &|p| y_max - p.y]
+            }
+        };
+        planes.iter().any(|plane| corners.iter().all(|&c| plane(c) < 0.0))
+    }
+
+    #[test]
+    fn world_frustum_planes_agree_with_the_camera_space_corners() {
+        // A rotated, scaled, offset camera with an off-centre window, and random boxes around it.
+        let mut c = camera(Vec3::new(1.0, -2.0, 3.0), false);
+        c.world_from_camera = Mat4::from_scale_rotation_translation(
+            Vec3::splat(1.5),
+            glam::Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.3, 0.2),
+            Vec3::new(1.0, -2.0, 3.0),
+        );
+        c.horizontal_aperture_offset = 4.0;
+        c.vertical_aperture = 24.0;
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut random = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for orthographic in [false, true] {
+            c.orthographic = orthographic;
+            let cam = DicingCamera::new(&c, Some([640, 480]));
+            let (mut inside, mut outside) = (0, 0);
+            for _ in 0..4000 {
+                let centre = DVec3::new(random(), random(), random()) * 40.0 - 20.0;
+                let half = DVec3::new(random(), random(), random()) * 3.0;
+                let (lo, hi) = (centre - half, centre + half);
+                let expected = outside_by_corners(&cam, lo, hi);
+                assert_eq!(cam.outside(lo, hi), expected, "{lo}..{hi}, orthographic {orthographic}");
+                if expected {
+                    outside += 1;
+                } else {
+                    inside += 1;
+                }
+            }
+            assert!(inside > 100 && outside > 100, "{inside} in view, {outside} outside");
+        }
+    }
+
+    #[test]
+    fn edge_pixels_equal_segment_pixels_and_inside_means_no_corner_outside() {
+        let mut c = camera(Vec3::new(0.5, 0.2, 1.0), false);
+        c.world_from_camera *= Mat4::from_rotation_y(0.4);
+        let points: Vec<DVec3> = (0..50)
+            .map(|i| DVec3::new((i % 7) as f64 - 3.0, (i % 5) as f64 - 2.0, -(i as f64) * 0.7))
+            .collect();
+        let edges: Vec<[u32; 2]> = (0..49).map(|i| [i, (i * 17 + 3) % 50]).collect();
+        for orthographic in [false, true] {
+            c.orthographic = orthographic;
+            let cam = DicingCamera::new(&c, Some([300, 200]));
+            let expected: Vec<f64> = edges
+                .iter()
+                .map(|&[a, b]| cam.segment_pixels(points[a as usize], points[b as usize]))
+                .collect();
+            assert_eq!(cam.edge_pixels(&points, &edges), expected);
+            // Inside: every corner in view; a box reaching past a side is not inside.
+            for w in points.windows(2) {
+                let (lo, hi) = (w[0].min(w[1]), w[0].max(w[1]));
+                if cam.inside(lo, hi) {
+                    for i in 0..8 {
+                        let p = DVec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo);
+                        assert!(!outside_by_corners(&cam, p, p), "{p} of {lo}..{hi}");
+                    }
+                }
+            }
+        }
+        let cam = DicingCamera::new(&camera(Vec3::ZERO, false), Some([100, 100]));
+        assert!(cam.inside(DVec3::new(-0.5, -0.5, -5.0), DVec3::new(0.5, 0.5, -4.0)));
+        assert!(!cam.inside(DVec3::new(-0.5, -0.5, -5.0), DVec3::new(4.0, 0.5, -4.0)));
+        assert!(!cam.inside(DVec3::new(-0.5, -0.5, -5.0), DVec3::new(0.5, 0.5, 1.0)));
     }
 
     #[test]

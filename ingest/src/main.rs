@@ -115,6 +115,8 @@ fn run(args: Args) -> anyhow::Result<()> {
             } else {
                 ingest::dicing::SubdivMode::Adaptive
             },
+            // A listing reports planned counts and cage bounds: no limit surface is evaluated.
+            tessellate: args.output.is_some(),
         },
     };
     let Some(output) = &args.output else { return list_only(&args, &options) };
@@ -182,7 +184,7 @@ fn list_only(args: &Args, options: &ingest::usd::LoadOptions) -> anyhow::Result<
         eprintln!(
             "ingest: {} meshes, {} triangles, {} materials, {} lights, {} cameras listed in {}; load {:.2}s (no blob)",
             scene.meshes.len(),
-            scene.triangle_count(),
+            ingest::pipeline::listed_triangles(&scene),
             scene.materials.len(),
             scene.lights.len(),
             scene.cameras.len(),

@@ -93,13 +93,29 @@ pub fn ingest_file_with(
 /// Triangles of `scene` if every subdivision mesh were refined to the level cap instead of its
 /// diced level (from the face-count formula, see [`crate::dicing::triangles_at_level`]).
 pub fn triangles_at_fixed_level(scene: &Scene) -> u64 {
-    let diced: u64 = scene.subdivisions.iter().map(|s| scene.meshes[s.mesh].triangle_count() as u64).sum();
     let fixed: u64 = scene.subdivisions.iter().map(|s| s.triangles_at_max_level).sum();
-    scene.triangle_count() as u64 - diced + fixed
+    polygon_triangles(scene) + fixed
+}
+
+/// Triangles `scene` renders, with each subdivision mesh counted as planned
+/// ([`crate::scene::Subdivision::triangles`], what dicing makes), so that a scene read for a
+/// listing (nothing tessellated) counts the same as a diced one.
+pub fn listed_triangles(scene: &Scene) -> u64 {
+    polygon_triangles(scene) + scene.subdivisions.iter().map(|s| s.triangles).sum::<u64>()
+}
+
+/// Triangles of the meshes that are not diced subdivision surfaces.
+fn polygon_triangles(scene: &Scene) -> u64 {
+    let diced: u64 = scene.subdivisions.iter().map(|s| scene.meshes[s.mesh].triangle_count() as u64).sum();
+    scene.triangle_count() as u64 - diced
 }
 
 /// The `--dump-json` listing: every rendered gprim with its world bounds, triangle count and
-/// material; subdivision surfaces add their `scheme`, the `subdiv_level` refined to (adaptive: the
+/// material. A subdivision surface is listed from its plan, so that the listing needs no
+/// tessellation and reads the same with or without one: its triangles as diced
+/// ([`crate::scene::Subdivision::triangles`]), the materials of the cage faces that make them,
+/// and its cage's world bounds (USD's extent; the limit surface lies inside). Subdivision
+/// surfaces add their `scheme`, the `subdiv_level` refined to (adaptive: the
 /// level as fine as the finest edge), `subdiv_mode` and, when adaptive, `min_edge_rate` and
 /// `max_edge_rate` (segments per cage edge). The top
 /// level has the scene's `triangles`, `triangles_at_fixed_level` (every subdivision mesh at the
@@ -115,15 +131,18 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
         .iter()
         .zip(&subdivision)
         .map(|(m, subdivision)| {
-            let [lo, hi] = m.world_bounds();
+            let ([lo, hi], triangles, material_indices) = match subdivision {
+                Some(s) => (s.cage_world_bounds(), s.triangles, s.materials.as_slice()),
+                None => (m.world_bounds(), m.triangle_count() as u64, m.triangle_materials.as_slice()),
+            };
             let mut materials: Vec<&str> =
-                m.triangle_materials.iter().map(|&i| scene.materials[i as usize].path.as_str()).collect();
+                material_indices.iter().map(|&i| scene.materials[i as usize].path.as_str()).collect();
             materials.sort_unstable();
             materials.dedup();
             let mut entry = serde_json::json!({
                 "path": m.path,
                 "type": "Mesh",
-                "triangles": m.triangle_count(),
+                "triangles": triangles,
                 "bounds_min": lo.to_array(),
                 "bounds_max": hi.to_array(),
                 "materials": materials,
@@ -141,7 +160,7 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
             entry
         })
         .collect();
-    let triangles = scene.triangle_count() as u64;
+    let triangles = listed_triangles(scene);
     let fixed = triangles_at_fixed_level(scene);
     serde_json::json!({
         "gprims": gprims,

@@ -523,10 +523,15 @@ impl MeshPrimvar {
     }
 }
 
-/// A subdivision surface as diced: `Scene::meshes[mesh]` holds its triangles.
+/// A subdivision surface as diced: `Scene::meshes[mesh]` holds its triangles (none when the
+/// scene was read for a listing, [`crate::dicing::SubdivOptions::tessellate`] off).
 ///
 /// The cage is kept (validated, wound counter-clockwise) so that reports and benchmarks can
-/// re-refine it, e.g. to measure the tessellation error against the limit surface.
+/// re-refine it, e.g. to measure the tessellation error against the limit surface. What a
+/// listing reports is planned from the topology and the chosen level or rates
+/// (`subdiv::UniformPlan`, `subdiv::AdaptiveRefiner::planned_face_triangles`) and equals what
+/// dicing makes: [`Subdivision::triangles`], [`Subdivision::materials`], and the cage's world
+/// bounds ([`Subdivision::cage_world_bounds`], USD's extent of the mesh).
 #[derive(Clone, Debug)]
 pub struct Subdivision {
     /// Index into `Scene::meshes`.
@@ -547,6 +552,24 @@ pub struct Subdivision {
     /// Triangles the same surface would have at the level cap (`--max-subdiv-level`), from the
     /// face-count formula.
     pub triangles_at_max_level: u64,
+    /// Triangles diced (planned from the topology; the tessellation makes exactly these).
+    pub triangles: u64,
+    /// Indices into `Scene::materials` of the cage faces that make triangles, sorted, distinct.
+    pub materials: Vec<u32>,
+}
+
+impl Subdivision {
+    /// World bounds of the cage points (`+∞..−∞` without points): USD's extent of the mesh,
+    /// which the limit surface lies inside.
+    pub fn cage_world_bounds(&self) -> [Vec3; 2] {
+        let m = self.world_from_local;
+        let (lo, hi) =
+            self.points.iter().fold((glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY), |(lo, hi), p| {
+                let w = m.transform_point3(Vec3::from_array(*p).as_dvec3());
+                (lo.min(w), hi.max(w))
+            });
+        [lo.as_vec3(), hi.as_vec3()]
+    }
 }
 
 /// How a curve prim is drawn.

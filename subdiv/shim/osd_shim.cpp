@@ -20,6 +20,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <exception>
 #include <memory>
 #include <algorithm>
@@ -335,6 +336,28 @@ Factory::Options factory_options_for_accuracy() {
 // Facets with a 4th index of -1 are triangles (Tessellation pads them when facet size is 4).
 constexpr int kFacetSize = 4;
 
+// The Bfr::Tessellation rates of base face `f`: its edges' rates, then the interior rates (the
+// maxima of opposite edges for a quad, of all edges otherwise).
+void face_rates(Far::TopologyLevel const &base, int f, const int *edge_rates, std::vector<int> &rates) {
+    auto fe = base.GetFaceEdges(f);
+    int const n = fe.size();
+    rates.assign(n, 1);
+    for (int i = 0; i < n; ++i) rates[i] = edge_rates[fe[i]];
+    if (n == 4) {
+        rates.push_back(std::max(rates[0], rates[2]));
+        rates.push_back(std::max(rates[1], rates[3]));
+    } else {
+        rates.push_back(*std::max_element(rates.begin(), rates.end()));
+    }
+}
+
+Bfr::Tessellation::Options tessellation_options() {
+    Bfr::Tessellation::Options options;
+    options.SetFacetSize(kFacetSize);
+    options.PreserveQuads(true);
+    return options;
+}
+
 } // namespace
 
 extern "C" {
@@ -413,9 +436,7 @@ int osd_tessellate_adaptive(const OsdRefiner *r, const double *vertex_data, int 
         std::vector<double> vpatch, fpatch, coords;
         std::vector<int> local_to_out, facets, rates;
         std::vector<double> uv_tmp(fvar ? fvar_width : 0);
-        Bfr::Tessellation::Options tess_options;
-        tess_options.SetFacetSize(kFacetSize);
-        tess_options.PreserveQuads(true);
+        Bfr::Tessellation::Options const tess_options = tessellation_options();
 
         auto new_point = [&](double const *uv) -> int {
             int p = static_cast<int>(point_data.size() / width);
@@ -460,14 +481,7 @@ int osd_tessellate_adaptive(const OsdRefiner *r, const double *vertex_data, int 
             auto fv = base.GetFaceVertices(f);
             auto fe = base.GetFaceEdges(f);
             int const n = fv.size();
-            rates.assign(n, 1);
-            for (int i = 0; i < n; ++i) rates[i] = edge_rates[fe[i]];
-            if (n == 4) {
-                rates.push_back(std::max(rates[0], rates[2]));
-                rates.push_back(std::max(rates[1], rates[3]));
-            } else {
-                rates.push_back(*std::max_element(rates.begin(), rates.end()));
-            }
+            face_rates(base, f, edge_rates, rates);
             Bfr::Tessellation tess(vsurf.GetParameterization(), static_cast<int>(rates.size()), rates.data(),
                                    tess_options);
             if (!tess.IsValid()) fail("invalid tessellation rates on face " + std::to_string(f));
@@ -567,6 +581,53 @@ int osd_tessellate_adaptive(const OsdRefiner *r, const double *vertex_data, int 
             }
         }
         *out = result.release();
+    });
+}
+
+// Triangles `osd_tessellate_adaptive` makes of each base face at `edge_rates` (0 for a face without
+// a limit surface), counted from the facets of the same Bfr::Tessellation without building or
+// evaluating any surface: the tessellation pattern depends only on the face's parameterization
+// (scheme and size) and its rates, so each distinct pattern is tessellated once.
+int osd_plan_adaptive(const OsdRefiner *r, const int *edge_rates, long long *face_triangles) {
+    return guarded([&] {
+        Far::TopologyRefiner const &tr = *r->refiner;
+        auto const &base = tr.GetLevel(0);
+        Factory factory(tr, factory_options_for_accuracy());
+        Bfr::Tessellation::Options const tess_options = tessellation_options();
+        std::map<std::vector<int>, long long> triangles_of_pattern;
+        std::vector<int> rates, facets;
+        for (int f = 0; f < base.GetNumFaces(); ++f) {
+            if (!factory.FaceHasLimitSurface(f)) {
+                face_triangles[f] = 0;
+                continue;
+            }
+            face_rates(base, f, edge_rates, rates);
+            rates.push_back(base.GetFaceVertices(f).size()); // the key: rates and face size
+            auto known = triangles_of_pattern.find(rates);
+            if (known != triangles_of_pattern.end()) {
+                face_triangles[f] = known->second;
+                continue;
+            }
+            Bfr::Tessellation tess(factory.GetFaceParameterization(f), static_cast<int>(rates.size()) - 1,
+                                   rates.data(), tess_options);
+            if (!tess.IsValid()) fail("invalid tessellation rates on face " + std::to_string(f));
+            facets.resize(size_t(tess.GetNumFacets()) * kFacetSize);
+            tess.GetFacets(facets.data());
+            long long count = 0;
+            for (size_t k = 0; k < facets.size(); k += kFacetSize) count += facets[k + 3] < 0 ? 1 : 2;
+            triangles_of_pattern.emplace(rates, count);
+            face_triangles[f] = count;
+        }
+        if (g_far_errors) fail("Bfr failed");
+    });
+}
+
+// Per base face, 1 if it has no surface: listed in holeIndices, or a boundary face that
+// interpolateBoundary = none drops (Far tags both as holes; refined faces inherit the tag).
+int osd_base_face_holes(const OsdRefiner *r, unsigned char *is_hole) {
+    return guarded([&] {
+        auto const &base = r->refiner->GetLevel(0);
+        for (int f = 0; f < base.GetNumFaces(); ++f) is_hole[f] = base.IsFaceHole(f) ? 1 : 0;
     });
 }
 

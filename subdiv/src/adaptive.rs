@@ -152,7 +152,12 @@ impl AdaptiveRefiner {
             .sum()
     }
 
-    fn check_rates(&self, rates: &[u32]) -> Result<Vec<c_int>> {
+    /// The unrefined refiner.
+    pub(crate) fn base(&self) -> &Refiner {
+        &self.base
+    }
+
+    pub(crate) fn check_rates(&self, rates: &[u32]) -> Result<Vec<c_int>> {
         if rates.len() != self.edges.len() {
             return Err(Error::PrimvarSize {
                 what: "edge rates",

@@ -99,6 +99,12 @@ extern "C" {
         want_coords: c_int,
         out: *mut *mut OsdAdaptive,
     ) -> c_int;
+    pub(crate) fn osd_plan_adaptive(
+        r: *const OsdRefiner,
+        edge_rates: *const c_int,
+        face_triangles: *mut i64,
+    ) -> c_int;
+    pub(crate) fn osd_base_face_holes(r: *const OsdRefiner, is_hole: *mut u8) -> c_int;
     pub(crate) fn osd_adaptive_free(a: *mut OsdAdaptive);
     pub(crate) fn osd_adaptive_counts(
         a: *const OsdAdaptive,

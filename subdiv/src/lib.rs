@@ -64,10 +64,13 @@
 //! # Ok::<(), subdiv::Error>(())
 //! ```
 //!
+//! Listings that need only triangle counts plan them instead ([`UniformPlan`],
+//! [`AdaptiveRefiner::planned_face_triangles`]): same counts, per cage face, no limit evaluation.
+//!
 //! Modules: `topology` (cage and validation), `refine` (the refiner and primvar refinement),
 //! `limit` (limit positions and tangents), `tessellate` (triangles and the dicing-rate level),
-//! `adaptive` (per-face Bfr tessellation with per-edge rates),
-//! `ffi` (private declarations of the shim in `shim/osd_shim.cpp`).
+//! `adaptive` (per-face Bfr tessellation with per-edge rates), `plan` (triangle counts without
+//! evaluation), `ffi` (private declarations of the shim in `shim/osd_shim.cpp`).
 
 #![deny(missing_docs)]
 
@@ -75,6 +78,7 @@ mod adaptive;
 mod error;
 mod ffi;
 mod limit;
+mod plan;
 mod refine;
 mod tessellate;
 mod topology;
@@ -84,6 +88,7 @@ pub use adaptive::{
 };
 pub use error::{Error, Result};
 pub use limit::{normal_from_tangents, LimitSurface};
+pub use plan::{uniform_face_triangles, UniformPlan};
 pub use refine::{Evaluation, RefinedFaces, Refiner, MAX_LEVEL};
 pub use tessellate::{level_for_dicing_rate, tessellate, Tessellation, UvSource};
 pub use topology::{
@@ -93,5 +98,7 @@ pub use topology::{
 
 #[cfg(test)]
 mod adaptive_tests;
+#[cfg(test)]
+mod plan_tests;
 #[cfg(test)]
 mod tests;

@@ -46,6 +46,7 @@ pub struct Refiner {
     level: u32,
     scheme: Scheme,
     base_vertices: usize,
+    base_faces: usize,
     base_fvar_values: Vec<usize>,
 }
 
@@ -81,9 +82,34 @@ impl Refiner {
     /// Catmull–Clark cages with a non-quad face are refined at least once: the limit masks used
     /// for positions and normals assume an all-quad neighbourhood, which only holds from level 1.
     pub fn new(topology: &Topology, level: u32) -> Result<Self> {
+        Self::refined_to(topology, Self::level_for(topology, level))
+    }
+
+    /// The level [`Refiner::new`] refines `topology` to when asked for `level`.
+    pub fn level_for(topology: &Topology, level: u32) -> u32 {
         let all_quads = topology.face_vertex_counts.iter().all(|&n| n == 4);
         let bump = level == 0 && topology.options.scheme == Scheme::CatmullClark && !all_quads;
-        Self::refined_to(topology, if bump { 1 } else { level })
+        if bump {
+            1
+        } else {
+            level
+        }
+    }
+
+    /// The finest level `topology` can be refined to: each level multiplies the face-vertex
+    /// count by 4 (for every scheme after level 1), and OpenSubdiv counts them in `int`.
+    pub fn highest_level(topology: &Topology) -> u32 {
+        let fv = topology.face_vertex_indices.len() as u64;
+        (0..=MAX_LEVEL).take_while(|&l| fv << (2 * l) <= i32::MAX as u64).last().unwrap_or(0)
+    }
+
+    /// Per cage face, whether it has no surface: listed in `holeIndices`, or a boundary face
+    /// that `interpolateBoundary = none` drops (Far tags both; refined faces inherit the tag).
+    pub fn base_face_holes(&self) -> Result<Vec<bool>> {
+        let mut holes = vec![0u8; self.base_faces];
+        // SAFETY: `raw` is a live refiner; `holes` has one byte per base face, as the shim writes.
+        check(unsafe { ffi::osd_base_face_holes(self.raw.as_ptr(), holes.as_mut_ptr()) })?;
+        Ok(holes.into_iter().map(|h| h != 0).collect())
     }
 
     /// The base level only, for Bfr, which builds each face's limit surface from it.
@@ -98,9 +124,7 @@ impl Refiner {
 
     fn refined_to(topology: &Topology, level: u32) -> Result<Self> {
         let scheme = topology.options.scheme;
-        // Each level multiplies the face-vertex count by 4 (for every scheme after level 1).
-        let fv = topology.face_vertex_indices.len() as u64;
-        let max = (0..=MAX_LEVEL).take_while(|&l| fv << (2 * l) <= i32::MAX as u64).last().unwrap_or(0);
+        let max = Self::highest_level(topology);
         if level > max {
             return Err(Error::LevelTooHigh { level, max });
         }
@@ -158,6 +182,7 @@ impl Refiner {
             level,
             scheme,
             base_vertices: topology.vertex_count,
+            base_faces: topology.face_vertex_counts.len(),
             base_fvar_values: topology.face_varying.iter().map(|c| c.1).collect(),
         })
     }

@@ -10,7 +10,7 @@ use std::str::FromStr;
 use crate::error::{Error, Result};
 
 /// Subdivision scheme (`UsdGeomMesh.subdivisionScheme`; USD's `none` is a polygon mesh, not ours).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Scheme {
     /// `catmullClark`: quads, the USD fallback.
     #[default]
@@ -22,7 +22,7 @@ pub enum Scheme {
 }
 
 /// `interpolateBoundary`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum BoundaryInterpolation {
     /// `none`: boundary faces are not part of the surface (OpenSubdiv tags them as holes).
     None,
@@ -34,7 +34,7 @@ pub enum BoundaryInterpolation {
 }
 
 /// `faceVaryingLinearInterpolation`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum FaceVaryingInterpolation {
     /// `none`: smooth everywhere.
     None,
@@ -52,7 +52,7 @@ pub enum FaceVaryingInterpolation {
 }
 
 /// `triangleSubdivisionRule` (Catmull–Clark only).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum TriangleSubdivision {
     /// `catmullClark`: ordinary Catmull–Clark weights (USD fallback).
     #[default]
@@ -103,7 +103,7 @@ usd_tokens!(TriangleSubdivision {
 });
 
 /// Scheme and rule options; `Default` is USD's fallback for every attribute.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct Options {
     /// `subdivisionScheme`.
     pub scheme: Scheme,
@@ -294,6 +294,20 @@ impl Topology {
     /// Value count of face-varying `channel`, if it exists.
     pub fn face_varying_value_count(&self, channel: usize) -> Option<usize> {
         self.face_varying.get(channel).map(|c| c.1)
+    }
+
+    /// A cheap key for finding equal topologies (e.g. one asset referenced many times, which
+    /// can share one refiner): the sizes, the options and a sample of at most 64 face-vertex
+    /// indices. Equal topologies have equal keys; compare with `==` to be sure.
+    pub fn sharing_key(&self) -> u64 {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        (self.vertex_count, self.face_vertex_counts.len(), self.face_vertex_indices.len()).hash(&mut h);
+        self.options.hash(&mut h);
+        let step = (self.face_vertex_indices.len() / 64).max(1);
+        self.face_vertex_indices.iter().step_by(step).for_each(|i| i.hash(&mut h));
+        (self.hole_indices.len(), self.crease_pairs.len(), self.face_varying.len()).hash(&mut h);
+        h.finish()
     }
 
     /// Faces as slices of vertex indices.

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import copy
 import subprocess
-from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
@@ -67,20 +66,11 @@ def check_render_info(info: dict, dump: dict, ref: Listing) -> list[str]:
     with_points = [g for g in ref.gprims if g.lo is not None]
     if with_points:
         atol = tolerance(ref)
-        # A subdivision surface lies inside its cage: its inner bound is our own (which `compare`
-        # checks against the cage), its outer bound the cage's.
-        ours = defaultdict(list)
-        for e in dump["gprims"]:
-            ours[e["path"]].append(e)
-
-        def inner(g, ref_key, dump_key, reduce):
-            values = [e[dump_key] for e in ours.get(g.path, []) if None not in e[dump_key]]
-            if g.scheme is None or not values:
-                return getattr(g, ref_key)
-            return reduce(np.asarray(values, dtype=float), axis=0)
-
-        inner_lo = np.min([inner(g, "lo", "bounds_min", np.min) for g in with_points], axis=0)
-        inner_hi = np.max([inner(g, "hi", "bounds_max", np.max) for g in with_points], axis=0)
+        # A subdivision surface lies inside its cage, which the dump lists as its bounds: it
+        # bounds the rendered box from outside only; polygon meshes from both sides.
+        polygons = [g for g in with_points if g.scheme is None]
+        inner_lo = np.min([g.lo for g in polygons], axis=0) if polygons else np.full(3, np.inf)
+        inner_hi = np.max([g.hi for g in polygons], axis=0) if polygons else np.full(3, -np.inf)
         outer_lo = np.min([g.lo if g.outer_lo is None else g.outer_lo for g in with_points], axis=0)
         outer_hi = np.max([g.hi if g.outer_hi is None else g.outer_hi for g in with_points], axis=0)
         lo, hi = np.asarray(info["bounds_min"], float), np.asarray(info["bounds_max"], float)

@@ -25,8 +25,8 @@ Conventions shared with the ingest (see ingest/src/usd/mod.rs):
   tessellated per edge (`subdiv_mode` adaptive, the default) has between one segment per cage
   edge and level L's count, L being as fine as its finest edge.
 * bounds: the mesh points transformed by `ComputeLocalToWorldTransform` (not authored extents).
-  The limit surface of a subdivision mesh lies inside its cage's convex hull, so there ours must
-  be non-empty and inside the cage bounds (within the tolerance) instead of equal to them.
+  For a subdivision mesh too: the listing reports its cage's world bounds (USD's extent of the
+  mesh; the limit surface lies inside), so they must be equal, holes and all.
 * materials: per face, the material bound to a `materialBind` GeomSubset holding the face, else the
   gprim's bound material (`ComputeBoundMaterial` for the "full" purpose); the set over drawn faces.
   No material = the ingest's synthetic `<gprim>.displayColor` material.
@@ -322,11 +322,6 @@ def _close(ours, ref, atol) -> bool:
     return bool(np.all(np.abs(ours - ref) <= atol + 4 * F32_EPS * np.abs(ref)))
 
 
-def _within(x, lo, hi, atol) -> bool:
-    """lo <= x <= hi within the tolerance (plus float32 rounding)."""
-    return bool(np.all(x >= lo - atol - 4 * F32_EPS * np.abs(lo)) and np.all(x <= hi + atol + 4 * F32_EPS * np.abs(hi)))
-
-
 def expected_triangles(entry, g: Gprim) -> int | None:
     """The triangles `entry` must have: the cage's, or for a subdivision mesh the count at the
     level the ingest reports (None: not compared)."""
@@ -353,11 +348,7 @@ def _entry_matches(entry, g: Gprim, atol) -> list[str]:
             problems.append(f"triangles: ours {entry['triangles']} (adaptive), usd-core {low}..{high}")
     if g.lo is not None:
         lo, hi = np.asarray(entry["bounds_min"]), np.asarray(entry["bounds_max"])
-        if subdivided:
-            # The limit surface: non-empty (unless every face is a hole) and inside the cage.
-            empty = not g.face_sizes
-            ok = empty or (bool(np.all(lo <= hi)) and _within(lo, g.lo, g.hi, atol) and _within(hi, g.lo, g.hi, atol))
-        elif g.kind == "Sphere":
+        if g.kind == "Sphere":
             ok = all(
                 np.all(x >= a - atol - 4 * F32_EPS * np.abs(a)) and np.all(x <= b + atol + 4 * F32_EPS * np.abs(b))
                 for x, a, b in ((lo, g.outer_lo, g.lo), (hi, g.hi, g.outer_hi))

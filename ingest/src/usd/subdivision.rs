@@ -24,7 +24,7 @@ use rayon::prelude::*;
 use subdiv::{
     tessellate, AdaptiveRefiner, AdaptiveUv, BoundaryInterpolation, Cage, Evaluation, FaceVaryingChannel,
     FaceVaryingInterpolation, Options, Refiner, Scheme, Tessellation, Topology, TriangleSubdivision,
-    UvSource,
+    UniformPlan, UvSource,
 };
 
 use super::mesh::{placed_with, world_mesh, Interpolation, LocalMesh, PolygonCage, INVALID_POINT};
@@ -111,16 +111,45 @@ fn cage_hash(cage: &PolygonCage) -> u64 {
     h.finish()
 }
 
-/// A diced, tessellated subdivision mesh in local space.
+/// A diced subdivision mesh: its plan, and its tessellation in local space unless only planned.
 struct Diced {
-    local: LocalMesh,
-    /// Cage face per triangle (for the followers' materials).
-    coarse_face: Vec<u32>,
+    /// The tessellation and the cage face of each triangle (for the followers' materials);
+    /// `None` when only planned ([`SubdivOptions::tessellate`] off).
+    tessellated: Option<(LocalMesh, Vec<u32>)>,
     level: u32,
     /// Segments per cage edge (adaptive tessellation; empty for uniform).
     edge_rates: Vec<u32>,
+    /// Planned triangles per cage face.
+    face_triangles: Vec<u64>,
     triangles_at_max_level: u64,
     note: Option<String>,
+}
+
+impl Diced {
+    /// The subdivision record of one placement, whose cage faces are bound to `face_materials`.
+    fn record(
+        &self,
+        mesh: usize,
+        q: &QueuedSubdivision,
+        world_from_local: DMat4,
+        face_materials: &[u32],
+    ) -> Subdivision {
+        let mut materials: Vec<u32> =
+            self.face_triangles.iter().zip(face_materials).filter(|(&n, _)| n > 0).map(|(_, &m)| m).collect();
+        materials.sort_unstable();
+        materials.dedup();
+        Subdivision {
+            mesh,
+            topology: q.topology.clone(),
+            points: q.points.clone(),
+            world_from_local,
+            level: self.level,
+            edge_rates: self.edge_rates.clone(),
+            triangles_at_max_level: self.triangles_at_max_level,
+            triangles: self.face_triangles.iter().sum(),
+            materials,
+        }
+    }
 }
 
 /// USD stores indices as `int`; anything beyond is out of range for OpenSubdiv as well.
@@ -370,23 +399,50 @@ impl Reader<'_> {
             }
         };
         let camera = Some(camera);
-        let diced: Vec<_> = queued.par_iter().map(|q| dice(q, options, camera.as_ref())).collect();
+        // One task per topology builds its shape and dices the cages that share it (in
+        // parallel too), so a large mesh's refiner is not waited for by the other meshes.
+        let per_shape: Vec<Vec<(usize, subdiv::Result<Diced>)>> = shared_topologies(&queued)
+            .par_iter()
+            .map(|members| {
+                let shape = Shape::new(&queued[members[0]].topology, options);
+                members
+                    .par_iter()
+                    .map(|&i| {
+                        let shape = shape.as_ref().map_err(Clone::clone);
+                        (i, shape.and_then(|shape| dice(&queued[i], options, camera.as_ref(), shape)))
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut diced: Vec<Option<subdiv::Result<Diced>>> = (0..queued.len()).map(|_| None).collect();
+        for (i, result) in per_shape.into_iter().flatten() {
+            diced[i] = Some(result);
+        }
+        let diced = diced.into_iter().map(|d| d.expect("every queued cage belongs to one shape"));
         for (mut q, result) in queued.into_iter().zip(diced) {
             let followers = std::mem::take(&mut q.followers);
             match result {
-                Ok(d) => {
-                    if let Some(note) = d.note {
+                Ok(mut d) => {
+                    if let Some(note) = d.note.take() {
                         self.warn(&q.path, note);
                     }
+                    for f in &followers {
+                        let record = d.record(f.slot, &q, f.world_from_local, &f.face_materials);
+                        self.scene.subdivisions.push(record);
+                    }
+                    let record = d.record(q.slot, &q, q.world_from_points, &q.cage.face_materials);
+                    self.scene.subdivisions.push(record);
+                    // A listing keeps the placeholders pushed during the walk.
+                    let Some((local, coarse_face)) = d.tessellated else { continue };
                     self.scene.meshes[q.slot] = match q.instance {
                         // One geometry for the queued instance and its followers; each keeps its
                         // own materials (per cage face, through the face each triangle comes from).
                         Some(frame) => {
-                            let (geometry, materials, double_sided) = d.local.split();
+                            let (geometry, materials, double_sided) = local.split();
                             let geometry = self.geometry.intern(geometry);
-                            for f in &followers {
+                            for f in followers {
                                 let materials =
-                                    d.coarse_face.iter().map(|&c| f.face_materials[c as usize]).collect();
+                                    coarse_face.iter().map(|&c| f.face_materials[c as usize]).collect();
                                 self.scene.meshes[f.slot] = placed_with(
                                     &f.path,
                                     Arc::clone(&geometry),
@@ -395,15 +451,6 @@ impl Reader<'_> {
                                     f.frame,
                                     f.world_from_local,
                                 );
-                                self.scene.subdivisions.push(Subdivision {
-                                    mesh: f.slot,
-                                    topology: q.topology.clone(),
-                                    points: q.points.clone(),
-                                    world_from_local: f.world_from_local,
-                                    level: d.level,
-                                    edge_rates: d.edge_rates.clone(),
-                                    triangles_at_max_level: d.triangles_at_max_level,
-                                });
                             }
                             placed_with(
                                 &q.path,
@@ -414,17 +461,8 @@ impl Reader<'_> {
                                 q.world_from_points,
                             )
                         }
-                        None => world_mesh(&q.path, d.local, q.world_from_points),
+                        None => world_mesh(&q.path, local, q.world_from_points),
                     };
-                    self.scene.subdivisions.push(Subdivision {
-                        mesh: q.slot,
-                        topology: q.topology,
-                        points: q.points,
-                        world_from_local: q.world_from_points,
-                        level: d.level,
-                        edge_rates: d.edge_rates,
-                        triangles_at_max_level: d.triangles_at_max_level,
-                    });
                 }
                 Err(e) => {
                     let message = format!("cannot subdivide: {e}; rendering the triangulated cage instead");
@@ -503,74 +541,133 @@ fn refined_primvars(
     Ok(out)
 }
 
-/// Chooses the level (uniform) or edge rates (adaptive) of one queued mesh and tessellates it
-/// (local space).
+/// Chooses the level (uniform) or edge rates (adaptive) of one queued mesh, plans its triangles
+/// and, with [`SubdivOptions::tessellate`], tessellates it (local space).
+/// What dicing reads from a cage's topology alone, built once for every queued cage with that
+/// topology: the unrefined refiner with its edges (adaptive), or the faces without a surface
+/// (uniform).
+enum Shape {
+    Adaptive(AdaptiveRefiner),
+    Uniform { holes: Vec<bool> },
+}
+
+impl Shape {
+    fn new(topology: &Topology, options: &SubdivOptions) -> subdiv::Result<Self> {
+        Ok(if options.adaptive() {
+            Shape::Adaptive(AdaptiveRefiner::new(topology)?)
+        } else {
+            Shape::Uniform { holes: UniformPlan::holes(topology)? }
+        })
+    }
+}
+
+/// Groups the queued cages by topology (indices into `queued`, in queue order, groups in the
+/// order of their first cage). An asset referenced many times without instancing (the teapot
+/// scene's 35 teapots) then builds one `Far::TopologyRefiner`, not 35: building it was most of a
+/// listing's subdivision time.
+fn shared_topologies(queued: &[QueuedSubdivision]) -> Vec<Vec<usize>> {
+    let mut by_key: std::collections::HashMap<u64, Vec<usize>> = std::collections::HashMap::new();
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (i, q) in queued.iter().enumerate() {
+        let candidates = by_key.entry(q.topology.sharing_key()).or_default();
+        match candidates.iter().find(|&&g| queued[groups[g][0]].topology == q.topology) {
+            Some(&g) => groups[g].push(i),
+            None => {
+                candidates.push(groups.len());
+                groups.push(vec![i]);
+            }
+        }
+    }
+    groups
+}
+
 fn dice(
     q: &QueuedSubdivision,
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
+    shape: &Shape,
 ) -> subdiv::Result<Diced> {
     // The cage as each instance places it.
     let worlds: Vec<Vec<DVec3>> = q
         .placements()
         .map(|m| q.points.iter().map(|p| m.transform_point3(glam::Vec3::from_array(*p).as_dvec3())).collect())
         .collect();
-    let (tess, uvs, primvars, level, edge_rates, note) = if options.adaptive() {
-        dice_adaptive(q, options, camera, &worlds)?
-    } else {
-        dice_uniform(q, options, camera, &worlds)?
+    let (level, edge_rates, face_triangles, note, tessellated) = match shape {
+        Shape::Adaptive(refiner) => {
+            let rates = adaptive_rates(options, camera, &worlds, refiner);
+            let face_triangles = refiner.planned_face_triangles(&rates)?;
+            let tessellated =
+                options.tessellate.then(|| tessellate_adaptive(q, refiner, &rates)).transpose()?;
+            let level = subdiv::level_for_rate(rates.iter().copied().max().unwrap_or(1));
+            (level, rates, face_triangles, None, tessellated)
+        }
+        Shape::Uniform { holes } => dice_uniform(q, options, camera, &worlds, holes)?,
     };
 
-    // Faces that made it to the surface (not holes, not dropped by interpolateBoundary = none),
-    // for the triangle count at the level cap.
+    // Faces that reach the surface (not holes, not dropped by interpolateBoundary = none), for
+    // the triangle count at the level cap.
     let all_quads = q.cage.counts.iter().all(|&n| n == 4);
-    let mut drawn = vec![false; q.cage.counts.len()];
-    for &f in &tess.coarse_face {
-        drawn[f as usize] = true;
-    }
-    let drawn_sizes = q.cage.counts.iter().zip(&drawn).filter(|(_, &d)| d).map(|(&n, _)| n);
+    let drawn_sizes = q.cage.counts.iter().zip(&face_triangles).filter(|(_, &t)| t > 0).map(|(&n, _)| n);
     let triangles_at_max_level =
         triangles_at_level(q.topology.options().scheme, drawn_sizes, all_quads, options.max_level);
 
-    let f64x3 = |p: &[f32; 3]| glam::Vec3::from_array(*p).as_dvec3();
-    let mut local = LocalMesh {
-        positions: tess.positions.iter().map(f64x3).collect(),
-        normals: tess.normals.iter().map(f64x3).collect(),
-        uvs,
-        triangle_materials: tess.coarse_face.iter().map(|&f| q.cage.face_materials[f as usize]).collect(),
-        triangles: tess.triangles,
-        double_sided: q.cage.double_sided,
-        primvars,
-    };
-    if q.mirrored {
-        local.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-        local.normals.iter_mut().for_each(|n| *n = -*n);
-    }
-    Ok(Diced { local, coarse_face: tess.coarse_face, level, edge_rates, triangles_at_max_level, note })
+    let tessellated = tessellated.map(|(tess, uvs, primvars)| {
+        debug_assert_eq!(tess.triangles.len() as u64, face_triangles.iter().sum::<u64>(), "{}", q.path);
+        let f64x3 = |p: &[f32; 3]| glam::Vec3::from_array(*p).as_dvec3();
+        let mut local = LocalMesh {
+            positions: tess.positions.iter().map(f64x3).collect(),
+            normals: tess.normals.iter().map(f64x3).collect(),
+            uvs,
+            triangle_materials: tess.coarse_face.iter().map(|&f| q.cage.face_materials[f as usize]).collect(),
+            triangles: tess.triangles,
+            double_sided: q.cage.double_sided,
+            primvars,
+        };
+        if q.mirrored {
+            local.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+            local.normals.iter_mut().for_each(|n| *n = -*n);
+        }
+        (local, tess.coarse_face)
+    });
+    Ok(Diced { tessellated, level, edge_rates, face_triangles, triangles_at_max_level, note })
 }
 
 /// Refines one `vec4` per cage point onto a tessellation's vertices.
 type RefineVertexValues<'a> = dyn Fn(&[[f32; 4]]) -> subdiv::Result<Vec<[f32; 4]>> + 'a;
 
-/// A tessellation with its UVs, primvars, level, edge rates and a note for the log.
-type Tessellated = (Tessellation, Vec<Vec2>, Vec<MeshPrimvar>, u32, Vec<u32>, Option<String>);
+/// A tessellation with its UVs and primvars.
+type Tessellated = (Tessellation, Vec<Vec2>, Vec<MeshPrimvar>);
 
-/// One uniform level for the whole mesh (`--subdiv-level`, `--subdiv-mode uniform`): the finest
-/// any of its instances (`worlds`, the cage as each places it) needs.
+/// A mesh's level, edge rates (none), planned triangles per cage face, note for the log and
+/// tessellation (unless only planned).
+type Planned = (u32, Vec<u32>, Vec<u64>, Option<String>, Option<Tessellated>);
+
+/// One uniform level for the whole mesh, the finest any placement (`worlds`) needs, planned
+/// over the cage's `holes` and tessellated with [`SubdivOptions::tessellate`].
 fn dice_uniform(
     q: &QueuedSubdivision,
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
     worlds: &[Vec<DVec3>],
-) -> subdiv::Result<Tessellated> {
+    holes: &[bool],
+) -> subdiv::Result<Planned> {
     let mut level = 0;
     for world in worlds {
         level = level.max(uniform_level(q, options, camera, world)?);
     }
-    refine_uniform(q, level)
+    let (plan, note) = match UniformPlan::with_holes(&q.topology, level, holes) {
+        Err(subdiv::Error::LevelTooHigh { level, max }) => (
+            UniformPlan::with_holes(&q.topology, max, holes)?,
+            Some(format!("level {level} is too fine for this cage's size; refined to level {max}")),
+        ),
+        other => (other?, None),
+    };
+    let tessellated = options.tessellate.then(|| refine_uniform(q, plan.level)).transpose()?;
+    Ok((plan.level, Vec::new(), plan.face_triangles, note, tessellated))
 }
 
-/// The uniform level one placement of the cage (`world`) needs.
+/// The uniform level one placement of the cage (`world`) needs (`--subdiv-level`,
+/// `--subdiv-mode uniform`); the mesh is refined to the finest any placement needs.
 fn uniform_level(
     q: &QueuedSubdivision,
     options: &SubdivOptions,
@@ -595,16 +692,9 @@ fn uniform_level(
     }))
 }
 
-/// Tessellates the cage at uniform `level`.
+/// Tessellates the cage at uniform `level` (as planned: at most [`Refiner::highest_level`]).
 fn refine_uniform(q: &QueuedSubdivision, level: u32) -> subdiv::Result<Tessellated> {
-    let mut note = None;
-    let refiner = match Refiner::new(&q.topology, level) {
-        Err(subdiv::Error::LevelTooHigh { level, max }) => {
-            note = Some(format!("level {level} is too fine for this cage's size; refined to level {max}"));
-            Refiner::new(&q.topology, max)?
-        }
-        other => other?,
-    };
+    let refiner = Refiner::new(&q.topology, level)?;
     let uv_source = match &q.uv {
         UvInput::FaceVarying(values) => Some(UvSource { channel: 0, values }),
         _ => None,
@@ -625,33 +715,41 @@ fn refine_uniform(q: &QueuedSubdivision, level: u32) -> subdiv::Result<Tessellat
         let refined = refiner.vertex_primvar(&flat, 4, Evaluation::Limit)?;
         tess.gather::<4>(&refined)
     })?;
-    Ok((tess, uvs, primvars, refiner.level(), Vec::new(), note))
+    Ok((tess, uvs, primvars))
 }
 
-/// Segments per cage edge from the camera, each face tessellated on its limit surface.
-fn dice_adaptive(
-    q: &QueuedSubdivision,
+/// Segments per cage edge from the camera: per edge, the finest rate any placement (`worlds`,
+/// the cage as each instance places it) needs.
+fn adaptive_rates(
     options: &SubdivOptions,
     camera: Option<&DicingCamera>,
     worlds: &[Vec<DVec3>],
-) -> subdiv::Result<Tessellated> {
-    let refiner = AdaptiveRefiner::new(&q.topology)?;
-    // Per cage edge, the finest rate any placement needs.
+    refiner: &AdaptiveRefiner,
+) -> Vec<u32> {
     let mut rates: Vec<u32> = Vec::new();
     for world in worlds {
-        let need = choose_edge_rates(options, camera, world, &refiner);
+        let need = choose_edge_rates(options, camera, world, refiner);
         if rates.is_empty() {
             rates = need;
         } else {
             rates.iter_mut().zip(need).for_each(|(r, n)| *r = (*r).max(n));
         }
     }
+    rates
+}
+
+/// Each face tessellated on its limit surface at `rates`.
+fn tessellate_adaptive(
+    q: &QueuedSubdivision,
+    refiner: &AdaptiveRefiner,
+    rates: &[u32],
+) -> subdiv::Result<Tessellated> {
     let uv = match &q.uv {
         UvInput::FaceVarying(values) => Some(AdaptiveUv::FaceVarying(UvSource { channel: 0, values })),
         UvInput::Vertex(values) => Some(AdaptiveUv::Vertex(values)),
         UvInput::None | UvInput::Constant(_) => None,
     };
-    let tess = refiner.tessellate(&q.points, uv, &rates, false)?.mesh;
+    let tess = refiner.tessellate(&q.points, uv, rates, false)?.mesh;
     let uvs: Vec<Vec2> = match &q.uv {
         UvInput::None => Vec::new(),
         UvInput::Constant(uv) => vec![*uv; tess.positions.len()],
@@ -665,7 +763,7 @@ fn dice_adaptive(
         let mut out = vec![[0.0f32; 4]; tess.positions.len()];
         for half in 0..2 {
             let pairs: Vec<[f32; 2]> = cage.iter().map(|v| [v[2 * half], v[2 * half + 1]]).collect();
-            let pass = refiner.tessellate(&q.points, Some(AdaptiveUv::Vertex(&pairs)), &rates, false)?.mesh;
+            let pass = refiner.tessellate(&q.points, Some(AdaptiveUv::Vertex(&pairs)), rates, false)?.mesh;
             for (o, uv) in out.iter_mut().zip(pass.uvs.iter().flatten()) {
                 o[2 * half] = uv[0];
                 o[2 * half + 1] = uv[1];
@@ -673,6 +771,5 @@ fn dice_adaptive(
         }
         Ok(out)
     })?;
-    let level = subdiv::level_for_rate(rates.iter().copied().max().unwrap_or(1));
-    Ok((tess, uvs, primvars, level, rates, None))
+    Ok((tess, uvs, primvars))
 }

@@ -45,11 +45,49 @@ fn cube_prim(name: &str, points: &[[f32; 3]], indices: &[i32], extra: &str) -> S
     )
 }
 
+/// Loads `body` diced with `subdiv`, after checking that the plan matches the dicing (see
+/// [`diced_with_its_plan`]).
 fn load_with(body: &str, subdiv: SubdivOptions) -> Scene {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().join("scene.usda");
     std::fs::write(&root, format!("#usda 1.0\n\n{body}\n")).unwrap();
-    load(&root, &LoadOptions { subdiv, ..LoadOptions::default() }).unwrap_or_else(|e| panic!("{e}"))
+    diced_with_its_plan(&root, &LoadOptions { subdiv, ..LoadOptions::default() })
+}
+
+/// Loads `path` twice, diced and for a listing (planned only), and checks that the plan is what
+/// dicing makes: per subdivision mesh the planned triangles and materials equal the diced
+/// mesh's, the listing evaluates no surface, and both dumps are the same bytes. Returns the
+/// diced scene.
+fn diced_with_its_plan(path: &std::path::Path, options: &LoadOptions) -> Scene {
+    let diced = load(path, options).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let listing_options = LoadOptions {
+        subdiv: SubdivOptions { tessellate: false, ..options.subdiv },
+        bake_textures: false,
+        ..options.clone()
+    };
+    let listed = load(path, &listing_options).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    for s in &diced.subdivisions {
+        let m = &diced.meshes[s.mesh];
+        assert_eq!(s.triangles, m.triangle_count() as u64, "{}: {} planned vs diced", path.display(), m.path);
+        let mut materials = m.triangle_materials.clone();
+        materials.sort_unstable();
+        materials.dedup();
+        assert_eq!(s.materials, materials, "{}: {} materials", path.display(), m.path);
+        let [lo, hi] = s.cage_world_bounds();
+        let [mesh_lo, mesh_hi] = m.world_bounds();
+        let slack = 1e-4 * (hi - lo).max_element().max(1.0);
+        // The limit surface lies inside the cage's convex hull.
+        assert!(
+            mesh_lo.cmpge(lo - slack).all() && mesh_hi.cmple(hi + slack).all() || m.triangle_count() == 0,
+            "{}: {} diced {mesh_lo}..{mesh_hi} outside cage {lo}..{hi}",
+            path.display(),
+            m.path
+        );
+    }
+    assert!(listed.subdivisions.iter().all(|s| listed.meshes[s.mesh].triangle_count() == 0));
+    let text = |scene: &Scene| serde_json::to_string_pretty(&crate::pipeline::dump_json(scene)).unwrap();
+    assert_eq!(text(&listed), text(&diced), "{}: listing and diced dumps differ", path.display());
+    diced
 }
 
 fn forced(level: u32) -> SubdivOptions {
@@ -592,5 +630,71 @@ fn vertex_primvars_refine_like_the_points_in_both_modes() {
             .fold(0.0f32, f32::max);
         assert!(worst < 1e-4, "{options:?}: primvar strays {worst} from the limit point");
         assert!(m.triangles.len() > 12, "{options:?}: the cube was refined");
+    }
+}
+
+/// Every subdivision mesh of the shared assets that carry subdivision test cases (OpenUSD's
+/// subdivision tests, the usd-wg pyramids) and of the three largest assets, at the default
+/// (adaptive) dicing and uniform: planned == diced. Skipped, with a note, without the library.
+#[test]
+fn shared_subdivision_assets_dice_as_planned() {
+    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets");
+    if !assets.is_dir() {
+        eprintln!("skipped: no shared asset library at {}", assets.display());
+        return;
+    }
+    let mut files: Vec<std::path::PathBuf> = Vec::new();
+    for dir in ["openusd_subdiv", "subdiv_pyramids/full_assets/SubdivisionSurfaces"] {
+        let mut stack = vec![assets.join(dir)];
+        while let Some(d) = stack.pop() {
+            for entry in std::fs::read_dir(&d).unwrap().map(Result::unwrap) {
+                let p = entry.path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if p.extension().is_some_and(|e| e.to_str().is_some_and(|e| e.starts_with("usd"))) {
+                    files.push(p);
+                }
+            }
+        }
+    }
+    files.sort();
+    files.extend(
+        [
+            "open_chess_set/full_assets/OpenChessSet/chess_set.usda",
+            "standard_shader_ball/full_assets/StandardShaderBall/standard_shader_ball_scene.usda",
+            "teapot/full_assets/Teapot/DrawModes.usd",
+        ]
+        .map(|f| assets.join(f)),
+    );
+    let mut meshes = 0;
+    for file in &files {
+        let options = LoadOptions { lenient: true, ..LoadOptions::default() };
+        if load(file, &options).is_err() {
+            continue; // layers that are not stages on their own (e.g. a payload's material layer)
+        }
+        meshes += diced_with_its_plan(file, &options).subdivisions.len();
+        if file.metadata().unwrap().len() < 1 << 20 {
+            let uniform = LoadOptions { subdiv: uniform(), ..options.clone() };
+            meshes += diced_with_its_plan(file, &uniform).subdivisions.len();
+        }
+    }
+    assert!(meshes > 100, "{meshes} subdivision meshes checked");
+}
+
+#[test]
+fn copies_of_one_cage_share_a_refiner_but_not_their_rates() {
+    // Two identical grids (not instances) at 10 and 40 units: one topology, so one refiner, but
+    // each is diced for its own distance, in both modes.
+    let grid = |name: &str, z: f32| {
+        grid_prim(name, 4, 4, move |i, j| [i as f32 * 0.5 - 1.0, j as f32 * 0.5 - 1.0, z])
+    };
+    let body = format!("{CAMERA_1000}{}{}", grid("Near", -10.0), grid("Far", -40.0));
+    for mode in [SubdivMode::Adaptive, SubdivMode::Uniform] {
+        let options = SubdivOptions { dicing_rate: 4.0, max_level: 6, mode, ..SubdivOptions::default() };
+        let scene = load_with(&body, options);
+        let (near, far) = (mesh(&scene, "/Near").triangle_count(), mesh(&scene, "/Far").triangle_count());
+        assert!(near > far && far > 0, "{mode:?}: near {near}, far {far}");
+        assert_eq!(dump_entry(&scene, "/Near")["triangles"], near);
+        assert_eq!(dump_entry(&scene, "/Far")["triangles"], far);
     }
 }
