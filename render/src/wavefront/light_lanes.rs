@@ -26,14 +26,10 @@
 
 use super::bsdf_lanes::{Lanes, Lanes3, V};
 use super::lanes::LANES;
-use super::{Context, Worker};
-use crate::accel::offset_ray_origin;
 use crate::lights::{Lights, Shape};
-use crate::sampler::{hash_combine, hash_u32};
-use crate::stats::Phase;
+#[cfg(test)]
 use glam::Vec3;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
-use texture::Touch;
 
 /// A dome light.
 pub const KIND_DOME: u32 = 0;
@@ -431,58 +427,6 @@ pub fn sample_lanes(table: &LightTable, inp: &LightInputs, out: &mut LightSample
         out.b[0][k] = b1;
         out.b[1][k] = b2;
     }
-}
-
-/// The light sample of every scatter point of the chunk, with its shadow ray (origin, extent and
-/// pass-through seed), eight points at a time.
-pub(super) fn sample_scatter_points<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
-    let scene = ctx.scene;
-    if scene.lights.is_empty() {
-        return;
-    }
-    let table = scene.lights.lane_table();
-    let (filter, touch) = (ctx.settings.filter, ctx.touch);
-    let seed_hash = hash_u32(ctx.options.seed);
-    let Worker { scatter, states, clock, .. } = w;
-    let mut inp = LightInputs::default();
-    let mut out = LightSampleLanes::default();
-    for group in scatter.chunks_mut(LANES) {
-        // Lanes past the group's end keep the previous group's inputs: their results are not read.
-        for (k, sp) in group.iter().enumerate() {
-            (inp.p[0][k], inp.p[1][k], inp.p[2][k]) = (sp.p.x, sp.p.y, sp.p.z);
-            inp.u_select[k] = sp.u_light_select;
-            [inp.u[0][k], inp.u[1][k]] = sp.u_light;
-        }
-        sample_lanes(table, &inp, &mut out);
-        for (k, sp) in group.iter_mut().enumerate() {
-            if out.ok[k] == 0 {
-                continue;
-            }
-            let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
-            let li = if out.triangle[k] != blob::NONE {
-                scene.emission_at(out.triangle[k], out.b[0][k], out.b[1][k], filter, touch)
-            } else {
-                at(&out.li)
-            };
-            let origin = offset_ray_origin(sp.p, sp.bsdf.ng);
-            let distance = out.distance[k];
-            let tmax = if distance.is_finite() {
-                (distance - (origin - sp.p).length()) * (1.0 - 1e-4)
-            } else {
-                f32::INFINITY
-            };
-            let st = &states[sp.index as usize];
-            sp.has_light = true;
-            sp.light_wi = at(&out.wi);
-            sp.light_li = li;
-            sp.light_pdf = out.pdf[k];
-            sp.light_delta = out.delta[k] != 0;
-            sp.shadow_origin = origin;
-            sp.shadow_tmax = tmax;
-            sp.shadow_seed = hash_combine(hash_combine(seed_hash, st.pixel), st.sample) ^ st.vertex;
-        }
-    }
-    clock.lap(Phase::Integration);
 }
 
 #[cfg(test)]

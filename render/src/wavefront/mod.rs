@@ -241,8 +241,10 @@ pub struct Worker {
     material_starts: Vec<u32>,
     /// Random numbers of the current chunk's vertices, eight paths per entry (`[dimension][lane]`).
     randoms: Vec<[[f32; lanes::LANES]; sampler_lanes::DIMS]>,
-    /// Shaded hits of the current chunk, waiting for the lane kernels.
-    scatter: Vec<shade::ScatterPoint>,
+    /// Shaded hits of the current chunk, eight per group, waiting for the lane kernels; the first
+    /// `scatter_points` lanes are in use.
+    scatter: Vec<shade::ScatterGroup>,
+    scatter_points: usize,
     /// The area lights, eight per group, for the emission rays pick up.
     area_lights: emission_lanes::AreaLightLanes,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
@@ -317,7 +319,8 @@ impl Worker {
             scratch: vec![0; paths],
             material_starts: vec![0; materials + 2],
             randoms: Vec::with_capacity(shade::CHUNK / lanes::LANES),
-            scatter: Vec::with_capacity(shade::CHUNK),
+            scatter: vec![shade::ScatterGroup::default(); shade::CHUNK / lanes::LANES],
+            scatter_points: 0,
             textured_materials,
             area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),

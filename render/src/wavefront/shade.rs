@@ -18,18 +18,18 @@
 //! A chunk's scatter points (~200 bytes each) stay in L2 between the phases: MoonRay's AoS → SoA
 //! conversion "in cache-sized chunks".
 
-use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, Lanes3, SampleInputs, SampleLanes};
+use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
-use super::light_lanes;
+use super::light_lanes::{self, LightInputs, LightSampleLanes};
 use super::material_lanes;
 use super::roulette::{self, RouletteLanes, RouletteOut};
 use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::{sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
-use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
+use crate::integrator::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
-use crate::sampler::{dim, hash_u32};
+use crate::sampler::{dim, hash_combine, hash_u32};
 use crate::scene::Scene;
 use crate::stats::Phase;
 use glam::Vec3;
@@ -38,45 +38,28 @@ use texture::Touch;
 /// Hits per shading chunk (phase 1 then phase 2).
 pub const CHUNK: usize = 256;
 
-/// A shaded hit waiting for the lane kernels: its BSDF, the light sample and the random numbers.
-#[derive(Clone, Copy, Debug)]
-pub struct ScatterPoint {
-    /// Path index.
-    pub index: u32,
-    /// The BSDF at the hit.
-    pub bsdf: Bsdf,
-    /// Direction towards the viewer.
-    pub wo: Vec3,
-    /// Hit point.
-    pub p: Vec3,
-    /// Cone width at the hit.
-    pub footprint: f32,
-    /// Lobe choice.
-    pub u_lobe: f32,
-    /// Direction sample.
-    pub u_bsdf: [f32; 2],
-    /// Russian roulette sample.
-    pub u_rr: f32,
-    /// Light choice.
-    pub u_light_select: f32,
-    /// Position sample on the light.
-    pub u_light: [f32; 2],
-    /// A light sample exists (the fields below are valid; [`light_lanes`] fills them).
-    pub has_light: bool,
-    /// Direction to the light.
-    pub light_wi: Vec3,
-    /// Radiance from the light sample.
-    pub light_li: Vec3,
-    /// Light pdf.
-    pub light_pdf: f32,
-    /// Delta light.
-    pub light_delta: bool,
-    /// Shadow ray origin.
-    pub shadow_origin: Vec3,
-    /// Shadow ray extent.
-    pub shadow_tmax: f32,
-    /// Shadow ray pass-through seed.
-    pub shadow_seed: u32,
+/// Eight shaded hits waiting for the lane kernels, in AoSoA form: phase 1 writes them lane by lane
+/// (each hit's values are at hand there), phase 2 reads whole columns, so nothing is transposed
+/// between the passes. Lanes past a chunk's last hit hold stale values whose results are never read.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct ScatterGroup {
+    /// Path indices.
+    pub index: [u32; LANES],
+    /// The BSDFs at the hits, with the directions towards the viewer.
+    pub bsdf: BsdfLanes,
+    /// Hit points, and the light choice and position samples.
+    pub light: LightInputs,
+    /// Lobe choice and direction samples.
+    pub u: SampleInputs,
+    /// Russian roulette samples.
+    pub u_rr: Lanes,
+    /// Throughputs at the hits.
+    pub beta: Lanes3,
+    /// Cone widths at the hits.
+    pub footprint: Lanes,
+    /// 1 where Russian roulette is played after this bounce.
+    pub play: [u32; LANES],
 }
 
 /// Shades every queued hit, in chunks.
@@ -89,7 +72,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         let end = (start + CHUNK).min(n);
         draw(ctx, w, start, end);
         w.clock.lap(Phase::Integration);
-        w.scatter.clear();
+        w.scatter_points = 0;
         surfaces(ctx, w, start, end);
         programs(ctx, w);
         for (pos, k) in (start..end).enumerate() {
@@ -100,8 +83,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
                 prepare(ctx, w, i, pos, rays);
             }
         }
-        light_lanes::sample_scatter_points(ctx, w);
-        scatter(w, rays);
+        scatter(ctx, w, rays);
         start = end;
     }
     rays.shadow += w.occlusion.len() as u64;
@@ -239,114 +221,115 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
         return;
     }
 
-    let point = ScatterPoint {
-        index: i,
-        bsdf,
-        wo,
-        p: s.p,
-        footprint,
-        u_lobe: r(dim::LOBE),
-        u_bsdf: [r(dim::BSDF_UV), r(dim::BSDF_UV + 1)],
-        u_rr: r(dim::RUSSIAN_ROULETTE),
-        u_light_select: r(dim::LIGHT_SELECT),
-        u_light: [r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1)],
-        has_light: false,
-        light_wi: Vec3::ZERO,
-        light_li: Vec3::ZERO,
-        light_pdf: 0.0,
-        light_delta: false,
-        shadow_origin: Vec3::ZERO,
-        shadow_tmax: 0.0,
-        shadow_seed: 0,
-    };
-    w.scatter.push(point);
+    let (beta, play) = (st.beta, (st.bounces + 1 >= RR_START_BOUNCE) as u32);
+    let (u_lobe, u0, u1, u_rr) = (r(dim::LOBE), r(dim::BSDF_UV), r(dim::BSDF_UV + 1), r(dim::RUSSIAN_ROULETTE));
+    let (u_select, ul0, ul1) = (r(dim::LIGHT_SELECT), r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1));
+    let (g, k) = (&mut w.scatter[w.scatter_points / LANES], w.scatter_points % LANES);
+    g.index[k] = i;
+    g.bsdf.set(k, &bsdf, wo);
+    (g.light.p[0][k], g.light.p[1][k], g.light.p[2][k]) = (s.p.x, s.p.y, s.p.z);
+    (g.light.u_select[k], g.light.u[0][k], g.light.u[1][k]) = (u_select, ul0, ul1);
+    (g.u.u_lobe[k], g.u.u0[k], g.u.u1[k], g.u_rr[k]) = (u_lobe, u0, u1, u_rr);
+    (g.beta[0][k], g.beta[1][k], g.beta[2][k]) = (beta.x, beta.y, beta.z);
+    g.footprint[k] = footprint;
+    g.play[k] = play;
+    w.scatter_points += 1;
     w.clock.lap(Phase::Integration);
 }
 
-/// Phase 2: the lane kernels over the chunk's scatter points.
-#[allow(clippy::needless_range_loop)]
-fn scatter(w: &mut Worker, rays: &mut RayCounts) {
-    let Worker { scatter, states, shadow, occlusion, next_rays, counters, clock, .. } = w;
-    let (mut bl, mut wi, mut u) = (BsdfLanes::default(), Lanes3::default(), SampleInputs::default());
+/// `|n · w|` per lane (glam's `dot` order), the cosine the estimators weigh by.
+#[inline(always)]
+fn abs_cos_lanes(n: &Lanes3, w: &Lanes3, out: &mut Lanes) {
+    for k in 0..LANES {
+        out[k] = ((n[0][k] * w[0][k] + n[1][k] * w[1][k]) + n[2][k] * w[2][k]).abs();
+    }
+}
+
+/// Phase 2: the lane kernels over the chunk's scatter groups, one group at a time: the light sample
+/// ([`light_lanes::sample_lanes`]; textured emitters read per lane), the BSDF towards it and the MIS
+/// weight (kept samples enter the occlusion queue), then the BSDF sample, throughput and roulette.
+fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
+    let scene: &Scene = ctx.scene;
+    let table = (!scene.lights.is_empty()).then(|| scene.lights.lane_table());
+    let (filter, touch) = (ctx.settings.filter, ctx.touch);
+    let seed_hash = hash_u32(ctx.options.seed);
+    let Worker { scatter, scatter_points, states, shadow, occlusion, next_rays, counters, clock, .. } = w;
+    let n = *scatter_points;
+    // Without lights every lane's sample stays absent (these zeros are never read).
+    let mut ls = LightSampleLanes::default();
     let (mut ev, mut smp) = (EvalLanes::default(), SampleLanes::default());
     let (mut nl, mut nout) = (NeeLanes::default(), NeeOut::default());
     let (mut rl, mut rout) = (RouletteLanes::default(), RouletteOut::default());
-    for group in scatter.chunks(LANES) {
-        // Transpose (AoS → AoSoA). Lanes past the group's end keep the previous group's values: their
-        // results are never read.
-        let mut lights = 0;
-        for (k, sp) in group.iter().enumerate() {
-            bl.set(k, &sp.bsdf, sp.wo);
-            let st = &states[sp.index as usize];
-            for c in 0..3 {
-                wi[c][k] = sp.light_wi[c];
-                nl.beta[c][k] = st.beta[c];
-                nl.li[c][k] = sp.light_li[c];
-                rl.beta[c][k] = st.beta[c];
-            }
-            nl.cos[k] = sp.bsdf.frame.n.dot(sp.light_wi).abs();
-            nl.light_pdf[k] = sp.light_pdf;
-            nl.delta[k] = sp.light_delta as u32;
-            u.u_lobe[k] = sp.u_lobe;
-            [u.u0[k], u.u1[k]] = sp.u_bsdf;
-            rl.u[k] = sp.u_rr;
-            rl.play[k] = (st.bounces + 1 >= RR_START_BOUNCE) as u32;
-            lights += sp.has_light as u64;
-        }
-        clock.lap(Phase::Overhead);
-        counters.bsdf_lane_groups += 1;
-        counters.bsdf_lanes_active += group.len() as u64;
-        counters.light_lanes_active += lights;
+    for (gi, g) in scatter[..n.div_ceil(LANES)].iter().enumerate() {
+        let len = (n - gi * LANES).min(LANES);
+        let at = |c: &Lanes3, k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
 
-        // Next-event estimation: BSDF towards the light, then the MIS weight.
-        bsdf_lanes::eval_lanes(&bl, &wi, &mut ev);
-        nl.f = ev.f;
-        nl.bsdf_pdf = ev.pdf;
-        lanes::weigh_lanes(&nl, &mut nout);
-        for (k, sp) in group.iter().enumerate() {
-            if sp.has_light && nout.keep[k] != 0 {
-                let contribution =
-                    Vec3::new(nout.contribution[0][k], nout.contribution[1][k], nout.contribution[2][k]);
-                shadow[sp.index as usize] = ShadowRay {
-                    origin: sp.shadow_origin,
-                    dir: sp.light_wi,
-                    tmax: sp.shadow_tmax,
-                    contribution,
-                    seed: sp.shadow_seed,
-                };
-                occlusion.push(sp.index);
+        // Next-event estimation: the light sample, the BSDF towards it, the MIS weight.
+        let mut has_light = [false; LANES];
+        if let Some(table) = table {
+            light_lanes::sample_lanes(table, &g.light, &mut ls);
+            for k in 0..len {
+                if ls.ok[k] == 0 {
+                    continue;
+                }
+                has_light[k] = true;
+                if ls.triangle[k] != blob::NONE {
+                    let li = scene.emission_at(ls.triangle[k], ls.b[0][k], ls.b[1][k], filter, touch);
+                    (ls.li[0][k], ls.li[1][k], ls.li[2][k]) = (li.x, li.y, li.z);
+                }
             }
+        }
+        counters.bsdf_lane_groups += 1;
+        counters.bsdf_lanes_active += len as u64;
+        counters.light_lanes_active += has_light.iter().filter(|&&h| h).count() as u64;
+        bsdf_lanes::eval_lanes(&g.bsdf, &ls.wi, &mut ev);
+        (nl.beta, nl.f, nl.li) = (g.beta, ev.f, ls.li);
+        (nl.light_pdf, nl.bsdf_pdf, nl.delta) = (ls.pdf, ev.pdf, ls.delta);
+        abs_cos_lanes(&g.bsdf.n, &ls.wi, &mut nl.cos);
+        lanes::weigh_lanes(&nl, &mut nout);
+        for k in 0..len {
+            if !has_light[k] || nout.keep[k] == 0 {
+                continue;
+            }
+            let (i, p) = (g.index[k] as usize, at(&g.light.p, k));
+            let origin = offset_ray_origin(p, at(&g.bsdf.ng, k));
+            let st = &states[i];
+            shadow[i] = ShadowRay {
+                origin,
+                dir: at(&ls.wi, k),
+                tmax: shadow_tmax(ls.distance[k], origin, p),
+                contribution: at(&nout.contribution, k),
+                seed: hash_combine(hash_combine(seed_hash, st.pixel), st.sample) ^ st.vertex,
+            };
+            occlusion.push(i as u32);
         }
 
         // BSDF sampling, throughput and Russian roulette: the continuation rays.
-        bsdf_lanes::sample_lanes(&bl, &u, &mut smp);
-        rl.f = smp.f;
-        rl.pdf = smp.pdf;
-        for k in 0..group.len() {
-            let n = group[k].bsdf.frame.n;
-            rl.cos[k] = n.dot(Vec3::new(smp.wi[0][k], smp.wi[1][k], smp.wi[2][k])).abs();
-        }
+        bsdf_lanes::sample_lanes(&g.bsdf, &g.u, &mut smp);
+        (rl.beta, rl.f, rl.pdf, rl.u, rl.play) = (g.beta, smp.f, smp.pdf, g.u_rr, g.play);
+        abs_cos_lanes(&g.bsdf.n, &smp.wi, &mut rl.cos);
         roulette::continue_lanes(&rl, &mut rout);
-        for (k, sp) in group.iter().enumerate() {
+        for k in 0..len {
             if smp.ok[k] == 0 {
                 continue;
             }
-            let st = &mut states[sp.index as usize];
-            st.beta = Vec3::new(rout.beta[0][k], rout.beta[1][k], rout.beta[2][k]);
-            st.prev_p = sp.p;
+            let p = at(&g.light.p, k);
+            let st = &mut states[g.index[k] as usize];
+            st.beta = at(&rout.beta, k);
+            st.prev_p = p;
             st.prev_pdf = smp.pdf[k];
             st.bounces += 1;
             if rout.alive[k] == 0 {
                 continue;
             }
             st.vertex += 1;
-            st.origin = offset_ray_origin(sp.p, sp.bsdf.ng);
-            st.dir = Vec3::new(smp.wi[0][k], smp.wi[1][k], smp.wi[2][k]);
+            st.origin = offset_ray_origin(p, at(&g.bsdf.ng, k));
+            st.dir = at(&smp.wi, k);
             st.travelled = 0.0;
-            st.cone_width = sp.footprint;
+            st.cone_width = g.footprint[k];
             st.cone_spread += CONE_WIDEN_PER_ALPHA * smp.lobe_alpha[k];
             rays.bounce += 1;
-            next_rays.push(sp.index);
+            next_rays.push(g.index[k]);
         }
         clock.lap(Phase::Integration);
     }
