@@ -483,6 +483,7 @@ pub(super) fn every_light_kind() -> ingest::Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampler::hash_u32;
     use crate::testscene;
 
     struct Rng(u32);

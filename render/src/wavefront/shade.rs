@@ -18,7 +18,7 @@
 //! A chunk's scatter points (~200 bytes each) stay in L2 between the phases: MoonRay's AoS → SoA
 //! conversion "in cache-sized chunks".
 
-use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
+use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
 use super::light_lanes::{self, LightInputs, LightSampleLanes};
 use super::material_lanes;
@@ -46,7 +46,12 @@ pub const CHUNK: usize = 256;
 pub struct ScatterGroup {
     /// Path indices.
     pub index: [u32; LANES],
-    /// The BSDFs at the hits, with the directions towards the viewer.
+    /// 1 where the hit is its path's first (its albedo goes to the first-hit AOV).
+    pub first: [u32; LANES],
+    /// The hits' shading inputs and normals.
+    pub inputs: InputLanes,
+    /// The BSDFs at the hits (phase 2 builds them from `inputs`), with the directions towards the
+    /// viewer (phase 1 writes those).
     pub bsdf: BsdfLanes,
     /// Hit points, and the light choice and position samples.
     pub light: LightInputs,
@@ -204,10 +209,12 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     if let Some(n) = inputs.normal {
         s.ns = Scene::mapped_normal(&s, n, wo);
     }
-    let bsdf = Bsdf::from_inputs(&inputs, s.ns, s.ng);
+    // The first hit's albedo comes from the BSDF, built in lanes in phase 2 (here only when the
+    // path ends at this hit).
     let first = &mut w.first_hits[i as usize];
-    if first.is_none() && st.bounces == 0 {
-        *first = Some(FirstHit { albedo: bsdf.diffuse_albedo(), normal: s.ns, depth: st.travelled + hit.t });
+    let is_first = first.is_none() && st.bounces == 0;
+    if is_first {
+        *first = Some(FirstHit { albedo: Vec3::ZERO, normal: s.ns, depth: st.travelled + hit.t });
     }
     let le = inputs.emissive_color.max(Vec3::ZERO);
     if le != Vec3::ZERO {
@@ -218,6 +225,9 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
         st.radiance += st.beta * le * mis;
     }
     if st.bounces >= max_depth {
+        if let (true, Some(first)) = (is_first, first.as_mut()) {
+            first.albedo = Bsdf::from_inputs(&inputs, s.ns, s.ng).diffuse_albedo();
+        }
         return;
     }
 
@@ -226,7 +236,9 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let (u_select, ul0, ul1) = (r(dim::LIGHT_SELECT), r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1));
     let (g, k) = (&mut w.scatter[w.scatter_points / LANES], w.scatter_points % LANES);
     g.index[k] = i;
-    g.bsdf.set(k, &bsdf, wo);
+    g.first[k] = is_first as u32;
+    g.inputs.set(k, &inputs, s.ns, s.ng);
+    (g.bsdf.wo[0][k], g.bsdf.wo[1][k], g.bsdf.wo[2][k]) = (wo.x, wo.y, wo.z);
     (g.light.p[0][k], g.light.p[1][k], g.light.p[2][k]) = (s.p.x, s.p.y, s.p.z);
     (g.light.u_select[k], g.light.u[0][k], g.light.u[1][k]) = (u_select, ul0, ul1);
     (g.u.u_lobe[k], g.u.u0[k], g.u.u1[k], g.u_rr[k]) = (u_lobe, u0, u1, u_rr);
@@ -253,16 +265,29 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     let table = (!scene.lights.is_empty()).then(|| scene.lights.lane_table());
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let seed_hash = hash_u32(ctx.options.seed);
-    let Worker { scatter, scatter_points, states, shadow, occlusion, next_rays, counters, clock, .. } = w;
+    let Worker { scatter, scatter_points, states, first_hits, shadow, occlusion, next_rays, counters, clock, .. } =
+        w;
     let n = *scatter_points;
     // Without lights every lane's sample stays absent (these zeros are never read).
     let mut ls = LightSampleLanes::default();
     let (mut ev, mut smp) = (EvalLanes::default(), SampleLanes::default());
     let (mut nl, mut nout) = (NeeLanes::default(), NeeOut::default());
     let (mut rl, mut rout) = (RouletteLanes::default(), RouletteOut::default());
-    for (gi, g) in scatter[..n.div_ceil(LANES)].iter().enumerate() {
+    let mut origin = Lanes3::default();
+    for (gi, g) in scatter[..n.div_ceil(LANES)].iter_mut().enumerate() {
         let len = (n - gi * LANES).min(LANES);
         let at = |c: &Lanes3, k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
+
+        // The BSDFs, the first hits' albedos, and the origin of both rays leaving each hit.
+        bsdf_lanes::from_inputs_lanes(&g.inputs, &mut g.bsdf);
+        for k in 0..len {
+            if g.first[k] != 0 {
+                if let Some(first) = first_hits[g.index[k] as usize].as_mut() {
+                    first.albedo = at(&g.bsdf.diffuse, k);
+                }
+            }
+        }
+        lanes::offset_origin_lanes(&g.light.p, &g.bsdf.ng, &mut origin);
 
         // Next-event estimation: the light sample, the BSDF towards it, the MIS weight.
         let mut has_light = [false; LANES];
@@ -291,8 +316,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
             if !has_light[k] || nout.keep[k] == 0 {
                 continue;
             }
-            let (i, p) = (g.index[k] as usize, at(&g.light.p, k));
-            let origin = offset_ray_origin(p, at(&g.bsdf.ng, k));
+            let (i, p, origin) = (g.index[k] as usize, at(&g.light.p, k), at(&origin, k));
             let st = &states[i];
             shadow[i] = ShadowRay {
                 origin,
@@ -323,7 +347,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
                 continue;
             }
             st.vertex += 1;
-            st.origin = offset_ray_origin(p, at(&g.bsdf.ng, k));
+            st.origin = at(&origin, k);
             st.dir = at(&smp.wi, k);
             st.travelled = 0.0;
             st.cone_width = g.footprint[k];
