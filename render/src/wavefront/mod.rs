@@ -241,21 +241,21 @@ pub struct Worker {
     material_starts: Vec<u32>,
     /// Random numbers of the current chunk's vertices, eight paths per entry (`[dimension][lane]`).
     randoms: Vec<[[f32; lanes::LANES]; sampler_lanes::DIMS]>,
-    /// Shaded hits of the current chunk, eight per group, waiting for the lane kernels; the first
-    /// `scatter_points` lanes are in use.
-    scatter: Vec<shade::ScatterGroup>,
+    /// Shaded hits waiting for the lane kernels; the first `scatter_points` lanes are in use.
+    scatter: Box<shade::ScatterGroup>,
     scatter_points: usize,
     /// The area lights, eight per group, for the emission rays pick up.
     area_lights: emission_lanes::AreaLightLanes,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
     textured_materials: Vec<bool>,
     /// Surfaces reconstructed by the intersect stage for textured hits (their sort key needs the
-    /// uv footprint), taken by shading instead of being rebuilt; `surface_slot` indexes it per path.
+    /// uv footprint), used by shading instead of being rebuilt (`surface_slot` indexes it per path);
+    /// shading appends the other hits' surfaces.
     surfaces: Vec<Option<crate::integrator::Surface>>,
     surface_slot: Vec<u32>,
-    /// The current chunk's surfaces (`None`: degenerate triangle) and their material programs'
-    /// outputs, by position in the chunk, waiting for phase 1.
-    chunk_surfaces: Vec<Option<crate::integrator::Surface>>,
+    /// The current chunk's surfaces (slots in `surfaces`; `u32::MAX`: none) and their material
+    /// programs' outputs, by position in the chunk, waiting for phase 1.
+    chunk_slots: Vec<u32>,
     chunk_inputs: Vec<Option<crate::shading::ShadingInputs>>,
     /// Register file of the material-program lanes.
     registers: Box<material_lanes::RegisterLanes>,
@@ -319,13 +319,13 @@ impl Worker {
             scratch: vec![0; paths],
             material_starts: vec![0; materials + 2],
             randoms: Vec::with_capacity(shade::CHUNK / lanes::LANES),
-            scatter: vec![shade::ScatterGroup::default(); shade::CHUNK / lanes::LANES],
+            scatter: Box::default(),
             scatter_points: 0,
             textured_materials,
             area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),
             surface_slot: vec![u32::MAX; paths],
-            chunk_surfaces: Vec::with_capacity(shade::CHUNK),
+            chunk_slots: Vec::with_capacity(shade::CHUNK),
             chunk_inputs: Vec::with_capacity(shade::CHUNK),
             registers: Box::default(),
             occlusion: Vec::with_capacity(paths),

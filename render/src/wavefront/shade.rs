@@ -27,7 +27,7 @@ use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::{sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
-use crate::integrator::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
+use crate::integrator::{shadow_tmax, FirstHit, Surface, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32};
 use crate::scene::Scene;
@@ -77,7 +77,6 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         let end = (start + CHUNK).min(n);
         draw(ctx, w, start, end);
         w.clock.lap(Phase::Integration);
-        w.scatter_points = 0;
         surfaces(ctx, w, start, end);
         programs(ctx, w);
         for (pos, k) in (start..end).enumerate() {
@@ -86,9 +85,14 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
                 super::shade_curves::vertex(ctx, w, i, pos, rays);
             } else {
                 prepare(ctx, w, i, pos, rays);
+                if w.scatter_points == LANES {
+                    scatter(ctx, w, rays);
+                }
             }
         }
-        scatter(ctx, w, rays);
+        if w.scatter_points > 0 {
+            scatter(ctx, w, rays);
+        }
         start = end;
     }
     rays.shadow += w.occlusion.len() as u64;
@@ -111,43 +115,61 @@ fn draw<T>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
 }
 
 /// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt per hit (a lane version
-/// executed 1.8× the instructions of these calls; see the module docs of [`super`]).
+/// executed 1.8× the instructions of these calls; see the module docs of [`super`]). Rebuilt ones join
+/// the kept ones in `w.surfaces` (a wave has at most one per path, so it never grows past its
+/// capacity) and the chunk records slots: a surface (~250 bytes) is written once and never moved.
 fn surfaces<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
     let scene: &Scene = ctx.scene;
-    w.chunk_surfaces.clear();
+    w.chunk_slots.clear();
     for &e in &w.shade[start..end] {
         let i = sort::index(e) as usize;
-        let slot = if ctx.textured { w.surface_slot[i] } else { u32::MAX };
-        let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
         let (hit, st) = (&w.hits[i], &w.states[i]);
         if super::intersect::is_curve(hit) {
             // Curve and point hits build their own surface in `shade_curves`.
-            w.chunk_surfaces.push(None);
+            w.chunk_slots.push(NO_SURFACE);
             continue;
         }
-        w.chunk_surfaces.push(kept.or_else(|| scene.surface(hit, -st.dir, st.cone().width_at(hit.t))));
+        let kept = if ctx.textured { w.surface_slot[i] } else { NO_SURFACE };
+        let slot = if kept != NO_SURFACE {
+            kept
+        } else if let Some(s) = scene.surface(hit, -st.dir, st.cone().width_at(hit.t)) {
+            w.surfaces.push(Some(s));
+            (w.surfaces.len() - 1) as u32
+        } else {
+            NO_SURFACE // a degenerate triangle
+        };
+        w.chunk_slots.push(slot);
     }
     w.clock.lap(Phase::Shading);
+}
+
+/// A chunk slot without a surface: a curve or point hit, or a degenerate triangle.
+const NO_SURFACE: u32 = u32::MAX;
+
+/// The surface in chunk slot `slot`.
+#[inline]
+fn slot_surface(surfaces: &[Option<Surface>], slot: u32) -> Option<&Surface> {
+    surfaces.get(slot as usize).and_then(Option::as_ref)
 }
 
 /// Phase 1a, second half: the material programs of the chunk's surfaces, run by run of up to eight
 /// consecutive hits on one material (a lone hit runs the scalar program).
 fn programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene: &Scene = ctx.scene;
-    let n = w.chunk_surfaces.len();
+    let n = w.chunk_slots.len();
     w.chunk_inputs.clear();
     w.chunk_inputs.resize(n, None);
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let mut pos = 0;
     while pos < n {
-        let Some(material) = w.chunk_surfaces[pos].as_ref().map(|s| s.material) else {
+        let Some(material) = slot_surface(&w.surfaces, w.chunk_slots[pos]).map(|s| s.material) else {
             pos += 1;
             continue;
         };
         // The run: up to eight hits on `material` from `pos` on (degenerate hits skipped).
         let (mut members, mut count) = ([0usize; LANES], 0);
         while pos < n && count < LANES {
-            match &w.chunk_surfaces[pos] {
+            match slot_surface(&w.surfaces, w.chunk_slots[pos]) {
                 Some(s) if s.material != material => break,
                 Some(_) => {
                     members[count] = pos;
@@ -157,7 +179,8 @@ fn programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
             }
             pos += 1;
         }
-        let surface = |k: usize| w.chunk_surfaces[members[k]].as_ref().expect("members have surfaces");
+        let surface =
+            |k: usize| slot_surface(&w.surfaces, w.chunk_slots[members[k]]).expect("members have surfaces");
         if count == 1 {
             w.chunk_inputs[members[0]] = Some(scene.shade(surface(0), filter, touch));
         } else {
@@ -195,7 +218,9 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let r = |d: u32| w.randoms[pos / LANES][d as usize][pos % LANES];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
-    let (Some(mut s), Some(inputs)) = (w.chunk_surfaces[pos].take(), w.chunk_inputs[pos]) else { return };
+    let (Some(s), Some(inputs)) = (slot_surface(&w.surfaces, w.chunk_slots[pos]), w.chunk_inputs[pos]) else {
+        return;
+    };
 
     let opacity = inputs.effective_opacity();
     if opacity < 1.0 && r(dim::OPACITY) >= opacity {
@@ -206,15 +231,16 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
         }
         return;
     }
-    if let Some(n) = inputs.normal {
-        s.ns = Scene::mapped_normal(&s, n, wo);
-    }
+    let ns = match inputs.normal {
+        Some(n) => Scene::mapped_normal(s, n, wo),
+        None => s.ns,
+    };
     // The first hit's albedo comes from the BSDF, built in lanes in phase 2 (here only when the
     // path ends at this hit).
     let first = &mut w.first_hits[i as usize];
     let is_first = first.is_none() && st.bounces == 0;
     if is_first {
-        *first = Some(FirstHit { albedo: Vec3::ZERO, normal: s.ns, depth: st.travelled + hit.t });
+        *first = Some(FirstHit { albedo: Vec3::ZERO, normal: ns, depth: st.travelled + hit.t });
     }
     let le = inputs.emissive_color.max(Vec3::ZERO);
     if le != Vec3::ZERO {
@@ -226,7 +252,7 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     }
     if st.bounces >= max_depth {
         if let (true, Some(first)) = (is_first, first.as_mut()) {
-            first.albedo = Bsdf::from_inputs(&inputs, s.ns, s.ng).diffuse_albedo();
+            first.albedo = Bsdf::from_inputs(&inputs, ns, s.ng).diffuse_albedo();
         }
         return;
     }
@@ -234,10 +260,10 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let (beta, play) = (st.beta, (st.bounces + 1 >= RR_START_BOUNCE) as u32);
     let (u_lobe, u0, u1, u_rr) = (r(dim::LOBE), r(dim::BSDF_UV), r(dim::BSDF_UV + 1), r(dim::RUSSIAN_ROULETTE));
     let (u_select, ul0, ul1) = (r(dim::LIGHT_SELECT), r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1));
-    let (g, k) = (&mut w.scatter[w.scatter_points / LANES], w.scatter_points % LANES);
+    let (g, k) = (&mut *w.scatter, w.scatter_points);
     g.index[k] = i;
     g.first[k] = is_first as u32;
-    g.inputs.set(k, &inputs, s.ns, s.ng);
+    g.inputs.set(k, &inputs, ns, s.ng);
     (g.bsdf.wo[0][k], g.bsdf.wo[1][k], g.bsdf.wo[2][k]) = (wo.x, wo.y, wo.z);
     (g.light.p[0][k], g.light.p[1][k], g.light.p[2][k]) = (s.p.x, s.p.y, s.p.z);
     (g.light.u_select[k], g.light.u[0][k], g.light.u[1][k]) = (u_select, ul0, ul1);
@@ -257,7 +283,8 @@ fn abs_cos_lanes(n: &Lanes3, w: &Lanes3, out: &mut Lanes) {
     }
 }
 
-/// Phase 2: the lane kernels over the chunk's scatter groups, one group at a time: the light sample
+/// Phase 2, run as soon as phase 1 has filled the scatter group (and on the chunk's last hits), so
+/// the group stays in L1: the lane kernels over its points. The light sample
 /// ([`light_lanes::sample_lanes`]; textured emitters read per lane), the BSDF towards it and the MIS
 /// weight (kept samples enter the occlusion queue), then the BSDF sample, throughput and roulette.
 fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
@@ -267,94 +294,91 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     let seed_hash = hash_u32(ctx.options.seed);
     let Worker { scatter, scatter_points, states, first_hits, shadow, occlusion, next_rays, counters, clock, .. } =
         w;
-    let n = *scatter_points;
+    let (g, len) = (&mut **scatter, std::mem::take(scatter_points));
     // Without lights every lane's sample stays absent (these zeros are never read).
     let mut ls = LightSampleLanes::default();
     let (mut ev, mut smp) = (EvalLanes::default(), SampleLanes::default());
     let (mut nl, mut nout) = (NeeLanes::default(), NeeOut::default());
     let (mut rl, mut rout) = (RouletteLanes::default(), RouletteOut::default());
     let mut origin = Lanes3::default();
-    for (gi, g) in scatter[..n.div_ceil(LANES)].iter_mut().enumerate() {
-        let len = (n - gi * LANES).min(LANES);
-        let at = |c: &Lanes3, k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
+    let at = |c: &Lanes3, k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
 
-        // The BSDFs, the first hits' albedos, and the origin of both rays leaving each hit.
-        bsdf_lanes::from_inputs_lanes(&g.inputs, &mut g.bsdf);
-        for k in 0..len {
-            if g.first[k] != 0 {
-                if let Some(first) = first_hits[g.index[k] as usize].as_mut() {
-                    first.albedo = at(&g.bsdf.diffuse, k);
-                }
+    // The BSDFs, the first hits' albedos, and the origin of both rays leaving each hit.
+    bsdf_lanes::from_inputs_lanes(&g.inputs, &mut g.bsdf);
+    for k in 0..len {
+        if g.first[k] != 0 {
+            if let Some(first) = first_hits[g.index[k] as usize].as_mut() {
+                first.albedo = at(&g.bsdf.diffuse, k);
             }
         }
-        lanes::offset_origin_lanes(&g.light.p, &g.bsdf.ng, &mut origin);
-
-        // Next-event estimation: the light sample, the BSDF towards it, the MIS weight.
-        let mut has_light = [false; LANES];
-        if let Some(table) = table {
-            light_lanes::sample_lanes(table, &g.light, &mut ls);
-            for k in 0..len {
-                if ls.ok[k] == 0 {
-                    continue;
-                }
-                has_light[k] = true;
-                if ls.triangle[k] != blob::NONE {
-                    let li = scene.emission_at(ls.triangle[k], ls.b[0][k], ls.b[1][k], filter, touch);
-                    (ls.li[0][k], ls.li[1][k], ls.li[2][k]) = (li.x, li.y, li.z);
-                }
-            }
-        }
-        counters.bsdf_lane_groups += 1;
-        counters.bsdf_lanes_active += len as u64;
-        counters.light_lanes_active += has_light.iter().filter(|&&h| h).count() as u64;
-        bsdf_lanes::eval_lanes(&g.bsdf, &ls.wi, &mut ev);
-        (nl.beta, nl.f, nl.li) = (g.beta, ev.f, ls.li);
-        (nl.light_pdf, nl.bsdf_pdf, nl.delta) = (ls.pdf, ev.pdf, ls.delta);
-        abs_cos_lanes(&g.bsdf.n, &ls.wi, &mut nl.cos);
-        lanes::weigh_lanes(&nl, &mut nout);
-        for k in 0..len {
-            if !has_light[k] || nout.keep[k] == 0 {
-                continue;
-            }
-            let (i, p, origin) = (g.index[k] as usize, at(&g.light.p, k), at(&origin, k));
-            let st = &states[i];
-            shadow[i] = ShadowRay {
-                origin,
-                dir: at(&ls.wi, k),
-                tmax: shadow_tmax(ls.distance[k], origin, p),
-                contribution: at(&nout.contribution, k),
-                seed: hash_combine(hash_combine(seed_hash, st.pixel), st.sample) ^ st.vertex,
-            };
-            occlusion.push(i as u32);
-        }
-
-        // BSDF sampling, throughput and Russian roulette: the continuation rays.
-        bsdf_lanes::sample_lanes(&g.bsdf, &g.u, &mut smp);
-        (rl.beta, rl.f, rl.pdf, rl.u, rl.play) = (g.beta, smp.f, smp.pdf, g.u_rr, g.play);
-        abs_cos_lanes(&g.bsdf.n, &smp.wi, &mut rl.cos);
-        roulette::continue_lanes(&rl, &mut rout);
-        for k in 0..len {
-            if smp.ok[k] == 0 {
-                continue;
-            }
-            let p = at(&g.light.p, k);
-            let st = &mut states[g.index[k] as usize];
-            st.beta = at(&rout.beta, k);
-            st.prev_p = p;
-            st.prev_pdf = smp.pdf[k];
-            st.bounces += 1;
-            if rout.alive[k] == 0 {
-                continue;
-            }
-            st.vertex += 1;
-            st.origin = at(&origin, k);
-            st.dir = at(&smp.wi, k);
-            st.travelled = 0.0;
-            st.cone_width = g.footprint[k];
-            st.cone_spread += CONE_WIDEN_PER_ALPHA * smp.lobe_alpha[k];
-            rays.bounce += 1;
-            next_rays.push(g.index[k]);
-        }
-        clock.lap(Phase::Integration);
     }
+    lanes::offset_origin_lanes(&g.light.p, &g.bsdf.ng, &mut origin);
+
+    // Next-event estimation: the light sample, the BSDF towards it, the MIS weight.
+    let mut has_light = [false; LANES];
+    if let Some(table) = table {
+        light_lanes::sample_lanes(table, &g.light, &mut ls);
+        for k in 0..len {
+            if ls.ok[k] == 0 {
+                continue;
+            }
+            has_light[k] = true;
+            if ls.triangle[k] != blob::NONE {
+                let li = scene.emission_at(ls.triangle[k], ls.b[0][k], ls.b[1][k], filter, touch);
+                (ls.li[0][k], ls.li[1][k], ls.li[2][k]) = (li.x, li.y, li.z);
+            }
+        }
+    }
+    counters.bsdf_lane_groups += 1;
+    counters.bsdf_lanes_active += len as u64;
+    counters.light_lanes_active += has_light.iter().filter(|&&h| h).count() as u64;
+    bsdf_lanes::eval_lanes(&g.bsdf, &ls.wi, &mut ev);
+    (nl.beta, nl.f, nl.li) = (g.beta, ev.f, ls.li);
+    (nl.light_pdf, nl.bsdf_pdf, nl.delta) = (ls.pdf, ev.pdf, ls.delta);
+    abs_cos_lanes(&g.bsdf.n, &ls.wi, &mut nl.cos);
+    lanes::weigh_lanes(&nl, &mut nout);
+    for k in 0..len {
+        if !has_light[k] || nout.keep[k] == 0 {
+            continue;
+        }
+        let (i, p, origin) = (g.index[k] as usize, at(&g.light.p, k), at(&origin, k));
+        let st = &states[i];
+        shadow[i] = ShadowRay {
+            origin,
+            dir: at(&ls.wi, k),
+            tmax: shadow_tmax(ls.distance[k], origin, p),
+            contribution: at(&nout.contribution, k),
+            seed: hash_combine(hash_combine(seed_hash, st.pixel), st.sample) ^ st.vertex,
+        };
+        occlusion.push(i as u32);
+    }
+
+    // BSDF sampling, throughput and Russian roulette: the continuation rays.
+    bsdf_lanes::sample_lanes(&g.bsdf, &g.u, &mut smp);
+    (rl.beta, rl.f, rl.pdf, rl.u, rl.play) = (g.beta, smp.f, smp.pdf, g.u_rr, g.play);
+    abs_cos_lanes(&g.bsdf.n, &smp.wi, &mut rl.cos);
+    roulette::continue_lanes(&rl, &mut rout);
+    for k in 0..len {
+        if smp.ok[k] == 0 {
+            continue;
+        }
+        let p = at(&g.light.p, k);
+        let st = &mut states[g.index[k] as usize];
+        st.beta = at(&rout.beta, k);
+        st.prev_p = p;
+        st.prev_pdf = smp.pdf[k];
+        st.bounces += 1;
+        if rout.alive[k] == 0 {
+            continue;
+        }
+        st.vertex += 1;
+        st.origin = at(&origin, k);
+        st.dir = at(&smp.wi, k);
+        st.travelled = 0.0;
+        st.cone_width = g.footprint[k];
+        st.cone_spread += CONE_WIDEN_PER_ALPHA * smp.lobe_alpha[k];
+        rays.bounce += 1;
+        next_rays.push(g.index[k]);
+    }
+    clock.lap(Phase::Integration);
 }
