@@ -548,7 +548,10 @@ mod tests {
                 assert_eq!(one(out.clearcoat_alpha[k]), one(b.clearcoat_alpha), "coat alpha, lane {k}");
             }
         }
-        assert!(metallic > 4000 && specular > 2000, "both workflows: {metallic} metallic, {specular} specular");
+        assert!(
+            metallic > 4000 && specular > 2000,
+            "both workflows: {metallic} metallic, {specular} specular"
+        );
     }
 
     /// Bits, with every NaN one value (IEEE leaves a NaN's sign and payload open).

@@ -156,7 +156,8 @@ pub fn offset_origin_lanes(p: &[[f32; LANES]; 3], n: &[[f32; LANES]; 3], out: &m
             let (p, n) = (p[c][k], n[c][k]);
             let of_i = (INT_SCALE * n) as i32;
             let bits = p.to_bits() as i32;
-            let moved = f32::from_bits(bits.wrapping_add(if p < 0.0 { of_i.wrapping_neg() } else { of_i }) as u32);
+            let moved =
+                f32::from_bits(bits.wrapping_add(if p < 0.0 { of_i.wrapping_neg() } else { of_i }) as u32);
             out[c][k] = if p.abs() < ORIGIN { p + FLOAT_SCALE * n } else { moved };
         }
     }

@@ -1,5 +1,6 @@
 //! Next-event light sampling ([`crate::lights::Lights::sample`], the scalar reference) for eight
-//! shading points at once, as its own pass over a shading chunk's scatter points.
+//! shading points at once, inside the shading stage's lane pass over a scatter group (its inputs
+//! are the group's columns, its outputs feed the BSDF and MIS kernels without a transposition).
 //!
 //! The selection list is laid out once per scene as a [`LightTable`]: one 80-byte record per light
 //! (kind, radiance and the shape's vectors) and one per emissive triangle (vertices, normal,

@@ -12,10 +12,10 @@
 //!                │                        0. sampler lanes: every random number of the vertex, 8 paths at once
 //!                │                        1a. 8 hits at once: material programs + textures
 //!                │                            (runs of one material); per hit: surface
-//!                │                        1. per hit: BSDF
-//!                │                           8 hits at once: light selection and sample, shadow ray
-//!                │                        2. 8 hits at once: BSDF eval ─► MIS ─► occlusion queue
-//!                │                                           BSDF sample ─► throughput + roulette ─┐
+//!                │                        1. per hit: opacity, normal map, emission ─► lane k of a group
+//!                │                        2. per full group of 8: BSDF construction, ray origins,
+//!                │                           light sample ─► BSDF eval ─► MIS ─► occlusion queue
+//!                │                           BSDF sample ─► throughput + roulette ──────────────┐
 //!                └──────────────────────────────────────────────────────── next ray queue ◄─────┘
 //! occlusion (any hit) ─► radiance; accumulate (per pixel, in sample order) ─► tile
 //! ```
@@ -50,8 +50,8 @@
 //! together): the same image, 1.4 % more instructions (the sort) and no fewer D1 misses (cachegrind,
 //! shading-heavy at 120×80, 8 spp: 5.31 M against 5.29 M), occlusion time within the noise.
 //!
-//! Light sampling ([`light_lanes`], a pass of its own between per-hit shading and the BSDF lanes)
-//! runs its kernel in 13.6 M instructions where [`crate::lights::Lights::sample`] took 20.9 M
+//! Light sampling ([`light_lanes`]; first a pass of its own between per-hit shading and the BSDF
+//! lanes, now inside the group pass, see below) runs its kernel in 13.6 M instructions where [`crate::lights::Lights::sample`] took 20.9 M
 //! (cachegrind, shading-heavy: 48 sphere lights, a dome and a sun; 120×80, 8 spp, ~90 k shading
 //! points); with the transposition and the shadow-ray set-up the whole process runs 1.0 % fewer
 //! instructions there (940 M → 930 M), and 0.1–0.4 % more on the tractor and the simple scene,
@@ -59,8 +59,34 @@
 //! arithmetic and select (running the cone and the point-on-light arithmetic in separate loops,
 //! each only when a lane needs it, cost 0.1–0.7 % more instructions on all three: kept out).
 //!
-//! Not done yet: lane versions of the BSDF construction from the shading inputs (`Bsdf::from_inputs`,
-//! per hit in phase 1) and of the hair BSDF (curve hits are shaded per hit, [`shade_curves`]);
+//! # Shading and integration without transpositions
+//! Phase 1 used to build each hit's BSDF (`Bsdf::from_inputs`) into a ~200-byte AoS scatter point;
+//! a light pass transposed the chunk's points to lanes and back (13.8 M instructions of set-up
+//! around a 13.6 M kernel), and phase 2 transposed them again for the BSDF kernels. Now phase 1
+//! writes each hit's shading inputs, normals and random numbers straight into its lane of an AoSoA
+//! [`shade::ScatterGroup`], and phase 2 runs on the group, in lanes: the BSDF construction
+//! ([`bsdf_lanes::from_inputs_lanes`]), the ray origins ([`lanes::offset_origin_lanes`], shared by
+//! the shadow and the continuation ray), the light sample, the BSDF evaluation, the MIS weight, the
+//! BSDF sample and the roulette; shadow-ray set-up runs only for the samples MIS keeps. Callgrind,
+//! whole process, 120×80, 8 spp, 1 thread (instructions; tractor D1 misses read + write):
+//!
+//! | step | shading-heavy | tractor | simple | tractor D1 misses |
+//! |---|---|---|---|---|
+//! | before | 950.8 M | 588.2 M | 215.7 M | 4.40 M |
+//! | AoSoA groups written by phase 1, light sample inside the lane pass | 935.3 M | 574.5 M | 212.1 M | 3.91 M |
+//! | + BSDF construction and ray origins in lanes | 919.5 M | 559.3 M | 209.5 M | 4.04 M |
+//! | + a group runs as soon as it fills (one 2 KiB group stays in L1, where a chunk's 32 groups took 67 KiB) | 922.9 M | 562.8 M | 210.1 M | 3.33 M |
+//! | + chunk surfaces as slots of the surface table (no 250-byte `Surface` moves) | 908.7 M | 554.8 M | 209.4 M | 2.97 M |
+//!
+//! (−4.4 %, −5.7 %, −2.9 % instructions; −33 % D1 misses on the tractor, whose scalar render takes
+//! 0.32 M: the depth-first loop keeps its path in registers, the wavefront streams paths, hits and
+//! surfaces by sorted index.) Flushing each group costs instructions (per-group zeroing of the lane
+//! buffers) and 0.15 M more I1 misses, and was kept for the D1 misses: tractor at 640×426, 16 spp,
+//! 1 thread, best of 5 CPU seconds (contended), 3.44 s before, 3.37 s with lanes, 3.28 s with the
+//! flush. Tried and left out: chunks of 128 hits instead of 256 (the same instructions, 0.8 % fewer
+//! D1 misses, 41 % more I1 misses).
+//!
+//! Not done yet: a lane version of the hair BSDF (curve hits are shaded per hit, [`shade_curves`]);
 //! MoonRay-style queues that flush into their handler when full (stages here run a whole wave at a
 //! time).
 //!

@@ -3,20 +3,25 @@
 //!
 //! The queue is shaded in chunks of [`CHUNK`] hits, each in these phases:
 //! 0. eight paths at a time: every random number of the paths' vertices ([`sampler_lanes`]);
-//! 1a. per hit: the surface (or the one the sort key kept); then runs of up to eight consecutive hits
-//!    on one material (the queue is sorted by material) through the material program in lanes
+//! 1a. per hit: the surface (or the one the sort key kept; both stay in the worker's surface table
+//!    and the chunk holds slots); then runs of up to eight consecutive hits on one material (the
+//!    queue is sorted by material) through the material program in lanes
 //!    ([`material_lanes::evaluate_lanes`]; a lone hit runs the scalar program);
-//! 1. per hit (scalar, material by material): stochastic transparency, the BSDF, the first-hit AOVs,
-//!    emission at the hit, and the path's random numbers, into an AoS [`ScatterPoint`] (the depth
-//!    limit ends paths here); curve and point hits take their whole vertex per hit ([`super::shade_curves`]);
-//!    then eight points at a time, the light sample and its shadow ray ([`light_lanes`]);
-//! 2. eight points at a time, transposed to AoSoA lanes: the BSDF towards the light
-//!    ([`bsdf_lanes::eval_lanes`]), the MIS weight ([`lanes::weigh_lanes`], kept samples enter the
-//!    occlusion queue), the BSDF sample ([`bsdf_lanes::sample_lanes`]) and the throughput update with
-//!    Russian roulette ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
+//! 1. per hit (scalar, material by material): stochastic transparency, the normal map, emission at
+//!    the hit (the depth limit ends paths here), then its shading inputs, normals and random numbers
+//!    written straight into lane `k` of the AoSoA [`ScatterGroup`]; curve and point hits take their
+//!    whole vertex per hit ([`super::shade_curves`]);
+//! 2. as soon as the group holds eight points (and for the chunk's last ones), its lane kernels:
+//!    the BSDFs ([`bsdf_lanes::from_inputs_lanes`]) and the first-hit albedos, the ray origins off
+//!    the surfaces ([`lanes::offset_origin_lanes`]), the light sample ([`light_lanes::sample_lanes`];
+//!    textured emitters per lane), the BSDF towards it ([`bsdf_lanes::eval_lanes`]), the MIS weight
+//!    ([`lanes::weigh_lanes`]; kept samples enter the occlusion queue), the BSDF sample
+//!    ([`bsdf_lanes::sample_lanes`]) and the throughput update with Russian roulette
+//!    ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
 //!
-//! A chunk's scatter points (~200 bytes each) stay in L2 between the phases: MoonRay's AoS → SoA
-//! conversion "in cache-sized chunks".
+//! Nothing is transposed between phases 1 and 2: phase 1 writes each hit's values into its lane
+//! (they are at hand there), and the group (~2 KiB) is consumed while it is still in L1. See the
+//! module docs of [`super`] for what each step saved.
 
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
@@ -27,7 +32,7 @@ use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::{sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
-use crate::integrator::{shadow_tmax, FirstHit, Surface, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
+use crate::integrator::{shadow_tmax, FirstHit, RayCounts, Surface, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32};
 use crate::scene::Scene;
@@ -258,7 +263,8 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     }
 
     let (beta, play) = (st.beta, (st.bounces + 1 >= RR_START_BOUNCE) as u32);
-    let (u_lobe, u0, u1, u_rr) = (r(dim::LOBE), r(dim::BSDF_UV), r(dim::BSDF_UV + 1), r(dim::RUSSIAN_ROULETTE));
+    let (u_lobe, u0, u1, u_rr) =
+        (r(dim::LOBE), r(dim::BSDF_UV), r(dim::BSDF_UV + 1), r(dim::RUSSIAN_ROULETTE));
     let (u_select, ul0, ul1) = (r(dim::LIGHT_SELECT), r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1));
     let (g, k) = (&mut *w.scatter, w.scatter_points);
     g.index[k] = i;
@@ -292,8 +298,18 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     let table = (!scene.lights.is_empty()).then(|| scene.lights.lane_table());
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let seed_hash = hash_u32(ctx.options.seed);
-    let Worker { scatter, scatter_points, states, first_hits, shadow, occlusion, next_rays, counters, clock, .. } =
-        w;
+    let Worker {
+        scatter,
+        scatter_points,
+        states,
+        first_hits,
+        shadow,
+        occlusion,
+        next_rays,
+        counters,
+        clock,
+        ..
+    } = w;
     let (g, len) = (&mut **scatter, std::mem::take(scatter_points));
     // Without lights every lane's sample stays absent (these zeros are never read).
     let mut ls = LightSampleLanes::default();
