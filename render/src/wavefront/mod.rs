@@ -265,8 +265,6 @@ pub struct Worker {
     shade: Vec<u64>,
     scratch: Vec<u64>,
     material_starts: Vec<u32>,
-    /// Random numbers of the current chunk's vertices, eight paths per entry (`[dimension][lane]`).
-    randoms: Vec<[[f32; lanes::LANES]; sampler_lanes::DIMS]>,
     /// Shaded hits waiting for the lane kernels; the first `scatter_points` lanes are in use.
     scatter: Box<shade::ScatterGroup>,
     scatter_points: usize,
@@ -344,7 +342,6 @@ impl Worker {
             shade: Vec::with_capacity(paths),
             scratch: vec![0; paths],
             material_starts: vec![0; materials + 2],
-            randoms: Vec::with_capacity(shade::CHUNK / lanes::LANES),
             scatter: Box::default(),
             scatter_points: 0,
             textured_materials,

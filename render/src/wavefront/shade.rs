@@ -2,17 +2,16 @@
 //! writes the occlusion queue, the shadow-ray side table and the next ray queue.
 //!
 //! The queue is shaded in chunks of [`CHUNK`] hits, each in these phases:
-//! 0. eight paths at a time: every random number of the paths' vertices ([`sampler_lanes`]);
 //! 1a. per hit: the surface (or the one the sort key kept; both stay in the worker's surface table
 //!    and the chunk holds slots); then runs of up to eight consecutive hits on one material (the
 //!    queue is sorted by material) through the material program in lanes
 //!    ([`material_lanes::evaluate_lanes`]; a lone hit runs the scalar program);
 //! 1. per hit (scalar, material by material): stochastic transparency, the normal map, emission at
-//!    the hit (the depth limit ends paths here), then its shading inputs, normals and random numbers
+//!    the hit (the depth limit ends paths here), then its shading inputs, normals and sampler keys
 //!    written straight into lane `k` of the AoSoA [`ScatterGroup`]; curve and point hits take their
 //!    whole vertex per hit ([`super::shade_curves`]);
 //! 2. as soon as the group holds eight points (and for the chunk's last ones), its lane kernels:
-//!    the BSDFs ([`bsdf_lanes::from_inputs_lanes`]) and the first-hit albedos, the ray origins off
+//!    the vertex's random numbers ([`sampler_lanes`]), the BSDFs ([`bsdf_lanes::from_inputs_lanes`]) and the first-hit albedos, the ray origins off
 //!    the surfaces ([`lanes::offset_origin_lanes`]), the light sample ([`light_lanes::sample_lanes`];
 //!    textured emitters per lane), the BSDF towards it ([`bsdf_lanes::eval_lanes`]), the MIS weight
 //!    ([`lanes::weigh_lanes`]; kept samples enter the occlusion queue), the BSDF sample
@@ -34,7 +33,7 @@ use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
 use crate::integrator::{shadow_tmax, FirstHit, RayCounts, Surface, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
-use crate::sampler::{dim, hash_combine, hash_u32};
+use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, SampleKey};
 use crate::scene::Scene;
 use crate::stats::Phase;
 use glam::Vec3;
@@ -58,11 +57,13 @@ pub struct ScatterGroup {
     /// The BSDFs at the hits (phase 2 builds them from `inputs`), with the directions towards the
     /// viewer (phase 1 writes those).
     pub bsdf: BsdfLanes,
-    /// Hit points, and the light choice and position samples.
+    /// The paths' sampler keys at this vertex.
+    pub keys: KeyLanes,
+    /// Hit points, and the light choice and position samples (phase 2 draws those).
     pub light: LightInputs,
-    /// Lobe choice and direction samples.
+    /// Lobe choice and direction samples (drawn in phase 2).
     pub u: SampleInputs,
-    /// Russian roulette samples.
+    /// Russian roulette samples (drawn in phase 2).
     pub u_rr: Lanes,
     /// Throughputs at the hits.
     pub beta: Lanes3,
@@ -80,14 +81,12 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     let mut start = 0;
     while start < n {
         let end = (start + CHUNK).min(n);
-        draw(ctx, w, start, end);
-        w.clock.lap(Phase::Integration);
         surfaces(ctx, w, start, end);
         programs(ctx, w);
         for (pos, k) in (start..end).enumerate() {
             let i = sort::index(w.shade[k]);
             if super::intersect::is_curve(&w.hits[i as usize]) {
-                super::shade_curves::vertex(ctx, w, i, pos, rays);
+                super::shade_curves::vertex(ctx, w, i, rays);
             } else {
                 prepare(ctx, w, i, pos, rays);
                 if w.scatter_points == LANES {
@@ -101,22 +100,6 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         start = end;
     }
     rays.shadow += w.occlusion.len() as u64;
-}
-
-/// Phase 0: the random numbers of every queued path's vertex, eight paths at a time.
-fn draw<T>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
-    let seed_hash = hash_u32(ctx.options.seed);
-    let mut keys = KeyLanes::default();
-    w.randoms.clear();
-    for group in w.shade[start..end].chunks(LANES) {
-        for (k, &e) in group.iter().enumerate() {
-            let st = &w.states[sort::index(e) as usize];
-            (keys.pixel[k], keys.sample[k], keys.vertex[k]) = (st.pixel, st.sample, st.vertex);
-        }
-        let mut out = [[0.0; LANES]; DIMS];
-        sampler_lanes::vertex_lanes(seed_hash, &keys, &mut out);
-        w.randoms.push(out);
-    }
 }
 
 /// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt per hit (a lane version
@@ -220,7 +203,6 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let max_depth = ctx.settings.max_depth;
     let hit = w.hits[i as usize];
     let st = &mut w.states[i as usize];
-    let r = |d: u32| w.randoms[pos / LANES][d as usize][pos % LANES];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
     let (Some(s), Some(inputs)) = (slot_surface(&w.surfaces, w.chunk_slots[pos]), w.chunk_inputs[pos]) else {
@@ -228,7 +210,9 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     };
 
     let opacity = inputs.effective_opacity();
-    if opacity < 1.0 && r(dim::OPACITY) >= opacity {
+    // The vertex's other random numbers are drawn in lanes in phase 2; this one decides phase 1.
+    let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed };
+    if opacity < 1.0 && sample_1d(key, st.vertex, dim::OPACITY) >= opacity {
         let origin = offset_ray_origin(s.p, -s.ng);
         if st.pass_through(hit.t, footprint, origin, max_depth) {
             rays.bounce += 1;
@@ -263,17 +247,13 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     }
 
     let (beta, play) = (st.beta, (st.bounces + 1 >= RR_START_BOUNCE) as u32);
-    let (u_lobe, u0, u1, u_rr) =
-        (r(dim::LOBE), r(dim::BSDF_UV), r(dim::BSDF_UV + 1), r(dim::RUSSIAN_ROULETTE));
-    let (u_select, ul0, ul1) = (r(dim::LIGHT_SELECT), r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1));
     let (g, k) = (&mut *w.scatter, w.scatter_points);
     g.index[k] = i;
     g.first[k] = is_first as u32;
     g.inputs.set(k, &inputs, ns, s.ng);
     (g.bsdf.wo[0][k], g.bsdf.wo[1][k], g.bsdf.wo[2][k]) = (wo.x, wo.y, wo.z);
     (g.light.p[0][k], g.light.p[1][k], g.light.p[2][k]) = (s.p.x, s.p.y, s.p.z);
-    (g.light.u_select[k], g.light.u[0][k], g.light.u[1][k]) = (u_select, ul0, ul1);
-    (g.u.u_lobe[k], g.u.u0[k], g.u.u1[k], g.u_rr[k]) = (u_lobe, u0, u1, u_rr);
+    (g.keys.pixel[k], g.keys.sample[k], g.keys.vertex[k]) = (st.pixel, st.sample, st.vertex);
     (g.beta[0][k], g.beta[1][k], g.beta[2][k]) = (beta.x, beta.y, beta.z);
     g.footprint[k] = footprint;
     g.play[k] = play;
@@ -318,6 +298,14 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     let (mut rl, mut rout) = (RouletteLanes::default(), RouletteOut::default());
     let mut origin = Lanes3::default();
     let at = |c: &Lanes3, k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
+
+    // The vertex's random numbers, eight paths at a time, straight into the kernels' columns.
+    let mut u = [[0.0; LANES]; DIMS];
+    sampler_lanes::vertex_lanes(seed_hash, &g.keys, &mut u);
+    let d = |d: u32| u[d as usize];
+    (g.light.u_select, g.light.u) = (d(dim::LIGHT_SELECT), [d(dim::LIGHT_UV), d(dim::LIGHT_UV + 1)]);
+    (g.u.u_lobe, g.u.u0, g.u.u1) = (d(dim::LOBE), d(dim::BSDF_UV), d(dim::BSDF_UV + 1));
+    g.u_rr = d(dim::RUSSIAN_ROULETTE);
 
     // The BSDFs, the first hits' albedos, and the origin of both rays leaving each hit.
     bsdf_lanes::from_inputs_lanes(&g.inputs, &mut g.bsdf);
