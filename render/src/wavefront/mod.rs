@@ -63,8 +63,9 @@
 //! Phase 1 used to build each hit's BSDF (`Bsdf::from_inputs`) into a ~200-byte AoS scatter point;
 //! a light pass transposed the chunk's points to lanes and back (13.8 M instructions of set-up
 //! around a 13.6 M kernel), and phase 2 transposed them again for the BSDF kernels. Now phase 1
-//! writes each hit's shading inputs, normals and random numbers straight into its lane of an AoSoA
-//! [`shade::ScatterGroup`], and phase 2 runs on the group, in lanes: the BSDF construction
+//! writes each hit's shading inputs, normals and sampler keys straight into its lane of an AoSoA
+//! [`shade::ScatterGroup`], and phase 2 runs on the group, in lanes: the vertex's random numbers,
+//! the BSDF construction
 //! ([`bsdf_lanes::from_inputs_lanes`]), the ray origins ([`lanes::offset_origin_lanes`], shared by
 //! the shadow and the continuation ray), the light sample, the BSDF evaluation, the MIS weight, the
 //! BSDF sample and the roulette; shadow-ray set-up runs only for the samples MIS keeps. Callgrind,
@@ -77,10 +78,13 @@
 //! | + BSDF construction and ray origins in lanes | 919.5 M | 559.3 M | 209.5 M | 4.04 M |
 //! | + a group runs as soon as it fills (one 2 KiB group stays in L1, where a chunk's 32 groups took 67 KiB) | 922.9 M | 562.8 M | 210.1 M | 3.33 M |
 //! | + chunk surfaces as slots of the surface table (no 250-byte `Surface` moves) | 908.7 M | 554.8 M | 209.4 M | 2.97 M |
+//! | + random numbers drawn per group from the keys phase 1 wrote (no pass of its own over the path states) | 905.6 M | 551.9 M | 208.9 M | 2.80 M |
 //!
-//! (−4.4 %, −5.7 %, −2.9 % instructions; −33 % D1 misses on the tractor, whose scalar render takes
+//! The shading stage alone went from 239.6 M to 198.5 M instructions on the shading-heavy scene
+//! (−17 %), 190.6 M to 157.2 M on the tractor (−18 %), 38.2 M to 32.6 M on the simple one; the whole
+//! process −4.8 %, −6.2 %, −3.1 %, and −36 % D1 misses on the tractor, whose scalar render takes
 //! 0.32 M: the depth-first loop keeps its path in registers, the wavefront streams paths, hits and
-//! surfaces by sorted index.) Flushing each group costs instructions (per-group zeroing of the lane
+//! surfaces by sorted index. Flushing each group costs instructions (per-group zeroing of the lane
 //! buffers) and 0.15 M more I1 misses, and was kept for the D1 misses: tractor at 640×426, 16 spp,
 //! 1 thread, best of 5 CPU seconds (contended), 3.44 s before, 3.37 s with lanes, 3.28 s with the
 //! flush. Tried and left out: chunks of 128 hits instead of 256 (the same instructions, 0.8 % fewer
