@@ -249,8 +249,8 @@ mod tests {
                 let at = |c: &[[f32; LANES]; 3]| Vec3::new(c[0][k], c[1][k], c[2][k]);
                 let expected = crate::accel::offset_ray_origin(at(&p), at(&n));
                 assert_eq!(at(&out).to_array().map(f32::to_bits), expected.to_array().map(f32::to_bits));
-                for c in 0..3 {
-                    if p[c][k].abs() < 1.0 / 32.0 {
+                for axis in &p {
+                    if axis[k].abs() < 1.0 / 32.0 {
                         near += 1;
                     } else {
                         far += 1;

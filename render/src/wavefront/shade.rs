@@ -273,6 +273,8 @@ fn abs_cos_lanes(n: &Lanes3, w: &Lanes3, out: &mut Lanes) {
 /// the group stays in L1: the lane kernels over its points. The light sample
 /// ([`light_lanes::sample_lanes`]; textured emitters read per lane), the BSDF towards it and the MIS
 /// weight (kept samples enter the occlusion queue), then the BSDF sample, throughput and roulette.
+// Lane loops index several columns by the same lane number.
+#[allow(clippy::needless_range_loop)]
 fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
     let scene: &Scene = ctx.scene;
     let table = (!scene.lights.is_empty()).then(|| scene.lights.lane_table());
