@@ -76,7 +76,7 @@
 //! | before | 950.8 M | 588.2 M | 215.7 M | 4.40 M |
 //! | AoSoA groups written by phase 1, light sample inside the lane pass | 935.3 M | 574.5 M | 212.1 M | 3.91 M |
 //! | + BSDF construction and ray origins in lanes | 919.5 M | 559.3 M | 209.5 M | 4.04 M |
-//! | + a group runs as soon as it fills (one 2 KiB group stays in L1, where a chunk's 32 groups took 67 KiB) | 922.9 M | 562.8 M | 210.1 M | 3.33 M |
+//! | + a group runs as soon as it fills (one 2 KiB group stays in L1, where a chunk's 32 groups took 65 KiB) | 922.9 M | 562.8 M | 210.1 M | 3.33 M |
 //! | + chunk surfaces as slots of the surface table (no 250-byte `Surface` moves) | 908.7 M | 554.8 M | 209.4 M | 2.97 M |
 //! | + random numbers drawn per group from the keys phase 1 wrote (no pass of its own over the path states) | 905.6 M | 551.9 M | 208.9 M | 2.80 M |
 //!
@@ -89,6 +89,18 @@
 //! 1 thread, best of 5 CPU seconds (contended), 3.44 s before, 3.37 s with lanes, 3.28 s with the
 //! flush. Tried and left out: chunks of 128 hits instead of 256 (the same instructions, 0.8 % fewer
 //! D1 misses, 41 % more I1 misses).
+//!
+//! Why the tractor's wavefront "integration" phase took longer than the scalar one while running
+//! fewer instructions (callgrind, 120×80, 8 spp; the phase holds phase 1's per-hit work, the lane
+//! pass and the random numbers): its shading stage executed 190.6 M instructions against ~170 M
+//! for the scalar loop's BSDF sampling and evaluation, light sampling, sampler calls and BSDF
+//! construction, but took 3.0 M D1 misses where the whole scalar render takes 0.32 M: a chunk's
+//! AoS scatter points (~50 KiB) and its moved `Surface`s (~64 KiB) streamed through L1 between
+//! passes, besides the path states and hits read in sorted (not memory) order.
+//! After the steps above: 157.2 M instructions and 1.41 M D1 misses. The rest are the random
+//! accesses to path states, hits and kept surfaces by sorted index; the light kernel also costs
+//! more than `Lights::sample` there (20 M against 16 M: with a dome and a sun, every lane computes
+//! every kind's arithmetic and two libm trigonometric calls).
 //!
 //! Not done yet: a lane version of the hair BSDF (curve hits are shaded per hit, [`shade_curves`]);
 //! MoonRay-style queues that flush into their handler when full (stages here run a whole wave at a
