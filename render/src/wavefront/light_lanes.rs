@@ -273,6 +273,49 @@ fn pick_emitters(table: &LightTable, u0: &Lanes, g: &mut Gathered) {
     }
 }
 
+/// Step 4 of [`sample_lanes`] when every lane picked a dome or a distant light: the same operations
+/// as the general loop's for those kinds.
+#[inline(always)]
+fn at_infinity(
+    g: &Gathered,
+    inp: &LightInputs,
+    cos: &Lanes,
+    sin: &Lanes,
+    sel: f32,
+    out: &mut LightSampleLanes,
+) {
+    for k in 0..LANES {
+        let kind = g.kind[k];
+        let (u0, u1) = (g.u0[k], inp.u[1][k]);
+        let (c, s) = (V::at(&g.center, k), g.scalar[k]);
+        let z = 1.0 - 2.0 * u0;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let on_sphere = V { x: r * cos[k], y: r * sin[k], z };
+        let one_minus_cos = u0 * s;
+        let cos_theta = 1.0 - one_minus_cos;
+        let sin_theta = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+        let local = V { x: sin_theta * cos[k], y: sin_theta * sin[k], z: cos_theta };
+        let cone_dir = frame_to_world(c, local).normalize();
+        let (wi, pdf) = match kind {
+            KIND_DOME => (on_sphere, sel / (4.0 * PI)),
+            KIND_DELTA => (c, sel),
+            _ => (cone_dir, sel / (TAU * s)),
+        };
+        // The triangle weights the general loop writes for every lane (read only for triangles).
+        let su = u0.sqrt();
+        let (b0, b1) = (1.0 - su, u1 * su);
+        V::at(&g.radiance, k).store(&mut out.li, k);
+        wi.store(&mut out.wi, k);
+        out.ok[k] = 1;
+        out.distance[k] = f32::INFINITY;
+        out.pdf[k] = pdf;
+        out.delta[k] = (kind == KIND_DELTA) as u32;
+        out.triangle[k] = g.triangle[k];
+        out.b[0][k] = b1;
+        out.b[1][k] = 1.0 - b0 - b1;
+    }
+}
+
 /// [`Lights::sample`] on eight lanes; `table` must not be empty.
 // `!(a < b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
 #[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
@@ -318,8 +361,13 @@ pub fn sample_lanes(table: &LightTable, inp: &LightInputs, out: &mut LightSample
         }
     }
 
-    // 4. Every kind's arithmetic, the kind selecting.
+    // 4. Every kind's arithmetic, the kind selecting; when every lane picked a light at infinity
+    // (a scene lit by a dome and a sun), only those kinds' arithmetic.
     let sel = table.select_pmf;
+    if g.kind.iter().all(|&kind| matches!(kind, KIND_DOME | KIND_DELTA | KIND_CONE)) {
+        at_infinity(&g, inp, &cos, &sin, sel, out);
+        return;
+    }
     for k in 0..LANES {
         let kind = g.kind[k];
         let p = V::at(&inp.p, k);
@@ -517,7 +565,7 @@ mod tests {
             Vec3::new(0.0, 1.2, 1.5),
         ];
         let mut per_kind = [0u32; 8];
-        let (mut samples, mut some, mut inside_sphere) = (0, 0, 0);
+        let (mut samples, mut some, mut inside_sphere, mut at_infinity_rounds) = (0, 0, 0, 0usize);
         for round in 0..4000 {
             let mut inp = LightInputs::default();
             let mut points = [Vec3::ZERO; LANES];
@@ -538,10 +586,12 @@ mod tests {
                     };
                 }
             }
-            // Some rounds pick one kind on every lane.
+            // Some rounds pick one kind on every lane (lights 0–2, the dome and the distant ones,
+            // take the kernel's path for lights at infinity).
             if round % 5 == 0 {
                 let pick = rng.f();
                 inp.u_select = [pick; LANES];
+                at_infinity_rounds += (((pick * 8.0) as usize) < 3) as usize;
             }
             let mut out = LightSampleLanes::default();
             sample_lanes(&table, &inp, &mut out);
@@ -580,6 +630,7 @@ mod tests {
         eprintln!("{samples} lanes, {some} samples equal the scalar ones; per light {per_kind:?}");
         assert!(per_kind.iter().all(|&n| n > 1000), "every kind sampled often: {per_kind:?}");
         assert!(inside_sphere > 20, "{inside_sphere} samples from inside the sphere light");
+        assert!(at_infinity_rounds > 100, "{at_infinity_rounds} rounds of lights at infinity only");
     }
 
     #[test]
