@@ -19,7 +19,8 @@
 //! 4. straight-line arithmetic per lane, every light kind's formula with the scalar code's IEEE
 //!    operations in the same order (glam's `dot` is `(x·x' + y·y') + z·z'`, `normalize` multiplies by
 //!    `1 / length`, `Vec3 / f32` divides each component), the kind choosing the result by select.
-//!    LLVM vectorises it to 8-wide AVX2 under [`multiversion`].
+//!    LLVM vectorises it to 8-wide AVX2 under [`multiversion`]. When every lane picked a dome or a
+//!    distant light, only those kinds' arithmetic runs (the tractor's and the simple scene's lights).
 //!
 //! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
