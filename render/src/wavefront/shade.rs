@@ -78,6 +78,9 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     w.next_rays.clear();
     w.occlusion.clear();
     let n = w.shade.len();
+    // The surfaces the sort kept; each chunk appends its rebuilt ones after them and drops them when
+    // done, so their memory is reused chunk after chunk (it stays in L2).
+    let kept = w.surfaces.len();
     let mut start = 0;
     while start < n {
         let end = (start + CHUNK).min(n);
@@ -97,6 +100,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         if w.scatter_points > 0 {
             scatter(ctx, w, rays);
         }
+        w.surfaces.truncate(kept);
         start = end;
     }
     rays.shadow += w.occlusion.len() as u64;
@@ -104,8 +108,9 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
 
 /// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt per hit (a lane version
 /// executed 1.8× the instructions of these calls; see the module docs of [`super`]). Rebuilt ones join
-/// the kept ones in `w.surfaces` (a wave has at most one per path, so it never grows past its
-/// capacity) and the chunk records slots: a surface (~250 bytes) is written once and never moved.
+/// the kept ones in `w.surfaces` until the chunk ends (a wave has at most one per path, so it never
+/// grows past its capacity) and the chunk records slots: a surface (~250 bytes) is written once and
+/// never moved.
 fn surfaces<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
     let scene: &Scene = ctx.scene;
     w.chunk_slots.clear();
