@@ -79,12 +79,19 @@
 //! | + a group runs as soon as it fills (one 2 KiB group stays in L1, where a chunk's 32 groups took 65 KiB) | 922.9 M | 562.8 M | 210.1 M | 3.33 M |
 //! | + chunk surfaces as slots of the surface table (no 250-byte `Surface` moves) | 908.7 M | 554.8 M | 209.4 M | 2.97 M |
 //! | + random numbers drawn per group from the keys phase 1 wrote (no pass of its own over the path states) | 905.6 M | 551.9 M | 208.9 M | 2.80 M |
+//! | + the light kernel's path for lights at infinity (below) | 906.0 M | 547.6 M | 208.1 M | 2.80 M |
+//! | + a chunk's rebuilt surfaces dropped when it ends (their memory reused: simple scene LL write misses 74 k → 62 k, as before) | 906.3 M | 547.9 M | 208.2 M | 2.80 M |
 //!
-//! The shading stage alone went from 239.6 M to 198.5 M instructions on the shading-heavy scene
-//! (−17 %), 190.6 M to 157.2 M on the tractor (−18 %), 38.2 M to 32.6 M on the simple one; the whole
-//! process −4.8 %, −6.2 %, −3.1 %, and −36 % D1 misses on the tractor, whose scalar render takes
-//! 0.32 M: the depth-first loop keeps its path in registers, the wavefront streams paths, hits and
-//! surfaces by sorted index. Flushing each group costs instructions (per-group zeroing of the lane
+//! The shading stage alone went from 239.6 M to 199.2 M instructions on the shading-heavy scene
+//! (−17 %), 190.6 M to 153.2 M on the tractor (−20 %), 38.2 M to 31.8 M on the simple one; the whole
+//! process −4.7 %, −6.9 %, −3.5 %. D1 misses fell 30 %, 36 % and 21 % (shading-heavy 6.48 M →
+//! 4.55 M, simple 1.20 M → 0.95 M; I1 misses move by ±0.2 M between builds with code placement).
+//! Contended timings (640×426, 16 spp, 1 thread, best of 5 interleaved runs, CPU seconds): tractor
+//! 3.40 → 3.11 s, shading-heavy 6.58 → 6.55 s and 7.61 → 7.18 s in two series, simple 1.16 →
+//! 1.19 s: only the tractor's gain stands above the ±6 % noise (the unchanged scalar integrator
+//! timed 4.56 and 4.29 s in one such series). The tractor's wavefront render still takes 9× the
+//! scalar one's D1 misses (2.80 M against 0.32 M): the depth-first loop keeps its path in
+//! registers, the wavefront streams paths, hits and surfaces by sorted index. Flushing each group costs instructions (per-group zeroing of the lane
 //! buffers) and 0.15 M more I1 misses, and was kept for the D1 misses: tractor at 640×426, 16 spp,
 //! 1 thread, best of 5 CPU seconds (contended), 3.44 s before, 3.37 s with lanes, 3.28 s with the
 //! flush. Tried and left out: chunks of 128 hits instead of 256 (the same instructions, 0.8 % fewer
@@ -97,7 +104,7 @@
 //! construction, but took 3.0 M D1 misses where the whole scalar render takes 0.32 M: a chunk's
 //! AoS scatter points (~50 KiB) and its moved `Surface`s (~64 KiB) streamed through L1 between
 //! passes, besides the path states and hits read in sorted (not memory) order.
-//! After the steps above: 157.2 M instructions and 1.41 M D1 misses. The rest are the random
+//! After the steps above: 153.2 M instructions and ~1.4 M D1 misses. The rest are the random
 //! accesses to path states, hits and kept surfaces by sorted index. The light kernel also cost more
 //! than `Lights::sample` there (19.8 M against 16.0 M: with a dome and a sun, every lane computed
 //! every kind's arithmetic); groups whose lanes all picked a light at infinity now skip the other
