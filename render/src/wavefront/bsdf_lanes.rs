@@ -13,6 +13,7 @@
 
 use super::lanes::LANES;
 use crate::bsdf::Bsdf;
+use crate::shading::ShadingInputs;
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
@@ -68,6 +69,103 @@ impl BsdfLanes {
         self.alpha[k] = bsdf.alpha;
         self.clearcoat[k] = bsdf.clearcoat;
         self.clearcoat_alpha[k] = bsdf.clearcoat_alpha;
+    }
+}
+
+/// Eight shading points' resolved UsdPreviewSurface inputs and normals: what
+/// [`Bsdf::from_inputs`] reads, transposed.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct InputLanes {
+    /// `diffuseColor`.
+    pub diffuse_color: Lanes3,
+    /// `specularColor`.
+    pub specular_color: Lanes3,
+    /// 1 for `useSpecularWorkflow`.
+    pub use_specular_workflow: [u32; LANES],
+    /// `roughness`.
+    pub roughness: Lanes,
+    /// `metallic`.
+    pub metallic: Lanes,
+    /// `ior`.
+    pub ior: Lanes,
+    /// `clearcoat`.
+    pub clearcoat: Lanes,
+    /// `clearcoatRoughness`.
+    pub clearcoat_roughness: Lanes,
+    /// Unit shading normal on the side of the viewer.
+    pub ns: Lanes3,
+    /// Unit geometric normal on the side of the viewer.
+    pub ng: Lanes3,
+}
+
+impl InputLanes {
+    /// Writes `inputs` at a point with normals `ns` and `ng` into lane `k`.
+    #[inline]
+    pub fn set(&mut self, k: usize, inputs: &ShadingInputs, ns: Vec3, ng: Vec3) {
+        let put = |dst: &mut Lanes3, v: Vec3| (dst[0][k], dst[1][k], dst[2][k]) = (v.x, v.y, v.z);
+        put(&mut self.diffuse_color, inputs.diffuse_color);
+        put(&mut self.specular_color, inputs.specular_color);
+        put(&mut self.ns, ns);
+        put(&mut self.ng, ng);
+        self.use_specular_workflow[k] = inputs.use_specular_workflow as u32;
+        self.roughness[k] = inputs.roughness;
+        self.metallic[k] = inputs.metallic;
+        self.ior[k] = inputs.ior;
+        self.clearcoat[k] = inputs.clearcoat;
+        self.clearcoat_roughness[k] = inputs.clearcoat_roughness;
+    }
+}
+
+/// [`Bsdf::from_inputs`] on eight lanes: writes every field of `out` but `wo`. Both workflows are
+/// computed and selected per lane; glam's `Vec3::clamp` (`max` then `min` by comparison, NaN → the
+/// bound) and `f32::clamp` (NaN passes) are kept apart as the scalar code uses them.
+#[allow(clippy::needless_range_loop)]
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
+pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
+    // glam's `Vec3::clamp(ZERO, ONE)` on one component.
+    let unit = |x: f32| {
+        let m = if x > 0.0 { x } else { 0.0 };
+        if m < 1.0 {
+            m
+        } else {
+            1.0
+        }
+    };
+    for k in 0..LANES {
+        // `Frame::new(ns)` (Duff et al. 2017), in its operation order.
+        let n = V::at(&inp.ns, k);
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        V { x: 1.0 + sign * n.x * n.x * a, y: sign * b, z: -sign * n.x }.store(&mut out.t, k);
+        V { x: b, y: sign + n.y * n.y * a, z: -n.y }.store(&mut out.b, k);
+        n.store(&mut out.n, k);
+        V::at(&inp.ng, k).store(&mut out.ng, k);
+
+        let dc = V::at(&inp.diffuse_color, k);
+        let base = V { x: unit(dc.x), y: unit(dc.y), z: unit(dc.z) };
+        let sc = V::at(&inp.specular_color, k);
+        let specular = V { x: unit(sc.x), y: unit(sc.y), z: unit(sc.z) };
+        let metallic = inp.metallic[k].clamp(0.0, 1.0);
+        let ior = inp.ior[k];
+        let r = (ior - 1.0) / (ior + 1.0);
+        let dielectric = if r.is_finite() { (r * r).min(1.0) } else { 0.04 };
+        let keep = 1.0 - metallic;
+        // `Vec3::splat(dielectric).lerp(base, metallic)`: `self * (1 − s) + rhs * s`.
+        let f0_metal = V {
+            x: dielectric * keep + base.x * metallic,
+            y: dielectric * keep + base.y * metallic,
+            z: dielectric * keep + base.z * metallic,
+        };
+        let specular_workflow = inp.use_specular_workflow[k] != 0;
+        V::select(specular_workflow, base, base.scale(keep)).store(&mut out.diffuse, k);
+        V::select(specular_workflow, specular, f0_metal).store(&mut out.f0, k);
+        let roughness = inp.roughness[k].clamp(0.0, 1.0);
+        let cc_roughness = inp.clearcoat_roughness[k].clamp(0.0, 1.0);
+        out.alpha[k] = (roughness * roughness).max(crate::bsdf::MIN_ALPHA);
+        out.clearcoat[k] = inp.clearcoat[k].clamp(0.0, 1.0);
+        out.clearcoat_alpha[k] = (cc_roughness * cc_roughness).max(crate::bsdf::MIN_ALPHA);
     }
 }
 
@@ -370,7 +468,6 @@ pub fn sample_lanes(l: &BsdfLanes, u: &SampleInputs, out: &mut SampleLanes) {
 #[allow(clippy::needless_range_loop)] // lane-indexed comparisons read clearest as index loops
 mod tests {
     use super::*;
-    use crate::shading::ShadingInputs;
 
     struct Rng(u32);
     impl Rng {
@@ -387,6 +484,14 @@ mod tests {
     }
 
     fn random_bsdf(rng: &mut Rng) -> (Bsdf, Vec3) {
+        let (inputs, ns, ng) = random_inputs(rng);
+        let wo = if rng.f() < 0.05 { -ng } else { (ng * 0.3 + rng.dir()).normalize_or(ng) };
+        (Bsdf::from_inputs(&inputs, ns, ng), wo)
+    }
+
+    /// Shading inputs with NaN, zero, one and out-of-range values among them, and a shading normal
+    /// tilted off the geometric one (sometimes past it).
+    fn random_inputs(rng: &mut Rng) -> (ShadingInputs, Vec3, Vec3) {
         let pick = |rng: &mut Rng, special: bool| {
             if special && rng.f() < 0.1 {
                 [0.0, 1.0, 0.0, 1.0, f32::NAN, 2.0][(rng.f() * 6.0) as usize % 6]
@@ -401,7 +506,7 @@ mod tests {
             use_specular_workflow: rng.f() < 0.3,
             roughness: pick(rng, true),
             metallic: pick(rng, true),
-            ior: 1.0 + 2.0 * pick(rng, true),
+            ior: if rng.f() < 0.03 { -1.0 } else { 1.0 + 2.0 * pick(rng, true) },
             opacity: 1.0,
             opacity_threshold: 0.0,
             clearcoat: if rng.f() < 0.5 { 0.0 } else { pick(rng, true) },
@@ -409,10 +514,44 @@ mod tests {
             normal: None,
         };
         let ng = rng.dir();
-        // Shading normals tilted off the geometric one, sometimes past it.
         let ns = (ng + rng.dir() * (rng.f() * 1.2)).normalize_or(ng);
-        let wo = if rng.f() < 0.05 { -ng } else { (ng * 0.3 + rng.dir()).normalize_or(ng) };
-        (Bsdf::from_inputs(&inputs, ns, ng), wo)
+        (inputs, ns, ng)
+    }
+
+    #[test]
+    fn construction_lanes_equal_the_scalar_bsdf_bit_for_bit() {
+        let mut rng = Rng(13);
+        let (mut metallic, mut specular) = (0, 0);
+        for _ in 0..2000 {
+            let mut inp = InputLanes::default();
+            let mut expected = Vec::new();
+            for k in 0..LANES {
+                let (inputs, ns, ng) = random_inputs(&mut rng);
+                inp.set(k, &inputs, ns, ng);
+                expected.push(Bsdf::from_inputs(&inputs, ns, ng));
+                specular += inputs.use_specular_workflow as u32;
+                metallic += !inputs.use_specular_workflow as u32;
+            }
+            let mut out = BsdfLanes::default();
+            from_inputs_lanes(&inp, &mut out);
+            for (k, b) in expected.iter().enumerate() {
+                let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
+                let one = |x: f32| bits(Vec3::splat(x));
+                assert_eq!(bits(at(&out.t)), bits(b.frame.t), "tangent, lane {k}: {b:?}");
+                assert_eq!(bits(at(&out.b)), bits(b.frame.b), "bitangent, lane {k}: {b:?}");
+                assert_eq!(bits(at(&out.n)), bits(b.frame.n), "normal, lane {k}");
+                assert_eq!(bits(at(&out.ng)), bits(b.ng), "geometric normal, lane {k}");
+                assert_eq!(bits(at(&out.diffuse)), bits(b.diffuse), "diffuse, lane {k}: {b:?}");
+                assert_eq!(bits(at(&out.f0)), bits(b.f0), "f0, lane {k}: {b:?}");
+                assert_eq!(one(out.alpha[k]), one(b.alpha), "alpha, lane {k}");
+                assert_eq!(one(out.clearcoat[k]), one(b.clearcoat), "clearcoat, lane {k}");
+                assert_eq!(one(out.clearcoat_alpha[k]), one(b.clearcoat_alpha), "coat alpha, lane {k}");
+            }
+        }
+        assert!(
+            metallic > 4000 && specular > 2000,
+            "both workflows: {metallic} metallic, {specular} specular"
+        );
     }
 
     /// Bits, with every NaN one value (IEEE leaves a NaN's sign and payload open).

@@ -1,5 +1,6 @@
 //! Next-event light sampling ([`crate::lights::Lights::sample`], the scalar reference) for eight
-//! shading points at once, as its own pass over a shading chunk's scatter points.
+//! shading points at once, inside the shading stage's lane pass over a scatter group (its inputs
+//! are the group's columns, its outputs feed the BSDF and MIS kernels without a transposition).
 //!
 //! The selection list is laid out once per scene as a [`LightTable`]: one 80-byte record per light
 //! (kind, radiance and the shape's vectors) and one per emissive triangle (vertices, normal,
@@ -18,7 +19,8 @@
 //! 4. straight-line arithmetic per lane, every light kind's formula with the scalar code's IEEE
 //!    operations in the same order (glam's `dot` is `(x·x' + y·y') + z·z'`, `normalize` multiplies by
 //!    `1 / length`, `Vec3 / f32` divides each component), the kind choosing the result by select.
-//!    LLVM vectorises it to 8-wide AVX2 under [`multiversion`].
+//!    LLVM vectorises it to 8-wide AVX2 under [`multiversion`]. When every lane picked a dome or a
+//!    distant light, only those kinds' arithmetic runs (the tractor's and the simple scene's lights).
 //!
 //! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
@@ -27,14 +29,10 @@
 
 use super::bsdf_lanes::{Lanes, Lanes3, V};
 use super::lanes::LANES;
-use super::{Context, Worker};
-use crate::accel::offset_ray_origin;
 use crate::lights::{Lights, Shape};
-use crate::sampler::{hash_combine, hash_u32};
-use crate::stats::Phase;
+#[cfg(test)]
 use glam::Vec3;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
-use texture::Touch;
 
 /// A dome light.
 pub const KIND_DOME: u32 = 0;
@@ -112,7 +110,7 @@ impl LightTable {
             .map(|light| {
                 let mut r = LaneLight { radiance: light.radiance.to_array(), ..LaneLight::default() };
                 match light.shape {
-                    // A textured dome's lanes are replaced by the scalar sample (`sample_scatter_points`).
+                    // A textured dome's lanes are replaced by the scalar sample (`shade::scatter`).
                     Shape::Dome | Shape::TexturedDome { .. } => r.kind = KIND_DOME,
                     Shape::Distant { to_light, one_minus_cos_max } => {
                         r.kind = if one_minus_cos_max == 0.0 { KIND_DELTA } else { KIND_CONE };
@@ -278,6 +276,49 @@ fn pick_emitters(table: &LightTable, u0: &Lanes, g: &mut Gathered) {
     }
 }
 
+/// Step 4 of [`sample_lanes`] when every lane picked a dome or a distant light: the same operations
+/// as the general loop's for those kinds.
+#[inline(always)]
+fn at_infinity(
+    g: &Gathered,
+    inp: &LightInputs,
+    cos: &Lanes,
+    sin: &Lanes,
+    sel: f32,
+    out: &mut LightSampleLanes,
+) {
+    for k in 0..LANES {
+        let kind = g.kind[k];
+        let (u0, u1) = (g.u0[k], inp.u[1][k]);
+        let (c, s) = (V::at(&g.center, k), g.scalar[k]);
+        let z = 1.0 - 2.0 * u0;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let on_sphere = V { x: r * cos[k], y: r * sin[k], z };
+        let one_minus_cos = u0 * s;
+        let cos_theta = 1.0 - one_minus_cos;
+        let sin_theta = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+        let local = V { x: sin_theta * cos[k], y: sin_theta * sin[k], z: cos_theta };
+        let cone_dir = frame_to_world(c, local).normalize();
+        let (wi, pdf) = match kind {
+            KIND_DOME => (on_sphere, sel / (4.0 * PI)),
+            KIND_DELTA => (c, sel),
+            _ => (cone_dir, sel / (TAU * s)),
+        };
+        // The triangle weights the general loop writes for every lane (read only for triangles).
+        let su = u0.sqrt();
+        let (b0, b1) = (1.0 - su, u1 * su);
+        V::at(&g.radiance, k).store(&mut out.li, k);
+        wi.store(&mut out.wi, k);
+        out.ok[k] = 1;
+        out.distance[k] = f32::INFINITY;
+        out.pdf[k] = pdf;
+        out.delta[k] = (kind == KIND_DELTA) as u32;
+        out.triangle[k] = g.triangle[k];
+        out.b[0][k] = b1;
+        out.b[1][k] = 1.0 - b0 - b1;
+    }
+}
+
 /// [`Lights::sample`] on eight lanes; `table` must not be empty.
 // `!(a < b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
 #[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
@@ -323,8 +364,13 @@ pub fn sample_lanes(table: &LightTable, inp: &LightInputs, out: &mut LightSample
         }
     }
 
-    // 4. Every kind's arithmetic, the kind selecting.
+    // 4. Every kind's arithmetic, the kind selecting; when every lane picked a light at infinity
+    // (a scene lit by a dome and a sun), only those kinds' arithmetic.
     let sel = table.select_pmf;
+    if g.kind.iter().all(|&kind| matches!(kind, KIND_DOME | KIND_DELTA | KIND_CONE)) {
+        at_infinity(&g, inp, &cos, &sin, sel, out);
+        return;
+    }
     for k in 0..LANES {
         let kind = g.kind[k];
         let p = V::at(&inp.p, k);
@@ -435,69 +481,6 @@ pub fn sample_lanes(table: &LightTable, inp: &LightInputs, out: &mut LightSample
     }
 }
 
-/// The light sample of every scatter point of the chunk, with its shadow ray (origin, extent and
-/// pass-through seed), eight points at a time.
-pub(super) fn sample_scatter_points<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
-    let scene = ctx.scene;
-    if scene.lights.is_empty() {
-        return;
-    }
-    let table = scene.lights.lane_table();
-    let (filter, touch) = (ctx.settings.filter, ctx.touch);
-    let seed_hash = hash_u32(ctx.options.seed);
-    let Worker { scatter, states, clock, .. } = w;
-    let mut inp = LightInputs::default();
-    let mut out = LightSampleLanes::default();
-    for group in scatter.chunks_mut(LANES) {
-        // Lanes past the group's end keep the previous group's inputs: their results are not read.
-        for (k, sp) in group.iter().enumerate() {
-            (inp.p[0][k], inp.p[1][k], inp.p[2][k]) = (sp.p.x, sp.p.y, sp.p.z);
-            inp.u_select[k] = sp.u_light_select;
-            [inp.u[0][k], inp.u[1][k]] = sp.u_light;
-        }
-        sample_lanes(table, &inp, &mut out);
-        for (k, sp) in group.iter_mut().enumerate() {
-            // Textured domes sample by their map on the scalar path (the kernel has no map lookups).
-            if scene.lights.is_textured_dome(sp.u_light_select) {
-                let s = scene.lights.sample(sp.p, sp.u_light_select, sp.u_light);
-                out.ok[k] = s.is_some() as u32;
-                if let Some(s) = s {
-                    for c in 0..3 {
-                        (out.wi[c][k], out.li[c][k]) = (s.wi[c], s.li[c]);
-                    }
-                    (out.distance[k], out.pdf[k], out.delta[k]) = (s.distance, s.pdf, 0);
-                }
-            }
-            if out.ok[k] == 0 {
-                continue;
-            }
-            let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
-            let li = if out.triangle[k] != blob::NONE {
-                scene.emission_at(out.triangle[k], out.b[0][k], out.b[1][k], filter, touch)
-            } else {
-                at(&out.li)
-            };
-            let origin = offset_ray_origin(sp.p, sp.bsdf.ng);
-            let distance = out.distance[k];
-            let tmax = if distance.is_finite() {
-                (distance - (origin - sp.p).length()) * (1.0 - 1e-4)
-            } else {
-                f32::INFINITY
-            };
-            let st = &states[sp.index as usize];
-            sp.has_light = true;
-            sp.light_wi = at(&out.wi);
-            sp.light_li = li;
-            sp.light_pdf = out.pdf[k];
-            sp.light_delta = out.delta[k] != 0;
-            sp.shadow_origin = origin;
-            sp.shadow_tmax = tmax;
-            sp.shadow_seed = hash_combine(hash_combine(seed_hash, st.pixel), st.sample) ^ st.vertex;
-        }
-    }
-    clock.lap(Phase::Integration);
-}
-
 #[cfg(test)]
 /// A scene with every light kind: dome, delta and cone distant lights, point, sphere, rect and disk
 /// lights, and emissive triangles of three powers.
@@ -552,6 +535,7 @@ pub(super) fn every_light_kind() -> ingest::Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampler::hash_u32;
     use crate::testscene;
 
     struct Rng(u32);
@@ -584,7 +568,7 @@ mod tests {
             Vec3::new(0.0, 1.2, 1.5),
         ];
         let mut per_kind = [0u32; 8];
-        let (mut samples, mut some, mut inside_sphere) = (0, 0, 0);
+        let (mut samples, mut some, mut inside_sphere, mut at_infinity_rounds) = (0, 0, 0, 0usize);
         for round in 0..4000 {
             let mut inp = LightInputs::default();
             let mut points = [Vec3::ZERO; LANES];
@@ -605,10 +589,12 @@ mod tests {
                     };
                 }
             }
-            // Some rounds pick one kind on every lane.
+            // Some rounds pick one kind on every lane (lights 0–2, the dome and the distant ones,
+            // take the kernel's path for lights at infinity).
             if round % 5 == 0 {
                 let pick = rng.f();
                 inp.u_select = [pick; LANES];
+                at_infinity_rounds += (((pick * 8.0) as usize) < 3) as usize;
             }
             let mut out = LightSampleLanes::default();
             sample_lanes(&table, &inp, &mut out);
@@ -647,6 +633,7 @@ mod tests {
         eprintln!("{samples} lanes, {some} samples equal the scalar ones; per light {per_kind:?}");
         assert!(per_kind.iter().all(|&n| n > 1000), "every kind sampled often: {per_kind:?}");
         assert!(inside_sphere > 20, "{inside_sphere} samples from inside the sphere light");
+        assert!(at_infinity_rounds > 100, "{at_infinity_rounds} rounds of lights at infinity only");
     }
 
     #[test]

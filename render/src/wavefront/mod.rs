@@ -12,10 +12,10 @@
 //!                │                        0. sampler lanes: every random number of the vertex, 8 paths at once
 //!                │                        1a. 8 hits at once: material programs + textures
 //!                │                            (runs of one material); per hit: surface
-//!                │                        1. per hit: BSDF
-//!                │                           8 hits at once: light selection and sample, shadow ray
-//!                │                        2. 8 hits at once: BSDF eval ─► MIS ─► occlusion queue
-//!                │                                           BSDF sample ─► throughput + roulette ─┐
+//!                │                        1. per hit: opacity, normal map, emission ─► lane k of a group
+//!                │                        2. per full group of 8: BSDF construction, ray origins,
+//!                │                           light sample ─► BSDF eval ─► MIS ─► occlusion queue
+//!                │                           BSDF sample ─► throughput + roulette ──────────────┐
 //!                └──────────────────────────────────────────────────────── next ray queue ◄─────┘
 //! occlusion (any hit) ─► radiance; accumulate (per pixel, in sample order) ─► tile
 //! ```
@@ -52,8 +52,8 @@
 //! together): the same image, 1.4 % more instructions (the sort) and no fewer D1 misses (cachegrind,
 //! shading-heavy at 120×80, 8 spp: 5.31 M against 5.29 M), occlusion time within the noise.
 //!
-//! Light sampling ([`light_lanes`], a pass of its own between per-hit shading and the BSDF lanes)
-//! runs its kernel in 13.6 M instructions where [`crate::lights::Lights::sample`] took 20.9 M
+//! Light sampling ([`light_lanes`]; first a pass of its own between per-hit shading and the BSDF
+//! lanes, now inside the group pass, see below) runs its kernel in 13.6 M instructions where [`crate::lights::Lights::sample`] took 20.9 M
 //! (cachegrind, shading-heavy: 48 sphere lights, a dome and a sun; 120×80, 8 spp, ~90 k shading
 //! points); with the transposition and the shadow-ray set-up the whole process runs 1.0 % fewer
 //! instructions there (940 M → 930 M), and 0.1–0.4 % more on the tractor and the simple scene,
@@ -61,8 +61,58 @@
 //! arithmetic and select (running the cone and the point-on-light arithmetic in separate loops,
 //! each only when a lane needs it, cost 0.1–0.7 % more instructions on all three: kept out).
 //!
-//! Not done yet: lane versions of the BSDF construction from the shading inputs (`Bsdf::from_inputs`,
-//! per hit in phase 1) and of the hair BSDF (curve hits are shaded per hit, [`shade_curves`]);
+//! # Shading and integration without transpositions
+//! Phase 1 used to build each hit's BSDF (`Bsdf::from_inputs`) into a ~200-byte AoS scatter point;
+//! a light pass transposed the chunk's points to lanes and back (13.8 M instructions of set-up
+//! around a 13.6 M kernel), and phase 2 transposed them again for the BSDF kernels. Now phase 1
+//! writes each hit's shading inputs, normals and sampler keys straight into its lane of an AoSoA
+//! [`shade::ScatterGroup`], and phase 2 runs on the group, in lanes: the vertex's random numbers,
+//! the BSDF construction
+//! ([`bsdf_lanes::from_inputs_lanes`]), the ray origins ([`lanes::offset_origin_lanes`], shared by
+//! the shadow and the continuation ray), the light sample, the BSDF evaluation, the MIS weight, the
+//! BSDF sample and the roulette; shadow-ray set-up runs only for the samples MIS keeps. Callgrind,
+//! whole process, 120×80, 8 spp, 1 thread (instructions; tractor D1 misses read + write):
+//!
+//! | step | shading-heavy | tractor | simple | tractor D1 misses |
+//! |---|---|---|---|---|
+//! | before | 950.8 M | 588.2 M | 215.7 M | 4.40 M |
+//! | AoSoA groups written by phase 1, light sample inside the lane pass | 935.3 M | 574.5 M | 212.1 M | 3.91 M |
+//! | + BSDF construction and ray origins in lanes | 919.5 M | 559.3 M | 209.5 M | 4.04 M |
+//! | + a group runs as soon as it fills (one 2 KiB group stays in L1, where a chunk's 32 groups took 65 KiB) | 922.9 M | 562.8 M | 210.1 M | 3.33 M |
+//! | + chunk surfaces as slots of the surface table (no 250-byte `Surface` moves) | 908.7 M | 554.8 M | 209.4 M | 2.97 M |
+//! | + random numbers drawn per group from the keys phase 1 wrote (no pass of its own over the path states) | 905.6 M | 551.9 M | 208.9 M | 2.80 M |
+//! | + the light kernel's path for lights at infinity (below) | 906.0 M | 547.6 M | 208.1 M | 2.80 M |
+//! | + a chunk's rebuilt surfaces dropped when it ends (their memory reused: simple scene LL write misses 74 k → 62 k, as before) | 906.3 M | 547.9 M | 208.2 M | 2.80 M |
+//!
+//! The shading stage alone went from 239.6 M to 199.2 M instructions on the shading-heavy scene
+//! (−17 %), 190.6 M to 153.2 M on the tractor (−20 %), 38.2 M to 31.8 M on the simple one; the whole
+//! process −4.7 %, −6.9 %, −3.5 %. D1 misses fell 30 %, 36 % and 21 % (shading-heavy 6.48 M →
+//! 4.55 M, simple 1.20 M → 0.95 M; I1 misses move by ±0.2 M between builds with code placement).
+//! Contended timings (640×426, 16 spp, 1 thread, best of 5 interleaved runs, CPU seconds): tractor
+//! 3.40 → 3.11 s, shading-heavy 6.58 → 6.55 s and 7.61 → 7.18 s in two series, simple 1.16 →
+//! 1.19 s: only the tractor's gain stands above the ±6 % noise (the unchanged scalar integrator
+//! timed 4.56 and 4.29 s in one such series). The tractor's wavefront render still takes 9× the
+//! scalar one's D1 misses (2.80 M against 0.32 M): the depth-first loop keeps its path in
+//! registers, the wavefront streams paths, hits and surfaces by sorted index. Flushing each group costs instructions (per-group zeroing of the lane
+//! buffers) and 0.15 M more I1 misses, and was kept for the D1 misses: tractor at 640×426, 16 spp,
+//! 1 thread, best of 5 CPU seconds (contended), 3.44 s before, 3.37 s with lanes, 3.28 s with the
+//! flush. Tried and left out: chunks of 128 hits instead of 256 (the same instructions, 0.8 % fewer
+//! D1 misses, 41 % more I1 misses).
+//!
+//! Why the tractor's wavefront "integration" phase took longer than the scalar one while running
+//! fewer instructions (callgrind, 120×80, 8 spp; the phase holds phase 1's per-hit work, the lane
+//! pass and the random numbers): its shading stage executed 190.6 M instructions against ~170 M
+//! for the scalar loop's BSDF sampling and evaluation, light sampling, sampler calls and BSDF
+//! construction, but took 3.0 M D1 misses where the whole scalar render takes 0.32 M: a chunk's
+//! AoS scatter points (~50 KiB) and its moved `Surface`s (~64 KiB) streamed through L1 between
+//! passes, besides the path states and hits read in sorted (not memory) order.
+//! After the steps above: 153.2 M instructions and ~1.4 M D1 misses. The rest are the random
+//! accesses to path states, hits and kept surfaces by sorted index. The light kernel also cost more
+//! than `Lights::sample` there (19.8 M against 16.0 M: with a dome and a sun, every lane computed
+//! every kind's arithmetic); groups whose lanes all picked a light at infinity now skip the other
+//! kinds' (15.5 M; whole process tractor −0.8 %, simple −0.4 %, shading-heavy +0.04 % for the test).
+//!
+//! Not done yet: a lane version of the hair BSDF (curve hits are shaded per hit, [`shade_curves`]);
 //! MoonRay-style queues that flush into their handler when full (stages here run a whole wave at a
 //! time).
 //!
@@ -241,21 +291,21 @@ pub struct Worker {
     shade: Vec<u64>,
     scratch: Vec<u64>,
     material_starts: Vec<u32>,
-    /// Random numbers of the current chunk's vertices, eight paths per entry (`[dimension][lane]`).
-    randoms: Vec<[[f32; lanes::LANES]; sampler_lanes::DIMS]>,
-    /// Shaded hits of the current chunk, waiting for the lane kernels.
-    scatter: Vec<shade::ScatterPoint>,
+    /// Shaded hits waiting for the lane kernels; the first `scatter_points` lanes are in use.
+    scatter: Box<shade::ScatterGroup>,
+    scatter_points: usize,
     /// The area lights, eight per group, for the emission rays pick up.
     area_lights: emission_lanes::AreaLightLanes,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
     textured_materials: Vec<bool>,
     /// Surfaces reconstructed by the intersect stage for textured hits (their sort key needs the
-    /// uv footprint), taken by shading instead of being rebuilt; `surface_slot` indexes it per path.
+    /// uv footprint), used by shading instead of being rebuilt (`surface_slot` indexes it per path);
+    /// shading appends the other hits' surfaces.
     surfaces: Vec<Option<crate::integrator::Surface>>,
     surface_slot: Vec<u32>,
-    /// The current chunk's surfaces (`None`: degenerate triangle) and their material programs'
-    /// outputs, by position in the chunk, waiting for phase 1.
-    chunk_surfaces: Vec<Option<crate::integrator::Surface>>,
+    /// The current chunk's surfaces (slots in `surfaces`; `u32::MAX`: none) and their material
+    /// programs' outputs, by position in the chunk, waiting for phase 1.
+    chunk_slots: Vec<u32>,
     chunk_inputs: Vec<Option<crate::shading::ShadingInputs>>,
     /// Register file of the material-program lanes.
     registers: Box<material_lanes::RegisterLanes>,
@@ -318,13 +368,13 @@ impl Worker {
             shade: Vec::with_capacity(paths),
             scratch: vec![0; paths],
             material_starts: vec![0; materials + 2],
-            randoms: Vec::with_capacity(shade::CHUNK / lanes::LANES),
-            scatter: Vec::with_capacity(shade::CHUNK),
+            scatter: Box::default(),
+            scatter_points: 0,
             textured_materials,
             area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),
             surface_slot: vec![u32::MAX; paths],
-            chunk_surfaces: Vec::with_capacity(shade::CHUNK),
+            chunk_slots: Vec::with_capacity(shade::CHUNK),
             chunk_inputs: Vec::with_capacity(shade::CHUNK),
             registers: Box::default(),
             occlusion: Vec::with_capacity(paths),

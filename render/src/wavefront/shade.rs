@@ -2,34 +2,38 @@
 //! writes the occlusion queue, the shadow-ray side table and the next ray queue.
 //!
 //! The queue is shaded in chunks of [`CHUNK`] hits, each in these phases:
-//! 0. eight paths at a time: every random number of the paths' vertices ([`sampler_lanes`]);
-//! 1a. per hit: the surface (or the one the sort key kept); then runs of up to eight consecutive hits
-//!    on one material (the queue is sorted by material) through the material program in lanes
+//! 1a. per hit: the surface (or the one the sort key kept; both stay in the worker's surface table
+//!    and the chunk holds slots); then runs of up to eight consecutive hits on one material (the
+//!    queue is sorted by material) through the material program in lanes
 //!    ([`material_lanes::evaluate_lanes`]; a lone hit runs the scalar program);
-//! 1. per hit (scalar, material by material): stochastic transparency, the BSDF, the first-hit AOVs,
-//!    emission at the hit, and the path's random numbers, into an AoS [`ScatterPoint`] (the depth
-//!    limit ends paths here); curve and point hits take their whole vertex per hit ([`super::shade_curves`]);
-//!    then eight points at a time, the light sample and its shadow ray ([`light_lanes`]);
-//! 2. eight points at a time, transposed to AoSoA lanes: the BSDF towards the light
-//!    ([`bsdf_lanes::eval_lanes`]), the MIS weight ([`lanes::weigh_lanes`], kept samples enter the
-//!    occlusion queue), the BSDF sample ([`bsdf_lanes::sample_lanes`]) and the throughput update with
-//!    Russian roulette ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
+//! 1. per hit (scalar, material by material): stochastic transparency, the normal map, emission at
+//!    the hit (the depth limit ends paths here), then its shading inputs, normals and sampler keys
+//!    written straight into lane `k` of the AoSoA [`ScatterGroup`]; curve and point hits take their
+//!    whole vertex per hit ([`super::shade_curves`]);
+//! 2. as soon as the group holds eight points (and for the chunk's last ones), its lane kernels:
+//!    the vertex's random numbers ([`sampler_lanes`]), the BSDFs ([`bsdf_lanes::from_inputs_lanes`]) and the first-hit albedos, the ray origins off
+//!    the surfaces ([`lanes::offset_origin_lanes`]), the light sample ([`light_lanes::sample_lanes`];
+//!    textured emitters per lane), the BSDF towards it ([`bsdf_lanes::eval_lanes`]), the MIS weight
+//!    ([`lanes::weigh_lanes`]; kept samples enter the occlusion queue), the BSDF sample
+//!    ([`bsdf_lanes::sample_lanes`]) and the throughput update with Russian roulette
+//!    ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
 //!
-//! A chunk's scatter points (~200 bytes each) stay in L2 between the phases: MoonRay's AoS → SoA
-//! conversion "in cache-sized chunks".
+//! Nothing is transposed between phases 1 and 2: phase 1 writes each hit's values into its lane
+//! (they are at hand there), and the group (~2 KiB) is consumed while it is still in L1. See the
+//! module docs of [`super`] for what each step saved.
 
-use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, Lanes3, SampleInputs, SampleLanes};
+use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
-use super::light_lanes;
+use super::light_lanes::{self, LightInputs, LightSampleLanes};
 use super::material_lanes;
 use super::roulette::{self, RouletteLanes, RouletteOut};
 use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::{sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
-use crate::integrator::{FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
+use crate::integrator::{shadow_tmax, FirstHit, RayCounts, Surface, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
-use crate::sampler::{dim, hash_u32};
+use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, SampleKey};
 use crate::scene::Scene;
 use crate::stats::Phase;
 use glam::Vec3;
@@ -38,45 +42,35 @@ use texture::Touch;
 /// Hits per shading chunk (phase 1 then phase 2).
 pub const CHUNK: usize = 256;
 
-/// A shaded hit waiting for the lane kernels: its BSDF, the light sample and the random numbers.
-#[derive(Clone, Copy, Debug)]
-pub struct ScatterPoint {
-    /// Path index.
-    pub index: u32,
-    /// The BSDF at the hit.
-    pub bsdf: Bsdf,
-    /// Direction towards the viewer.
-    pub wo: Vec3,
-    /// Hit point.
-    pub p: Vec3,
-    /// Cone width at the hit.
-    pub footprint: f32,
-    /// Lobe choice.
-    pub u_lobe: f32,
-    /// Direction sample.
-    pub u_bsdf: [f32; 2],
-    /// Russian roulette sample.
-    pub u_rr: f32,
-    /// Light choice.
-    pub u_light_select: f32,
-    /// Position sample on the light.
-    pub u_light: [f32; 2],
-    /// A light sample exists (the fields below are valid; [`light_lanes`] fills them).
-    pub has_light: bool,
-    /// Direction to the light.
-    pub light_wi: Vec3,
-    /// Radiance from the light sample.
-    pub light_li: Vec3,
-    /// Light pdf.
-    pub light_pdf: f32,
-    /// Delta light.
-    pub light_delta: bool,
-    /// Shadow ray origin.
-    pub shadow_origin: Vec3,
-    /// Shadow ray extent.
-    pub shadow_tmax: f32,
-    /// Shadow ray pass-through seed.
-    pub shadow_seed: u32,
+/// Eight shaded hits waiting for the lane kernels, in AoSoA form: phase 1 writes them lane by lane
+/// (each hit's values are at hand there), phase 2 reads whole columns, so nothing is transposed
+/// between the passes. Lanes past a chunk's last hit hold stale values whose results are never read.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct ScatterGroup {
+    /// Path indices.
+    pub index: [u32; LANES],
+    /// 1 where the hit is its path's first (its albedo goes to the first-hit AOV).
+    pub first: [u32; LANES],
+    /// The hits' shading inputs and normals.
+    pub inputs: InputLanes,
+    /// The BSDFs at the hits (phase 2 builds them from `inputs`), with the directions towards the
+    /// viewer (phase 1 writes those).
+    pub bsdf: BsdfLanes,
+    /// The paths' sampler keys at this vertex.
+    pub keys: KeyLanes,
+    /// Hit points, and the light choice and position samples (phase 2 draws those).
+    pub light: LightInputs,
+    /// Lobe choice and direction samples (drawn in phase 2).
+    pub u: SampleInputs,
+    /// Russian roulette samples (drawn in phase 2).
+    pub u_rr: Lanes,
+    /// Throughputs at the hits.
+    pub beta: Lanes3,
+    /// Cone widths at the hits.
+    pub footprint: Lanes,
+    /// 1 where Russian roulette is played after this bounce.
+    pub play: [u32; LANES],
 }
 
 /// Shades every queued hit, in chunks.
@@ -84,83 +78,91 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     w.next_rays.clear();
     w.occlusion.clear();
     let n = w.shade.len();
+    // The surfaces the sort kept; each chunk appends its rebuilt ones after them and drops them when
+    // done, so their memory is reused chunk after chunk (it stays in L2).
+    let kept = w.surfaces.len();
     let mut start = 0;
     while start < n {
         let end = (start + CHUNK).min(n);
-        draw(ctx, w, start, end);
-        w.clock.lap(Phase::Integration);
-        w.scatter.clear();
         surfaces(ctx, w, start, end);
         programs(ctx, w);
         for (pos, k) in (start..end).enumerate() {
             let i = sort::index(w.shade[k]);
             if super::intersect::is_curve(&w.hits[i as usize]) {
-                super::shade_curves::vertex(ctx, w, i, pos, rays);
+                super::shade_curves::vertex(ctx, w, i, rays);
             } else {
                 prepare(ctx, w, i, pos, rays);
+                if w.scatter_points == LANES {
+                    scatter(ctx, w, rays);
+                }
             }
         }
-        light_lanes::sample_scatter_points(ctx, w);
-        scatter(w, rays);
+        if w.scatter_points > 0 {
+            scatter(ctx, w, rays);
+        }
+        w.surfaces.truncate(kept);
         start = end;
     }
     rays.shadow += w.occlusion.len() as u64;
 }
 
-/// Phase 0: the random numbers of every queued path's vertex, eight paths at a time.
-fn draw<T>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
-    let seed_hash = hash_u32(ctx.options.seed);
-    let mut keys = KeyLanes::default();
-    w.randoms.clear();
-    for group in w.shade[start..end].chunks(LANES) {
-        for (k, &e) in group.iter().enumerate() {
-            let st = &w.states[sort::index(e) as usize];
-            (keys.pixel[k], keys.sample[k], keys.vertex[k]) = (st.pixel, st.sample, st.vertex);
-        }
-        let mut out = [[0.0; LANES]; DIMS];
-        sampler_lanes::vertex_lanes(seed_hash, &keys, &mut out);
-        w.randoms.push(out);
-    }
-}
-
 /// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt per hit (a lane version
-/// executed 1.8× the instructions of these calls; see the module docs of [`super`]).
+/// executed 1.8× the instructions of these calls; see the module docs of [`super`]). Rebuilt ones join
+/// the kept ones in `w.surfaces` until the chunk ends (a wave has at most one per path, so it never
+/// grows past its capacity) and the chunk records slots: a surface (~250 bytes) is written once and
+/// never moved.
 fn surfaces<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
     let scene: &Scene = ctx.scene;
-    w.chunk_surfaces.clear();
+    w.chunk_slots.clear();
     for &e in &w.shade[start..end] {
         let i = sort::index(e) as usize;
-        let slot = if ctx.textured { w.surface_slot[i] } else { u32::MAX };
-        let kept = if slot != u32::MAX { w.surfaces[slot as usize].take() } else { None };
         let (hit, st) = (&w.hits[i], &w.states[i]);
         if super::intersect::is_curve(hit) {
             // Curve and point hits build their own surface in `shade_curves`.
-            w.chunk_surfaces.push(None);
+            w.chunk_slots.push(NO_SURFACE);
             continue;
         }
-        w.chunk_surfaces.push(kept.or_else(|| scene.surface(hit, -st.dir, st.cone().width_at(hit.t))));
+        let kept = if ctx.textured { w.surface_slot[i] } else { NO_SURFACE };
+        let slot = if kept != NO_SURFACE {
+            kept
+        } else if let Some(s) = scene.surface(hit, -st.dir, st.cone().width_at(hit.t)) {
+            w.surfaces.push(Some(s));
+            (w.surfaces.len() - 1) as u32
+        } else {
+            NO_SURFACE // a degenerate triangle
+        };
+        w.chunk_slots.push(slot);
     }
     w.clock.lap(Phase::Shading);
+}
+
+/// A chunk slot without a surface: a curve or point hit, or a degenerate triangle.
+const NO_SURFACE: u32 = u32::MAX;
+
+/// The surface in chunk slot `slot`.
+#[inline]
+fn slot_surface(surfaces: &[Option<Surface>], slot: u32) -> Option<&Surface> {
+    surfaces.get(slot as usize).and_then(Option::as_ref)
 }
 
 /// Phase 1a, second half: the material programs of the chunk's surfaces, run by run of up to eight
 /// consecutive hits on one material (a lone hit runs the scalar program).
 fn programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene: &Scene = ctx.scene;
-    let n = w.chunk_surfaces.len();
+    let n = w.chunk_slots.len();
     w.chunk_inputs.clear();
     w.chunk_inputs.resize(n, None);
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let mut pos = 0;
     while pos < n {
-        let Some(material) = w.chunk_surfaces[pos].as_ref().map(|s| s.material) else {
+        let Some(material) = slot_surface(&w.surfaces, w.chunk_slots[pos]).map(|s| s.material) else {
             pos += 1;
             continue;
         };
         // The run: up to eight hits on `material` from `pos` on (degenerate hits skipped).
         let (mut members, mut count) = ([0usize; LANES], 0);
         while pos < n && count < LANES {
-            match &w.chunk_surfaces[pos] {
+            match slot_surface(&w.surfaces, w.chunk_slots[pos]) {
                 Some(s) if s.material != material => break,
                 Some(_) => {
                     members[count] = pos;
@@ -170,7 +172,8 @@ fn programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
             }
             pos += 1;
         }
-        let surface = |k: usize| w.chunk_surfaces[members[k]].as_ref().expect("members have surfaces");
+        let surface =
+            |k: usize| slot_surface(&w.surfaces, w.chunk_slots[members[k]]).expect("members have surfaces");
         if count == 1 {
             w.chunk_inputs[members[0]] = Some(scene.shade(surface(0), filter, touch));
         } else {
@@ -205,13 +208,16 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let max_depth = ctx.settings.max_depth;
     let hit = w.hits[i as usize];
     let st = &mut w.states[i as usize];
-    let r = |d: u32| w.randoms[pos / LANES][d as usize][pos % LANES];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
-    let (Some(mut s), Some(inputs)) = (w.chunk_surfaces[pos].take(), w.chunk_inputs[pos]) else { return };
+    let (Some(s), Some(inputs)) = (slot_surface(&w.surfaces, w.chunk_slots[pos]), w.chunk_inputs[pos]) else {
+        return;
+    };
 
     let opacity = inputs.effective_opacity();
-    if opacity < 1.0 && r(dim::OPACITY) >= opacity {
+    // The vertex's other random numbers are drawn in lanes in phase 2; this one decides phase 1.
+    let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed };
+    if opacity < 1.0 && sample_1d(key, st.vertex, dim::OPACITY) >= opacity {
         let origin = offset_ray_origin(s.p, -s.ng);
         if st.pass_through(hit.t, footprint, origin, max_depth) {
             rays.bounce += 1;
@@ -219,13 +225,16 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
         }
         return;
     }
-    if let Some(n) = inputs.normal {
-        s.ns = Scene::mapped_normal(&s, n, wo);
-    }
-    let bsdf = Bsdf::from_inputs(&inputs, s.ns, s.ng);
+    let ns = match inputs.normal {
+        Some(n) => Scene::mapped_normal(s, n, wo),
+        None => s.ns,
+    };
+    // The first hit's albedo comes from the BSDF, built in lanes in phase 2 (here only when the
+    // path ends at this hit).
     let first = &mut w.first_hits[i as usize];
-    if first.is_none() && st.bounces == 0 {
-        *first = Some(FirstHit { albedo: bsdf.diffuse_albedo(), normal: s.ns, depth: st.travelled + hit.t });
+    let is_first = first.is_none() && st.bounces == 0;
+    if is_first {
+        *first = Some(FirstHit { albedo: Vec3::ZERO, normal: ns, depth: st.travelled + hit.t });
     }
     let le = inputs.emissive_color.max(Vec3::ZERO);
     if le != Vec3::ZERO {
@@ -236,118 +245,164 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
         st.radiance += st.beta * le * mis;
     }
     if st.bounces >= max_depth {
+        if let (true, Some(first)) = (is_first, first.as_mut()) {
+            first.albedo = Bsdf::from_inputs(&inputs, ns, s.ng).diffuse_albedo();
+        }
         return;
     }
 
-    let point = ScatterPoint {
-        index: i,
-        bsdf,
-        wo,
-        p: s.p,
-        footprint,
-        u_lobe: r(dim::LOBE),
-        u_bsdf: [r(dim::BSDF_UV), r(dim::BSDF_UV + 1)],
-        u_rr: r(dim::RUSSIAN_ROULETTE),
-        u_light_select: r(dim::LIGHT_SELECT),
-        u_light: [r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1)],
-        has_light: false,
-        light_wi: Vec3::ZERO,
-        light_li: Vec3::ZERO,
-        light_pdf: 0.0,
-        light_delta: false,
-        shadow_origin: Vec3::ZERO,
-        shadow_tmax: 0.0,
-        shadow_seed: 0,
-    };
-    w.scatter.push(point);
+    let (beta, play) = (st.beta, (st.bounces + 1 >= RR_START_BOUNCE) as u32);
+    let (g, k) = (&mut *w.scatter, w.scatter_points);
+    g.index[k] = i;
+    g.first[k] = is_first as u32;
+    g.inputs.set(k, &inputs, ns, s.ng);
+    (g.bsdf.wo[0][k], g.bsdf.wo[1][k], g.bsdf.wo[2][k]) = (wo.x, wo.y, wo.z);
+    (g.light.p[0][k], g.light.p[1][k], g.light.p[2][k]) = (s.p.x, s.p.y, s.p.z);
+    (g.keys.pixel[k], g.keys.sample[k], g.keys.vertex[k]) = (st.pixel, st.sample, st.vertex);
+    (g.beta[0][k], g.beta[1][k], g.beta[2][k]) = (beta.x, beta.y, beta.z);
+    g.footprint[k] = footprint;
+    g.play[k] = play;
+    w.scatter_points += 1;
     w.clock.lap(Phase::Integration);
 }
 
-/// Phase 2: the lane kernels over the chunk's scatter points.
+/// `|n · w|` per lane (glam's `dot` order), the cosine the estimators weigh by.
+#[inline(always)]
+fn abs_cos_lanes(n: &Lanes3, w: &Lanes3, out: &mut Lanes) {
+    for k in 0..LANES {
+        out[k] = ((n[0][k] * w[0][k] + n[1][k] * w[1][k]) + n[2][k] * w[2][k]).abs();
+    }
+}
+
+/// Phase 2, run as soon as phase 1 has filled the scatter group (and on the chunk's last hits), so
+/// the group stays in L1: the lane kernels over its points. The light sample
+/// ([`light_lanes::sample_lanes`]; textured emitters read per lane), the BSDF towards it and the MIS
+/// weight (kept samples enter the occlusion queue), then the BSDF sample, throughput and roulette.
+// Lane loops index several columns by the same lane number.
 #[allow(clippy::needless_range_loop)]
-fn scatter(w: &mut Worker, rays: &mut RayCounts) {
-    let Worker { scatter, states, shadow, occlusion, next_rays, counters, clock, .. } = w;
-    let (mut bl, mut wi, mut u) = (BsdfLanes::default(), Lanes3::default(), SampleInputs::default());
+fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
+    let scene: &Scene = ctx.scene;
+    let table = (!scene.lights.is_empty()).then(|| scene.lights.lane_table());
+    let (filter, touch) = (ctx.settings.filter, ctx.touch);
+    let seed_hash = hash_u32(ctx.options.seed);
+    let Worker {
+        scatter,
+        scatter_points,
+        states,
+        first_hits,
+        shadow,
+        occlusion,
+        next_rays,
+        counters,
+        clock,
+        ..
+    } = w;
+    let (g, len) = (&mut **scatter, std::mem::take(scatter_points));
+    // Without lights every lane's sample stays absent (these zeros are never read).
+    let mut ls = LightSampleLanes::default();
     let (mut ev, mut smp) = (EvalLanes::default(), SampleLanes::default());
     let (mut nl, mut nout) = (NeeLanes::default(), NeeOut::default());
     let (mut rl, mut rout) = (RouletteLanes::default(), RouletteOut::default());
-    for group in scatter.chunks(LANES) {
-        // Transpose (AoS → AoSoA). Lanes past the group's end keep the previous group's values: their
-        // results are never read.
-        let mut lights = 0;
-        for (k, sp) in group.iter().enumerate() {
-            bl.set(k, &sp.bsdf, sp.wo);
-            let st = &states[sp.index as usize];
-            for c in 0..3 {
-                wi[c][k] = sp.light_wi[c];
-                nl.beta[c][k] = st.beta[c];
-                nl.li[c][k] = sp.light_li[c];
-                rl.beta[c][k] = st.beta[c];
-            }
-            nl.cos[k] = sp.bsdf.frame.n.dot(sp.light_wi).abs();
-            nl.light_pdf[k] = sp.light_pdf;
-            nl.delta[k] = sp.light_delta as u32;
-            u.u_lobe[k] = sp.u_lobe;
-            [u.u0[k], u.u1[k]] = sp.u_bsdf;
-            rl.u[k] = sp.u_rr;
-            rl.play[k] = (st.bounces + 1 >= RR_START_BOUNCE) as u32;
-            lights += sp.has_light as u64;
-        }
-        clock.lap(Phase::Overhead);
-        counters.bsdf_lane_groups += 1;
-        counters.bsdf_lanes_active += group.len() as u64;
-        counters.light_lanes_active += lights;
+    let mut origin = Lanes3::default();
+    let at = |c: &Lanes3, k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
 
-        // Next-event estimation: BSDF towards the light, then the MIS weight.
-        bsdf_lanes::eval_lanes(&bl, &wi, &mut ev);
-        nl.f = ev.f;
-        nl.bsdf_pdf = ev.pdf;
-        lanes::weigh_lanes(&nl, &mut nout);
-        for (k, sp) in group.iter().enumerate() {
-            if sp.has_light && nout.keep[k] != 0 {
-                let contribution =
-                    Vec3::new(nout.contribution[0][k], nout.contribution[1][k], nout.contribution[2][k]);
-                shadow[sp.index as usize] = ShadowRay {
-                    origin: sp.shadow_origin,
-                    dir: sp.light_wi,
-                    tmax: sp.shadow_tmax,
-                    contribution,
-                    seed: sp.shadow_seed,
-                };
-                occlusion.push(sp.index);
-            }
-        }
+    // The vertex's random numbers, eight paths at a time, straight into the kernels' columns.
+    let mut u = [[0.0; LANES]; DIMS];
+    sampler_lanes::vertex_lanes(seed_hash, &g.keys, &mut u);
+    let d = |d: u32| u[d as usize];
+    (g.light.u_select, g.light.u) = (d(dim::LIGHT_SELECT), [d(dim::LIGHT_UV), d(dim::LIGHT_UV + 1)]);
+    (g.u.u_lobe, g.u.u0, g.u.u1) = (d(dim::LOBE), d(dim::BSDF_UV), d(dim::BSDF_UV + 1));
+    g.u_rr = d(dim::RUSSIAN_ROULETTE);
 
-        // BSDF sampling, throughput and Russian roulette: the continuation rays.
-        bsdf_lanes::sample_lanes(&bl, &u, &mut smp);
-        rl.f = smp.f;
-        rl.pdf = smp.pdf;
-        for k in 0..group.len() {
-            let n = group[k].bsdf.frame.n;
-            rl.cos[k] = n.dot(Vec3::new(smp.wi[0][k], smp.wi[1][k], smp.wi[2][k])).abs();
-        }
-        roulette::continue_lanes(&rl, &mut rout);
-        for (k, sp) in group.iter().enumerate() {
-            if smp.ok[k] == 0 {
-                continue;
+    // The BSDFs, the first hits' albedos, and the origin of both rays leaving each hit.
+    bsdf_lanes::from_inputs_lanes(&g.inputs, &mut g.bsdf);
+    for k in 0..len {
+        if g.first[k] != 0 {
+            if let Some(first) = first_hits[g.index[k] as usize].as_mut() {
+                first.albedo = at(&g.bsdf.diffuse, k);
             }
-            let st = &mut states[sp.index as usize];
-            st.beta = Vec3::new(rout.beta[0][k], rout.beta[1][k], rout.beta[2][k]);
-            st.prev_p = sp.p;
-            st.prev_pdf = smp.pdf[k];
-            st.bounces += 1;
-            if rout.alive[k] == 0 {
-                continue;
-            }
-            st.vertex += 1;
-            st.origin = offset_ray_origin(sp.p, sp.bsdf.ng);
-            st.dir = Vec3::new(smp.wi[0][k], smp.wi[1][k], smp.wi[2][k]);
-            st.travelled = 0.0;
-            st.cone_width = sp.footprint;
-            st.cone_spread += CONE_WIDEN_PER_ALPHA * smp.lobe_alpha[k];
-            rays.bounce += 1;
-            next_rays.push(sp.index);
         }
-        clock.lap(Phase::Integration);
     }
+    lanes::offset_origin_lanes(&g.light.p, &g.bsdf.ng, &mut origin);
+
+    // Next-event estimation: the light sample, the BSDF towards it, the MIS weight.
+    let mut has_light = [false; LANES];
+    if let Some(table) = table {
+        light_lanes::sample_lanes(table, &g.light, &mut ls);
+        for k in 0..len {
+            // Textured domes sample by their map on the scalar path (the kernel has no map lookups).
+            if scene.lights.is_textured_dome(g.light.u_select[k]) {
+                let u = [g.light.u[0][k], g.light.u[1][k]];
+                let s = scene.lights.sample(at(&g.light.p, k), g.light.u_select[k], u);
+                ls.ok[k] = s.is_some() as u32;
+                if let Some(s) = s {
+                    for c in 0..3 {
+                        (ls.wi[c][k], ls.li[c][k]) = (s.wi[c], s.li[c]);
+                    }
+                    (ls.distance[k], ls.pdf[k], ls.delta[k]) = (s.distance, s.pdf, 0);
+                    ls.triangle[k] = blob::NONE;
+                }
+            }
+            if ls.ok[k] == 0 {
+                continue;
+            }
+            has_light[k] = true;
+            if ls.triangle[k] != blob::NONE {
+                let li = scene.emission_at(ls.triangle[k], ls.b[0][k], ls.b[1][k], filter, touch);
+                (ls.li[0][k], ls.li[1][k], ls.li[2][k]) = (li.x, li.y, li.z);
+            }
+        }
+    }
+    counters.bsdf_lane_groups += 1;
+    counters.bsdf_lanes_active += len as u64;
+    counters.light_lanes_active += has_light.iter().filter(|&&h| h).count() as u64;
+    bsdf_lanes::eval_lanes(&g.bsdf, &ls.wi, &mut ev);
+    (nl.beta, nl.f, nl.li) = (g.beta, ev.f, ls.li);
+    (nl.light_pdf, nl.bsdf_pdf, nl.delta) = (ls.pdf, ev.pdf, ls.delta);
+    abs_cos_lanes(&g.bsdf.n, &ls.wi, &mut nl.cos);
+    lanes::weigh_lanes(&nl, &mut nout);
+    for k in 0..len {
+        if !has_light[k] || nout.keep[k] == 0 {
+            continue;
+        }
+        let (i, p, origin) = (g.index[k] as usize, at(&g.light.p, k), at(&origin, k));
+        let st = &states[i];
+        shadow[i] = ShadowRay {
+            origin,
+            dir: at(&ls.wi, k),
+            tmax: shadow_tmax(ls.distance[k], origin, p),
+            contribution: at(&nout.contribution, k),
+            seed: hash_combine(hash_combine(seed_hash, st.pixel), st.sample) ^ st.vertex,
+        };
+        occlusion.push(i as u32);
+    }
+
+    // BSDF sampling, throughput and Russian roulette: the continuation rays.
+    bsdf_lanes::sample_lanes(&g.bsdf, &g.u, &mut smp);
+    (rl.beta, rl.f, rl.pdf, rl.u, rl.play) = (g.beta, smp.f, smp.pdf, g.u_rr, g.play);
+    abs_cos_lanes(&g.bsdf.n, &smp.wi, &mut rl.cos);
+    roulette::continue_lanes(&rl, &mut rout);
+    for k in 0..len {
+        if smp.ok[k] == 0 {
+            continue;
+        }
+        let p = at(&g.light.p, k);
+        let st = &mut states[g.index[k] as usize];
+        st.beta = at(&rout.beta, k);
+        st.prev_p = p;
+        st.prev_pdf = smp.pdf[k];
+        st.bounces += 1;
+        if rout.alive[k] == 0 {
+            continue;
+        }
+        st.vertex += 1;
+        st.origin = at(&origin, k);
+        st.dir = at(&smp.wi, k);
+        st.travelled = 0.0;
+        st.cone_width = g.footprint[k];
+        st.cone_spread += CONE_WIDEN_PER_ALPHA * smp.lobe_alpha[k];
+        rays.bounce += 1;
+        next_rays.push(g.index[k]);
+    }
+    clock.lap(Phase::Integration);
 }

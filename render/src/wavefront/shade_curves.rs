@@ -2,35 +2,29 @@
 //! one hit at a time. A fibre's Chiang hair BSDF ([`crate::hair`]) has no lane kernel, and its rays
 //! leave the fibre from beyond its diameter rather than from an offset along the normal, so these
 //! hits skip the AoS → AoSoA scatter phase: each computes its light sample, MIS weight, BSDF sample
-//! and Russian roulette here, with the random numbers phase 0 drew for it, and queues its shadow ray
+//! and Russian roulette here, with the scalar sampler's random numbers, and queues its shadow ray
 //! and continuation like the lanes do. Points (UsdPreviewSurface with per-point colours) come along
 //! for the same ray offsets. The operations are the scalar integrator's, in its order, so the image
 //! stays bit for bit the scalar one.
 
-use super::lanes::LANES;
 use super::{Context, ShadowRay, Worker};
 use crate::integrator::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::lights::power_heuristic;
-use crate::sampler::{dim, hash_combine, hash_u32};
+use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, SampleKey};
 use crate::stats::Phase;
 use glam::Vec3;
 use texture::Touch;
 
-/// Shades path `i`'s curve or point hit, the `pos`-th of its chunk: emission, the light sample (into
+/// Shades path `i`'s curve or point hit: emission, the light sample (into
 /// the occlusion queue) and the continuation (into the next ray queue).
-pub(super) fn vertex<T: Touch>(
-    ctx: &Context<'_, '_, T>,
-    w: &mut Worker,
-    i: u32,
-    pos: usize,
-    rays: &mut RayCounts,
-) {
+pub(super) fn vertex<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, rays: &mut RayCounts) {
     let scene = ctx.scene;
     let (max_depth, filter, touch) = (ctx.settings.max_depth, ctx.settings.filter, ctx.touch);
     let hit = w.curve_hits[i as usize];
     let st = &mut w.states[i as usize];
-    let randoms = &w.randoms[pos / LANES];
-    let r = |d: u32| randoms[d as usize][pos % LANES];
+    // The scalar sampler (equal to the lanes bit for bit): curve hits are not in scatter groups.
+    let (key, vertex) = (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed }, st.vertex);
+    let r = |d: u32| sample_1d(key, vertex, d);
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
     let mut s = scene.curve_surface(&hit, wo);
