@@ -34,6 +34,7 @@
 #![deny(missing_docs)]
 
 pub mod accel;
+pub mod area_groups;
 pub mod bsdf;
 pub mod camera;
 pub mod cli;

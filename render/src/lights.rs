@@ -21,6 +21,7 @@
 //! (which are then chosen by the blob's power-proportional distribution). Uniform selection needs no
 //! power estimate for infinite lights (dome, distant), whose "power" depends on the scene's extent.
 
+use crate::area_groups;
 use crate::bsdf::{sample_concentric_disk, Frame};
 use crate::camera::affine_from_rows;
 use crate::dome_map::DomeMap;
@@ -119,8 +120,11 @@ pub struct Lights<'a> {
     lights: Vec<Light>,
     /// The textured domes' maps, by [`Shape::TexturedDome::map`].
     dome_maps: Vec<DomeMap<'a>>,
-    /// Indices into `lights` of the rect/disk/sphere lights rays can hit.
+    /// Indices into `lights` of the rect/disk/sphere lights rays can hit, in the order rays sum
+    /// their emission ([`area_groups::morton_order`]).
     area: Vec<usize>,
+    /// The box of each run of [`area_groups::GROUP`] lights of `area`.
+    area_boxes: Vec<area_groups::GroupBox>,
     /// Indices into `lights` of the dome and non-delta distant lights escaping rays can see.
     infinite: Vec<usize>,
     select_pmf: f32,
@@ -258,6 +262,18 @@ impl Light {
 
     /// Ray parameter and emitted radiance where a ray from `o` along unit `d` meets this area light
     /// before `tmax`.
+    /// World bounds of a light rays can hit (rect, disk, sphere); `None` for the others.
+    fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        match self.shape {
+            Shape::Sphere { center, radius } => Some((center - radius, center + radius)),
+            Shape::Rect { center, ex, ey, .. } | Shape::Disk { center, ex, ey, .. } => {
+                let half = ex.abs() + ey.abs();
+                Some((center - half, center + half))
+            }
+            _ => None,
+        }
+    }
+
     fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, Vec3)> {
         match self.shape {
             Shape::Sphere { center, radius } => {
@@ -337,10 +353,12 @@ impl<'a> Lights<'a> {
         if !view.emissive_triangles.is_empty() {
             lights.push(Light { shape: Shape::Triangles, radiance: Vec3::ONE });
         }
-        let area = (0..lights.len())
-            .filter(|&i| {
-                matches!(lights[i].shape, Shape::Sphere { .. } | Shape::Rect { .. } | Shape::Disk { .. })
-            })
+        let area_bounds: Vec<(usize, Vec3, Vec3)> =
+            (0..lights.len()).filter_map(|i| lights[i].bounds().map(|(lo, hi)| (i, lo, hi))).collect();
+        let area = area_groups::morton_order(&area_bounds);
+        let area_boxes = area
+            .chunks(area_groups::GROUP)
+            .map(|group| area_groups::group_box(group.iter().filter_map(|&i| lights[i].bounds())))
             .collect();
         let infinite = (0..lights.len())
             .filter(|&i| match lights[i].shape {
@@ -357,6 +375,7 @@ impl<'a> Lights<'a> {
             lights,
             dome_maps,
             area,
+            area_boxes,
             infinite,
             emissive: view.emissive_triangles,
             emissive_by_triangle,
@@ -565,10 +584,16 @@ impl<'a> Lights<'a> {
     /// `prev = None` for camera rays (weight 1).
     pub fn area_emission(&self, o: Vec3, d: Vec3, tmax: f32, prev: Option<(Vec3, f32)>) -> Vec3 {
         let mut sum = Vec3::ZERO;
-        for &i in &self.area {
-            let light = &self.lights[i];
-            if let Some((t, le)) = light.intersect(o, d, tmax) {
-                sum += self.area_term(light, le, o, d, t, prev);
+        let (o_a, inv_d) = (o.to_array(), d.recip().to_array());
+        for (group, b) in self.area.chunks(area_groups::GROUP).zip(&self.area_boxes) {
+            if !area_groups::ray_meets(b, o_a, inv_d, tmax) {
+                continue;
+            }
+            for &i in group {
+                let light = &self.lights[i];
+                if let Some((t, le)) = light.intersect(o, d, tmax) {
+                    sum += self.area_term(light, le, o, d, t, prev);
+                }
             }
         }
         sum
@@ -578,6 +603,11 @@ impl<'a> Lights<'a> {
     /// lane kernel tests them eight at a time).
     pub(crate) fn area_lights(&self) -> impl Iterator<Item = &Light> {
         self.area.iter().map(|&i| &self.lights[i])
+    }
+
+    /// The box of each run of [`area_groups::GROUP`] lights of [`Lights::area_lights`].
+    pub(crate) fn area_boxes(&self) -> &[area_groups::GroupBox] {
+        &self.area_boxes
     }
 
     /// What [`Lights::area_emission`] adds for `light` (radiance `le`) met at `t`.
@@ -663,6 +693,7 @@ mod tests {
             lights: records.iter().map(Light::from_blob).collect(),
             dome_maps: vec![],
             area: vec![],
+            area_boxes: vec![],
             infinite: vec![],
             select_pmf: 1.0 / records.len() as f32,
             emissive: &[],
@@ -748,5 +779,93 @@ mod tests {
                 assert!((pdf / s.pdf - 1.0).abs() < 1e-2, "kind {kind}: {pdf} vs {}", s.pdf);
             }
         }
+    }
+
+    /// Culling by group boxes never drops a light a ray meets: the emission equals the sum over
+    /// every area light in the same order, bit for bit, on rays aimed at light centres and at points
+    /// on their edges (grazing), from outside and from inside the lights' boxes.
+    #[test]
+    fn culled_area_emission_equals_the_sum_over_every_light() {
+        let mut rng = Rng(11);
+        let mut u = || rng.next_f32();
+        let mut records = Vec::new();
+        for i in 0..100 {
+            let kind = [blob::light_kind::SPHERE, blob::light_kind::RECT, blob::light_kind::DISK][i % 3];
+            let (tx, ty, tz) = (20.0 * u() - 10.0, 20.0 * u() - 10.0, 20.0 * u() - 10.0);
+            let (a, b) = (u() * 3.0, u() * 3.0);
+            let (ca, sa, cb, sb) = (a.cos(), a.sin(), b.cos(), b.sin());
+            records.push(blob::Light {
+                kind,
+                radiance: [1.0 + u(), 2.0 * u(), u()],
+                radius: 0.05 + 0.3 * u(),
+                width: 0.1 + 0.5 * u(),
+                height: 0.1 + 0.5 * u(),
+                world_from_light: [
+                    [cb, 0.0, sb, tx],
+                    [sa * sb, ca, -sa * cb, ty],
+                    [-ca * sb, sa, ca * cb, tz],
+                ],
+                ..Default::default()
+            });
+        }
+        let mut data = blob::SceneData::default();
+        data.info.default_camera = blob::NONE;
+        data.info.dome_light = blob::NONE;
+        data.lights = records;
+        let bytes = blob::AlignedBytes::copy_from(&data.encode());
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        let lights = Lights::new(&view);
+        assert_eq!(lights.area.len(), 100);
+        assert_eq!(lights.area_boxes.len(), 13);
+        let brute = |o: Vec3, d: Vec3, tmax: f32, prev| {
+            let mut sum = Vec3::ZERO;
+            for &i in &lights.area {
+                let light = &lights.lights[i];
+                if let Some((t, le)) = light.intersect(o, d, tmax) {
+                    sum += lights.area_term(light, le, o, d, t, prev);
+                }
+            }
+            sum
+        };
+        let (mut met, mut skipped_groups) = (0, 0u64);
+        for i in 0..40_000 {
+            let light = &lights.lights[lights.area[i % 100]];
+            let (lo, hi) = light.bounds().unwrap();
+            let center = (lo + hi) * 0.5;
+            // A point on the light's edge for grazing rays: the sphere's silhouette or a rect corner.
+            let target = match light.shape {
+                Shape::Sphere { center, radius } => center + uniform_sphere([u(), u()]) * radius,
+                Shape::Rect { center, ex, ey, .. } => {
+                    center + ex * if u() < 0.5 { 1.0 } else { -1.0 } + ey * (2.0 * u() - 1.0)
+                }
+                Shape::Disk { center, ex, ey, .. } => {
+                    let phi = TAU * u();
+                    center + ex * phi.cos() + ey * phi.sin()
+                }
+                _ => unreachable!(),
+            };
+            let o = if i % 5 == 0 {
+                center + (hi - lo) * 0.25
+            } else {
+                Vec3::new(30.0 * u() - 15.0, 30.0 * u() - 15.0, 30.0 * u() - 15.0)
+            };
+            let d = (if i % 2 == 0 { target } else { center } - o).normalize_or(Vec3::Z);
+            let tmax = if i % 3 == 0 { f32::INFINITY } else { 40.0 * u() };
+            let prev = (i % 2 == 0).then(|| (o - d * u(), 4.0 * u()));
+            let expected = brute(o, d, tmax, prev);
+            let got = lights.area_emission(o, d, tmax, prev);
+            assert_eq!(
+                got.to_array().map(f32::to_bits),
+                expected.to_array().map(f32::to_bits),
+                "ray {i}: o {o} d {d}"
+            );
+            met += (expected != Vec3::ZERO) as u32;
+            let (oa, inv) = (o.to_array(), d.recip().to_array());
+            skipped_groups +=
+                lights.area_boxes.iter().filter(|b| !area_groups::ray_meets(b, oa, inv, tmax)).count() as u64;
+        }
+        assert!(met > 15_000, "only {met} rays met a light");
+        // The culling must actually cull: most groups are skipped by most rays.
+        assert!(skipped_groups > 40_000 * 13 / 2, "skipped {skipped_groups} group tests");
     }
 }

@@ -1,15 +1,17 @@
 //! Emission a ray picks up from the area lights it crosses ([`crate::lights::Lights::area_emission`],
 //! the scalar reference), with the ray–light tests eight lights at a time.
 //!
-//! Every camera and BSDF ray tests every rect, disk and sphere light analytically, so with dozens of
-//! lights this loop outweighs the BVH query (48 sphere lights: 29 % of the shading-heavy bench scene's
-//! instructions). The lane kernel runs the sphere and the planar test of [`crate::lights`] with the
+//! Every camera and BSDF ray tests the rect, disk and sphere lights analytically (those of the groups
+//! whose box it meets, [`crate::area_groups`]), so with dozens of lights this loop outweighs the BVH
+//! query (48 sphere lights: 29 % of the shading-heavy bench scene's instructions before the group
+//! culling). The lane kernel runs the sphere and the planar test of [`crate::lights`] with the
 //! same IEEE operations in the same order on eight lights (each lane keeps the one its light's kind
 //! needs), and the lights it hits add their MIS-weighted emission through the scalar
 //! [`crate::lights::Lights::area_term`] in list order, so the sum equals the scalar one bit for bit.
 
 use super::bsdf_lanes::{Lanes, Lanes3};
 use super::lanes::LANES;
+use crate::area_groups::{ray_meets, GroupBox};
 use crate::lights::{Light, Lights, Shape};
 use glam::Vec3;
 
@@ -46,6 +48,8 @@ pub const KIND_DISK: u32 = 3;
 #[derive(Clone, Debug, Default)]
 pub struct AreaLightLanes {
     groups: Vec<LightGroup>,
+    /// Each group's box ([`crate::area_groups`]): a ray that misses it skips the group.
+    boxes: Vec<GroupBox>,
     /// The lights in [`Lights::area_lights`] order (lane `k` of group `g` is light `8g + k`).
     lights: Vec<Light>,
     /// Per group: hit distances and hit mask of the current ray (scratch, allocated once).
@@ -85,7 +89,9 @@ impl AreaLightLanes {
             groups.push(g);
         }
         let n = groups.len();
-        AreaLightLanes { groups, lights: all, t: vec![[0.0; LANES]; n], masks: vec![0; n] }
+        let boxes = lights.area_boxes().to_vec();
+        debug_assert_eq!(boxes.len(), n, "one box per group of eight");
+        AreaLightLanes { groups, boxes, lights: all, t: vec![[0.0; LANES]; n], masks: vec![0; n] }
     }
 
     /// Whether there is no area light (rays then pick up nothing).
@@ -107,7 +113,8 @@ impl AreaLightLanes {
         if self.groups.is_empty() {
             return sum;
         }
-        hit_groups(&self.groups, o.to_array(), d.to_array(), tmax, &mut self.t, &mut self.masks);
+        let ray = (o.to_array(), d.to_array(), d.recip().to_array());
+        hit_groups(&self.groups, &self.boxes, ray, tmax, &mut self.t, &mut self.masks);
         for (g, &mask) in self.masks.iter().enumerate() {
             let mut hits = mask;
             while hits != 0 {
@@ -121,18 +128,25 @@ impl AreaLightLanes {
     }
 }
 
-/// [`hit_lanes`] over every group, one dispatch per ray.
+/// [`hit_lanes`] over every group whose box the ray (origin, direction, inverse direction) meets,
+/// one dispatch per ray.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn hit_groups(
     groups: &[LightGroup],
-    o: [f32; 3],
-    d: [f32; 3],
+    boxes: &[GroupBox],
+    (o, d, inv_d): ([f32; 3], [f32; 3], [f32; 3]),
     tmax: f32,
     t: &mut [[f32; LANES]],
     masks: &mut [u32],
 ) {
-    for ((g, t), mask) in groups.iter().zip(t.iter_mut()).zip(masks.iter_mut()) {
-        *mask = if g.spheres_only { hit_spheres(g, o, d, tmax, t) } else { hit_lanes(g, o, d, tmax, t) };
+    for (((g, b), t), mask) in groups.iter().zip(boxes).zip(t.iter_mut()).zip(masks.iter_mut()) {
+        *mask = if !ray_meets(b, o, inv_d, tmax) {
+            0
+        } else if g.spheres_only {
+            hit_spheres(g, o, d, tmax, t)
+        } else {
+            hit_lanes(g, o, d, tmax, t)
+        };
     }
 }
 

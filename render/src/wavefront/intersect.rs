@@ -1,7 +1,7 @@
-//! Stage 2: closest hits for the ray queue. Reads the ray queue; adds the emission each ray finds
-//! (area lights it crosses, and on escape the dome and distant lights) to its path; writes the hit side
-//! tables and the shade queue (`key << 32 | index`, unsorted; [`sort_keys`] fills the keys). Escaped
-//! paths leave the wave here.
+//! Stage 2: closest hits for the ray queue. Reads the ray queue and writes the hit side tables
+//! ([`closest`]); then adds the emission each ray finds (area lights it crosses, and on escape the
+//! dome and distant lights) to its path and writes the shade queue (`key << 32 | index`, unsorted;
+//! [`sort_keys`] fills the keys), batch by batch. Escaped paths leave the wave here.
 //!
 //! Curves and points have their own BVH ([`crate::curves`]). As in the scalar integrator, a ray first
 //! finds its closest triangle, then asks the curves for a hit nearer than that one; a curve hit wins
@@ -12,16 +12,20 @@ use super::{sort, Context, Worker};
 use crate::accel::Hit;
 use crate::curves::CurveHit;
 use crate::scene::Scene;
+use crate::stats::Phase;
 use texture::Touch;
 
+/// Rays intersected before their emission is added: few enough that their path states are still
+/// in L1 for the emission pass, many enough that the two clock reads per batch (`--stats`) cost
+/// nothing measurable.
+const BATCH: usize = 64;
+
 /// Intersects every queued ray, one ray at a time: packets ([`super::packet`]) did not pay here.
-///
-/// With `--stats` the whole stage counts as intersection, including the emission found along the
-/// rays, which the scalar integrator charges to shading (timing each ray's two parts would put two
-/// clock reads per ray into the figures: they inflated the simple scene's shading share from 5 % to
-/// 33 %). On the shading-heavy scene (48 sphere lights) that emission is ~120 M of the wavefront's
-/// 953 M instructions (cachegrind, 120×80, 8 spp), about a quarter of the ~510 M its phase table
-/// calls intersection; the BVH queries themselves run the same instructions as the scalar ones.
+/// Then adds the emission each ray found ([`emission`]), batch by batch, so that `--stats` charges
+/// that to shading as the scalar integrator does (timing each ray's two parts would put two clock
+/// reads per ray into the figures: they inflated the simple scene's shading share from 5 % to 33 %;
+/// one pass over the whole queue for each read the path states twice, ~5 % slower on the
+/// shading-heavy scene).
 ///
 /// Lost (kept out): ordering the queue before traversal by direction octant, then Morton code of
 /// the origin (a sort of `key << 32 | index` in the radix scratch): the same image, the BVH queries
@@ -32,24 +36,44 @@ use texture::Touch;
 pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene = ctx.scene;
     w.shade.clear();
-    for &i in &w.rays {
+    let rays = std::mem::take(&mut w.rays);
+    for batch in rays.chunks(BATCH) {
+        for &i in batch {
+            let st = &w.states[i as usize];
+            let hit = scene.accel.closest_hit(st.origin, st.dir, f32::INFINITY);
+            let curve = scene.curves.closest_hit(st.origin, st.dir, hit.map_or(f32::INFINITY, |h| h.t));
+            w.hits[i as usize] = match (curve, hit) {
+                (Some(c), _) => {
+                    w.curve_hits[i as usize] = c;
+                    Hit { t: c.t, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE }
+                }
+                (None, Some(h)) => h,
+                (None, None) => MISS,
+            };
+        }
+        w.clock.lap(Phase::Intersect);
+        emission(scene, w, batch);
+        w.clock.lap(Phase::Shading);
+    }
+    w.rays = rays;
+}
+
+/// A ray that met nothing: the only hit with an infinite `t` (a triangle or curve hit lies below
+/// the ray's infinite `tmax`).
+const MISS: Hit = Hit { t: f32::INFINITY, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE };
+
+/// The emission each ray of `batch` found: the area lights it crosses before its hit and, when it
+/// escaped, the dome and distant lights. Hits enter the shade queue; escaped paths leave the wave.
+fn emission(scene: &Scene, w: &mut Worker, batch: &[u32]) {
+    for &i in batch {
         let st = &mut w.states[i as usize];
-        let hit = scene.accel.closest_hit(st.origin, st.dir, f32::INFINITY);
-        let curve = scene.curves.closest_hit(st.origin, st.dir, hit.map_or(f32::INFINITY, |h| h.t));
-        let t_hit = curve.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
+        let t_hit = w.hits[i as usize].t;
         let prev = st.prev();
         st.radiance += st.beta * w.area_lights.emission(&scene.lights, st.origin, st.dir, t_hit, prev);
-        w.hits[i as usize] = match (curve, hit) {
-            (Some(c), _) => {
-                w.curve_hits[i as usize] = c;
-                Hit { t: c.t, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE }
-            }
-            (None, Some(h)) => h,
-            (None, None) => {
-                st.radiance += st.beta * scene.lights.escaped_emission(st.dir, prev.map(|p| p.1));
-                continue;
-            }
-        };
+        if t_hit == f32::INFINITY {
+            st.radiance += st.beta * scene.lights.escaped_emission(st.dir, prev.map(|p| p.1));
+            continue;
+        }
         w.shade.push(sort::entry(0, i));
     }
 }

@@ -433,7 +433,6 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
         w.clock.lap(Phase::Overhead);
         while !w.rays.is_empty() {
             timed(&mut secs.intersect, || intersect::closest(ctx, w));
-            w.clock.lap(Phase::Intersect);
             timed(&mut secs.sort, || intersect::sort_keys(ctx, w));
             w.clock.lap(Phase::Shading);
             timed(&mut secs.sort, || sort::shade_queue(ctx.scene, w));
