@@ -788,31 +788,8 @@ mod tests {
     fn culled_area_emission_equals_the_sum_over_every_light() {
         let mut rng = Rng(11);
         let mut u = || rng.next_f32();
-        let mut records = Vec::new();
-        for i in 0..100 {
-            let kind = [blob::light_kind::SPHERE, blob::light_kind::RECT, blob::light_kind::DISK][i % 3];
-            let (tx, ty, tz) = (20.0 * u() - 10.0, 20.0 * u() - 10.0, 20.0 * u() - 10.0);
-            let (a, b) = (u() * 3.0, u() * 3.0);
-            let (ca, sa, cb, sb) = (a.cos(), a.sin(), b.cos(), b.sin());
-            records.push(blob::Light {
-                kind,
-                radiance: [1.0 + u(), 2.0 * u(), u()],
-                radius: 0.05 + 0.3 * u(),
-                width: 0.1 + 0.5 * u(),
-                height: 0.1 + 0.5 * u(),
-                world_from_light: [
-                    [cb, 0.0, sb, tx],
-                    [sa * sb, ca, -sa * cb, ty],
-                    [-ca * sb, sa, ca * cb, tz],
-                ],
-                ..Default::default()
-            });
-        }
-        let mut data = blob::SceneData::default();
-        data.info.default_camera = blob::NONE;
-        data.info.dome_light = blob::NONE;
-        data.lights = records;
-        let bytes = blob::AlignedBytes::copy_from(&data.encode());
+        let records = crate::testscene::area_light_records(100, 10.0, (0.05, 0.3), (0.1, 0.5), &mut u);
+        let bytes = crate::testscene::lights_only(records);
         let view = blob::SceneView::parse(&bytes).expect("valid blob");
         let lights = Lights::new(&view);
         assert_eq!(lights.area.len(), 100);

@@ -229,3 +229,46 @@ pub fn instanced_spheres(count: usize, seed: u64) -> Scene {
 pub fn pack(scene: &Scene) -> SceneData {
     ingest::pack::pack(scene).expect("test scenes are valid")
 }
+
+/// Randomly placed and turned area lights (sphere, rect, disk in turn) for the emission tests:
+/// centres within `spread` of the origin, sphere radii `radius.0 + radius.1·u`, rect/disk sides
+/// `side.0 + side.1·u`; `u` draws uniform numbers in [0, 1).
+pub fn area_light_records(
+    count: usize,
+    spread: f32,
+    radius: (f32, f32),
+    side: (f32, f32),
+    u: &mut impl FnMut() -> f32,
+) -> Vec<blob::Light> {
+    (0..count)
+        .map(|i| {
+            let kind = [blob::light_kind::SPHERE, blob::light_kind::RECT, blob::light_kind::DISK][i % 3];
+            let mut at = || spread * (2.0 * u() - 1.0);
+            let (tx, ty, tz) = (at(), at(), at());
+            let (a, b) = (u() * 3.0, u() * 3.0);
+            let (ca, sa, cb, sb) = (a.cos(), a.sin(), b.cos(), b.sin());
+            blob::Light {
+                kind,
+                radiance: [1.0 + u(), 2.0 * u(), u()],
+                radius: radius.0 + radius.1 * u(),
+                width: side.0 + side.1 * u(),
+                height: side.0 + side.1 * u(),
+                world_from_light: [
+                    [cb, 0.0, sb, tx],
+                    [sa * sb, ca, -sa * cb, ty],
+                    [-ca * sb, sa, ca * cb, tz],
+                ],
+                ..Default::default()
+            }
+        })
+        .collect()
+}
+
+/// A blob holding only `lights` (no camera, no geometry).
+pub fn lights_only(lights: Vec<blob::Light>) -> AlignedBytes {
+    let mut data = SceneData::default();
+    data.info.default_camera = blob::NONE;
+    data.info.dome_light = blob::NONE;
+    data.lights = lights;
+    encode(&data)
+}

@@ -227,31 +227,8 @@ mod tests {
             (x >> 8) as f32 / 16_777_216.0
         };
         // 19 lights of all three kinds (three groups, the last one partly empty).
-        let mut records = Vec::new();
-        for i in 0..19 {
-            let kind = [blob::light_kind::SPHERE, blob::light_kind::RECT, blob::light_kind::DISK][i % 3];
-            let (tx, ty, tz) = (4.0 * u() - 2.0, 4.0 * u() - 2.0, 4.0 * u() - 2.0);
-            let (a, b) = (u() * 3.0, u() * 3.0);
-            let (ca, sa, cb, sb) = (a.cos(), a.sin(), b.cos(), b.sin());
-            records.push(blob::Light {
-                kind,
-                radiance: [1.0 + u(), 2.0 * u(), u()],
-                radius: 0.1 + 0.5 * u(),
-                width: 0.2 + u(),
-                height: 0.2 + u(),
-                world_from_light: [
-                    [cb, 0.0, sb, tx],
-                    [sa * sb, ca, -sa * cb, ty],
-                    [-ca * sb, sa, ca * cb, tz],
-                ],
-                ..Default::default()
-            });
-        }
-        let mut data = blob::SceneData::default();
-        data.info.default_camera = blob::NONE;
-        data.info.dome_light = blob::NONE;
-        data.lights = records;
-        let bytes = blob::AlignedBytes::copy_from(&data.encode());
+        let records = crate::testscene::area_light_records(19, 2.0, (0.1, 0.5), (0.2, 1.0), &mut u);
+        let bytes = crate::testscene::lights_only(records);
         let view = blob::SceneView::parse(&bytes).expect("valid blob");
         let lights = Lights::new(&view);
         let mut lanes = AreaLightLanes::new(&lights);
