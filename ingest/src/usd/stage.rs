@@ -7,7 +7,7 @@
 //! extension it opens layers through).
 
 use std::cell::RefCell;
-use std::collections::HashMap;
+use std::collections::HashSet;
 use std::path::Path;
 
 use openusd::ar::{ResolvedPath, Resolver};
@@ -189,6 +189,9 @@ impl From<sdf::Value> for Value {
     }
 }
 
+/// Prim types whose descendants the traversal leaves out: shading networks.
+const SHADING_NETWORK: &[&str] = &["Material", "NodeGraph", "Shader"];
+
 /// A composition problem found while opening or traversing, already mapped out of the crate's types.
 #[derive(Clone, Debug)]
 pub(crate) struct CompositionIssue {
@@ -216,6 +219,8 @@ pub(crate) struct Stage {
     time: f64,
     /// Non-fatal problems met while reading values, as (prim, message); see [`Stage::take_notes`].
     notes: RefCell<Vec<(String, String)>>,
+    /// Texts of the composition errors [`Stage::composition_issues`] has returned.
+    reported_issues: RefCell<HashSet<String>>,
     /// Every payload is loaded (no load rules), so active prims are loaded.
     all_payloads_loaded: bool,
     /// Nested instances whose contents openusd composes wrongly, found by [`Stage::traverse`]:
@@ -280,6 +285,7 @@ impl Stage {
             resolver,
             time,
             all_payloads_loaded: options.load_payloads,
+            reported_issues: RefCell::new(HashSet::new()),
             notes: RefCell::new(Vec::new()),
             nested: RefCell::new(Vec::new()),
         })
@@ -340,6 +346,13 @@ impl Stage {
                     self.list_below(&name, &in_prototype, &mut out)?;
                     continue;
                 }
+            }
+            // The reader never walks below a shading prim: a material's network is read on
+            // demand from its bound path, so unbound networks are never composed (half of the
+            // teapot scene's prims). See [`Stage::composition_issues`] for their errors.
+            let ty = prim.type_name().map_err(|e| self.err(e))?;
+            if ty.is_some_and(|t| SHADING_NETWORK.contains(&t.as_str())) {
+                continue;
             }
             self.push_children(&prim_path, in_instance || is_instance, &mut stack)?;
         }
@@ -628,13 +641,19 @@ impl Stage {
         self.inner.stage_metadata(key).ok().flatten().map(Value::from)
     }
 
-    /// Composition errors found so far (call after traversal: prim indices compose lazily).
+    /// Composition errors found since the last call (call after traversal: prim indices compose
+    /// lazily).
+    ///
+    /// The traversal leaves shading networks uncomposed, and the reader composes a bound
+    /// material's network when it reads it, so this is called again once the scene is read.
+    /// An arc that fails inside a network no gprim binds is never reported (usd-core, which
+    /// composes every prim, warns about it).
     pub(crate) fn composition_issues(&self) -> Vec<CompositionIssue> {
-        let mut seen = HashMap::new();
+        let mut reported = self.reported_issues.borrow_mut();
         let mut out = Vec::new();
         for error in self.inner.composition_errors() {
             let text = error.to_string();
-            if seen.insert(text.clone(), ()).is_some() {
+            if !reported.insert(text.clone()) {
                 continue;
             }
             out.push(self.map_issue(error, text));
@@ -979,6 +998,55 @@ def Xform "Thing"
         let prims: Vec<String> =
             stage.composition_issues().into_iter().map(|i| i.prim.unwrap_or_default()).collect();
         assert_eq!(prims, ["/Alpha", "/Beta", "/Delta", "/Mu", "/Omega", "/Zeta"]);
+    }
+
+    /// A shader that references a missing file, in a network a gprim binds.
+    const BOUND_NETWORK_ARC: &str = r#"#usda 1.0
+def Mesh "Tri" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Looks/Red>
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+}
+def Scope "Looks"
+{
+    def Material "Red"
+    {
+        token outputs:surface.connect = </Looks/Red/Surface.outputs:surface>
+        def Shader "Surface" (references = @missing_shader.usda@)
+        {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (1, 0, 0)
+            token outputs:surface
+        }
+    }
+}
+"#;
+
+    /// Shading networks are composed only when read, yet an arc failing in a bound one is
+    /// still the error it was when the traversal composed every prim (and a warning when lenient).
+    #[test]
+    fn a_missing_asset_in_a_bound_shading_network_is_still_reported() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("bound.usda");
+        std::fs::write(&root, BOUND_NETWORK_ARC).unwrap();
+        let stage = Stage::open(&root, &LoadOptions::default()).unwrap();
+        assert_eq!(stage.traverse().unwrap(), ["/Tri", "/Looks", "/Looks/Red"]);
+        let error = load(&root, &LoadOptions::default()).expect_err("a missing reference is an error");
+        assert_eq!(error.prim(), Some("/Looks/Red/Surface"));
+        assert!(matches!(error.kind(), crate::usd::UsdErrorKind::MissingAsset { .. }), "{error}");
+        let lenient = LoadOptions { lenient: true, ..LoadOptions::default() };
+        let scene = load(&root, &lenient).unwrap_or_else(|e| panic!("{e}"));
+        let warned: Vec<&str> = scene
+            .warnings
+            .iter()
+            .filter(|w| w.prim == "/Looks/Red/Surface")
+            .map(|w| w.message.as_str())
+            .collect();
+        assert_eq!(warned.len(), 1, "{:?}", scene.warnings);
+        assert!(warned[0].contains("missing_shader.usda"), "{warned:?}");
     }
 
     #[test]
