@@ -271,23 +271,15 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     let prims = stage.traverse()?;
     // Prim indices compose lazily, so composition errors are complete only after the traversal.
     let mut scene = Scene { meters_per_unit: fallback::METERS_PER_UNIT, ..Scene::default() };
-    for issue in stage.composition_issues() {
-        if issue.fatal && !options.lenient {
-            let mut error = UsdError::new(&issue.layer, issue.kind);
-            if let Some(prim) = &issue.prim {
-                error = error.at(prim);
-            }
-            return Err(error);
-        }
-        let prim = issue.prim.clone().unwrap_or_else(|| "/".to_string());
-        scene.warn(prim, format!("{}: {}", issue.layer, issue.kind));
-    }
+    report_composition_issues(&stage, options, &mut scene)?;
     let mut reader = Reader::new(&stage, &prims, scene);
     reader.bake_textures = options.bake_textures;
     reader.read_stage_metadata();
     reader.collect_instancer_prototypes()?;
     reader.visit("/", &Inherited::root(), false)?;
     reader.finish()?;
+    // Bound materials' shading networks are composed as they are read (see Stage::traverse).
+    report_composition_issues(&stage, options, &mut reader.scene)?;
     let start = std::time::Instant::now();
     reader.tessellate_subdivisions(&options.subdiv);
     reader.scene.load_timings.subdivision_seconds = start.elapsed().as_secs_f64();
@@ -300,6 +292,27 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
         std::mem::forget(stage);
     }
     Ok(scene)
+}
+
+/// Composition errors not reported yet: the first fatal one is the error (unless lenient),
+/// the others are warnings.
+fn report_composition_issues(
+    stage: &Stage,
+    options: &LoadOptions,
+    scene: &mut Scene,
+) -> Result<(), UsdError> {
+    for issue in stage.composition_issues() {
+        if issue.fatal && !options.lenient {
+            let mut error = UsdError::new(&issue.layer, issue.kind);
+            if let Some(prim) = &issue.prim {
+                error = error.at(prim);
+            }
+            return Err(error);
+        }
+        let prim = issue.prim.clone().unwrap_or_else(|| "/".to_string());
+        scene.warn(prim, format!("{}: {}", issue.layer, issue.kind));
+    }
+    Ok(())
 }
 
 /// `purpose` of a prim, inherited from the nearest ancestor that authors one.
