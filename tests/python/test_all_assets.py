@@ -32,14 +32,6 @@ ROOTS = sorted(
 
 #: Root layer (relative to the asset library) -> why ours differs from usd-core.
 KNOWN_DIFFERENCES: dict[str, str] = {
-    **{
-        f"openusd_subdiv/extras/usd/tutorials/endToEnd/assets/Table/{name}": (
-            "/Table/Looks/TableMaterial's surface is only `outputs:ri:surface` (a RenderMan shader, no "
-            "UsdPreviewSurface): the ingest warns and draws /Table/mesh with its displayColor material, where "
-            "usd-core lists the bound material"
-        )
-        for name in ("Table.usd", "Table.maya.usd")
-    },
     "usdwg_conformance/test_assets/schemaTests/usdGeom/meshes/points_types/pointsTypes.usda": (
         "the usd-core reference listing (usd_reference.py) cannot list /World/int, a Mesh whose points are "
         "declared int[] (it reshapes them to 3-vectors); the ingest opens the file"

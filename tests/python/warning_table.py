@@ -37,6 +37,7 @@ FEATURES = [
     ("collection-based material binding", r"collection-based material bindings"),
     ("preview-purpose binding only", r"only a preview-purpose material binding"),
     ("displacement", r"displacement ignored"),
+    ("PxrDisney lobe or connected input beyond PreviewSurface", r"PxrDisney .* (not supported|is connected)"),
     ("connected input beyond constants", r"connected to a shading network"),
     ("faceVarying displayColor on a subdivision surface", r"faceVarying primvar .* on a subdivision surface"),
     ("subdivision refinement failed (cage drawn)", r"cannot subdivide"),

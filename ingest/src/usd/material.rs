@@ -246,9 +246,9 @@ impl Reader<'_> {
         index
     }
 
-    /// Follows `prim.attr` through NodeGraph/Material outputs to the shader output it reads.
-    fn surface_shader(&mut self, material: &str) -> Option<String> {
-        let mut source = self.stage.connections(material, "outputs:surface").into_iter().next()?;
+    /// Follows the material's `output` through NodeGraph/Material outputs to the shader it reads.
+    fn surface_shader(&mut self, material: &str, output: &str) -> Option<String> {
+        let mut source = self.stage.connections(material, output).into_iter().next()?;
         for _ in 0..16 {
             let (prim, prop) = source.split_once('.')?;
             let ty = self.stage.type_name(prim);
@@ -273,7 +273,11 @@ impl Reader<'_> {
             self.warn(path, message);
             return Ok(None);
         }
-        let Some(shader) = self.surface_shader(path) else {
+        // The universal surface first; else RenderMan's (a PxrDisney is read, see `renderman`).
+        let shader = self
+            .surface_shader(path, "outputs:surface")
+            .or_else(|| self.surface_shader(path, "outputs:ri:surface"));
+        let Some(shader) = shader else {
             let other = self
                 .stage
                 .property_names(path)
@@ -289,6 +293,9 @@ impl Reader<'_> {
             return Ok(None);
         };
         let id = self.token(&shader, "info:id")?;
+        if id.as_deref() == Some("PxrDisney") {
+            return self.disney_surface(path, &shader).map(Some);
+        }
         if id.as_deref() != Some("UsdPreviewSurface") {
             self.warn(
                 path,
@@ -350,6 +357,49 @@ impl Reader<'_> {
         }
         m.program = program.nodes;
         Ok(Some(m))
+    }
+
+    /// A RenderMan PxrDisney surface from its constant inputs ([`super::renderman`]); connected
+    /// inputs and lobes PreviewSurface lacks are named in warnings.
+    fn disney_surface(&mut self, path: &str, shader: &str) -> Result<Material, UsdError> {
+        let constant = |r: &mut Self, name: &str| -> Result<Option<Value>, UsdError> {
+            Ok(match r.trace_input(shader, &format!("inputs:{name}"))? {
+                Input::Constant { value, .. } => Some(value),
+                Input::Unauthored => None,
+                Input::Network { node, .. } => {
+                    r.warn(path, format!("PxrDisney input {name} is connected to {node}; using its default"));
+                    None
+                }
+            })
+        };
+        let color = |r: &mut Self, name: &str| -> Result<Option<Vec3>, UsdError> {
+            Ok(constant(r, name)?.and_then(|v| as_color(&v, "")))
+        };
+        let base_color = color(self, "baseColor")?;
+        let emit_color = color(self, "emitColor")?;
+        let float = |r: &mut Self, name: &str| -> Result<Option<f32>, UsdError> {
+            Ok(constant(r, name)?.and_then(|v| as_float(&v, "")))
+        };
+        let inputs = super::renderman::DisneyInputs {
+            base_color,
+            emit_color,
+            metallic: float(self, "metallic")?,
+            specular: float(self, "specular")?,
+            roughness: float(self, "roughness")?,
+            clearcoat: float(self, "clearcoat")?,
+            clearcoat_gloss: float(self, "clearcoatGloss")?,
+            presence: float(self, "presence")?,
+        };
+        let mut ignored = Vec::new();
+        for lobe in super::renderman::UNSUPPORTED_LOBES {
+            if float(self, lobe)?.is_some_and(|v| v != 0.0) {
+                ignored.push(lobe);
+            }
+        }
+        if !ignored.is_empty() {
+            self.warn(path, format!("PxrDisney {} not supported; ignored", ignored.join(", ")));
+        }
+        Ok(super::renderman::disney_material(&inputs))
     }
 
     /// The constant value of a shader input and the output channel it reads (`""` for a direct

@@ -28,6 +28,7 @@ mod material;
 mod mesh;
 mod path_syntax;
 mod reader_panic;
+mod renderman;
 mod resolver;
 mod stage;
 mod subdivision;

@@ -869,3 +869,66 @@ fn curve_segment_counts_match_usd_core_on_shared_assets() {
         assert_eq!((got_curves, got_segments), (curves, segments + extra), "{file}");
     }
 }
+
+/// A material whose only surface is RenderMan's (`outputs:ri:surface`) reads its PxrDisney; a
+/// universal `outputs:surface` beside it wins; connected inputs and unsupported lobes are named.
+#[test]
+fn renderman_pxr_disney_surfaces_are_read_from_their_constants() {
+    let scene = load_text(&usda(&format!(
+        r#"def Scope "Looks" {{
+    def Material "Felt" {{
+        token outputs:ri:surface.connect = </Looks/Felt/Disney.outputs:out>
+        def Shader "Disney" {{
+            uniform token info:id = "PxrDisney"
+            color3f inputs:baseColor = (0, 0.25, 0.5)
+            float inputs:specular = 0
+            float inputs:presence = 0.75
+            float inputs:sheen = 0.3
+            float inputs:roughness.connect = </Looks/Felt/Noise.outputs:resultF>
+            token outputs:out
+        }}
+        def Shader "Noise" {{
+            uniform token info:id = "PxrFractal"
+            float outputs:resultF
+        }}
+    }}
+    def Material "Both" {{
+        token outputs:surface.connect = </Looks/Both/Preview.outputs:surface>
+        token outputs:ri:surface.connect = </Looks/Both/Disney.outputs:out>
+        def Shader "Preview" {{
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (1, 0, 0)
+            token outputs:surface
+        }}
+        def Shader "Disney" {{
+            uniform token info:id = "PxrDisney"
+            color3f inputs:baseColor = (0, 1, 0)
+            token outputs:out
+        }}
+    }}
+}}
+def Mesh "A" (prepend apiSchemas = ["MaterialBindingAPI"]) {{{TRI}
+    rel material:binding = </Looks/Felt>
+}}
+def Mesh "B" (prepend apiSchemas = ["MaterialBindingAPI"]) {{{TRI}
+    rel material:binding = </Looks/Both>
+}}"#
+    )));
+    let material = |m: &str| &scene.materials[mesh(&scene, m).triangle_materials[0] as usize];
+    let felt = material("/A");
+    assert_eq!(felt.path, "/Looks/Felt");
+    assert_eq!(felt.diffuse_color, Vec3::new(0.0, 0.25, 0.5));
+    assert_eq!(
+        (felt.ior, felt.opacity, felt.roughness),
+        (1.0, 0.75, 0.25),
+        "specular 0 is ior 1; default roughness"
+    );
+    assert!(has_warning(
+        &scene,
+        "/Looks/Felt",
+        "PxrDisney input roughness is connected to /Looks/Felt/Noise"
+    ));
+    assert!(has_warning(&scene, "/Looks/Felt", "PxrDisney sheen not supported"));
+    let both = material("/B");
+    assert_eq!((both.path.as_str(), both.diffuse_color), ("/Looks/Both", Vec3::new(1.0, 0.0, 0.0)));
+}
