@@ -30,13 +30,9 @@ ROOTS = sorted(
     if p.suffix.lower() in EXTENSIONS and p.is_file()
 )
 
-#: Root layer (relative to the asset library) -> why ours differs from usd-core.
-KNOWN_DIFFERENCES: dict[str, str] = {
-    "usdwg_conformance/test_assets/schemaTests/usdGeom/meshes/points_types/pointsTypes.usda": (
-        "the usd-core reference listing (usd_reference.py) cannot list /World/int, a Mesh whose points are "
-        "declared int[] (it reshapes them to 3-vectors); the ingest opens the file"
-    ),
-}
+#: Root layer (relative to the asset library) -> why ours differs from usd-core (none today; an
+#: entry is a strict xfail).
+KNOWN_DIFFERENCES: dict[str, str] = {}
 
 def _param(rel: str):
     reason = KNOWN_DIFFERENCES.get(rel)

@@ -38,7 +38,7 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
 #: Light types the ingest reads (others are warned about and dropped).
 SUPPORTED_LIGHTS = ("DomeLight", "DomeLight_1", "DistantLight", "SphereLight", "RectLight", "DiskLight")
@@ -129,6 +129,8 @@ def _mesh_record(prim: Usd.Prim, world: np.ndarray, time) -> Gprim | None:
     counts = list(mesh.GetFaceVertexCountsAttr().Get(time) or [])
     if not points or not counts:
         return None  # nothing to draw (the ingest warns and skips it)
+    if not isinstance(points, (Vt.Vec3fArray, Vt.Vec3dArray, Vt.Vec3hArray)):
+        return None  # points declared with a non-3-vector type (int[], double[]): skipped, with a warning
     pts = np.array(points, dtype=np.float64).reshape(-1, 3)
     holes = set(mesh.GetHoleIndicesAttr().Get(time) or [])
     drawn_faces = [i for i, n in enumerate(counts) if n >= 3 and i not in holes]
