@@ -1,9 +1,9 @@
 //! UsdLux lights, UsdGeomCamera and UsdRenderSettings.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::Vec3;
-use openusd::ar::{self, Resolver};
+use openusd::ar;
 
 use super::stage::Value;
 use super::{fallback, Inherited, Reader, UsdError};
@@ -57,7 +57,7 @@ impl Reader<'_> {
             return Ok(None);
         }
         let layer = self.stage.authoring_layer(path, attr);
-        let file = match resolve_dome_asset(&layer, &asset) {
+        let file = match super::texture_files::resolve_asset(&layer, &asset) {
             Ok(file) => file,
             Err(why) => {
                 self.warn(path, format!("dome texture {asset:?}: {why}; using its uniform color"));
@@ -71,7 +71,7 @@ impl Reader<'_> {
             return Ok(Some((i as u32, 1.0)));
         }
         let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
-        let baked = decode_dome_texture(&file).and_then(|mut src| {
+        let baked = super::texture_files::decode_texture(&file).and_then(|mut src| {
             let scale = fit_half_float_range(&mut src);
             texture::bake(&src, &options).map(|baked| (baked, scale))
         });
@@ -203,34 +203,6 @@ impl Reader<'_> {
     }
 }
 
-// The two helpers below repeat, for dome textures, what `material.rs` does privately for UsdUVTexture
-// files (resolution against the authoring layer, `.usdz` entries read in place); they belong in one
-// shared module once `material.rs` can be edited.
-
-/// Resolves a dome texture asset path against the layer that authored it: absolute as it is, relative
-/// beside the layer, and inside a `.usdz` package (or package-relative) as USD's resolver anchors it.
-fn resolve_dome_asset(layer: &str, asset: &str) -> Result<PathBuf, String> {
-    let packaged = ar::is_package_relative_path(asset)
-        || ar::is_package_relative_path(layer)
-        || layer.to_ascii_lowercase().ends_with(".usdz");
-    if packaged {
-        let anchor = ar::ResolvedPath::new(layer);
-        let id = ar::DefaultResolver::new().create_identifier(asset, Some(&anchor));
-        if ar::split_package_relative_path_inner(&id)
-            .is_some_and(|(package, _)| ar::is_package_relative_path(&package))
-        {
-            return Err("textures inside nested packages are not supported".into());
-        }
-        return Ok(PathBuf::from(id));
-    }
-    let asset_path = Path::new(asset);
-    if asset_path.is_absolute() {
-        return Ok(asset_path.to_path_buf());
-    }
-    let base = Path::new(layer).parent().unwrap_or(Path::new("."));
-    Ok(base.join(asset_path.strip_prefix("./").unwrap_or(asset_path)))
-}
-
 /// Scales a float image by a power of two so that its largest finite sample fits a half float (65504;
 /// bakes store float sources as halves, which would turn a bright sun into infinity), and returns the
 /// inverse factor for the light's radiance. Powers of two keep every sample's mantissa; only values
@@ -246,16 +218,4 @@ fn fit_half_float_range(src: &mut texture::SourceImage) -> f32 {
     let factor = 2.0f32.powi(exponent);
     samples.iter_mut().for_each(|v| *v /= factor);
     factor
-}
-
-/// Decodes a dome texture file, or a `.usdz` entry from the zip.
-fn decode_dome_texture(path: &Path) -> Result<texture::SourceImage, texture::Error> {
-    let packaged = path.to_str().and_then(ar::split_package_relative_path_outer);
-    let Some((_, inner)) = packaged else { return texture::decode(path) };
-    let io = |e: std::io::Error| texture::Error { path: path.to_path_buf(), kind: texture::ErrorKind::Io(e) };
-    let resolved = ar::ResolvedPath::new(path);
-    let bytes =
-        ar::DefaultResolver::new().open_asset(&resolved).and_then(|mut a| a.read_all()).map_err(io)?;
-    texture::decode_bytes(&bytes, Path::new(&inner))
-        .map_err(|e| texture::Error { path: path.to_path_buf(), ..e })
 }

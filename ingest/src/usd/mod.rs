@@ -32,6 +32,7 @@ mod renderman;
 mod resolver;
 mod stage;
 mod subdivision;
+mod texture_files;
 mod xform;
 
 #[cfg(test)]
