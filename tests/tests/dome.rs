@@ -70,6 +70,13 @@ fn render_root(root: &Path) -> ([f32; 3], Vec<String>, blob::AlignedBytes) {
     (mean, report.warnings, bytes)
 }
 
+/// Writes `name`: the dome stage reading `map`, its light turned `degrees` about Y instead of 90.
+fn write_turned(dir: &Path, name: &str, map: &str, degrees: i32) -> PathBuf {
+    let layer = stage(&format!("        asset inputs:texture:file = @{map}@"))
+        .replace("float xformOp:rotateY = 90", &format!("float xformOp:rotateY = {degrees}"));
+    write(dir, name, layer.as_bytes())
+}
+
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, bytes).unwrap();
@@ -108,24 +115,12 @@ fn textured_dome_from_an_hdr_file_shows_its_map_turned_by_the_light_transform() 
     let map = view.dome.maps[view.lights[0].dome_map as usize];
     assert_eq!((map.width, map.height), (32, 16), "one cell per texel");
     // Unrotated, the camera looks at −Z: the seam between the halves (their bilinear average).
-    let root = write(
-        dir.path(),
-        "unrotated.usda",
-        stage("        asset inputs:texture:file = @sky.hdr@")
-            .replace("float xformOp:rotateY = 90", "float xformOp:rotateY = 0")
-            .as_bytes(),
-    );
+    let root = write_turned(dir.path(), "unrotated.usda", "sky.hdr", 0);
     let (rgb, _, _) = render_root(&root);
     let seam = scale([0, 1, 2].map(|c| 0.5 * (LEFT[c] + RIGHT[c])));
     assert_rgb(rgb, seam, 0.05, "the seam at −Z");
     // Turned the other way (−90°), −Z sees the light's −X: the right half.
-    let root = write(
-        dir.path(),
-        "turned.usda",
-        stage("        asset inputs:texture:file = @sky.hdr@")
-            .replace("rotateY = 90", "rotateY = -90")
-            .as_bytes(),
-    );
+    let root = write_turned(dir.path(), "turned.usda", "sky.hdr", -90);
     let (rgb, _, _) = render_root(&root);
     assert_rgb(rgb, scale(RIGHT), 0.01, "right half of the map, rotated −90°");
 }
@@ -147,13 +142,7 @@ fn a_sun_brighter_than_half_floats_hold_keeps_its_radiance() {
     let view = blob::SceneView::parse(&bytes).unwrap();
     assert_eq!(view.lights[0].radiance, [4.0 * 0.5 * 4.0, 4.0 * 4.0, 4.0 * 4.0], "× 2² to fit 65504");
     // The other half, now stored four times smaller, still reads its value.
-    let root = write(
-        dir.path(),
-        "turned.usda",
-        stage("        asset inputs:texture:file = @sun.hdr@")
-            .replace("rotateY = 90", "rotateY = -90")
-            .as_bytes(),
-    );
+    let root = write_turned(dir.path(), "turned.usda", "sun.hdr", -90);
     let (rgb, _, _) = render_root(&root);
     assert_rgb(rgb, scale(RIGHT), 0.01, "dim half beside the sun");
 }
