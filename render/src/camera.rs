@@ -5,6 +5,13 @@
 //! scene unit (USD's lens-unit convention). When the image aspect differs from the aperture aspect the
 //! horizontal aperture is kept and the vertical one follows the image ("fit horizontal").
 //! `clippingRange` is not applied (a path tracer has no near/far plane to honour).
+//!
+//! [`camera_ray_lanes`] generates eight rays at once (the wavefront integrator's camera stage) with
+//! the scalar film loop's IEEE operations in the same order: [`Camera::generate_ray`],
+//! [`Camera::pixel_cone`] of the ray's cosine to the axis, times the footprint scale. The camera has
+//! no lens and no pixel filter (the pixel position is a uniform jitter), so no trigonometry is
+//! involved; the parts that do not depend on the pixel (a pinhole's origin, an orthographic
+//! camera's direction and cone) are computed once by the scalar code.
 
 use glam::{Affine3A, Vec3, Vec3A};
 
@@ -135,6 +142,133 @@ impl Camera {
     }
 }
 
+/// Lane count of [`camera_ray_lanes`].
+pub const LANES: usize = 8;
+
+/// What [`camera_ray_lanes`] needs of a camera and an image, constant over a render.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraLanes {
+    orthographic: bool,
+    /// Columns of `world_from_camera`'s linear part, then its translation.
+    axes: [[f32; 3]; 3],
+    translation: [f32; 3],
+    /// `axes[2] · (−focal)` (perspective) or `axes[2] · 0` (orthographic): the film plane's z term.
+    z_term: [f32; 3],
+    window_min: [f32; 2],
+    window_size: [f32; 2],
+    focal: f32,
+    /// Image size in pixels, as the film loop divides by it.
+    image: [f32; 2],
+    forward: [f32; 3],
+    /// Pixel pitch on the film (the cone's numerator).
+    pitch: f32,
+    footprint_scale: f32,
+    /// A pinhole's origin; an orthographic camera's direction and scaled cone.
+    fixed_origin: Vec3,
+    fixed_dir: Vec3,
+    fixed_cone: RayCone,
+}
+
+impl CameraLanes {
+    /// The constants of `camera` for a `width × height` image, cones scaled by `footprint_scale`
+    /// (the render's texture footprint scale); `forward` is [`Camera::forward`].
+    pub fn new(camera: &Camera, forward: Vec3, width: u32, height: u32, footprint_scale: f32) -> Self {
+        let m = &camera.world_from_camera.matrix3;
+        let axes = [m.x_axis.to_array(), m.y_axis.to_array(), m.z_axis.to_array()];
+        let z = if camera.orthographic { 0.0 } else { -camera.focal };
+        // The same products `transform_vector3a` forms (IEEE multiplication is exact per call).
+        let z_term = axes[2].map(|a| a * z);
+        let (fixed_origin, fixed_dir) = camera.generate_ray(0.5, 0.5);
+        let mut fixed_cone = camera.pixel_cone(fixed_dir.dot(forward));
+        fixed_cone.width *= footprint_scale;
+        fixed_cone.spread *= footprint_scale;
+        CameraLanes {
+            orthographic: camera.orthographic,
+            axes,
+            translation: camera.world_from_camera.translation.to_array(),
+            z_term,
+            window_min: camera.window_min,
+            window_size: camera.window_size,
+            focal: camera.focal,
+            image: [width as f32, height as f32],
+            forward: forward.to_array(),
+            pitch: camera.window_size[0] / camera.width as f32,
+            footprint_scale,
+            fixed_origin,
+            fixed_dir,
+            fixed_cone,
+        }
+    }
+}
+
+/// Eight camera rays, one column per scalar.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct RayLanes {
+    /// World-space origins.
+    pub origin: [[f32; LANES]; 3],
+    /// Unit world-space directions.
+    pub dir: [[f32; LANES]; 3],
+    /// Scaled cone widths at the origin.
+    pub cone_width: [f32; LANES],
+    /// Scaled cone spreads.
+    pub cone_spread: [f32; LANES],
+}
+
+/// The camera rays through pixels (`x[k]`, `y[k]`) jittered by (`jx[k]`, `jy[k]`) ∈ [0, 1)²: lane
+/// `k` equals the film loop's `camera.generate_ray((x + jx) / width, (y + jy) / height)` and its
+/// `pixel_cone(d · forward)` scaled by the footprint scale, bit for bit.
+#[allow(clippy::needless_range_loop)]
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
+pub fn camera_ray_lanes(
+    c: &CameraLanes,
+    x: &[u32; LANES],
+    y: &[u32; LANES],
+    jx: &[f32; LANES],
+    jy: &[f32; LANES],
+    out: &mut RayLanes,
+) {
+    // Film-plane position, as `generate_ray` computes it from the film loop's fractions.
+    let (mut wx, mut wy) = ([0.0f32; LANES], [0.0f32; LANES]);
+    for k in 0..LANES {
+        let fx = (x[k] as f32 + jx[k]) / c.image[0];
+        let fy = (y[k] as f32 + jy[k]) / c.image[1];
+        wx[k] = c.window_min[0] + fx * c.window_size[0];
+        wy[k] = c.window_min[1] + (1.0 - fy) * c.window_size[1];
+    }
+    // `matrix3 · (wx, wy, z)`: glam's `mul_vec3a` sums x, y then z terms.
+    let mut v = [[0.0f32; LANES]; 3];
+    for i in 0..3 {
+        for k in 0..LANES {
+            v[i][k] = c.axes[0][i] * wx[k] + c.axes[1][i] * wy[k] + c.z_term[i];
+        }
+    }
+    if c.orthographic {
+        for i in 0..3 {
+            for k in 0..LANES {
+                out.origin[i][k] = v[i][k] + c.translation[i];
+                out.dir[i][k] = c.fixed_dir[i];
+            }
+        }
+        out.cone_width = [c.fixed_cone.width; LANES];
+        out.cone_spread = [c.fixed_cone.spread; LANES];
+        return;
+    }
+    for k in 0..LANES {
+        // glam's `normalize`: divide by the root of ((x² + y²) + z²).
+        let length = (v[0][k] * v[0][k] + v[1][k] * v[1][k] + v[2][k] * v[2][k]).sqrt();
+        let d = [v[0][k] / length, v[1][k] / length, v[2][k] / length];
+        let cos = d[0] * c.forward[0] + d[1] * c.forward[1] + d[2] * c.forward[2];
+        let spread = c.pitch * cos.clamp(0.0, 1.0) / c.focal;
+        for i in 0..3 {
+            out.dir[i][k] = d[i];
+            out.origin[i][k] = c.fixed_origin[i];
+        }
+        out.cone_width[k] = c.fixed_cone.width;
+        out.cone_spread[k] = spread * c.footprint_scale;
+    }
+}
+
 /// Default image height for `width` pixels from the aperture aspect of `cam`.
 pub fn default_height(cam: Option<&blob::Camera>, width: u32) -> u32 {
     let aspect = cam
@@ -189,5 +323,86 @@ mod tests {
         let cam = Camera::framing(Vec3::splat(-1.0), Vec3::splat(1.0), true, 64, 64);
         let (o, d) = cam.generate_ray(0.5, 0.0);
         assert!(o.y < -3.0 && d.y > 0.9 && d.z > 0.0);
+    }
+
+    /// A random camera: either projection, a rotated, scaled and moved frame, random apertures,
+    /// offsets and focal length.
+    fn random_camera(u: &mut impl FnMut() -> f32, projection: u32, width: u32, height: u32) -> Camera {
+        let angle = 6.0 * u();
+        let axis = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5).normalize_or(Vec3::Y);
+        let m = Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.5 + 2.0 * u()),
+            glam::Quat::from_axis_angle(axis, angle),
+            Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5) * 100.0,
+        );
+        let cols = m.to_cols_array_2d();
+        let rows = [0, 1, 2].map(|r| [cols[0][r], cols[1][r], cols[2][r], cols[3][r]]);
+        let cam = blob::Camera {
+            projection,
+            focal_length: 10.0 + 90.0 * u(),
+            horizontal_aperture: 5.0 + 40.0 * u(),
+            vertical_aperture: 5.0 + 40.0 * u(),
+            horizontal_aperture_offset: u() - 0.5,
+            vertical_aperture_offset: u() - 0.5,
+            world_from_camera: rows,
+            ..Default::default()
+        };
+        Camera::from_blob(&cam, width, height)
+    }
+
+    #[test]
+    fn ray_lanes_equal_the_scalar_film_loop_bit_for_bit() {
+        let mut state = 77u32;
+        let mut u = || {
+            state = crate::sampler::hash_u32(state);
+            (state >> 8) as f32 / 16_777_216.0
+        };
+        for (projection, framing) in
+            [(blob::PROJECTION_PERSPECTIVE, false), (blob::PROJECTION_ORTHOGRAPHIC, false), (0, true)]
+        {
+            let mut cases = 0;
+            for round in 0..160 {
+                let (width, height) = (1 + (u() * 2000.0) as u32, 1 + (u() * 2000.0) as u32);
+                let cam = if framing {
+                    Camera::framing(Vec3::splat(-u()), Vec3::splat(u() * 5.0), round % 2 == 0, width, height)
+                } else {
+                    random_camera(&mut u, projection, width, height)
+                };
+                let forward = cam.forward();
+                let scale = [1.0, 0.0, 0.5 + 3.0 * u()][round % 3];
+                let lanes = CameraLanes::new(&cam, forward, width, height, scale);
+                for _ in 0..8 {
+                    let (mut x, mut y, mut jx, mut jy) = ([0; LANES], [0; LANES], [0.0; LANES], [0.0; LANES]);
+                    for k in 0..LANES {
+                        x[k] = ((u() * width as f32) as u32).min(width - 1);
+                        y[k] = ((u() * height as f32) as u32).min(height - 1);
+                        // Jitter in [0, 1), its ends included.
+                        (jx[k], jy[k]) = match k {
+                            0 => (0.0, 0.0),
+                            1 => (1.0 - f32::EPSILON / 2.0, 1.0 - f32::EPSILON / 2.0),
+                            _ => (u(), u()),
+                        };
+                    }
+                    let mut out = RayLanes::default();
+                    camera_ray_lanes(&lanes, &x, &y, &jx, &jy, &mut out);
+                    for k in 0..LANES {
+                        let (o, d) = cam.generate_ray(
+                            (x[k] as f32 + jx[k]) / width as f32,
+                            (y[k] as f32 + jy[k]) / height as f32,
+                        );
+                        let mut cone = cam.pixel_cone(d.dot(forward));
+                        cone.width *= scale;
+                        cone.spread *= scale;
+                        let at = |c: &[[f32; LANES]; 3]| [c[0][k], c[1][k], c[2][k]].map(f32::to_bits);
+                        assert_eq!(at(&out.origin), o.to_array().map(f32::to_bits), "origin, lane {k}");
+                        assert_eq!(at(&out.dir), d.to_array().map(f32::to_bits), "direction, lane {k}");
+                        assert_eq!(out.cone_width[k].to_bits(), cone.width.to_bits());
+                        assert_eq!(out.cone_spread[k].to_bits(), cone.spread.to_bits());
+                        cases += 1;
+                    }
+                }
+            }
+            assert!(cases >= 10_000, "{cases}");
+        }
     }
 }

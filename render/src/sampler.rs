@@ -97,6 +97,24 @@ pub(crate) fn sobol(index: u32, dimension: usize) -> u32 {
         ^ t[3][(index >> 24) as usize]
 }
 
+/// Dimension 1 of Sobol, bit-reversed, without tables: `sobol(index, 1).reverse_bits()`.
+///
+/// Its direction numbers are Pascal's triangle mod 2: bit `31 − k` of direction `j` is set when
+/// `C(j, k)` is odd, that is (Lucas) when the bits of `k` are a subset of those of `j`. So bit `k` of
+/// the reversed value is the XOR of the index bits `j ⊇ k`, a superset transform that takes five
+/// shift-and-XOR steps. The lane sampler uses it: unlike the byte tables, it vectorises (no gathers),
+/// and the scrambler's reversal of its input cancels the reversal here.
+#[inline]
+pub(crate) fn sobol1_reversed(index: u32) -> u32 {
+    let mut a = index;
+    a ^= (a >> 1) & 0x5555_5555;
+    a ^= (a >> 2) & 0x3333_3333;
+    a ^= (a >> 4) & 0x0f0f_0f0f;
+    a ^= (a >> 8) & 0x00ff_00ff;
+    a ^= (a >> 16) & 0x0000_ffff;
+    a
+}
+
 /// Bit-serial reference for [`sobol`] (tests).
 #[cfg(test)]
 fn sobol_reference(index: u32, dimension: usize) -> u32 {
@@ -132,7 +150,7 @@ pub fn hash_combine(seed: u32, value: u32) -> u32 {
 
 /// Laine–Karras style permutation, improved constants from Burley 2020.
 #[inline]
-fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
+pub(crate) fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
     x = x.wrapping_add(seed);
     x ^= x.wrapping_mul(0x6c50_b47c);
     x ^= x.wrapping_mul(0xb82f_1e52);
@@ -194,6 +212,17 @@ mod tests {
             x = hash_u32(x);
             for d in 0..2 {
                 assert_eq!(sobol(x, d), sobol_reference(x, d));
+            }
+        }
+    }
+
+    #[test]
+    fn table_free_sobol1_matches_the_bit_serial_reference() {
+        let mut x = 5u32;
+        for i in (0..4096).chain([u32::MAX, 1 << 31, 0x8000_0001]) {
+            x = hash_u32(x);
+            for index in [i, x] {
+                assert_eq!(sobol1_reversed(index), sobol_reference(index, 1).reverse_bits(), "{index:#x}");
             }
         }
     }
