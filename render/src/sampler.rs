@@ -42,7 +42,9 @@ pub mod dim {
 
 /// Sobol direction numbers for the first two dimensions, most significant bit first.
 /// Dimension 0 is van der Corput; dimension 1 uses the primitive polynomial x + 1 (Joe & Kuo, s = 1,
-/// a = 0, m = 1).
+/// a = 0, m = 1). The sampler computes them in closed form ([`sobol1_reversed`]); these are the
+/// tests' reference.
+#[cfg(test)]
 const SOBOL_DIRECTIONS: [[u32; 32]; 2] = {
     let mut dirs = [[0u32; 32]; 2];
     let mut i = 0;
@@ -59,51 +61,17 @@ const SOBOL_DIRECTIONS: [[u32; 32]; 2] = {
     dirs
 };
 
-/// Dimension 1 of Sobol as four byte-indexed tables: entry `[k][b]` is the XOR of the direction
-/// numbers selected by byte `b` at byte position `k` of the index. The scrambled index is a full 32-bit
-/// value, so the bit-serial loop ran 32 iterations per sample and the sampler was half of the render
-/// time (perf, tractor example); four lookups replace it.
-pub(crate) static SOBOL1_BYTE_TABLES: [[u32; 256]; 4] = {
-    let mut tables = [[0u32; 256]; 4];
-    let mut k = 0;
-    while k < 4 {
-        let mut b = 0;
-        while b < 256 {
-            let mut x = 0u32;
-            let mut bit = 0;
-            while bit < 8 {
-                if b & (1 << bit) != 0 {
-                    x ^= SOBOL_DIRECTIONS[1][k * 8 + bit];
-                }
-                bit += 1;
-            }
-            tables[k][b] = x;
-            b += 1;
-        }
-        k += 1;
-    }
-    tables
-};
-
-#[inline]
-pub(crate) fn sobol(index: u32, dimension: usize) -> u32 {
-    if dimension == 0 {
-        return index.reverse_bits();
-    }
-    let t = &SOBOL1_BYTE_TABLES;
-    t[0][(index & 0xff) as usize]
-        ^ t[1][((index >> 8) & 0xff) as usize]
-        ^ t[2][((index >> 16) & 0xff) as usize]
-        ^ t[3][(index >> 24) as usize]
-}
-
-/// Dimension 1 of Sobol, bit-reversed, without tables: `sobol(index, 1).reverse_bits()`.
+/// Dimension 1 of Sobol, bit-reversed, without tables (dimension 0 reversed is the index itself).
 ///
 /// Its direction numbers are Pascal's triangle mod 2: bit `31 − k` of direction `j` is set when
 /// `C(j, k)` is odd, that is (Lucas) when the bits of `k` are a subset of those of `j`. So bit `k` of
 /// the reversed value is the XOR of the index bits `j ⊇ k`, a superset transform that takes five
-/// shift-and-XOR steps. The lane sampler uses it: unlike the byte tables, it vectorises (no gathers),
-/// and the scrambler's reversal of its input cancels the reversal here.
+/// shift-and-XOR steps, and the scrambler's reversal of its input cancels the reversal here.
+///
+/// It replaced four byte-indexed tables (one lookup per index byte, themselves the replacement of a
+/// 32-step bit-serial loop that made the sampler half of the render time): about as many scalar
+/// instructions, with one `reverse_bits` fewer around it, and it vectorises where table lookups need
+/// gathers (the lane sampler, [`crate::wavefront::sampler_lanes`]).
 #[inline]
 pub(crate) fn sobol1_reversed(index: u32) -> u32 {
     let mut a = index;
@@ -115,7 +83,7 @@ pub(crate) fn sobol1_reversed(index: u32) -> u32 {
     a
 }
 
-/// Bit-serial reference for [`sobol`] (tests).
+/// Bit-serial Sobol (the reference for the tests).
 #[cfg(test)]
 fn sobol_reference(index: u32, dimension: usize) -> u32 {
     let mut x = 0u32;
@@ -159,25 +127,41 @@ pub(crate) fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
     x
 }
 
-/// Nested uniform (Owen) scrambling of a 32-bit fixed-point value.
-#[inline]
-pub(crate) fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+/// Nested uniform (Owen) scrambling of a 32-bit fixed-point value (the reference formulation).
+#[cfg(test)]
+fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
     laine_karras_permutation(x.reverse_bits(), seed).reverse_bits()
 }
 
-#[inline]
-pub(crate) fn to_unit_float(x: u32) -> f32 {
-    // 24 significant bits: exactly representable, so the result is < 1.
-    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+/// The shuffled Sobol index of a pair: the sample index, Owen-scrambled by the pair's seed.
+#[inline(always)]
+pub(crate) fn pair_index(sample: u32, pair_seed: u32) -> u32 {
+    laine_karras_permutation(sample.reverse_bits(), pair_seed).reverse_bits()
+}
+
+/// The Owen-scrambled coordinate of a Sobol value given bit-reversed (`reversed`), scrambled by
+/// `seed`, as a float in [0, 1). Scrambling reverses its input, so taking the value reversed saves a
+/// reversal per coordinate; dimension 0 is the reversed index, so its reversed value is the index.
+#[inline(always)]
+pub(crate) fn unit_from_reversed(reversed: u32, seed: u32) -> f32 {
+    let x = laine_karras_permutation(reversed, seed).reverse_bits();
+    // 24 significant bits: exactly representable, so the result is < 1; as i32 the conversion is
+    // the same value and one AVX2 instruction in the lane sampler.
+    ((x >> 8) as i32) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Coordinate `d` (0 or 1) of the pair with seed `pair_seed` for sample `sample`.
+#[inline(always)]
+fn coordinate(sample: u32, pair_seed: u32, d: u32) -> f32 {
+    let index = pair_index(sample, pair_seed);
+    let reversed = if d == 0 { index } else { sobol1_reversed(index) };
+    unit_from_reversed(reversed, hash_combine(pair_seed, d))
 }
 
 /// One sample value in [0, 1) for `key` at path vertex `vertex`, dimension `dimension`.
 #[inline]
 pub fn sample_1d(key: SampleKey, vertex: u32, dimension: u32) -> f32 {
-    let pair_seed = pair_seed(key, vertex, dimension / 2);
-    let index = nested_uniform_scramble(key.sample, pair_seed);
-    let d = (dimension & 1) as usize;
-    to_unit_float(nested_uniform_scramble(sobol(index, d), hash_combine(pair_seed, d as u32)))
+    coordinate(key.sample, pair_seed(key, vertex, dimension / 2), dimension & 1)
 }
 
 /// Two sample values for dimensions `dimension` and `dimension + 1` (`dimension` must be even).
@@ -185,11 +169,22 @@ pub fn sample_1d(key: SampleKey, vertex: u32, dimension: u32) -> f32 {
 pub fn sample_2d(key: SampleKey, vertex: u32, dimension: u32) -> [f32; 2] {
     debug_assert!(dimension.is_multiple_of(2), "2D samples start on an even dimension");
     let pair_seed = pair_seed(key, vertex, dimension / 2);
-    let index = nested_uniform_scramble(key.sample, pair_seed);
+    let index = pair_index(key.sample, pair_seed);
     [
-        to_unit_float(nested_uniform_scramble(sobol(index, 0), hash_combine(pair_seed, 0))),
-        to_unit_float(nested_uniform_scramble(sobol(index, 1), hash_combine(pair_seed, 1))),
+        unit_from_reversed(index, hash_combine(pair_seed, 0)),
+        unit_from_reversed(sobol1_reversed(index), hash_combine(pair_seed, 1)),
     ]
+}
+
+/// The sampler as first written (bit-serial Sobol, every scramble reversing in and out): the
+/// reference the fast formulation above must equal bit for bit.
+#[cfg(test)]
+fn sample_1d_reference(key: SampleKey, vertex: u32, dimension: u32) -> f32 {
+    let pair_seed = pair_seed(key, vertex, dimension / 2);
+    let index = nested_uniform_scramble(key.sample, pair_seed);
+    let d = (dimension & 1) as usize;
+    let x = nested_uniform_scramble(sobol_reference(index, d), hash_combine(pair_seed, d as u32));
+    (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
 #[inline]
@@ -206,13 +201,21 @@ mod tests {
     }
 
     #[test]
-    fn table_sobol_matches_the_bit_serial_reference() {
-        let mut x = 1u32;
-        for _ in 0..10_000 {
+    fn fast_sampler_equals_the_reference_formulation_bit_for_bit() {
+        let mut x = 3u32;
+        for round in 0..20_000u32 {
             x = hash_u32(x);
-            for d in 0..2 {
-                assert_eq!(sobol(x, d), sobol_reference(x, d));
+            // Small sample indices and the full 32-bit range (every Sobol index bit in use).
+            let sample = if round % 2 == 0 { x % 4096 } else { hash_u32(x ^ 1) };
+            let key = SampleKey { pixel: x % 1_000_000, sample, seed: round % 3 };
+            let vertex = x % 70;
+            for d in 0..10 {
+                let expected = sample_1d_reference(key, vertex, d);
+                assert_eq!(sample_1d(key, vertex, d).to_bits(), expected.to_bits(), "{key:?} {vertex} {d}");
             }
+            let [a, b] = sample_2d(key, vertex, dim::BSDF_UV);
+            assert_eq!(a.to_bits(), sample_1d_reference(key, vertex, dim::BSDF_UV).to_bits());
+            assert_eq!(b.to_bits(), sample_1d_reference(key, vertex, dim::BSDF_UV + 1).to_bits());
         }
     }
 

@@ -7,21 +7,22 @@
 //! instead of once per dimension as each scalar call does.
 //!
 //! # Vectorisation
-//! Each kernel is a sequence of loops over the eight lanes with the whole per-lane computation
-//! inlined (column form), so LLVM emits 8-wide AVX2 integer code: `vpmulld` for the hashes,
+//! Each kernel is a sequence of loops over the eight lanes with the scalar sampler's per-coordinate
+//! functions (`pair_index`, `unit_from_reversed`, `sobol1_reversed`) inlined into them (column
+//! form), so LLVM emits 8-wide AVX2 integer code: `vpmulld` for the hashes,
 //! `vpshufb` nibble tables for `reverse_bits`. The first version looped over the dimensions inside a
 //! loop over lanes and read Sobol's dimension 1 from byte tables: `objdump -d` showed no `ymm`
 //! register in it (scalar code run eight times). Dimension 1 now comes from
-//! [`crate::sampler::sobol1_reversed`] (shift-and-XOR, no tables), and the two bit reversals that
-//! cancel (Sobol dimension 0 is the reversed index, which the scrambler reverses back; dimension 1's
-//! reversal likewise) are left out. The opacity dimension is not drawn: phase 1 draws it per hit,
+//! [`crate::sampler::sobol1_reversed`] (shift-and-XOR, no tables), and the bit reversals that
+//! cancel (Sobol values are produced reversed and the scrambler reverses its input) are left out, in
+//! the scalar sampler too. The opacity dimension is not drawn: phase 1 draws it per hit,
 //! before the lanes run.
 //!
 //! Callgrind, whole process, wavefront, 120×80, 8 spp, 1 thread (instructions in `vertex_lanes`,
 //! inclusive): tractor 20.3 M → FILL_VL_T, shading-heavy FILL_VL_S.
 
 use super::lanes::LANES;
-use crate::sampler::{dim, hash_combine, laine_karras_permutation, sobol1_reversed};
+use crate::sampler::{dim, hash_combine, pair_index, sobol1_reversed, unit_from_reversed};
 
 /// Dimensions of a vertex: `vertex_lanes` writes `out[d]` for `d < DIMS`, except `dim::OPACITY`.
 pub const DIMS: usize = 8;
@@ -36,22 +37,6 @@ pub struct KeyLanes {
     pub sample: [u32; LANES],
     /// Vertex counter.
     pub vertex: [u32; LANES],
-}
-
-/// The shuffled Sobol index of pair `pair_seed` for sample `sample` (the scalar sampler's
-/// `nested_uniform_scramble(sample, pair_seed)`).
-#[inline(always)]
-fn pair_index(sample: u32, pair_seed: u32) -> u32 {
-    laine_karras_permutation(sample.reverse_bits(), pair_seed).reverse_bits()
-}
-
-/// Owen-scrambled coordinate from a bit-reversed Sobol value, as a float in [0, 1) (the scalar
-/// sampler's `to_unit_float(nested_uniform_scramble(sobol, seed))` with `reversed = sobol.reverse_bits()`).
-#[inline(always)]
-fn unit_from_reversed(reversed: u32, seed: u32) -> f32 {
-    let x = laine_karras_permutation(reversed, seed).reverse_bits();
-    // 24 bits: the signed conversion (one AVX2 instruction) gives the unsigned one's value.
-    ((x >> 8) as i32) as f32 * (1.0 / 16_777_216.0)
 }
 
 /// Dimension `2·pair` of a path whose pair-seed prefix is `prefix`.
