@@ -71,7 +71,10 @@ const SOBOL_DIRECTIONS: [[u32; 32]; 2] = {
 /// It replaced four byte-indexed tables (one lookup per index byte, themselves the replacement of a
 /// 32-step bit-serial loop that made the sampler half of the render time): about as many scalar
 /// instructions, with one `reverse_bits` fewer around it, and it vectorises where table lookups need
-/// gathers (the lane sampler, [`crate::wavefront::sampler_lanes`]).
+/// gathers (the lane sampler, [`crate::wavefront::sampler_lanes`]). The scalar integrator gained
+/// little (callgrind, tractor, 120×80, 8 spp: 642.9 M → 639.9 M instructions: LLVM already folds
+/// a reversal of a reversal, so only dimension 1's reversal and table lookups went); its sampler calls are still 12.5 % of its instructions, mostly the
+/// pair-seed hashes each call recomputes.
 #[inline]
 pub(crate) fn sobol1_reversed(index: u32) -> u32 {
     let mut a = index;
