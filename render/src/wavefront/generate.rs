@@ -106,3 +106,93 @@ struct PathKeys {
     x: [u32; LANES],
     y: [u32; LANES],
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::film::RenderOptions;
+    use crate::integrator::PathSettings;
+    use crate::sampler::{sample_2d, SampleKey};
+    use crate::scene::Scene;
+    use crate::testscene::{self, camera_looking_down_z, card};
+
+    /// Every path of a chunk holds the camera ray the scalar film loop generates for its pixel and
+    /// sample, in pixel-then-sample order: odd tile sizes and sample counts leave a partly filled last
+    /// group, and the chunk starts at a sample other than 0.
+    #[test]
+    fn chunks_hold_the_scalar_film_loops_camera_rays() {
+        let mut camera = camera_looking_down_z(glam::Vec3::new(0.3, -0.2, 4.0), 18.0);
+        camera.world_from_camera *= glam::Mat4::from_rotation_y(0.3) * glam::Mat4::from_rotation_x(-0.2);
+        camera.horizontal_aperture_offset = 1.5;
+        let ingest_scene = ingest::Scene {
+            meshes: vec![card(0.0, 1.0, 0)],
+            materials: vec![testscene::lambert(0.5)],
+            cameras: vec![camera],
+            default_camera: Some(0),
+            meters_per_unit: 1.0,
+            ..ingest::Scene::default()
+        };
+        let bytes = testscene::bytes(&ingest_scene);
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        let scene = Scene::new(view);
+        let (width, height) = (37, 23);
+        let cam = scene.camera(Some(0), width, height);
+        let mut cases = 0;
+        for (seed, scale) in [(0, 1.0), (9, 0.25), (0xdead_beef, 0.0)] {
+            let options = RenderOptions { seed, texture_footprint_scale: scale, ..RenderOptions::default() };
+            let ctx = Context {
+                scene: &scene,
+                camera: &cam,
+                options: &options,
+                settings: PathSettings { max_depth: 4, filter: options.texture_filter },
+                width,
+                height,
+                forward: cam.forward(),
+                touch: &texture::NoTouch,
+                textured: false,
+            };
+            let mut w = Worker::new(16, &scene, false);
+            for (tile, s0, samples) in [
+                (Tile { x0: 0, y0: 0, x1: 16, y1: 16 }, 0, 16),
+                (Tile { x0: 32, y0: 16, x1: 37, y1: 23 }, 5, 3),
+                (Tile { x0: 16, y0: 16, x1: 32, y1: 23 }, 7, 1),
+            ] {
+                let mut rays = RayCounts::default();
+                camera_rays(&ctx, &tile, s0, samples, &mut w, &mut rays);
+                let n = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0) * samples) as usize;
+                assert_eq!((w.states.len(), rays.camera), (n, n as u64));
+                assert!(w.rays.iter().copied().eq(0..n as u32));
+                let mut i = 0;
+                for y in tile.y0..tile.y1 {
+                    for x in tile.x0..tile.x1 {
+                        let pixel = y * width + x;
+                        for sample in s0..s0 + samples {
+                            // The scalar film loop (`film::render_with_touch`).
+                            let key = SampleKey { pixel, sample, seed };
+                            let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
+                            let (o, d) = cam.generate_ray(
+                                (x as f32 + jx) / width as f32,
+                                (y as f32 + jy) / height as f32,
+                            );
+                            let mut cone = cam.pixel_cone(d.dot(ctx.forward));
+                            cone.width *= scale;
+                            cone.spread *= scale;
+                            let st = &w.states[i];
+                            assert_eq!((st.pixel, st.sample, st.vertex, st.bounces), (pixel, sample, 0, 0));
+                            let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                            assert_eq!(bits(st.origin), bits(o));
+                            assert_eq!(bits(st.dir), bits(d), "pixel {pixel} sample {sample}");
+                            assert_eq!(st.cone_width.to_bits(), cone.width.to_bits());
+                            assert_eq!(st.cone_spread.to_bits(), cone.spread.to_bits());
+                            assert_eq!((st.beta, st.radiance, st.prev_pdf), (Vec3::ONE, Vec3::ZERO, -1.0));
+                            assert!(w.first_hits[i].is_none());
+                            i += 1;
+                            cases += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(cases > 10_000, "{cases}");
+    }
+}
