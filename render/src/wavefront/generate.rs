@@ -23,6 +23,10 @@
 //! | whole process instructions, this and the vertex lanes ([`sampler_lanes`]) | 556.5 M → 521.8 M (−6.2 %) | 943.3 M → 908.2 M (−3.7 %) | 213.2 M → 191.1 M (−10.4 %) |
 //! | perf share of the camera stage (320×213, 16 spp; contended) | 5.95 % → 2.1 % | 2.83 % → 1.2 % | |
 //!
+//! `bench integrators` (wavefront speed-up over scalar, CPU s, 3 runs each, contended):
+//! tractor 1.25–1.31× → 1.31–1.44×, shading-heavy 1.00–1.04× → 1.02–1.16×, simple 1.22–1.23× →
+//! 1.32–1.58×.
+//!
 //! The perf share after is the sum of `sample_2d_lanes`, `camera_ray_lanes`, `camera_rays` and its
 //! state writes. Left as they are: hoisting the per-pixel pair seed out of the jitter lanes (the
 //! lanes of a group mostly share a pixel; ~8 instructions a ray, 0.1 % of the process) and
