@@ -118,7 +118,7 @@ impl<'a> Instances<'a> {
     ) -> Option<Hit> {
         let nray = NodeRay::new(origin, direction);
         let start = best.map_or(tmax, |h| h.t);
-        accel::walk_closest(self.top_nodes, 0, &nray, start, node_kernel, |leaf, mut tmax| {
+        accel::walk_closest(self.top_nodes, 0, &nray, start, node_kernel, &mut |leaf, mut tmax| {
             let (first, count) = child_ref::leaf_range(leaf);
             for &instance in &self.top_items[first as usize..(first + count) as usize] {
                 let inst = &self.instances[instance as usize];

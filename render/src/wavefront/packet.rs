@@ -25,6 +25,11 @@
 //! (octant-sorted, from the primary hits) as closest-hit packets 1.02 / 0.95 / 0.98× and as any-hit
 //! packets 0.86 / 0.88 / 0.91×.
 //!
+//! With the `Vec4` triangle kernel and the inlined leaf test of `accel` (single rays ~1.3–1.7×
+//! faster), three runs, load 13–14: primary 1.08–1.29 / 1.02–1.04 / 1.05–1.12×, bounce
+//! 0.76–0.84 / 0.75–0.83 / 0.86–0.90×, shadow as closest hits 0.91–1.13 / 0.92–1.18 / 0.93–1.00×,
+//! as any hits 0.96–1.23 / 0.82–0.94 / 0.85–1.13×: packets still lose on incoherent rays.
+//!
 //! In the wavefront (cachegrind, 120×80, 8 spp, one thread) the camera wave as closest-hit packets
 //! of the eight samples of one pixel, and the occlusion queue as any-hit packets, made the BVH
 //! queries plus the intersect stage run +2.5 / +3.8 / +7.9 % instructions (simple / tractor /
