@@ -306,21 +306,26 @@ fn gather(table: &LightTable, inp: &LightInputs, g: &mut Gathered) {
     }
     let axes = table.kinds & (bit(KIND_RECT) | bit(KIND_DISK)) != 0;
     if count <= BLEND_GATHER_MAX {
+        // Bit masks rather than `if hit { mine } else { column }`: LLVM turned that select into a
+        // per-lane choice of the address to load from (scalar code, ~255 instructions per group
+        // for the tractor's two lights); `and`/`andnot`/`or` on the bits stays 8-wide.
+        let blend = |mine: f32, column: &mut f32, mask: u32| {
+            *column = f32::from_bits((mine.to_bits() & mask) | (column.to_bits() & !mask));
+        };
         for (j, r) in table.lights.iter().enumerate() {
             for k in 0..LANES {
-                let hit = index[k] == j as u32;
-                let pick = |mine: f32, column: f32| if hit { mine } else { column };
-                g.kind[k] = if hit { r.kind } else { g.kind[k] };
+                let mask = ((index[k] == j as u32) as u32).wrapping_neg();
+                g.kind[k] = (r.kind & mask) | (g.kind[k] & !mask);
                 for c in 0..3 {
-                    g.radiance[c][k] = pick(r.radiance[c], g.radiance[c][k]);
-                    g.center[c][k] = pick(r.center[c], g.center[c][k]);
+                    blend(r.radiance[c], &mut g.radiance[c][k], mask);
+                    blend(r.center[c], &mut g.center[c][k], mask);
                 }
-                g.scalar[k] = pick(r.scalar, g.scalar[k]);
+                blend(r.scalar, &mut g.scalar[k], mask);
                 if axes {
                     for c in 0..3 {
-                        g.ex[c][k] = pick(r.ex[c], g.ex[c][k]);
-                        g.ey[c][k] = pick(r.ey[c], g.ey[c][k]);
-                        g.normal[c][k] = pick(r.normal[c], g.normal[c][k]);
+                        blend(r.ex[c], &mut g.ex[c][k], mask);
+                        blend(r.ey[c], &mut g.ey[c][k], mask);
+                        blend(r.normal[c], &mut g.normal[c][k], mask);
                     }
                 }
             }
