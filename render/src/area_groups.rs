@@ -90,6 +90,8 @@ pub fn ray_meets(b: &GroupBox, o: [f32; 3], inv_d: [f32; 3], tmax: f32) -> bool 
 /// `tmax` transposed): bit `k` is set where ray `k` meets `b`. Each lane runs the scalar test's
 /// operations, the skipped NaN slab as a select; its `min`/`max` may pick either zero where both
 /// operands are ±0, which compare equal, so every bit equals [`ray_meets`] (a test checks it).
+/// Lanes outside, axes inside: so LLVM's loop vectorizer takes the lane loop whole (with the axes
+/// outside, the lanes were unrolled first and the SLP vectorizer left most of the test scalar).
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
 pub fn ray_meets_lanes<const N: usize>(
@@ -98,19 +100,17 @@ pub fn ray_meets_lanes<const N: usize>(
     inv_d: &[[f32; N]; 3],
     tmax: &[f32; N],
 ) -> u32 {
-    let (mut near, mut far) = ([0.0f32; N], *tmax);
-    for a in 0..3 {
-        for k in 0..N {
+    let mut bits = [0u32; N];
+    for k in 0..N {
+        let (mut near, mut far) = (0.0f32, tmax[k]);
+        for a in 0..3 {
             let t0 = (b.lo[a] - o[a][k]) * inv_d[a][k];
             let t1 = (b.hi[a] - o[a][k]) * inv_d[a][k];
             let skip = t0.is_nan() || t1.is_nan();
-            near[k] = if skip { near[k] } else { near[k].max(t0.min(t1)) };
-            far[k] = if skip { far[k] } else { far[k].min(t0.max(t1)) };
+            near = if skip { near } else { near.max(t0.min(t1)) };
+            far = if skip { far } else { far.min(t0.max(t1)) };
         }
-    }
-    let mut bits = [0u32; N];
-    for k in 0..N {
-        bits[k] = ((near[k] <= far[k]) as u32) << k;
+        bits[k] = ((near <= far) as u32) << k;
     }
     bits.iter().fold(0, |a, b| a | b)
 }

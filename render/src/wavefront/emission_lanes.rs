@@ -133,6 +133,8 @@ pub struct AreaLightLanes {
     prev: Box<[Option<(Vec3, f32)>; MAX_RAYS]>,
     /// Hits of the batch, ray group by ray group, each ray's in light order.
     hits: Vec<RayHit>,
+    /// The kernel's scratch.
+    rejects: Box<RejectLanes>,
     /// Per ray of the batch: its emission.
     sums: Box<[Vec3; MAX_RAYS]>,
 }
@@ -153,6 +155,7 @@ impl AreaLightLanes {
             rays: Box::default(),
             prev: Box::new([None; MAX_RAYS]),
             hits: Vec::with_capacity(MAX_RAYS * LANES),
+            rejects: Box::default(),
             sums: Box::new([Vec3::ZERO; MAX_RAYS]),
         }
     }
@@ -187,7 +190,8 @@ impl AreaLightLanes {
             return sums;
         }
         self.hits.clear();
-        hit_rays(&self.shapes, &self.boxes, &self.rays[..n.div_ceil(LANES)], n, &mut self.hits);
+        let rays = &self.rays[..n.div_ceil(LANES)];
+        hit_rays(&self.shapes, &self.boxes, rays, n, &mut self.rejects, &mut self.hits);
         for h in &self.hits {
             let (j, light) = (h.ray as usize, &self.lights[h.light as usize]);
             let (group, k) = (&self.rays[j / LANES], j % LANES);
@@ -199,11 +203,35 @@ impl AreaLightLanes {
     }
 }
 
+/// Per-light lane values the cheap rejects leave for the scalar rest (scratch of the kernel).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct RejectLanes {
+    /// Sphere: `oc·d`.
+    pub b: Lanes,
+    /// Sphere: `|oc|² − r²`.
+    pub c: Lanes,
+    /// Sphere: the discriminant `b² − c`.
+    pub disc: Lanes,
+    /// Rect/disk: `d·n`.
+    pub cos: Lanes,
+    /// Rect/disk: the distance to the plane.
+    pub t: Lanes,
+}
+
 /// The hits of rays `0..n` (in groups of eight, `rays`) with the lights `shapes` (boxed eight by
 /// eight by `boxes`), appended to `hits` ray group by ray group, in light order within each; one
-/// dispatch per batch.
+/// dispatch per batch. The cheap rejects write their lane values into `s` (those stores are also
+/// what LLVM's SLP vectorizer starts from: with the values kept in registers it left them scalar).
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
-fn hit_rays(shapes: &[LightShape], boxes: &[GroupBox], rays: &[RayLanes], n: usize, hits: &mut Vec<RayHit>) {
+fn hit_rays(
+    shapes: &[LightShape],
+    boxes: &[GroupBox],
+    rays: &[RayLanes],
+    n: usize,
+    s: &mut RejectLanes,
+    hits: &mut Vec<RayHit>,
+) {
     for (r, ray) in rays.iter().enumerate() {
         let live = (1u32 << (n - r * LANES).min(LANES)) - 1;
         for (g, (group, b)) in shapes.chunks(area_groups::GROUP).zip(boxes).enumerate() {
@@ -214,23 +242,21 @@ fn hit_rays(shapes: &[LightShape], boxes: &[GroupBox], rays: &[RayLanes], n: usi
             for (l, shape) in group.iter().enumerate() {
                 let light = (g * area_groups::GROUP + l) as u32;
                 let mut record =
-                    |lane: usize, t: f32| hits.push(RayHit { ray: (r * LANES + lane) as u32, light, t });
+                    |k: usize, t: f32| hits.push(RayHit { ray: (r * LANES + k) as u32, light, t });
                 match *shape {
                     LightShape::Sphere { center, radius2 } => {
-                        let (b, c, disc) = sphere_discriminants(ray, center, radius2);
-                        // `ray_sphere` returns early where `disc < 0`; a NaN goes on, as here.
-                        let mut pass = meets & mask(|k| !(disc[k] < 0.0));
+                        let mut pass = meets & sphere_rejects(ray, center, radius2, s);
                         while pass != 0 {
                             let k = pass.trailing_zeros() as usize;
                             pass &= pass - 1;
-                            if let Some(t) = sphere_roots(b[k], c[k], disc[k]).filter(|&t| t < ray.tmax[k]) {
+                            let t = sphere_roots(s.b[k], s.c[k], s.disc[k]).filter(|&t| t < ray.tmax[k]);
+                            if let Some(t) = t {
                                 record(k, t);
                             }
                         }
                     }
                     LightShape::Planar { center, normal, ex, ex_len2, ey, ey_len2, disk } => {
-                        let t = plane_distances(ray, center, normal);
-                        let mut pass = meets & mask(|k| t[k].1);
+                        let mut pass = meets & plane_rejects(ray, center, normal, s);
                         while pass != 0 {
                             let k = pass.trailing_zeros() as usize;
                             pass &= pass - 1;
@@ -238,8 +264,12 @@ fn hit_rays(shapes: &[LightShape], boxes: &[GroupBox], rays: &[RayLanes], n: usi
                                 [ray.o[0][k], ray.o[1][k], ray.o[2][k]],
                                 [ray.d[0][k], ray.d[1][k], ray.d[2][k]],
                             );
-                            if planar_inside(o, d, t[k].0, center, (ex, ex_len2), (ey, ey_len2), disk) {
-                                record(k, t[k].0);
+                            let t = s.t[k];
+                            // The scalar test's early returns, exactly (the lane mask is wider).
+                            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                            let ahead = !(s.cos[k] >= 0.0) && t > 0.0 && t < ray.tmax[k];
+                            if ahead && planar_inside(o, d, t, center, (ex, ex_len2), (ey, ey_len2), disk) {
+                                record(k, t);
                             }
                         }
                     }
@@ -249,30 +279,41 @@ fn hit_rays(shapes: &[LightShape], boxes: &[GroupBox], rays: &[RayLanes], n: usi
     }
 }
 
-/// The lanes where `pass` holds, as a bit mask.
+/// `ray_sphere`'s first part on eight rays (`b = oc·d`, `c = |oc|² − r²`, the discriminant
+/// `b² − c`, with glam's `dot` order `(x·x' + y·y') + z·z'`) into `s`; bit `k` set where the
+/// scalar code goes on (`!(disc < 0)`).
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
-fn mask(pass: impl Fn(usize) -> bool) -> u32 {
+fn sphere_rejects(ray: &RayLanes, center: [f32; 3], radius2: f32, s: &mut RejectLanes) -> u32 {
     let mut bits = [0u32; LANES];
     for k in 0..LANES {
-        bits[k] = (pass(k) as u32) << k;
+        let oc = [ray.o[0][k] - center[0], ray.o[1][k] - center[1], ray.o[2][k] - center[2]];
+        let b = oc[0] * ray.d[0][k] + oc[1] * ray.d[1][k] + oc[2] * ray.d[2][k];
+        let c = (oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2]) - radius2;
+        let disc = b * b - c;
+        (s.b[k], s.c[k], s.disc[k]) = (b, c, disc);
+        bits[k] = (!(disc < 0.0) as u32) << k;
     }
     bits.iter().fold(0, |a, b| a | b)
 }
 
-/// `ray_sphere`'s first part on eight rays: `b = oc·d`, `c = |oc|² − r²` and the discriminant
-/// `b² − c`, with glam's `dot` order `(x·x' + y·y') + z·z'`.
+/// `Light::intersect`'s rect/disk part up to the plane on eight rays: `cos = d·n` and the distance
+/// `t = ((c − o)·n) / cos` into `s`. Bit `k` is set where `min(t, −cos) > 0`: every ray that faces
+/// the emitting side (`cos < 0`) and meets the plane ahead (`t > 0`), and a few more (NaN `t`); the
+/// scalar rest then applies the exact tests. (The exact `!(cos ≥ 0) & t > 0 & t < tmax` in lanes
+/// was left mostly scalar by LLVM.)
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
-fn sphere_discriminants(ray: &RayLanes, center: [f32; 3], radius2: f32) -> (Lanes, Lanes, Lanes) {
-    let (mut b, mut c, mut disc) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+fn plane_rejects(ray: &RayLanes, center: [f32; 3], n: [f32; 3], s: &mut RejectLanes) -> u32 {
+    let mut bits = [0u32; LANES];
     for k in 0..LANES {
-        let oc = [ray.o[0][k] - center[0], ray.o[1][k] - center[1], ray.o[2][k] - center[2]];
-        b[k] = oc[0] * ray.d[0][k] + oc[1] * ray.d[1][k] + oc[2] * ray.d[2][k];
-        c[k] = (oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2]) - radius2;
-        disc[k] = b[k] * b[k] - c[k];
+        let cos = ray.d[0][k] * n[0] + ray.d[1][k] * n[1] + ray.d[2][k] * n[2];
+        let to = [center[0] - ray.o[0][k], center[1] - ray.o[1][k], center[2] - ray.o[2][k]];
+        let t = (to[0] * n[0] + to[1] * n[1] + to[2] * n[2]) / cos;
+        (s.cos[k], s.t[k]) = (cos, t);
+        bits[k] = ((t.min(-cos) > 0.0) as u32) << k;
     }
-    (b, c, disc)
+    bits.iter().fold(0, |a, b| a | b)
 }
 
 /// `ray_sphere`'s rest, for a ray whose discriminant is not negative: the nearest positive root
@@ -292,22 +333,6 @@ pub fn sphere_roots(b: f32, c: f32, disc: f32) -> Option<f32> {
     } else {
         None
     }
-}
-
-/// `Light::intersect`'s rect/disk part up to the plane on eight rays: the distance to the plane
-/// `t = ((c − o)·n) / (d·n)`, and whether the ray faces the emitting side (`d·n < 0`; NaN and
-/// parallel rays do not) and meets the plane in (0, `tmax`).
-#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
-#[inline(always)]
-fn plane_distances(ray: &RayLanes, center: [f32; 3], n: [f32; 3]) -> [(f32, bool); LANES] {
-    let mut out = [(0.0, false); LANES];
-    for k in 0..LANES {
-        let cos = ray.d[0][k] * n[0] + ray.d[1][k] * n[1] + ray.d[2][k] * n[2];
-        let to = [center[0] - ray.o[0][k], center[1] - ray.o[1][k], center[2] - ray.o[2][k]];
-        let t = (to[0] * n[0] + to[1] * n[1] + to[2] * n[2]) / cos;
-        out[k] = (t, !(cos >= 0.0) && t > 0.0 && t < ray.tmax[k]);
-    }
-    out
 }
 
 /// `Light::intersect`'s rect/disk rest: whether the plane point at `t` lies inside the shape.
