@@ -73,16 +73,29 @@ fn emission(scene: &Scene, w: &mut Worker, batch: &[u32]) {
         }
     }
     let area = area.emission(&scene.lights, batch.len());
+    let mut escaped = false;
     for (&i, &area) in batch.iter().zip(area) {
         let st = &mut w.states[i as usize];
-        let t_hit = w.hits[i as usize].t;
-        let prev = st.prev();
         st.radiance += st.beta * area;
-        if t_hit == f32::INFINITY {
-            st.radiance += st.beta * scene.lights.escaped_emission(st.dir, prev.map(|p| p.1));
-            continue;
+        if w.hits[i as usize].t == f32::INFINITY {
+            escaped = true;
+        } else {
+            w.shade.push(sort::entry(0, i));
         }
-        w.shade.push(sort::entry(0, i));
+    }
+    // The escaped rays' dome and distant lights in a pass of their own, one call after another:
+    // called between the other rays' work, `escaped_emission`'s per-light `match` mispredicted on
+    // most calls (cachegrind, tractor at 120×80, 8 spp: 52 k of 67 k calls, against 15 in the
+    // scalar integrator; both make the same calls with the same instructions), and took 1.95 % of
+    // the wavefront's time there against 0.55 % of the scalar's. Each path still adds its area
+    // emission first, as the scalar integrator does.
+    if escaped {
+        for &i in batch {
+            if w.hits[i as usize].t == f32::INFINITY {
+                let st = &mut w.states[i as usize];
+                st.radiance += st.beta * scene.lights.escaped_emission(st.dir, st.prev().map(|p| p.1));
+            }
+        }
     }
 }
 
