@@ -9,10 +9,12 @@
 //! 1. per group of eight lights, the box test of the eight rays ([`area_groups::ray_meets_lanes`]);
 //!    when no ray meets the box its eight lights are skipped;
 //! 2. per light, the cheap reject on eight rays with the scalar test's own IEEE operations: for a
-//!    sphere the sign of the discriminant, for a rect or disk the facing test and the plane distance
-//!    `0 < t < tmax`;
+//!    sphere the sign of the discriminant (`!(disc < 0)`, as `ray_sphere` returns early), for a
+//!    rect or disk the facing test and the plane distance (`min(t, −cos) > 0`: a superset of the
+//!    scalar `cos < 0, t > 0`, see [`plane_rejects`]);
 //! 3. only for the rays that pass both (few: most rays miss most lights), the rest of the scalar test
-//!    ([`sphere_roots`], [`planar_inside`]), one ray at a time.
+//!    from the lane values ([`sphere_roots`]; the exact plane tests, `t < tmax` and
+//!    [`planar_inside`]), one ray at a time.
 //!
 //! Each hit is recorded as (ray, light, t); as the lights are walked in summation order, each ray's
 //! hits come in that order too, and [`AreaLightLanes::emission`] then adds their
@@ -22,13 +24,27 @@
 //! (each is the union of its lights' bounds, padded for rounding: a light a ray hits lies in a box
 //! the ray meets; `lights::tests::culled_area_emission_equals_the_sum_over_every_light` checks it).
 //!
-//! # Measured (shading-heavy bench scene: 48 sphere lights; tractor: none)
+//! # Measured (shading-heavy bench scene: 48 sphere lights, a dome, a sun; tractor: no area light)
 //! The previous kernel ran the other way round: per ray, the eight lights of each met group in
 //! lanes, with the square root and both divisions of the sphere and planar tests in all eight lanes
-//! (every ray paid them for every met group). Callgrind, 120×80, 8 spp, 1 thread, instructions of
-//! the intersect stage's emission pass (area lights and the escaped rays' dome and sun):
-//! shading-heavy 166.7 M before (the scalar `area_emission`: 248.7 M), after: see the table in the
-//! report of this change (filled below).
+//! (every ray paid them for every met group). Callgrind, 120×80, 8 spp, 1 thread (instructions):
+//!
+//! | | before | after |
+//! |---|---|---|
+//! | shading-heavy: area-light kernel (`AreaLightLanes::emission`) | 146.0 M | 50.8 M |
+//! | shading-heavy: the intersect stage's emission pass (with the dome and sun of escaped rays) | 166.7 M | 76.9 M |
+//! | shading-heavy: whole process (the scalar integrator's `area_emission` alone: 248.7 M) | 943.3 M | 853.5 M |
+//! | tractor: emission pass / whole process | 24.3 M / 556.5 M | 17.5 M / 549.7 M |
+//! | simple: emission pass / whole process | 16.3 M / 213.2 M | 13.1 M / 210.1 M |
+//!
+//! perf (320×213, 16 spp, 1 thread, contended): the emission's share of the shading-heavy
+//! wavefront render fell from 14.9 % (the old kernel 10.7 + 1.8, the pass 1.7, dome and sun 0.75)
+//! to 6.0 % (the pass 2.1, the sphere rejects 1.9, the ray loop 1.3, dome and sun 0.7), against
+//! 11.9 % for the scalar integrator's `area_emission` in the same build.
+//!
+//! Tried and lost: the rejects inlined into the ray loop (LLVM left most lanes scalar: 70.0 M for
+//! the kernel), and the mask as bytes of a `u64` (`vpacksswb` in the box test, but shuffles and
+//! scalar compares in the others).
 
 use super::bsdf_lanes::{Lanes, Lanes3};
 use super::lanes::LANES;
@@ -296,8 +312,8 @@ fn hit_rays(
 
 /// `ray_sphere`'s first part on eight rays (`b = oc·d`, `c = |oc|² − r²`, the discriminant
 /// `b² − c`, with glam's `dot` order `(x·x' + y·y') + z·z'`) into `s`; bit `k` set where the
-/// scalar code goes on (`!(disc < 0)`).
-#[allow(clippy::needless_range_loop)]
+/// scalar code goes on (`!(disc < 0)`, NaN included, as the early return treats it).
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 fn sphere_rejects(ray: &RayLanes, center: [f32; 3], radius2: f32, s: &mut RejectLanes) -> u32 {
     let mut bits = [0u32; LANES];
