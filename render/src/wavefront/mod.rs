@@ -6,7 +6,7 @@
 //! no locks, no allocation on the hot path) runs, per tile and per chunk of that tile's samples:
 //!
 //! ```text
-//! generate ─► ray queue ─► intersect (+ area-light emission, 8 lights per lane group)
+//! generate ─► ray queue ─► intersect (+ area-light emission, 8 rays per lane group)
 //!                ▲            └► shade queue ─► sort (texture keys, radix sort, per-material segments)
 //!                │                   └► shade, in chunks of 256 hits:
 //!                │                        0. sampler lanes: every random number of the vertex, 8 paths at once
