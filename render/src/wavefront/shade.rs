@@ -35,12 +35,10 @@ use crate::integrator::{shadow_tmax, FirstHit, RayCounts, Surface, CONE_WIDEN_PE
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, SampleKey};
 use crate::scene::Scene;
+use crate::shading::ShadingInputs;
 use crate::stats::Phase;
 use glam::Vec3;
 use texture::Touch;
-
-/// Hits per shading chunk (phase 1 then phase 2).
-pub const CHUNK: usize = 256;
 
 /// Eight shaded hits waiting for the lane kernels, in AoSoA form: phase 1 writes them lane by lane
 /// (each hit's values are at hand there), phase 2 reads whole columns, so nothing is transposed
@@ -73,146 +71,142 @@ pub struct ScatterGroup {
     pub play: [u32; LANES],
 }
 
-/// Shades every queued hit, in chunks.
+/// Shades every queued hit: curve and point hits one by one, the others run by run.
 pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
     w.next_rays.clear();
     w.occlusion.clear();
+    // The surfaces the sort kept, out of the worker while the runs borrow it mutably (a move of
+    // the vector, no copy; put back below so its memory serves the next wave).
+    let kept = std::mem::take(&mut w.surfaces);
     let n = w.shade.len();
-    // The surfaces the sort kept; each chunk appends its rebuilt ones after them and drops them when
-    // done, so their memory is reused chunk after chunk (it stays in L2).
-    let kept = w.surfaces.len();
     let mut start = 0;
     while start < n {
-        let end = (start + CHUNK).min(n);
-        surfaces(ctx, w, start, end);
-        programs(ctx, w);
-        for (pos, k) in (start..end).enumerate() {
-            let i = sort::index(w.shade[k]);
-            if super::intersect::is_curve(&w.hits[i as usize]) {
-                super::shade_curves::vertex(ctx, w, i, rays);
-            } else {
-                prepare(ctx, w, i, pos, rays);
-                if w.scatter_points == LANES {
-                    scatter(ctx, w, rays);
-                }
-            }
+        let end = run_end(&w.shade, start, &w.materials, |i| super::intersect::is_curve(&w.hits[i]));
+        let first = sort::index(w.shade[start]);
+        if super::intersect::is_curve(&w.hits[first as usize]) {
+            super::shade_curves::vertex(ctx, w, first, rays);
+        } else {
+            run(ctx, w, &kept, start, end, rays);
         }
-        if w.scatter_points > 0 {
-            scatter(ctx, w, rays);
-        }
-        w.surfaces.truncate(kept);
         start = end;
     }
+    if w.scatter_points > 0 {
+        scatter(ctx, w, rays);
+    }
+    w.surfaces = kept;
     rays.shadow += w.occlusion.len() as u64;
 }
 
-/// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt per hit (a lane version
-/// executed 1.8× the instructions of these calls; see the module docs of [`super`]). Rebuilt ones join
-/// the kept ones in `w.surfaces` until the chunk ends (a wave has at most one per path, so it never
-/// grows past its capacity) and the chunk records slots: a surface (~250 bytes) is written once and
-/// never moved.
-fn surfaces<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
+/// The end of the run starting at queue position `start`: a curve or point hit alone (`curve(i)`
+/// of its path `i`), else up to eight consecutive triangle hits on one material (`materials` by
+/// path; the queue is grouped by material, so runs are full but at a material's last hits).
+pub(super) fn run_end(
+    queue: &[sort::ShadeEntry],
+    start: usize,
+    materials: &[u32],
+    curve: impl Fn(usize) -> bool,
+) -> usize {
+    let path = |pos: usize| sort::index(queue[pos]) as usize;
+    if curve(path(start)) {
+        return start + 1;
+    }
+    let material = materials[path(start)];
+    let mut end = start + 1;
+    while end < queue.len() && end - start < LANES && materials[path(end)] == material && !curve(path(end)) {
+        end += 1;
+    }
+    end
+}
+
+/// Phase 1 for the run of triangle hits at queue positions `start..end` (one material, at most
+/// eight): their surfaces (kept by the sort key, or built here into a stack array that stays in
+/// L1), their material program in lanes ([`material_lanes::evaluate_lanes`]; a lone hit runs the
+/// scalar program), then per hit [`prepare`] into the scatter group, which runs as soon as it is
+/// full. A degenerate triangle (no surface) ends its path here, as in the scalar integrator.
+///
+/// Phase 1 used to run in chunks of 256 hits, each pass over the whole chunk (surfaces into the
+/// worker's surface table, programs into a per-chunk `Vec<Option<ShadingInputs>>`, then per hit):
+/// 256 surfaces of 200 bytes and their inputs left L1 between the passes. See the module docs for
+/// the figures.
+fn run<T: Touch>(
+    ctx: &Context<'_, '_, T>,
+    w: &mut Worker,
+    kept: &[Surface],
+    start: usize,
+    end: usize,
+    rays: &mut RayCounts,
+) {
     let scene: &Scene = ctx.scene;
-    w.chunk_slots.clear();
+    let (filter, touch) = (ctx.settings.filter, ctx.touch);
+    let mut built: [Option<Surface>; LANES] = [const { None }; LANES];
+    let (mut paths, mut slots, mut count) = ([0u32; LANES], [NO_SURFACE; LANES], 0);
     for &e in &w.shade[start..end] {
-        let i = sort::index(e) as usize;
-        let (hit, st) = (&w.hits[i], &w.states[i]);
-        if super::intersect::is_curve(hit) {
-            // Curve and point hits build their own surface in `shade_curves`.
-            w.chunk_slots.push(NO_SURFACE);
-            continue;
+        let i = sort::index(e);
+        let slot = if ctx.textured { w.surface_slot[i as usize] } else { NO_SURFACE };
+        if slot == NO_SURFACE {
+            let (hit, st) = (&w.hits[i as usize], &w.states[i as usize]);
+            built[count] = scene.surface(hit, -st.dir, st.cone().width_at(hit.t));
+            if built[count].is_none() {
+                continue; // a degenerate triangle
+            }
         }
-        let kept = if ctx.textured { w.surface_slot[i] } else { NO_SURFACE };
-        let slot = if kept != NO_SURFACE {
-            kept
-        } else if let Some(s) = scene.surface(hit, -st.dir, st.cone().width_at(hit.t)) {
-            w.surfaces.push(Some(s));
-            (w.surfaces.len() - 1) as u32
-        } else {
-            NO_SURFACE // a degenerate triangle
-        };
-        w.chunk_slots.push(slot);
+        (paths[count], slots[count]) = (i, slot);
+        count += 1;
     }
     w.clock.lap(Phase::Shading);
-}
-
-/// A chunk slot without a surface: a curve or point hit, or a degenerate triangle.
-const NO_SURFACE: u32 = u32::MAX;
-
-/// The surface in chunk slot `slot`.
-#[inline]
-fn slot_surface(surfaces: &[Option<Surface>], slot: u32) -> Option<&Surface> {
-    surfaces.get(slot as usize).and_then(Option::as_ref)
-}
-
-/// Phase 1a, second half: the material programs of the chunk's surfaces, run by run of up to eight
-/// consecutive hits on one material (a lone hit runs the scalar program).
-fn programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
-    let scene: &Scene = ctx.scene;
-    let n = w.chunk_slots.len();
-    w.chunk_inputs.clear();
-    w.chunk_inputs.resize(n, None);
-    let (filter, touch) = (ctx.settings.filter, ctx.touch);
-    let mut pos = 0;
-    while pos < n {
-        let Some(material) = slot_surface(&w.surfaces, w.chunk_slots[pos]).map(|s| s.material) else {
-            pos += 1;
-            continue;
-        };
-        // The run: up to eight hits on `material` from `pos` on (degenerate hits skipped).
-        let (mut members, mut count) = ([0usize; LANES], 0);
-        while pos < n && count < LANES {
-            match slot_surface(&w.surfaces, w.chunk_slots[pos]) {
-                Some(s) if s.material != material => break,
-                Some(_) => {
-                    members[count] = pos;
-                    count += 1;
-                }
-                None => {}
-            }
-            pos += 1;
-        }
-        let surface =
-            |k: usize| slot_surface(&w.surfaces, w.chunk_slots[members[k]]).expect("members have surfaces");
-        if count == 1 {
-            w.chunk_inputs[members[0]] = Some(scene.shade(surface(0), filter, touch));
-        } else {
-            let at: [&crate::shading::UvFootprint; LANES] =
-                std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
-            let inputs = material_lanes::evaluate_lanes(
-                &scene.shading,
-                material,
-                &at[..count],
-                filter,
-                touch,
-                &mut w.registers,
-            );
-            for k in 0..count {
-                w.chunk_inputs[members[k]] = Some(inputs[k]);
-            }
-        }
-        w.clock.shader_evaluations += count as u64;
-        if w.clock.enabled() {
-            w.clock.lap(if w.textured_materials[material as usize] {
-                Phase::Texturing
-            } else {
-                Phase::Shading
-            });
+    if count == 0 {
+        return;
+    }
+    let surface = |k: usize| match slots[k] {
+        NO_SURFACE => built[k].as_ref().expect("a member without a kept surface has a built one"),
+        slot => &kept[slot as usize],
+    };
+    let material = surface(0).material;
+    let inputs = if count == 1 {
+        [scene.shade(surface(0), filter, touch); LANES]
+    } else {
+        let at: [&crate::shading::UvFootprint; LANES] =
+            std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
+        material_lanes::evaluate_lanes(
+            &scene.shading,
+            material,
+            &at[..count],
+            filter,
+            touch,
+            &mut w.registers,
+        )
+    };
+    w.clock.shader_evaluations += count as u64;
+    if w.clock.enabled() {
+        w.clock.lap(if w.textured_materials[material as usize] { Phase::Texturing } else { Phase::Shading });
+    }
+    for k in 0..count {
+        prepare(ctx, w, paths[k], surface(k), &inputs[k], rays);
+        if w.scatter_points == LANES {
+            scatter(ctx, w, rays);
         }
     }
+    w.clock.lap(Phase::Integration);
 }
 
-/// Phase 1 for one hit, the `pos`-th of its chunk.
-fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usize, rays: &mut RayCounts) {
+/// A run member whose surface is not kept by the sort key (`Worker::surface_slot`).
+const NO_SURFACE: u32 = u32::MAX;
+
+/// Phase 1 for one hit `i` on surface `s` with shading inputs `inputs`.
+fn prepare<T: Touch>(
+    ctx: &Context<'_, '_, T>,
+    w: &mut Worker,
+    i: u32,
+    s: &Surface,
+    inputs: &ShadingInputs,
+    rays: &mut RayCounts,
+) {
     let scene: &Scene = ctx.scene;
     let max_depth = ctx.settings.max_depth;
-    let hit = w.hits[i as usize];
+    let hit = &w.hits[i as usize];
     let st = &mut w.states[i as usize];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
-    let (Some(s), Some(inputs)) = (slot_surface(&w.surfaces, w.chunk_slots[pos]), w.chunk_inputs[pos]) else {
-        return;
-    };
 
     let opacity = inputs.effective_opacity();
     // The vertex's other random numbers are drawn in lanes in phase 2; this one decides phase 1.
@@ -246,7 +240,7 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     }
     if st.bounces >= max_depth {
         if let (true, Some(first)) = (is_first, first.as_mut()) {
-            first.albedo = Bsdf::from_inputs(&inputs, ns, s.ng).diffuse_albedo();
+            first.albedo = Bsdf::from_inputs(inputs, ns, s.ng).diffuse_albedo();
         }
         return;
     }
@@ -255,7 +249,7 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let (g, k) = (&mut *w.scatter, w.scatter_points);
     g.index[k] = i;
     g.first[k] = is_first as u32;
-    g.inputs.set(k, &inputs, ns, s.ng);
+    g.inputs.set(k, inputs, ns, s.ng);
     (g.bsdf.wo[0][k], g.bsdf.wo[1][k], g.bsdf.wo[2][k]) = (wo.x, wo.y, wo.z);
     (g.light.p[0][k], g.light.p[1][k], g.light.p[2][k]) = (s.p.x, s.p.y, s.p.z);
     (g.keys.pixel[k], g.keys.sample[k], g.keys.vertex[k]) = (st.pixel, st.sample, st.vertex);
@@ -263,7 +257,6 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     g.footprint[k] = footprint;
     g.play[k] = play;
     w.scatter_points += 1;
-    w.clock.lap(Phase::Integration);
 }
 
 /// `|n · w|` per lane (glam's `dot` order), the cosine the estimators weigh by.
@@ -405,4 +398,41 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
         next_rays.push(g.index[k]);
     }
     clock.lap(Phase::Integration);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_cover_the_queue_once_in_order_with_one_material_and_no_curves() {
+        // 200 paths, listed in a shuffled order and grouped by material as the sort leaves them;
+        // every seventh path hit a curve.
+        let materials: Vec<u32> = (0..200u32).map(|i| crate::sampler::hash_u32(i) % 4).collect();
+        let curve = |i: usize| i % 7 == 3;
+        let mut queue: Vec<u64> =
+            (0..200u32).map(|i| sort::entry(crate::sampler::hash_u32(i ^ 5), i)).collect();
+        queue.sort_by_key(|&e| (materials[sort::index(e) as usize], sort::key(e)));
+        let mut seen = Vec::new();
+        let mut start = 0;
+        while start < queue.len() {
+            let end = run_end(&queue, start, &materials, curve);
+            assert!(end > start && end - start <= LANES, "run {start}..{end}");
+            let run: Vec<usize> = queue[start..end].iter().map(|&e| sort::index(e) as usize).collect();
+            if curve(run[0]) {
+                assert_eq!(run.len(), 1, "a curve hit is shaded alone");
+            } else {
+                assert!(run.iter().all(|&i| !curve(i) && materials[i] == materials[run[0]]), "{run:?}");
+                // A run stops short of eight only at a material's end or before a curve hit.
+                if run.len() < LANES && end < queue.len() {
+                    let next = sort::index(queue[end]) as usize;
+                    assert!(curve(next) || materials[next] != materials[run[0]]);
+                }
+            }
+            seen.extend(run);
+            start = end;
+        }
+        let queued: Vec<usize> = queue.iter().map(|&e| sort::index(e) as usize).collect();
+        assert_eq!(seen, queued, "every queued path once, in queue order");
+    }
 }
