@@ -8,12 +8,11 @@
 //! ```text
 //! generate ─► ray queue ─► intersect (+ area-light emission, 8 lights per lane group)
 //!                ▲            └► shade queue ─► sort (texture keys, radix sort, per-material segments)
-//!                │                   └► shade, in chunks of 256 hits:
-//!                │                        0. sampler lanes: every random number of the vertex, 8 paths at once
-//!                │                        1a. 8 hits at once: material programs + textures
-//!                │                            (runs of one material); per hit: surface
+//!                │                   └► shade, run by run (up to 8 hits on one material):
+//!                │                        1a. per hit: surface; 8 hits at once: material program
+//!                │                            + textures
 //!                │                        1. per hit: opacity, normal map, emission ─► lane k of a group
-//!                │                        2. per full group of 8: BSDF construction, ray origins,
+//!                │                        2. per full group of 8: random numbers, BSDF construction, ray origins,
 //!                │                           light sample ─► BSDF eval ─► MIS ─► occlusion queue
 //!                │                           BSDF sample ─► throughput + roulette ──────────────┐
 //!                └──────────────────────────────────────────────────────── next ray queue ◄─────┘

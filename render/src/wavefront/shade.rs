@@ -1,26 +1,69 @@
 //! Stage 4: shading. Reads the sorted shade queue (one segment per material) and the hit side table;
 //! writes the occlusion queue, the shadow-ray side table and the next ray queue.
 //!
-//! The queue is shaded in chunks of [`CHUNK`] hits, each in these phases:
-//! 1a. per hit: the surface (or the one the sort key kept; both stay in the worker's surface table
-//!    and the chunk holds slots); then runs of up to eight consecutive hits on one material (the
-//!    queue is sorted by material) through the material program in lanes
-//!    ([`material_lanes::evaluate_lanes`]; a lone hit runs the scalar program);
-//! 1. per hit (scalar, material by material): stochastic transparency, the normal map, emission at
-//!    the hit (the depth limit ends paths here), then its shading inputs, normals and sampler keys
-//!    written straight into lane `k` of the AoSoA [`ScatterGroup`]; curve and point hits take their
-//!    whole vertex per hit ([`super::shade_curves`]);
-//! 2. as soon as the group holds eight points (and for the chunk's last ones), its lane kernels:
-//!    the vertex's random numbers ([`sampler_lanes`]), the BSDFs ([`bsdf_lanes::from_inputs_lanes`]) and the first-hit albedos, the ray origins off
-//!    the surfaces ([`lanes::offset_origin_lanes`]), the light sample ([`light_lanes::sample_lanes`];
-//!    textured emitters per lane), the BSDF towards it ([`bsdf_lanes::eval_lanes`]), the MIS weight
-//!    ([`lanes::weigh_lanes`]; kept samples enter the occlusion queue), the BSDF sample
-//!    ([`bsdf_lanes::sample_lanes`]) and the throughput update with Russian roulette
-//!    ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
+//! The queue is shaded run by run ([`run_end`]): a curve or point hit alone, which takes its whole
+//! vertex per hit ([`super::shade_curves`]), else up to eight consecutive triangle hits on one
+//! material (the queue is grouped by material), in these phases:
+//! 1a. the run's surfaces (the ones the sort key kept, else built into a stack array), then the
+//!    material program over the run in lanes ([`material_lanes::evaluate_lanes`]; a lone hit runs
+//!    the scalar program);
+//! 1. per hit: stochastic transparency, the normal map, emission at the hit (the depth limit ends
+//!    paths here), then its shading inputs, normals and sampler keys written straight into lane `k`
+//!    of the AoSoA [`ScatterGroup`];
+//! 2. as soon as the group holds eight points (and for the queue's last ones), its lane kernels:
+//!    the vertex's random numbers ([`sampler_lanes`]), the BSDFs ([`bsdf_lanes::from_inputs_lanes`])
+//!    and the first-hit albedos, the ray origins off the surfaces ([`lanes::offset_origin_lanes`]),
+//!    the light sample ([`light_lanes::sample_lanes`]; textured emitters per lane), the BSDF towards
+//!    it ([`bsdf_lanes::eval_lanes`]), the MIS weight ([`lanes::weigh_lanes`]; kept samples enter
+//!    the occlusion queue), the BSDF sample ([`bsdf_lanes::sample_lanes`]) and the throughput update
+//!    with Russian roulette ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
 //!
 //! Nothing is transposed between phases 1 and 2: phase 1 writes each hit's values into its lane
-//! (they are at hand there), and the group (~2 KiB) is consumed while it is still in L1. See the
-//! module docs of [`super`] for what each step saved.
+//! (they are at hand there), and the group (~3.5 KiB with its kernels' outputs) is consumed while
+//! it is still in L1. See the module docs of [`super`] for what each step saved.
+//!
+//! # Phase 1 run by run (was: chunks of 256 hits)
+//! Phase 1 used to take the queue in chunks of 256 hits, one pass per step over the chunk: every
+//! surface built and pushed as an `Option<Surface>` (~250 bytes) into the worker's surface table,
+//! then the programs into a per-chunk `Vec<Option<ShadingInputs>>` (resized and rewritten per
+//! chunk), then per hit. A chunk's surfaces (~64 KiB) left L1 between the passes, and each path's
+//! state, hit and first-hit record were fetched again by sorted index in each pass. Now each run
+//! of at most eight hits goes through every step before the next starts: its surfaces live on the
+//! stack, its inputs in an 8-entry array, its path states stay in L1 from the surface to the
+//! scatter group. The material bucketing and the runs read a per-path material table the sort-key
+//! pass fills ([`super::sort::group_by_material`]) instead of the hit and the triangle's material
+//! by sorted index. Phase 2's kernel outputs live with the group instead of being zeroed on the
+//! stack per group, and the first-hit test reads the first-hit table only at bounce 0.
+//!
+//! Cachegrind, whole process, wavefront, 120×80, 8 spp, 1 thread (instructions; L1 data misses,
+//! read + write):
+//!
+//! | step | shading-heavy | tractor | simple |
+//! |---|---|---|---|
+//! | before | 945.9 M; 4.66 M | 558.3 M; 2.83 M | 214.0 M; 0.98 M |
+//! | phase 1 run by run + per-path material table | 939.2 M; 4.40 M | 551.7 M; 1.99 M | 212.9 M; 0.76 M |
+//! | + kernel outputs kept with the group, first-hit read at bounce 0 only | 937.3 M; 4.40 M | 549.8 M; 1.95 M | 212.6 M; 0.76 M |
+//!
+//! Phase 1's own lines (`shade::shade` in this file) went from 548 k to 230 k L1 read misses on
+//! the tractor (shading-heavy 551 k → 374 k, simple 101 k → 27 k) and from 114 k to 14 k write
+//! misses; `memcpy`'s write misses fell from 354 k to 181 k (tractor; simple 93 k → 32 k): what
+//! it still copies are the run's surfaces and inputs onto the stack (L1) and the sort key's kept
+//! surfaces (below). `memset` fell 5.18 M → 3.95 M instructions (tractor).
+//!
+//! What is left: the shading-heavy scene keeps a surface per textured hit from the sort-key pass
+//! (~90 k surfaces of ~250 bytes, ~140 of them curve-hit fields a triangle never uses),
+//! written in one stage and read back by sorted index in this one: ~414 k write and ~370 k read
+//! misses. Rebuilding instead of keeping costs one more `Scene::surface` per textured hit (~190
+//! instructions). `Shading::sort_key` clears its register file per call (`memset`, 4.4 M
+//! instructions there; `shading.rs`).
+//!
+//! Lost (kept out): putting the next ray queue and the occlusion queue back in pool order after
+//! shading (a bitmap over the pool, [`u32::trailing_zeros`] walk), so the intersect and occlusion
+//! stages read path states and shadow rays in memory order and neighbouring pixels' rays traverse
+//! together: +0.3 / +0.9 / +0.2 % instructions (shading-heavy / tractor / simple), L1 data misses
+//! −2.1 / +0.1 / +0.4 %; the BVH traversal missed L1 slightly *more* (closest-hit blocks 224 k →
+//! 232 k on shading-heavy): bounce rays of neighbouring pixels are not coherent enough to share
+//! nodes.
 
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
@@ -69,6 +112,30 @@ pub struct ScatterGroup {
     pub footprint: Lanes,
     /// 1 where Russian roulette is played after this bounce.
     pub play: [u32; LANES],
+    /// The kernels' inputs and outputs past the light sample.
+    pub out: KernelLanes,
+}
+
+/// What phase 2's kernels write, kept with the group rather than zeroed on the stack for every
+/// group: each kernel writes every lane of its outputs (lanes past the group's points get values
+/// computed from stale inputs, never read), so nothing needs clearing. Clearing them per group
+/// cost three `memset`s, ~110 instructions a group.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct KernelLanes {
+    /// The BSDF towards the light sample.
+    pub eval: EvalLanes,
+    /// The BSDF sample.
+    pub sample: SampleLanes,
+    /// The MIS kernel's inputs and outputs.
+    pub nee: NeeLanes,
+    /// See `nee`.
+    pub nee_out: NeeOut,
+    /// The roulette kernel's inputs and outputs.
+    pub roulette: RouletteLanes,
+    /// See `roulette`.
+    pub roulette_out: RouletteOut,
+    /// Origins of the rays leaving the hits.
+    pub origin: Lanes3,
 }
 
 /// Shades every queued hit: curve and point hits one by one, the others run by run.
@@ -226,7 +293,9 @@ fn prepare<T: Touch>(
     // The first hit's albedo comes from the BSDF, built in lanes in phase 2 (here only when the
     // path ends at this hit).
     let first = &mut w.first_hits[i as usize];
-    let is_first = first.is_none() && st.bounces == 0;
+    // (`bounces` first: most hits are past the first bounce, and the first-hit table is read by
+    // sorted index.)
+    let is_first = st.bounces == 0 && first.is_none();
     if is_first {
         *first = Some(FirstHit { albedo: Vec3::ZERO, normal: ns, depth: st.travelled + hit.t });
     }
@@ -293,10 +362,15 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     let (g, len) = (&mut **scatter, std::mem::take(scatter_points));
     // Without lights every lane's sample stays absent (these zeros are never read).
     let mut ls = LightSampleLanes::default();
-    let (mut ev, mut smp) = (EvalLanes::default(), SampleLanes::default());
-    let (mut nl, mut nout) = (NeeLanes::default(), NeeOut::default());
-    let (mut rl, mut rout) = (RouletteLanes::default(), RouletteOut::default());
-    let mut origin = Lanes3::default();
+    let KernelLanes {
+        eval: ev,
+        sample: smp,
+        nee: nl,
+        nee_out: nout,
+        roulette: rl,
+        roulette_out: rout,
+        origin,
+    } = &mut g.out;
     let at = |c: &Lanes3, k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
 
     // The vertex's random numbers, eight paths at a time, straight into the kernels' columns.
@@ -316,7 +390,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
             }
         }
     }
-    lanes::offset_origin_lanes(&g.light.p, &g.bsdf.ng, &mut origin);
+    lanes::offset_origin_lanes(&g.light.p, &g.bsdf.ng, origin);
 
     // Next-event estimation: the light sample, the BSDF towards it, the MIS weight.
     let mut has_light = [false; LANES];
@@ -349,16 +423,16 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     counters.bsdf_lane_groups += 1;
     counters.bsdf_lanes_active += len as u64;
     counters.light_lanes_active += has_light.iter().filter(|&&h| h).count() as u64;
-    bsdf_lanes::eval_lanes(&g.bsdf, &ls.wi, &mut ev);
+    bsdf_lanes::eval_lanes(&g.bsdf, &ls.wi, ev);
     (nl.beta, nl.f, nl.li) = (g.beta, ev.f, ls.li);
     (nl.light_pdf, nl.bsdf_pdf, nl.delta) = (ls.pdf, ev.pdf, ls.delta);
     abs_cos_lanes(&g.bsdf.n, &ls.wi, &mut nl.cos);
-    lanes::weigh_lanes(&nl, &mut nout);
+    lanes::weigh_lanes(nl, nout);
     for k in 0..len {
         if !has_light[k] || nout.keep[k] == 0 {
             continue;
         }
-        let (i, p, origin) = (g.index[k] as usize, at(&g.light.p, k), at(&origin, k));
+        let (i, p, origin) = (g.index[k] as usize, at(&g.light.p, k), at(origin, k));
         let st = &states[i];
         shadow[i] = ShadowRay {
             origin,
@@ -371,10 +445,10 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     }
 
     // BSDF sampling, throughput and Russian roulette: the continuation rays.
-    bsdf_lanes::sample_lanes(&g.bsdf, &g.u, &mut smp);
+    bsdf_lanes::sample_lanes(&g.bsdf, &g.u, smp);
     (rl.beta, rl.f, rl.pdf, rl.u, rl.play) = (g.beta, smp.f, smp.pdf, g.u_rr, g.play);
     abs_cos_lanes(&g.bsdf.n, &smp.wi, &mut rl.cos);
-    roulette::continue_lanes(&rl, &mut rout);
+    roulette::continue_lanes(rl, rout);
     for k in 0..len {
         if smp.ok[k] == 0 {
             continue;
@@ -389,7 +463,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
             continue;
         }
         st.vertex += 1;
-        st.origin = at(&origin, k);
+        st.origin = at(origin, k);
         st.dir = at(&smp.wi, k);
         st.travelled = 0.0;
         st.cone_width = g.footprint[k];
