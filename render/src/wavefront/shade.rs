@@ -53,9 +53,14 @@
 //! What is left: the shading-heavy scene keeps a surface per textured hit from the sort-key pass
 //! (~90 k surfaces of ~250 bytes, ~140 of them curve-hit fields a triangle never uses),
 //! written in one stage and read back by sorted index in this one: ~414 k write and ~370 k read
-//! misses. Rebuilding instead of keeping costs one more `Scene::surface` per textured hit (~190
-//! instructions). `Shading::sort_key` clears its register file per call (`memset`, 4.4 M
-//! instructions there; `shading.rs`).
+//! misses. Rebuilding those surfaces here (onto the stack, like the others) instead of keeping
+//! them was measured again and lost: L1 data misses −12 % (shading-heavy 4.40 M → 3.87 M, tractor
+//! 1.95 M → 1.72 M) for +5.6 % and +4.1 % instructions (937.3 M → 989.9 M, 549.8 M → 572.2 M):
+//! a surface costs ~500 instructions there (instance transforms, uv footprint). What `memcpy`
+//! still costs in this stage are the copies of each built surface and of the run's inputs onto
+//! the stack (`Scene::surface` and `evaluate_lanes` return by value; L1-resident, ~30
+//! instructions each). `Shading::sort_key` clears its register file per call (`memset`, 4.4 M
+//! instructions on shading-heavy; `shading.rs`).
 //!
 //! Lost (kept out): putting the next ray queue and the occlusion queue back in pool order after
 //! shading (a bitmap over the pool, [`u32::trailing_zeros`] walk), so the intersect and occlusion
