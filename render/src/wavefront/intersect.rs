@@ -115,33 +115,31 @@ pub(super) fn hit_material(scene: &Scene, hit: &Hit, curve: &CurveHit) -> u32 {
     }
 }
 
-/// Writes the texture part of every shade-queue key (see [`sort`]): the key needs the surface (uv
-/// and footprint), which is kept for shading, so each hit is reconstructed once. Hits on untextured
-/// materials keep key 0 and sort by material alone, and so do curve and point hits (they have no uv:
-/// their textures are read at uv 0, one key per material).
+/// Records each queued hit's material (see `Worker::materials`) and writes the texture part of its
+/// shade-queue key (see [`sort`]): the key needs the surface (uv and footprint), which is kept for
+/// shading, so each hit is reconstructed once. Hits on untextured materials keep key 0 and sort by
+/// material alone, and so do curve and point hits (they have no uv: their textures are read at uv 0,
+/// one key per material).
 pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene = ctx.scene;
     w.surfaces.clear();
-    if !ctx.textured {
-        return;
-    }
     for e in w.shade.iter_mut() {
         let i = sort::index(*e) as usize;
         let hit = &w.hits[i];
-        w.surface_slot[i] = u32::MAX;
-        if is_curve(hit) {
+        let material = hit_material(scene, hit, &w.curve_hits[i]);
+        w.materials[i] = material;
+        if !ctx.textured {
             continue;
         }
-        let material = scene.view.triangle_materials[hit.triangle as usize] as usize;
-        if !w.textured_materials[material] {
+        w.surface_slot[i] = u32::MAX;
+        if is_curve(hit) || !w.textured_materials[material as usize] {
             continue;
         }
         let st = &w.states[i];
-        if let Some(s) = scene.surface(hit, -st.dir, st.cone().width_at(hit.t)) {
-            let key = scene.shading.sort_key(s.material, &s.uv);
-            w.surface_slot[i] = w.surfaces.len() as u32;
-            w.surfaces.push(Some(s));
-            *e = sort::entry(sort::shade_key(0, key), i as u32);
-        }
+        let Some(s) = scene.surface(hit, -st.dir, st.cone().width_at(hit.t)) else { continue };
+        let key = scene.shading.sort_key(s.material, &s.uv);
+        w.surface_slot[i] = w.surfaces.len() as u32;
+        w.surfaces.push(s);
+        *e = sort::entry(sort::shade_key(0, key), i as u32);
     }
 }

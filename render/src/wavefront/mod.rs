@@ -8,12 +8,11 @@
 //! ```text
 //! generate ─► ray queue ─► intersect (+ area-light emission, 8 rays per lane group)
 //!                ▲            └► shade queue ─► sort (texture keys, radix sort, per-material segments)
-//!                │                   └► shade, in chunks of 256 hits:
-//!                │                        0. sampler lanes: every random number of the vertex, 8 paths at once
-//!                │                        1a. 8 hits at once: material programs + textures
-//!                │                            (runs of one material); per hit: surface
+//!                │                   └► shade, run by run (up to 8 hits on one material):
+//!                │                        1a. per hit: surface; 8 hits at once: material program
+//!                │                            + textures
 //!                │                        1. per hit: opacity, normal map, emission ─► lane k of a group
-//!                │                        2. per full group of 8: BSDF construction, ray origins,
+//!                │                        2. per full group of 8: random numbers, BSDF construction, ray origins,
 //!                │                           light sample ─► BSDF eval ─► MIS ─► occlusion queue
 //!                │                           BSDF sample ─► throughput + roulette ──────────────┐
 //!                └──────────────────────────────────────────────────────── next ray queue ◄─────┘
@@ -298,15 +297,15 @@ pub struct Worker {
     area_lights: emission_lanes::AreaLightLanes,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
     textured_materials: Vec<bool>,
-    /// Surfaces reconstructed by the intersect stage for textured hits (their sort key needs the
-    /// uv footprint), used by shading instead of being rebuilt (`surface_slot` indexes it per path);
-    /// shading appends the other hits' surfaces.
-    surfaces: Vec<Option<crate::integrator::Surface>>,
+    /// Surfaces reconstructed by the sort-key pass for textured hits (their sort key needs the uv
+    /// footprint), used by shading instead of being rebuilt (`surface_slot` indexes it per path,
+    /// `u32::MAX`: none kept). Shading builds the other hits' surfaces run by run on its stack.
+    surfaces: Vec<crate::integrator::Surface>,
     surface_slot: Vec<u32>,
-    /// The current chunk's surfaces (slots in `surfaces`; `u32::MAX`: none) and their material
-    /// programs' outputs, by position in the chunk, waiting for phase 1.
-    chunk_slots: Vec<u32>,
-    chunk_inputs: Vec<Option<crate::shading::ShadingInputs>>,
+    /// Per path: the material of its current hit (written by the sort-key pass in queue order):
+    /// the material bucketing and shading's runs read these 4 bytes (16 KiB for the pool, in L1)
+    /// instead of the 20-byte hit and the triangle's material record, by sorted index.
+    materials: Vec<u32>,
     /// Register file of the material-program lanes.
     registers: Box<material_lanes::RegisterLanes>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
@@ -374,8 +373,7 @@ impl Worker {
             area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),
             surface_slot: vec![u32::MAX; paths],
-            chunk_slots: Vec::with_capacity(shade::CHUNK),
-            chunk_inputs: Vec::with_capacity(shade::CHUNK),
+            materials: vec![0; paths],
             registers: Box::default(),
             occlusion: Vec::with_capacity(paths),
             pixels: Vec::with_capacity(pixels),
@@ -435,7 +433,7 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
             timed(&mut secs.intersect, || intersect::closest(ctx, w));
             timed(&mut secs.sort, || intersect::sort_keys(ctx, w));
             w.clock.lap(Phase::Shading);
-            timed(&mut secs.sort, || sort::shade_queue(ctx.scene, w));
+            timed(&mut secs.sort, || sort::shade_queue(w));
             w.clock.lap(Phase::Overhead);
             timed(&mut secs.shade, || shade::shade(ctx, w, &mut rays));
             timed(&mut secs.occlusion, || occlusion::any_hit(ctx, w, &mut rays));

@@ -1,26 +1,83 @@
 //! Stage 4: shading. Reads the sorted shade queue (one segment per material) and the hit side table;
 //! writes the occlusion queue, the shadow-ray side table and the next ray queue.
 //!
-//! The queue is shaded in chunks of [`CHUNK`] hits, each in these phases:
-//! 1a. per hit: the surface (or the one the sort key kept; both stay in the worker's surface table
-//!    and the chunk holds slots); then runs of up to eight consecutive hits on one material (the
-//!    queue is sorted by material) through the material program in lanes
-//!    ([`material_lanes::evaluate_lanes`]; a lone hit runs the scalar program);
-//! 1. per hit (scalar, material by material): stochastic transparency, the normal map, emission at
-//!    the hit (the depth limit ends paths here), then its shading inputs, normals and sampler keys
-//!    written straight into lane `k` of the AoSoA [`ScatterGroup`]; curve and point hits take their
-//!    whole vertex per hit ([`super::shade_curves`]);
-//! 2. as soon as the group holds eight points (and for the chunk's last ones), its lane kernels:
-//!    the vertex's random numbers ([`sampler_lanes`]), the BSDFs ([`bsdf_lanes::from_inputs_lanes`]) and the first-hit albedos, the ray origins off
-//!    the surfaces ([`lanes::offset_origin_lanes`]), the light sample ([`light_lanes::sample_lanes`];
-//!    textured emitters per lane), the BSDF towards it ([`bsdf_lanes::eval_lanes`]), the MIS weight
-//!    ([`lanes::weigh_lanes`]; kept samples enter the occlusion queue), the BSDF sample
-//!    ([`bsdf_lanes::sample_lanes`]) and the throughput update with Russian roulette
-//!    ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
+//! The queue is shaded run by run ([`run_end`]): a curve or point hit alone, which takes its whole
+//! vertex per hit ([`super::shade_curves`]), else up to eight consecutive triangle hits on one
+//! material (the queue is grouped by material), in these phases:
+//! 1a. the run's surfaces (the ones the sort key kept, else built into a stack array), then the
+//!    material program over the run in lanes ([`material_lanes::evaluate_lanes`]; a lone hit runs
+//!    the scalar program);
+//! 1. per hit: stochastic transparency, the normal map, emission at the hit (the depth limit ends
+//!    paths here), then its shading inputs, normals and sampler keys written straight into lane `k`
+//!    of the AoSoA [`ScatterGroup`];
+//! 2. as soon as the group holds eight points (and for the queue's last ones), its lane kernels:
+//!    the vertex's random numbers ([`sampler_lanes`]), the BSDFs ([`bsdf_lanes::from_inputs_lanes`])
+//!    and the first-hit albedos, the ray origins off the surfaces ([`lanes::offset_origin_lanes`]),
+//!    the light sample ([`light_lanes::sample_lanes`]; textured emitters per lane), the BSDF towards
+//!    it ([`bsdf_lanes::eval_lanes`]), the MIS weight ([`lanes::weigh_lanes`]; kept samples enter
+//!    the occlusion queue), the BSDF sample ([`bsdf_lanes::sample_lanes`]) and the throughput update
+//!    with Russian roulette ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
 //!
 //! Nothing is transposed between phases 1 and 2: phase 1 writes each hit's values into its lane
-//! (they are at hand there), and the group (~2 KiB) is consumed while it is still in L1. See the
-//! module docs of [`super`] for what each step saved.
+//! (they are at hand there), and the group (~3.5 KiB with its kernels' outputs) is consumed while
+//! it is still in L1. See the module docs of [`super`] for what each step saved.
+//!
+//! # Phase 1 run by run (was: chunks of 256 hits)
+//! Phase 1 used to take the queue in chunks of 256 hits, one pass per step over the chunk: every
+//! surface built and pushed as an `Option<Surface>` (~250 bytes) into the worker's surface table,
+//! then the programs into a per-chunk `Vec<Option<ShadingInputs>>` (resized and rewritten per
+//! chunk), then per hit. A chunk's surfaces (~64 KiB) left L1 between the passes, and each path's
+//! state, hit and first-hit record were fetched again by sorted index in each pass. Now each run
+//! of at most eight hits goes through every step before the next starts: its surfaces live on the
+//! stack, its inputs in an 8-entry array, its path states stay in L1 from the surface to the
+//! scatter group. The material bucketing and the runs read a per-path material table the sort-key
+//! pass fills ([`super::sort::group_by_material`]) instead of the hit and the triangle's material
+//! by sorted index. Phase 2's kernel outputs live with the group instead of being zeroed on the
+//! stack per group, and the first-hit test reads the first-hit table only at bounce 0.
+//!
+//! Cachegrind, whole process, wavefront, 120×80, 8 spp, 1 thread (instructions; L1 data misses,
+//! read + write):
+//!
+//! | step | shading-heavy | tractor | simple |
+//! |---|---|---|---|
+//! | before | 945.9 M; 4.66 M | 558.3 M; 2.83 M | 214.0 M; 0.98 M |
+//! | phase 1 run by run + per-path material table | 939.2 M; 4.40 M | 551.7 M; 1.99 M | 212.9 M; 0.76 M |
+//! | + kernel outputs kept with the group, first-hit read at bounce 0 only | 937.3 M; 4.40 M | 549.8 M; 1.95 M | 212.6 M; 0.76 M |
+//!
+//! Phase 1's own lines (`shade::shade` in this file) went from 548 k to 230 k L1 read misses on
+//! the tractor (shading-heavy 551 k → 374 k, simple 101 k → 27 k) and from 114 k to 14 k write
+//! misses; `memcpy`'s write misses fell from 354 k to 181 k (tractor; simple 93 k → 32 k): what
+//! it still copies are the run's surfaces and inputs onto the stack (L1) and the sort key's kept
+//! surfaces (below). `memset` fell 5.18 M → 3.95 M instructions (tractor).
+//!
+//! Timed (contended: load average ~15 on the 2 cores; `bench integrators`, 320×213, 16 spp, before
+//! and after alternating, 3 runs each), the wavefront's CPU-time speed-up over the scalar
+//! integrator: tractor 1.29 / 1.29 / 1.34× before, 1.44 / 1.27 / 1.29× after; shading-heavy
+//! 1.16 / 0.96 / 1.01× before, 1.13 / 1.07 / 1.09× after; simple 1.20 / 1.22 / 1.13× before,
+//! 1.28 / 1.30 / 1.13× after. `perf` (1 thread, 320×213, 16 spp, one run each): `shade::shade`'s
+//! own samples 7.5 % → 4.0 % of the tractor's wavefront render, 6.7 % → 5.8 % on shading-heavy;
+//! `memset` 0.78 % → 0.28 % and 0.72 % → 0.26 %; `memmove` 2.2 % → 2.7 % and 1.0 % → 1.5 % (the
+//! stack copies below, L1 hits).
+//!
+//! What is left: the shading-heavy scene keeps a surface per textured hit from the sort-key pass
+//! (~90 k surfaces of ~250 bytes, ~140 of them curve-hit fields a triangle never uses),
+//! written in one stage and read back by sorted index in this one: ~414 k write and ~370 k read
+//! misses. Rebuilding those surfaces here (onto the stack, like the others) instead of keeping
+//! them was measured again and lost: L1 data misses −12 % (shading-heavy 4.40 M → 3.87 M, tractor
+//! 1.95 M → 1.72 M) for +5.6 % and +4.1 % instructions (937.3 M → 989.9 M, 549.8 M → 572.2 M):
+//! a surface costs ~500 instructions there (instance transforms, uv footprint). What `memcpy`
+//! still costs in this stage are the copies of each built surface and of the run's inputs onto
+//! the stack (`Scene::surface` and `evaluate_lanes` return by value; L1-resident, ~30
+//! instructions each). `Shading::sort_key` clears its register file per call (`memset`, 4.4 M
+//! instructions on shading-heavy; `shading.rs`).
+//!
+//! Lost (kept out): putting the next ray queue and the occlusion queue back in pool order after
+//! shading (a bitmap over the pool, [`u32::trailing_zeros`] walk), so the intersect and occlusion
+//! stages read path states and shadow rays in memory order and neighbouring pixels' rays traverse
+//! together: +0.3 / +0.9 / +0.2 % instructions (shading-heavy / tractor / simple), L1 data misses
+//! −2.1 / +0.1 / +0.4 %; the BVH traversal missed L1 slightly *more* (closest-hit blocks 224 k →
+//! 232 k on shading-heavy): bounce rays of neighbouring pixels are not coherent enough to share
+//! nodes.
 
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
@@ -35,12 +92,10 @@ use crate::integrator::{shadow_tmax, FirstHit, RayCounts, Surface, CONE_WIDEN_PE
 use crate::lights::power_heuristic;
 use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, SampleKey};
 use crate::scene::Scene;
+use crate::shading::ShadingInputs;
 use crate::stats::Phase;
 use glam::Vec3;
 use texture::Touch;
-
-/// Hits per shading chunk (phase 1 then phase 2).
-pub const CHUNK: usize = 256;
 
 /// Eight shaded hits waiting for the lane kernels, in AoSoA form: phase 1 writes them lane by lane
 /// (each hit's values are at hand there), phase 2 reads whole columns, so nothing is transposed
@@ -71,148 +126,168 @@ pub struct ScatterGroup {
     pub footprint: Lanes,
     /// 1 where Russian roulette is played after this bounce.
     pub play: [u32; LANES],
+    /// The kernels' inputs and outputs past the light sample.
+    pub out: KernelLanes,
 }
 
-/// Shades every queued hit, in chunks.
+/// What phase 2's kernels write, kept with the group rather than zeroed on the stack for every
+/// group: each kernel writes every lane of its outputs (lanes past the group's points get values
+/// computed from stale inputs, never read), so nothing needs clearing. Clearing them per group
+/// cost three `memset`s, ~110 instructions a group.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct KernelLanes {
+    /// The BSDF towards the light sample.
+    pub eval: EvalLanes,
+    /// The BSDF sample.
+    pub sample: SampleLanes,
+    /// The MIS kernel's inputs and outputs.
+    pub nee: NeeLanes,
+    /// See `nee`.
+    pub nee_out: NeeOut,
+    /// The roulette kernel's inputs and outputs.
+    pub roulette: RouletteLanes,
+    /// See `roulette`.
+    pub roulette_out: RouletteOut,
+    /// Origins of the rays leaving the hits.
+    pub origin: Lanes3,
+}
+
+/// Shades every queued hit: curve and point hits one by one, the others run by run.
 pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
     w.next_rays.clear();
     w.occlusion.clear();
+    // The surfaces the sort kept, out of the worker while the runs borrow it mutably (a move of
+    // the vector, no copy; put back below so its memory serves the next wave).
+    let kept = std::mem::take(&mut w.surfaces);
     let n = w.shade.len();
-    // The surfaces the sort kept; each chunk appends its rebuilt ones after them and drops them when
-    // done, so their memory is reused chunk after chunk (it stays in L2).
-    let kept = w.surfaces.len();
     let mut start = 0;
     while start < n {
-        let end = (start + CHUNK).min(n);
-        surfaces(ctx, w, start, end);
-        programs(ctx, w);
-        for (pos, k) in (start..end).enumerate() {
-            let i = sort::index(w.shade[k]);
-            if super::intersect::is_curve(&w.hits[i as usize]) {
-                super::shade_curves::vertex(ctx, w, i, rays);
-            } else {
-                prepare(ctx, w, i, pos, rays);
-                if w.scatter_points == LANES {
-                    scatter(ctx, w, rays);
-                }
-            }
+        let end = run_end(&w.shade, start, &w.materials, |i| super::intersect::is_curve(&w.hits[i]));
+        let first = sort::index(w.shade[start]);
+        if super::intersect::is_curve(&w.hits[first as usize]) {
+            super::shade_curves::vertex(ctx, w, first, rays);
+        } else {
+            run(ctx, w, &kept, start, end, rays);
         }
-        if w.scatter_points > 0 {
-            scatter(ctx, w, rays);
-        }
-        w.surfaces.truncate(kept);
         start = end;
     }
+    if w.scatter_points > 0 {
+        scatter(ctx, w, rays);
+    }
+    w.surfaces = kept;
     rays.shadow += w.occlusion.len() as u64;
 }
 
-/// Phase 1a, first half: the chunk's surfaces, kept by the sort key or rebuilt per hit (a lane version
-/// executed 1.8× the instructions of these calls; see the module docs of [`super`]). Rebuilt ones join
-/// the kept ones in `w.surfaces` until the chunk ends (a wave has at most one per path, so it never
-/// grows past its capacity) and the chunk records slots: a surface (~250 bytes) is written once and
-/// never moved.
-fn surfaces<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, start: usize, end: usize) {
+/// The end of the run starting at queue position `start`: a curve or point hit alone (`curve(i)`
+/// of its path `i`), else up to eight consecutive triangle hits on one material (`materials` by
+/// path; the queue is grouped by material, so runs are full but at a material's last hits).
+pub(super) fn run_end(
+    queue: &[sort::ShadeEntry],
+    start: usize,
+    materials: &[u32],
+    curve: impl Fn(usize) -> bool,
+) -> usize {
+    let path = |pos: usize| sort::index(queue[pos]) as usize;
+    if curve(path(start)) {
+        return start + 1;
+    }
+    let material = materials[path(start)];
+    let mut end = start + 1;
+    while end < queue.len() && end - start < LANES && materials[path(end)] == material && !curve(path(end)) {
+        end += 1;
+    }
+    end
+}
+
+/// Phase 1 for the run of triangle hits at queue positions `start..end` (one material, at most
+/// eight): their surfaces (kept by the sort key, or built here into a stack array that stays in
+/// L1), their material program in lanes ([`material_lanes::evaluate_lanes`]; a lone hit runs the
+/// scalar program), then per hit [`prepare`] into the scatter group, which runs as soon as it is
+/// full. A degenerate triangle (no surface) ends its path here, as in the scalar integrator.
+///
+/// Phase 1 used to run in chunks of 256 hits, each pass over the whole chunk (surfaces into the
+/// worker's surface table, programs into a per-chunk `Vec<Option<ShadingInputs>>`, then per hit):
+/// 256 surfaces of 200 bytes and their inputs left L1 between the passes. See the module docs for
+/// the figures.
+fn run<T: Touch>(
+    ctx: &Context<'_, '_, T>,
+    w: &mut Worker,
+    kept: &[Surface],
+    start: usize,
+    end: usize,
+    rays: &mut RayCounts,
+) {
     let scene: &Scene = ctx.scene;
-    w.chunk_slots.clear();
+    let (filter, touch) = (ctx.settings.filter, ctx.touch);
+    let mut built: [Option<Surface>; LANES] = [const { None }; LANES];
+    let (mut paths, mut slots, mut count) = ([0u32; LANES], [NO_SURFACE; LANES], 0);
     for &e in &w.shade[start..end] {
-        let i = sort::index(e) as usize;
-        let (hit, st) = (&w.hits[i], &w.states[i]);
-        if super::intersect::is_curve(hit) {
-            // Curve and point hits build their own surface in `shade_curves`.
-            w.chunk_slots.push(NO_SURFACE);
-            continue;
+        let i = sort::index(e);
+        let slot = if ctx.textured { w.surface_slot[i as usize] } else { NO_SURFACE };
+        if slot == NO_SURFACE {
+            let (hit, st) = (&w.hits[i as usize], &w.states[i as usize]);
+            built[count] = scene.surface(hit, -st.dir, st.cone().width_at(hit.t));
+            if built[count].is_none() {
+                continue; // a degenerate triangle
+            }
         }
-        let kept = if ctx.textured { w.surface_slot[i] } else { NO_SURFACE };
-        let slot = if kept != NO_SURFACE {
-            kept
-        } else if let Some(s) = scene.surface(hit, -st.dir, st.cone().width_at(hit.t)) {
-            w.surfaces.push(Some(s));
-            (w.surfaces.len() - 1) as u32
-        } else {
-            NO_SURFACE // a degenerate triangle
-        };
-        w.chunk_slots.push(slot);
+        (paths[count], slots[count]) = (i, slot);
+        count += 1;
     }
     w.clock.lap(Phase::Shading);
-}
-
-/// A chunk slot without a surface: a curve or point hit, or a degenerate triangle.
-const NO_SURFACE: u32 = u32::MAX;
-
-/// The surface in chunk slot `slot`.
-#[inline]
-fn slot_surface(surfaces: &[Option<Surface>], slot: u32) -> Option<&Surface> {
-    surfaces.get(slot as usize).and_then(Option::as_ref)
-}
-
-/// Phase 1a, second half: the material programs of the chunk's surfaces, run by run of up to eight
-/// consecutive hits on one material (a lone hit runs the scalar program).
-fn programs<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
-    let scene: &Scene = ctx.scene;
-    let n = w.chunk_slots.len();
-    w.chunk_inputs.clear();
-    w.chunk_inputs.resize(n, None);
-    let (filter, touch) = (ctx.settings.filter, ctx.touch);
-    let mut pos = 0;
-    while pos < n {
-        let Some(material) = slot_surface(&w.surfaces, w.chunk_slots[pos]).map(|s| s.material) else {
-            pos += 1;
-            continue;
-        };
-        // The run: up to eight hits on `material` from `pos` on (degenerate hits skipped).
-        let (mut members, mut count) = ([0usize; LANES], 0);
-        while pos < n && count < LANES {
-            match slot_surface(&w.surfaces, w.chunk_slots[pos]) {
-                Some(s) if s.material != material => break,
-                Some(_) => {
-                    members[count] = pos;
-                    count += 1;
-                }
-                None => {}
-            }
-            pos += 1;
-        }
-        let surface =
-            |k: usize| slot_surface(&w.surfaces, w.chunk_slots[members[k]]).expect("members have surfaces");
-        if count == 1 {
-            w.chunk_inputs[members[0]] = Some(scene.shade(surface(0), filter, touch));
-        } else {
-            let at: [&crate::shading::UvFootprint; LANES] =
-                std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
-            let inputs = material_lanes::evaluate_lanes(
-                &scene.shading,
-                material,
-                &at[..count],
-                filter,
-                touch,
-                &mut w.registers,
-            );
-            for k in 0..count {
-                w.chunk_inputs[members[k]] = Some(inputs[k]);
-            }
-        }
-        w.clock.shader_evaluations += count as u64;
-        if w.clock.enabled() {
-            w.clock.lap(if w.textured_materials[material as usize] {
-                Phase::Texturing
-            } else {
-                Phase::Shading
-            });
+    if count == 0 {
+        return;
+    }
+    let surface = |k: usize| match slots[k] {
+        NO_SURFACE => built[k].as_ref().expect("a member without a kept surface has a built one"),
+        slot => &kept[slot as usize],
+    };
+    let material = surface(0).material;
+    let inputs = if count == 1 {
+        [scene.shade(surface(0), filter, touch); LANES]
+    } else {
+        let at: [&crate::shading::UvFootprint; LANES] =
+            std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
+        material_lanes::evaluate_lanes(
+            &scene.shading,
+            material,
+            &at[..count],
+            filter,
+            touch,
+            &mut w.registers,
+        )
+    };
+    w.clock.shader_evaluations += count as u64;
+    if w.clock.enabled() {
+        w.clock.lap(if w.textured_materials[material as usize] { Phase::Texturing } else { Phase::Shading });
+    }
+    for k in 0..count {
+        prepare(ctx, w, paths[k], surface(k), &inputs[k], rays);
+        if w.scatter_points == LANES {
+            scatter(ctx, w, rays);
         }
     }
+    w.clock.lap(Phase::Integration);
 }
 
-/// Phase 1 for one hit, the `pos`-th of its chunk.
-fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usize, rays: &mut RayCounts) {
+/// A run member whose surface is not kept by the sort key (`Worker::surface_slot`).
+const NO_SURFACE: u32 = u32::MAX;
+
+/// Phase 1 for one hit `i` on surface `s` with shading inputs `inputs`.
+fn prepare<T: Touch>(
+    ctx: &Context<'_, '_, T>,
+    w: &mut Worker,
+    i: u32,
+    s: &Surface,
+    inputs: &ShadingInputs,
+    rays: &mut RayCounts,
+) {
     let scene: &Scene = ctx.scene;
     let max_depth = ctx.settings.max_depth;
-    let hit = w.hits[i as usize];
+    let hit = &w.hits[i as usize];
     let st = &mut w.states[i as usize];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
-    let (Some(s), Some(inputs)) = (slot_surface(&w.surfaces, w.chunk_slots[pos]), w.chunk_inputs[pos]) else {
-        return;
-    };
 
     let opacity = inputs.effective_opacity();
     // The vertex's other random numbers are drawn in lanes in phase 2; this one decides phase 1.
@@ -232,7 +307,9 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     // The first hit's albedo comes from the BSDF, built in lanes in phase 2 (here only when the
     // path ends at this hit).
     let first = &mut w.first_hits[i as usize];
-    let is_first = first.is_none() && st.bounces == 0;
+    // (`bounces` first: most hits are past the first bounce, and the first-hit table is read by
+    // sorted index.)
+    let is_first = st.bounces == 0 && first.is_none();
     if is_first {
         *first = Some(FirstHit { albedo: Vec3::ZERO, normal: ns, depth: st.travelled + hit.t });
     }
@@ -246,7 +323,7 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     }
     if st.bounces >= max_depth {
         if let (true, Some(first)) = (is_first, first.as_mut()) {
-            first.albedo = Bsdf::from_inputs(&inputs, ns, s.ng).diffuse_albedo();
+            first.albedo = Bsdf::from_inputs(inputs, ns, s.ng).diffuse_albedo();
         }
         return;
     }
@@ -255,7 +332,7 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     let (g, k) = (&mut *w.scatter, w.scatter_points);
     g.index[k] = i;
     g.first[k] = is_first as u32;
-    g.inputs.set(k, &inputs, ns, s.ng);
+    g.inputs.set(k, inputs, ns, s.ng);
     (g.bsdf.wo[0][k], g.bsdf.wo[1][k], g.bsdf.wo[2][k]) = (wo.x, wo.y, wo.z);
     (g.light.p[0][k], g.light.p[1][k], g.light.p[2][k]) = (s.p.x, s.p.y, s.p.z);
     (g.keys.pixel[k], g.keys.sample[k], g.keys.vertex[k]) = (st.pixel, st.sample, st.vertex);
@@ -263,7 +340,6 @@ fn prepare<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, i: u32, pos: usiz
     g.footprint[k] = footprint;
     g.play[k] = play;
     w.scatter_points += 1;
-    w.clock.lap(Phase::Integration);
 }
 
 /// `|n · w|` per lane (glam's `dot` order), the cosine the estimators weigh by.
@@ -300,10 +376,15 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     let (g, len) = (&mut **scatter, std::mem::take(scatter_points));
     // Without lights every lane's sample stays absent (these zeros are never read).
     let mut ls = LightSampleLanes::default();
-    let (mut ev, mut smp) = (EvalLanes::default(), SampleLanes::default());
-    let (mut nl, mut nout) = (NeeLanes::default(), NeeOut::default());
-    let (mut rl, mut rout) = (RouletteLanes::default(), RouletteOut::default());
-    let mut origin = Lanes3::default();
+    let KernelLanes {
+        eval: ev,
+        sample: smp,
+        nee: nl,
+        nee_out: nout,
+        roulette: rl,
+        roulette_out: rout,
+        origin,
+    } = &mut g.out;
     let at = |c: &Lanes3, k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
 
     // The vertex's random numbers, eight paths at a time, straight into the kernels' columns.
@@ -323,7 +404,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
             }
         }
     }
-    lanes::offset_origin_lanes(&g.light.p, &g.bsdf.ng, &mut origin);
+    lanes::offset_origin_lanes(&g.light.p, &g.bsdf.ng, origin);
 
     // Next-event estimation: the light sample, the BSDF towards it, the MIS weight.
     let mut has_light = [false; LANES];
@@ -356,16 +437,16 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     counters.bsdf_lane_groups += 1;
     counters.bsdf_lanes_active += len as u64;
     counters.light_lanes_active += has_light.iter().filter(|&&h| h).count() as u64;
-    bsdf_lanes::eval_lanes(&g.bsdf, &ls.wi, &mut ev);
+    bsdf_lanes::eval_lanes(&g.bsdf, &ls.wi, ev);
     (nl.beta, nl.f, nl.li) = (g.beta, ev.f, ls.li);
     (nl.light_pdf, nl.bsdf_pdf, nl.delta) = (ls.pdf, ev.pdf, ls.delta);
     abs_cos_lanes(&g.bsdf.n, &ls.wi, &mut nl.cos);
-    lanes::weigh_lanes(&nl, &mut nout);
+    lanes::weigh_lanes(nl, nout);
     for k in 0..len {
         if !has_light[k] || nout.keep[k] == 0 {
             continue;
         }
-        let (i, p, origin) = (g.index[k] as usize, at(&g.light.p, k), at(&origin, k));
+        let (i, p, origin) = (g.index[k] as usize, at(&g.light.p, k), at(origin, k));
         let st = &states[i];
         shadow[i] = ShadowRay {
             origin,
@@ -378,10 +459,10 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     }
 
     // BSDF sampling, throughput and Russian roulette: the continuation rays.
-    bsdf_lanes::sample_lanes(&g.bsdf, &g.u, &mut smp);
+    bsdf_lanes::sample_lanes(&g.bsdf, &g.u, smp);
     (rl.beta, rl.f, rl.pdf, rl.u, rl.play) = (g.beta, smp.f, smp.pdf, g.u_rr, g.play);
     abs_cos_lanes(&g.bsdf.n, &smp.wi, &mut rl.cos);
-    roulette::continue_lanes(&rl, &mut rout);
+    roulette::continue_lanes(rl, rout);
     for k in 0..len {
         if smp.ok[k] == 0 {
             continue;
@@ -396,7 +477,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
             continue;
         }
         st.vertex += 1;
-        st.origin = at(&origin, k);
+        st.origin = at(origin, k);
         st.dir = at(&smp.wi, k);
         st.travelled = 0.0;
         st.cone_width = g.footprint[k];
@@ -405,4 +486,41 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
         next_rays.push(g.index[k]);
     }
     clock.lap(Phase::Integration);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_cover_the_queue_once_in_order_with_one_material_and_no_curves() {
+        // 200 paths, listed in a shuffled order and grouped by material as the sort leaves them;
+        // every seventh path hit a curve.
+        let materials: Vec<u32> = (0..200u32).map(|i| crate::sampler::hash_u32(i) % 4).collect();
+        let curve = |i: usize| i % 7 == 3;
+        let mut queue: Vec<u64> =
+            (0..200u32).map(|i| sort::entry(crate::sampler::hash_u32(i ^ 5), i)).collect();
+        queue.sort_by_key(|&e| (materials[sort::index(e) as usize], sort::key(e)));
+        let mut seen = Vec::new();
+        let mut start = 0;
+        while start < queue.len() {
+            let end = run_end(&queue, start, &materials, curve);
+            assert!(end > start && end - start <= LANES, "run {start}..{end}");
+            let run: Vec<usize> = queue[start..end].iter().map(|&e| sort::index(e) as usize).collect();
+            if curve(run[0]) {
+                assert_eq!(run.len(), 1, "a curve hit is shaded alone");
+            } else {
+                assert!(run.iter().all(|&i| !curve(i) && materials[i] == materials[run[0]]), "{run:?}");
+                // A run stops short of eight only at a material's end or before a curve hit.
+                if run.len() < LANES && end < queue.len() {
+                    let next = sort::index(queue[end]) as usize;
+                    assert!(curve(next) || materials[next] != materials[run[0]]);
+                }
+            }
+            seen.extend(run);
+            start = end;
+        }
+        let queued: Vec<usize> = queue.iter().map(|&e| sort::index(e) as usize).collect();
+        assert_eq!(seen, queued, "every queued path once, in queue order");
+    }
 }

@@ -21,7 +21,6 @@
 //! varies (usually the Morton bytes and the mip level: 2–3 passes).
 
 use super::Worker;
-use crate::scene::Scene;
 
 /// A shade-queue entry: 32-bit sort key above a 32-bit [`super::RayState`] index.
 pub type ShadeEntry = u64;
@@ -98,34 +97,43 @@ pub fn radix_sort_by_key(entries: &mut [ShadeEntry], scratch: &mut [ShadeEntry])
 
 /// Sorts the shade queue by key, then groups it by material (a stable counting pass), recording the
 /// start of each material's segment in `w.material_starts`.
-pub(super) fn shade_queue(scene: &Scene, w: &mut Worker) {
-    let n = w.shade.len();
+pub(super) fn shade_queue(w: &mut Worker) {
     radix_sort_by_key(&mut w.shade, &mut w.scratch);
-    let buckets = w.material_starts.len() - 1;
-    let (hits, curve_hits) = (&w.hits, &w.curve_hits);
-    let bucket = |e: ShadeEntry| {
-        let i = index(e) as usize;
-        (super::intersect::hit_material(scene, &hits[i], &curve_hits[i]) as usize).min(buckets - 1)
-    };
-    let starts = &mut w.material_starts;
+    group_by_material(&mut w.shade, &mut w.scratch, &w.materials, &mut w.material_starts);
+}
+
+/// Stable counting sort of `entries` by the material of their path (`materials[index]`, clamped to
+/// the last bucket); `starts` (one more than the buckets) receives each bucket's first position.
+/// The materials come from a per-path side table the sort-key pass fills in queue order: looking
+/// them up through the hits here read a 20-byte hit and the triangle's material by sorted index,
+/// twice per entry (tractor at 120×80, 8 spp: 62 k L1 data misses, 3.4 % of the render's).
+pub fn group_by_material(
+    entries: &mut [ShadeEntry],
+    scratch: &mut [ShadeEntry],
+    materials: &[u32],
+    starts: &mut [u32],
+) {
+    let buckets = starts.len() - 1;
+    let bucket = |e: ShadeEntry| (materials[index(e) as usize] as usize).min(buckets - 1);
     starts.fill(0);
-    for &e in &w.shade {
+    for &e in entries.iter() {
         starts[bucket(e) + 1] += 1;
     }
     for m in 0..buckets {
         starts[m + 1] += starts[m];
     }
     // Scatter into scratch with a moving cursor per bucket, then shift the starts back.
-    for &e in &w.shade {
+    let scratch = &mut scratch[..entries.len()];
+    for &e in entries.iter() {
         let b = bucket(e);
-        w.scratch[starts[b] as usize] = e;
+        scratch[starts[b] as usize] = e;
         starts[b] += 1;
     }
     for m in (1..=buckets).rev() {
         starts[m] = starts[m - 1];
     }
     starts[0] = 0;
-    w.shade.copy_from_slice(&w.scratch[..n]);
+    entries.copy_from_slice(scratch);
 }
 
 #[cfg(test)]
@@ -174,5 +182,28 @@ mod tests {
         assert_eq!(shade_key(500, u32::MAX), u32::MAX);
         assert_eq!(entry(7, 9) >> 32, 7);
         assert_eq!(index(entry(7, 9)), 9);
+    }
+
+    #[test]
+    fn grouping_by_material_is_stable_and_records_segment_starts() {
+        // Paths 0..300 on materials 0..5 (4 and above share the last of 5 buckets), entries in a
+        // shuffled key order.
+        let materials: Vec<u32> = (0..300u32).map(|i| crate::sampler::hash_u32(i) % 7).collect();
+        let mut v: Vec<u64> = (0..300u32).map(|i| entry(crate::sampler::hash_u32(i ^ 77) >> 8, i)).collect();
+        radix_sort_by_key(&mut v, &mut vec![0; 300]);
+        let before = v.clone();
+        let mut starts = vec![0u32; 6];
+        group_by_material(&mut v, &mut vec![0; 300], &materials, &mut starts);
+        let bucket = |e: u64| materials[index(e) as usize].min(4) as usize;
+        // Every entry exactly once, grouped by bucket, in key order inside a bucket (stable).
+        let mut expected = before.clone();
+        expected.sort_by_key(|&e| bucket(e));
+        assert_eq!(v, expected);
+        for b in 0..5 {
+            let segment = &v[starts[b] as usize..starts[b + 1] as usize];
+            assert!(segment.iter().all(|&e| bucket(e) == b), "bucket {b}");
+            assert_eq!(segment.len(), before.iter().filter(|&&e| bucket(e) == b).count());
+        }
+        assert_eq!(starts[5], 300);
     }
 }
