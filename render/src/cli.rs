@@ -49,8 +49,9 @@ pub struct Args {
     /// Draw all curves as `tube` or `ribbon` (default: tubes, oriented ribbons where normals are authored).
     #[arg(long, value_parser = parse_curve_shape)]
     pub curve_shape: Option<crate::curves::CurveShape>,
-    /// Integrator: scalar (depth first) or wavefront (breadth first, batched); same image.
-    #[arg(long, default_value = "scalar")]
+    /// Integrator: wavefront (breadth first, batched, 8-lane kernels; the default: it is faster on
+    /// every bench scene) or scalar (depth first, the reference); same image bit for bit.
+    #[arg(long, default_value = "wavefront")]
     pub integrator: crate::film::Integrator,
 }
 
@@ -155,11 +156,11 @@ mod tests {
         let Command::Render { options, output, .. } = args.into_command().unwrap() else { panic!() };
         assert_eq!(output, PathBuf::from("o.exr"));
         assert_eq!((options.spp, options.resolution, options.threads), (4, Some([64, 32]), 2));
-        assert_eq!(options.integrator, crate::film::Integrator::Scalar);
-        let wave =
-            Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "wavefront"]).unwrap();
-        let Command::Render { options, .. } = wave.into_command().unwrap() else { panic!() };
         assert_eq!(options.integrator, crate::film::Integrator::Wavefront);
+        let scalar =
+            Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "scalar"]).unwrap();
+        let Command::Render { options, .. } = scalar.into_command().unwrap() else { panic!() };
+        assert_eq!(options.integrator, crate::film::Integrator::Scalar);
         assert!(Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "gpu"]).is_err());
         assert!(Args::try_parse_from(["render", "s.blob"]).is_err(), "-o is required without --info");
         assert!(matches!(

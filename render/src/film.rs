@@ -49,10 +49,11 @@ pub struct RenderOptions {
 /// sample keys, same image).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Integrator {
-    /// One path at a time ([`crate::integrator`]).
-    #[default]
+    /// One path at a time ([`crate::integrator`]): the reference.
     Scalar,
-    /// Stage by stage over batches of paths ([`crate::wavefront`]).
+    /// Stage by stage over batches of paths ([`crate::wavefront`]): the default, faster on every
+    /// bench scene (`bench integrators`).
+    #[default]
     Wavefront,
 }
 
@@ -81,7 +82,7 @@ impl Default for RenderOptions {
             texture_footprint_scale: 1.0,
             texture_stats: false,
             curve_shape: None,
-            integrator: Integrator::Scalar,
+            integrator: Integrator::Wavefront,
             phase_stats: false,
         }
     }
