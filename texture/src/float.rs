@@ -15,7 +15,7 @@ const INTEGRAL: f32 = 8_388_608.0; // 2^23
 /// `x.floor()`, bit for bit.
 #[inline(always)]
 pub fn floor(x: f32) -> f32 {
-    if !(x.abs() < INTEGRAL) {
+    if x.is_nan() || x.abs() >= INTEGRAL {
         return x; // integral already, or NaN (returned as is, as libm does)
     }
     let t = x as i32 as f32; // truncation toward zero, exact below 2^23
@@ -31,7 +31,7 @@ pub fn round(x: f32) -> f32 {
         // libm's `roundf` quietens a signalling NaN (sets the quiet bit, keeps the payload).
         return f32::from_bits(x.to_bits() | 0x0040_0000);
     }
-    if !(x.abs() < INTEGRAL) {
+    if x.abs() >= INTEGRAL {
         return x;
     }
     let t = x as i32 as f32;

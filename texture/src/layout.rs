@@ -27,6 +27,7 @@ pub struct LevelLayout {
 
 impl LevelLayout {
     /// Layout of level `level` of a texture with the given level-0 size.
+    #[inline]
     pub fn new(width: u32, height: u32, level: u32, tile_log2: u32, texel_bytes: u32, base: usize) -> Self {
         let width = (width >> level).max(1);
         let height = (height >> level).max(1);

@@ -388,6 +388,7 @@ impl<D: Decode> Sampler<'_, D> {
 /// The optimised scalar and lane lookups equal the reference bit for bit (every NaN alike) on random
 /// coordinates and footprints, for every filter, wrap and texel format.
 #[test]
+#[allow(clippy::needless_range_loop)] // lanes and lookups indexed by the same lane number
 fn lookups_equal_the_reference() {
     use super::lanes::{bits, images, Rng};
     use crate::{sample_lanes_with, sample_with, LookupLanes, NoTouch};
