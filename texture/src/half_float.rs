@@ -7,6 +7,11 @@
 //! at run time per call), the lane filter converts all its taps in one call ([`to_f32_array`]: F16C
 //! picked once, eight values per instruction). `tests::all_halves_agree` checks every one of the
 //! 65,536 bit patterns through all three.
+//!
+//! Measured (callgrind, a throwaway probe: 20,000 groups of eight MoonRay-filter lookups, minifying,
+//! on a 512² RGBA half-float texture): the lane filter took 128.9 M instructions decoding each value
+//! through `half::f16::to_f32` (a feature check and a call per channel) and 122.6 M with the batched
+//! conversion (−4.9 %). The bench scenes have no half-float textures, so renders do not show it.
 
 /// Converts `bits` (raw `f16` patterns) in one call: F16C when the CPU has it (checked once per call),
 /// else `half`'s software conversion.
