@@ -131,18 +131,22 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
     fn moonray_lanes(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
         let rec = self.tex.record;
         let lv = levels(rec.width, rec.height, self.last_level(), q);
-        // Level-0 bilinear coordinates and weights (used by magnifying lanes).
+        // Level-0 bilinear coordinates and weights, used by magnifying lanes only: a group of
+        // minifying lanes (most groups past the first bounce) skips them, and its blend then selects
+        // the level blend over a bilinear made of zeros.
         let base = self.layout(0);
         let (w0, h0) = (base.width as f32, base.height as f32);
         let (mut x0, mut y0) = ([0.0f32; LANES], [0.0f32; LANES]);
         let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
-        for k in 0..LANES {
-            let x = q.uv[0][k] * w0 - 0.5;
-            let y = q.uv[1][k] * h0 - 0.5;
-            x0[k] = floor(x);
-            y0[k] = floor(y);
-            fx[k] = x - x0[k];
-            fy[k] = y - y0[k];
+        if lv.magnify[..count].contains(&true) {
+            for k in 0..LANES {
+                let x = q.uv[0][k] * w0 - 0.5;
+                let y = q.uv[1][k] * h0 - 0.5;
+                x0[k] = floor(x);
+                y0[k] = floor(y);
+                fx[k] = x - x0[k];
+                fy[k] = y - y0[k];
+            }
         }
         // Addresses: four taps per magnifying lane, one or two per minifying lane.
         let mut at = [[NO_TEXEL; LANES]; 4];
