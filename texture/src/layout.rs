@@ -27,22 +27,18 @@ pub struct LevelLayout {
 
 impl LevelLayout {
     /// Layout of level `level` of a texture with the given level-0 size.
+    #[inline]
     pub fn new(width: u32, height: u32, level: u32, tile_log2: u32, texel_bytes: u32, base: usize) -> Self {
         let width = (width >> level).max(1);
         let height = (height >> level).max(1);
         let tile = 1u32 << tile_log2;
         let tile_w = width.min(tile);
         let tile_h = height.min(tile);
-        LevelLayout {
-            base,
-            width,
-            height,
-            texel_bytes,
-            tile_log2,
-            tile_w,
-            tile_h,
-            tiles_x: width.div_ceil(tile_w),
-        }
+        // `width.div_ceil(tile_w)` with a shift: one tile when the level is no wider than a tile, else
+        // `tile_w` is the power of two `tile`. Lookups build a layout per level they read, and the
+        // division was a quarter of that (`LevelLayout::new` 0.45 % of a textured render).
+        let tiles_x = if width <= tile { 1 } else { (width + tile - 1) >> tile_log2 };
+        LevelLayout { base, width, height, texel_bytes, tile_log2, tile_w, tile_h, tiles_x }
     }
 
     /// Layout of level `level` of a baked texture.
@@ -81,6 +77,17 @@ impl LevelLayout {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shift-only tile count equals the division it replaced, on every size and tile edge.
+    #[test]
+    fn tile_count_is_div_ceil() {
+        for tile_log2 in 2..=12 {
+            for w in (1..=4096u32).chain([32768, 32767, 20001]) {
+                let lv = LevelLayout::new(w, 1, 0, tile_log2, 4, 0);
+                assert_eq!(lv.tiles_x, w.div_ceil(w.min(1 << tile_log2)), "{w} / 2^{tile_log2}");
+            }
+        }
+    }
 
     /// Every texel of an NPOT level gets a distinct slot inside the level's byte range.
     #[test]

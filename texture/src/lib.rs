@@ -46,6 +46,8 @@
 //! Modules:
 //! - [`format`](mod@format): colour space, texel format, wrap and filter enums (parsed from USD tokens);
 //! - [`srgb`]: the 256-entry decode table and the exact curves;
+//! - [`half_float`]: `f16` texels to `f32`, F16C chosen at run time;
+//! - [`float`]: `floor` and `round` without libm calls;
 //! - [`decode`](mod@decode): files → [`SourceImage`];
 //! - [`mip`]: linear mip chain with exact odd-size filtering;
 //! - [`layout`]: tiled addressing shared by bake and lookup;
@@ -61,7 +63,9 @@
 pub mod bake;
 pub mod decode;
 pub mod error;
+pub mod float;
 pub mod format;
+pub mod half_float;
 pub mod layout;
 pub mod mip;
 pub mod record;

@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 use crate::bake::{bake, BakeOptions, BakedTexture};
 use crate::decode::decode;
 use crate::error::{Error, Warning};
+use crate::float::floor;
 use crate::format::{TexelFormat, Wrap};
 use crate::record::{TextureRecord, UdimSetRecord, NONE};
 use crate::sample::{sample_with, validate, Lookup, TextureView};
@@ -198,7 +199,7 @@ impl<'a> TextureSetView<'a> {
     #[inline]
     pub fn udim_tile(&self, set: u32, uv: [f32; 2]) -> Option<(u32, Option<u32>)> {
         let rec = self.udim_sets.get(set as usize)?;
-        let (fu, fv) = (uv[0].floor(), uv[1].floor());
+        let (fu, fv) = (floor(uv[0]), floor(uv[1]));
         // Rejects negatives, NaN (comparisons are false) and cells past the grid.
         if !(fu >= 0.0 && fv >= 0.0 && fu < rec.u_count as f32 && fv < rec.v_count as f32) {
             return None;
@@ -231,7 +232,7 @@ impl<'a> TextureSetView<'a> {
             return fallback;
         };
         let local = Lookup {
-            uv: [lookup.uv[0] - lookup.uv[0].floor(), lookup.uv[1] - lookup.uv[1].floor()],
+            uv: [lookup.uv[0] - floor(lookup.uv[0]), lookup.uv[1] - floor(lookup.uv[1])],
             wrap_s: Wrap::Clamp,
             wrap_t: Wrap::Clamp,
             ..*lookup

@@ -12,6 +12,8 @@
 //! Sorting by this key orders points by tile, then level, then along a Z-curve inside the tile, so
 //! neighbouring queue entries touch neighbouring texel tiles.
 
+use crate::float::floor;
+
 /// Bits of each field, and where it starts.
 pub const LIGHT_SET_SHIFT: u32 = 25;
 /// Start of the UDIM field.
@@ -41,7 +43,7 @@ pub fn shading_sort_key(udim_tile: u32, mip_level: u32, uv: [f32; 2]) -> Option<
         return None;
     }
     // `x - floor(x)` can round to 1.0 for tiny negative x; clamp the quantised value to 127.
-    let q = |x: f32| (((x - x.floor()) * 128.0) as u32).min(127);
+    let q = |x: f32| (((x - floor(x)) * 128.0) as u32).min(127);
     let morton = spread7(q(uv[0])) | (spread7(q(uv[1])) << 1);
     Some((udim_tile << UDIM_SHIFT) | (mip_level << MIP_SHIFT) | morton)
 }

@@ -3,9 +3,9 @@
 //!
 //! Each lane equals [`super::sample_with`] bit for bit: the same IEEE operations in the same order,
 //! every branch of the scalar code turned into a per-lane select. The MoonRay filter (the default) runs
-//! as lane loops — footprint and mip level, the level-0 bilinear coordinates and weights, the blend —
-//! around one gather loop that wraps the integer coordinates and decodes the texels (addresses differ
-//! per lane, so the reads are scalar). The other filters loop the scalar lookup over the lanes: their
+//! as lane loops — footprint and mip level, the level-0 bilinear coordinates and weights, the tap
+//! addresses (wrapped integer coordinates), the blend — around one gather that reads and decodes the
+//! texels in use (addresses differ per lane, so the reads are scalar). The other filters loop the scalar lookup over the lanes: their
 //! tap counts vary per lane (anisotropic, EWA) or they are not the default.
 //!
 //! Lanes at or past `count` are not read (no texel touched) and come back zero.
@@ -13,7 +13,8 @@
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
 
-use super::{sample_with, Decode, Lookup, Sampler, Srgb8, TextureView, Unorm8, F16};
+use super::{sample_with, Decode, Lookup, Sampler, Srgb8, TextureView, Unorm8, F16, NO_TEXEL};
+use crate::float::floor;
 use crate::format::{Filter, TexelFormat, Wrap};
 use crate::layout::LevelLayout;
 use crate::stats::Touch;
@@ -112,7 +113,7 @@ fn levels(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
         let level = level[k];
         out.magnify[k] = level.is_nan() || level <= 0.0;
         let clamped = level.min(last as f32);
-        let l0 = clamped.floor();
+        let l0 = floor(clamped);
         out.l0[k] = l0 as u32;
         out.l1[k] = (out.l0[k] + 1).min(last);
         out.t[k] = clamped - l0;
@@ -123,45 +124,51 @@ fn levels(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
 impl<D: Decode, T: Touch> Sampler<'_, D, T> {
     /// [`Filter::Moonray`] for the first `count` lanes of `q` (the lookups' own wraps, not the
     /// sampler's first lane's, are the same for all lanes by construction of [`LookupLanes`]).
+    ///
+    /// Addresses first, texels second: the lane loop finds each tap's byte offset (level layouts built
+    /// once per level, not per lane), then [`Decode::gather`] reads and decodes exactly the taps in use,
+    /// all at once (one F16C conversion for half-float textures).
     fn moonray_lanes(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
         let rec = self.tex.record;
         let lv = levels(rec.width, rec.height, self.last_level(), q);
-        // Level-0 bilinear coordinates and weights (used by magnifying lanes).
-        let base = LevelLayout::of(rec, 0);
+        // Level-0 bilinear coordinates and weights, used by magnifying lanes only: a group of
+        // minifying lanes (most groups past the first bounce) skips them, and its blend then selects
+        // the level blend over a bilinear made of zeros.
+        let base = self.layout(0);
         let (w0, h0) = (base.width as f32, base.height as f32);
         let (mut x0, mut y0) = ([0.0f32; LANES], [0.0f32; LANES]);
         let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
-        for k in 0..LANES {
-            let x = q.uv[0][k] * w0 - 0.5;
-            let y = q.uv[1][k] * h0 - 0.5;
-            x0[k] = x.floor();
-            y0[k] = y.floor();
-            fx[k] = x - x0[k];
-            fy[k] = y - y0[k];
-        }
-        // Gather: four taps per magnifying lane, one or two per minifying lane.
-        let mut taps = [[[0.0f32; LANES]; 4]; 4];
-        let mut put = |tap: usize, k: usize, v: [f32; 4]| {
-            for c in 0..4 {
-                taps[tap][c][k] = v[c];
+        if lv.magnify[..count].contains(&true) {
+            for k in 0..LANES {
+                let x = q.uv[0][k] * w0 - 0.5;
+                let y = q.uv[1][k] * h0 - 0.5;
+                x0[k] = floor(x);
+                y0[k] = floor(y);
+                fx[k] = x - x0[k];
+                fy[k] = y - y0[k];
             }
-        };
+        }
+        // Addresses: four taps per magnifying lane, one or two per minifying lane.
+        let mut at = [[NO_TEXEL; LANES]; 4];
+        let mut layouts = LayoutCache::default();
         for k in 0..count {
             if lv.magnify[k] {
                 let (x0, y0) = (x0[k] as i32, y0[k] as i32);
                 let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
-                put(0, k, self.fetch(&base, x0, y0));
-                put(1, k, self.fetch(&base, x1, y0));
-                put(2, k, self.fetch(&base, x0, y1));
-                put(3, k, self.fetch(&base, x1, y1));
+                at[0][k] = self.address(&base, x0, y0);
+                at[1][k] = self.address(&base, x1, y0);
+                at[2][k] = self.address(&base, x0, y1);
+                at[3][k] = self.address(&base, x1, y1);
             } else {
                 let uv = [q.uv[0][k], q.uv[1][k]];
-                put(0, k, self.nearest(lv.l0[k], uv));
+                at[0][k] = self.nearest_address(&layouts.get(self, lv.l0[k]), uv);
                 if lv.t[k] != 0.0 {
-                    put(1, k, self.nearest(lv.l1[k], uv));
+                    at[1][k] = self.nearest_address(&layouts.get(self, lv.l1[k]), uv);
                 }
             }
         }
+        let texel_bytes = self.tex.texel_bytes as usize;
+        let taps = D::gather(self.tex.texels, rec.channels, texel_bytes, &at, count, self.touch);
         // Blend: bilinear (magnifying) or the two levels (minifying), selected per lane.
         let mut out = [[0.0f32; LANES]; 4];
         for c in 0..4 {
@@ -180,5 +187,27 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
             channel[count..].fill(0.0);
         }
         out
+    }
+}
+
+/// The layouts of the two levels most recently addressed: the lanes of a group mostly share one
+/// level pair, so each is built once per call rather than once per lane.
+#[derive(Default)]
+struct LayoutCache {
+    entries: [Option<(u32, LevelLayout)>; 2],
+}
+
+impl LayoutCache {
+    #[inline(always)]
+    fn get<D: Decode, T: Touch>(&mut self, sampler: &Sampler<'_, D, T>, level: u32) -> LevelLayout {
+        for (cached, layout) in self.entries.iter().flatten() {
+            if *cached == level {
+                return *layout;
+            }
+        }
+        let layout = sampler.layout(level);
+        self.entries[1] = self.entries[0];
+        self.entries[0] = Some((level, layout));
+        layout
     }
 }

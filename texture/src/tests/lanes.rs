@@ -19,21 +19,21 @@ impl Touch for Reads {
 }
 
 /// SplitMix64: a tiny deterministic generator (the crate has no random-number dependency).
-struct Rng(u64);
+pub(super) struct Rng(pub(super) u64);
 
 impl Rng {
-    fn next(&mut self) -> u64 {
+    pub(super) fn next(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         z ^ (z >> 31)
     }
-    fn unit(&mut self) -> f32 {
+    pub(super) fn unit(&mut self) -> f32 {
         (self.next() >> 40) as f32 / (1u64 << 24) as f32
     }
     /// Mostly ordinary values in `[-lo, hi)`, now and then a special one.
-    fn coordinate(&mut self, lo: f32, hi: f32) -> f32 {
+    pub(super) fn coordinate(&mut self, lo: f32, hi: f32) -> f32 {
         match self.next() % 40 {
             0 => f32::NAN,
             1 => f32::INFINITY,
@@ -43,7 +43,7 @@ impl Rng {
         }
     }
     /// A footprint component spanning magnification to beyond the whole texture.
-    fn derivative(&mut self) -> f32 {
+    pub(super) fn derivative(&mut self) -> f32 {
         match self.next() % 30 {
             0 => 0.0,
             1 => f32::NAN,
@@ -53,7 +53,7 @@ impl Rng {
     }
 }
 
-fn images(rng: &mut Rng) -> Vec<(SourceImage, ColorSpace)> {
+pub(super) fn images(rng: &mut Rng) -> Vec<(SourceImage, ColorSpace)> {
     let mut out = Vec::new();
     for (w, h) in [(37, 21), (64, 64), (1, 5), (130, 9)] {
         for channels in 1..=4u32 {
@@ -79,7 +79,7 @@ fn images(rng: &mut Rng) -> Vec<(SourceImage, ColorSpace)> {
 
 /// The bits of `v`, every NaN alike: Rust does not specify which NaN an operation on NaNs returns
 /// (LLVM may swap the operands of a commutative one), so only NaN-ness is comparable.
-fn bits(v: f32) -> u32 {
+pub(super) fn bits(v: f32) -> u32 {
     if v.is_nan() {
         f32::NAN.to_bits()
     } else {

@@ -5,6 +5,7 @@ mod decoding;
 mod lanes;
 mod lookup;
 mod pyramid;
+mod reference;
 mod udim;
 
 use crate::{
