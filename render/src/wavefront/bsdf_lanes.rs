@@ -471,10 +471,7 @@ fn sample_group<const COAT: bool>(l: &BsdfLanes, u: &SampleInputs, out: &mut Sam
         angle[k] = if diffuse[k] { theta } else { TAU * u.u0[k] };
     }
     let (mut cos, mut sin) = ([0.0f32; LANES], [0.0f32; LANES]);
-    for k in 0..LANES {
-        cos[k] = angle[k].cos();
-        sin[k] = angle[k].sin();
-    }
+    crate::trig::sin_cos_lanes(&angle, &mut sin, &mut cos);
     for k in 0..LANES {
         let p = P::at(l, k);
         let wo = V::at(&wo_local, k);

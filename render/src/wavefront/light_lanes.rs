@@ -433,14 +433,9 @@ pub fn sample_lanes(table: &LightTable, inp: &LightInputs, out: &mut LightSample
             angle[k] = if g.kind[k] == KIND_DISK { theta } else { angle[k] };
         }
     }
-    // 3. Its cosine and sine, where the kind needs them.
+    // 3. Its cosine and sine, 8-wide on every lane (the kinds without an angle ignore theirs).
     let (mut cos, mut sin) = ([0.0f32; LANES], [0.0f32; LANES]);
-    for k in 0..LANES {
-        if matches!(g.kind[k], KIND_DOME | KIND_CONE | KIND_SPHERE | KIND_DISK) {
-            cos[k] = angle[k].cos();
-            sin[k] = angle[k].sin();
-        }
-    }
+    crate::trig::sin_cos_lanes(&angle, &mut sin, &mut cos);
 
     // 4. The arithmetic of the kinds this group picked: only lights at infinity (a scene lit by a
     // dome and a sun), no patches (spheres and points with them), or everything.
