@@ -27,22 +27,22 @@
 /// π/2 = `P1 + P2 + P3`: `P1` has 8 significant bits and `P2` 11, so `k·P1` and `k·P2` are exact
 /// for integers |k| < 2¹³ (Cephes' `DP1..DP3`, doubled).
 const P1: f32 = 1.570_312_5;
-const P2: f32 = 4.837_512_969_970_703e-4;
-const P3: f32 = 7.549_789_954_891_882e-8;
+const P2: f32 = 4.837_513e-4;
+const P3: f32 = 7.549_79e-8;
 
 /// Adding 1.5·2²³ rounds a float of magnitude below 2²² to an integer (to nearest, ties to even)
 /// and leaves that integer in the low mantissa bits.
 const ROUNDER: f32 = 12_582_912.0;
 
 /// Cephes `sinf` on [−π/4, π/4]: sin r ≈ r + r³·(S2 + r²·(S1 + r²·S0)).
-const S0: f32 = -1.951_529_589_1e-4;
-const S1: f32 = 8.332_160_873_6e-3;
-const S2: f32 = -1.666_665_461_1e-1;
+const S0: f32 = -1.951_529_6e-4;
+const S1: f32 = 8.332_161e-3;
+const S2: f32 = -1.666_665_5e-1;
 
 /// Cephes `cosf` on [−π/4, π/4]: cos r ≈ 1 − r²/2 + r⁴·(C2 + r²·(C1 + r²·C0)).
-const C0: f32 = 2.443_315_711_809_948e-5;
-const C1: f32 = -1.388_731_625_493_765e-3;
-const C2: f32 = 4.166_664_568_298_827e-2;
+const C0: f32 = 2.443_315_7e-5;
+const C1: f32 = -1.388_731_6e-3;
+const C2: f32 = 4.166_664_6e-2;
 
 /// `(sin x, cos x)` for |x| < 8192, a few ulp from the exact values (see the module docs).
 #[inline(always)]
@@ -161,6 +161,15 @@ mod tests {
             e.add(-10.0 * PI + 20.0 * PI * (i as f32 / n as f32));
         }
         e.check("hair azimuth");
+    }
+
+    /// `k·P1` and `k·P2` must be exact for |k| < 2¹³: their significands end in enough zeros.
+    #[test]
+    fn reduction_constants_split_half_pi() {
+        let zeros = |c: f32| (c.to_bits() & 0x7f_ffff).trailing_zeros();
+        assert!(zeros(P1) >= 23 - 7 && zeros(P2) >= 23 - 10, "{} {}", zeros(P1), zeros(P2));
+        let sum = P1 as f64 + P2 as f64 + P3 as f64;
+        assert!((sum - std::f64::consts::FRAC_PI_2).abs() < 4e-15, "{sum}");
     }
 
     #[test]
