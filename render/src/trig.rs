@@ -23,6 +23,18 @@
 //! value's `f32` ulp where |value| ≥ 2⁻¹² (measured 1.52 ulp over 2πu, 1.49 over the disk's θ,
 //! 1.51 over [−10π, 10π]), at most 7.8e-8 absolute anywhere; sin² + cos² within 1.5e-7 of 1.
 //! (libm's `sinf`/`cosf` are within 1 ulp; the images change in the last bits.)
+//!
+//! Callgrind, instructions, 120×80, 8 spp, 1 thread, libm → this (both integrators still equal bit
+//! for bit): the wavefront's light kernel tractor 11.48 → 6.03 M, shading-heavy 15.59 → 9.92 M,
+//! simple 2.10 → 1.07 M; its BSDF sampler 9.35 → 5.26 M, 9.85 → 5.53 M, 1.72 → 0.99 M; the whole
+//! wavefront process 409.2 → 400.6 M (−2.1 %), 760.5 → 752.3 M (−1.1 %), 147.6 → 146.2 M (−1.0 %).
+//! The scalar integrator gains no instructions: one call at a time, the baseline-SSE2 polynomial
+//! (~50 instructions with the quadrant's moves between float and integer registers) counts what
+//! glibc's `__sincosf_fma` did (tractor: `Lights::sample` 15.97 → 15.06 M, `Bsdf::sample` 56.13 →
+//! 56.94 M; process +0.16 %, +0.26 %, +0.23 % on the three scenes), but no call and no table:
+//! perf, 320×213, 16 spp, 1 thread (contended), `Bsdf::sample` + `Lights::sample` + `sincosf` self
+//! time, % of each run: tractor scalar 15.4 → 12.0, wavefront (both lane kernels) 9.0 → 5.1;
+//! shading-heavy scalar 10.1 → 8.5, wavefront 4.9 → 3.6.
 
 /// π/2 = `P1 + P2 + P3`: `P1` has 8 significant bits and `P2` 11, so `k·P1` and `k·P2` are exact
 /// for integers |k| < 2¹³ (Cephes' `DP1..DP3`, doubled).
