@@ -151,7 +151,8 @@ fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: [f32; 2]) -> Vec3 {
     let phi = TAU * u[0];
     let z = (1.0 - u[1]) * (1.0 + wi_std.z) - wi_std.z;
     let sin_theta = (1.0 - z * z).clamp(0.0, 1.0).sqrt();
-    let c = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), z);
+    let (sin_phi, cos_phi) = crate::trig::sin_cos(phi);
+    let c = Vec3::new(sin_theta * cos_phi, sin_theta * sin_phi, z);
     let h_std = c + wi_std;
     Vec3::new(h_std.x * alpha, h_std.y * alpha, h_std.z).normalize()
 }
@@ -176,7 +177,8 @@ pub fn sample_concentric_disk(u: [f32; 2]) -> [f32; 2] {
     } else {
         (b, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b))
     };
-    [r * theta.cos(), r * theta.sin()]
+    let (sin, cos) = crate::trig::sin_cos(theta);
+    [r * cos, r * sin]
 }
 
 impl Bsdf {

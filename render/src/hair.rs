@@ -333,7 +333,7 @@ impl HairBsdf {
         let u0 = u[0].max(1e-5);
         let cos_theta = 1.0 + v * (u0 + (1.0 - u0) * (-2.0 / v).exp()).ln();
         let sin_theta = safe_sqrt(1.0 - cos_theta * cos_theta);
-        let cos_phi = (TAU * u[1]).cos();
+        let (_, cos_phi) = crate::trig::sin_cos(TAU * u[1]);
         let sin_i = -cos_theta * sin_op + sin_theta * cos_phi * cos_op;
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
         let dphi = if p < P_MAX {
@@ -341,8 +341,9 @@ impl HairBsdf {
         } else {
             TAU * ul
         };
-        let phi_i = phi_o + dphi;
-        let wi_l = Vec3::new(sin_i, cos_i * phi_i.cos(), cos_i * phi_i.sin());
+        // |φ_o| ≤ π and |Δφ| < 8π: inside `sin_cos`'s domain.
+        let (sin_phi_i, cos_phi_i) = crate::trig::sin_cos(phi_o + dphi);
+        let wi_l = Vec3::new(sin_i, cos_i * cos_phi_i, cos_i * sin_phi_i);
         let (f, pdf) = self.eval_local(wo_l, wi_l);
         if pdf.is_nan() || pdf <= 0.0 || f == Vec3::ZERO {
             return None;

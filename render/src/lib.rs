@@ -29,7 +29,7 @@
 //! [`sampler`] (stateless Owen-scrambled Sobol), [`bsdf`] (UsdPreviewSurface), [`lights`] (UsdLux +
 //! emissive triangles, MIS), [`integrator`] (the path, depth first), [`wavefront`] (the same paths, breadth first), [`film`] (tiles, options, image), [`output`]
 //! (EXR/PNG), [`stats`] (summary), [`info`] (`--info`), [`scene`] (view + derived data), [`shading`]
-//! (material programs and filtered texture lookups), [`error`].
+//! (material programs and filtered texture lookups), [`trig`] (the samplers' sine and cosine), [`error`].
 
 #![deny(missing_docs)]
 
@@ -61,6 +61,7 @@ mod tests;
 mod testscene;
 #[cfg(test)]
 mod texture_tests;
+pub mod trig;
 pub mod wavefront;
 
 pub use accel::{Accel, Hit, Ray};

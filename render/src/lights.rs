@@ -156,8 +156,8 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 fn uniform_sphere(u: [f32; 2]) -> Vec3 {
     let z = 1.0 - 2.0 * u[0];
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = TAU * u[1];
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin_phi, cos_phi) = crate::trig::sin_cos(TAU * u[1]);
+    Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 /// Direction inside the cone around `axis` with 1 − cos θ = `u0 · one_minus_cos_max`.
@@ -165,8 +165,8 @@ fn sample_cone(axis: Vec3, one_minus_cos_max: f32, u: [f32; 2]) -> Vec3 {
     let one_minus_cos = u[0] * one_minus_cos_max;
     let cos = 1.0 - one_minus_cos;
     let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
-    let phi = TAU * u[1];
-    Frame::new(axis).to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)).normalize()
+    let (sin_phi, cos_phi) = crate::trig::sin_cos(TAU * u[1]);
+    Frame::new(axis).to_world(Vec3::new(sin * cos_phi, sin * sin_phi, cos)).normalize()
 }
 
 /// Nearest positive hit of a ray (unit `d`) with a sphere.

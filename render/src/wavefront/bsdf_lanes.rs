@@ -7,9 +7,9 @@
 //! included).
 //!
 //! The kernels are straight-line per lane (selects, no branches) in three loops over the lanes: before
-//! the trigonometry, the `cos`/`sin` calls (libm, one lane at a time: a vector polynomial would not
-//! round like `cosf`), and after. LLVM vectorises the first and last loops to 8-wide AVX2 under
-//! [`multiversion`] (chosen at run time, generic fallback elsewhere).
+//! the trigonometry, the sines and cosines ([`crate::trig::sin_cos_lanes`], the polynomial the
+//! scalar [`Bsdf::sample`] calls too), and after. LLVM vectorises all three loops to 8-wide AVX2
+//! under [`multiversion`] (chosen at run time, generic fallback elsewhere).
 //!
 //! Groups where no lane has a clearcoat lobe (`clearcoat > 0`; most groups of the bench scenes) run
 //! a variant without its terms (a second GGX D, G₂ and pdf per lane), and the sampler keeps the
@@ -20,8 +20,10 @@
 //! local `wo` and lobe probabilities as [`BsdfLanes`] columns written once by
 //! [`from_inputs_lanes`] for both kernels (eval −0.8 M, but construction +1.0 M and the sampler
 //! +0.8 M: the whole process ran 0.3–0.5 % more instructions, a bigger scatter group to stream).
-//! Left as is: `sincosf` per lane (~45 instructions each, both kernels' largest single cost; a
-//! vector polynomial would have to reproduce glibc's rounding bit for bit).
+//! Then libm's `sincosf` per lane (~45 instructions each, the kernel's largest single cost) gave
+//! way to [`crate::trig::sin_cos`] in both integrators, 8-wide here: [`sample_lanes`] tractor 9.35
+//! → 5.26 M, shading-heavy 9.85 → 5.53 M, simple 1.72 → 0.99 M (the polynomial itself 0.64 M on
+//! the tractor, where `sincosf` took 4.0 M).
 
 use super::lanes::LANES;
 use crate::bsdf::Bsdf;
@@ -450,8 +452,8 @@ pub fn sample_lanes(l: &BsdfLanes, u: &SampleInputs, out: &mut SampleLanes) {
 #[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 fn sample_group<const COAT: bool>(l: &BsdfLanes, u: &SampleInputs, out: &mut SampleLanes) {
-    // Before the trigonometry: the local `wo`, the lobe probabilities (kept for the last loop: the
-    // libm calls between the loops keep LLVM from reusing them), the lobe, and the angle whose
+    // Before the trigonometry: the local `wo`, the lobe probabilities (kept for the last loop:
+    // LLVM does not reuse them across the loops), the lobe, and the angle whose
     // cosine and sine the lobe needs (the concentric disk's θ for the diffuse lobe, the spherical
     // cap's φ for GGX).
     let (mut wo_local, mut probs) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3]);
@@ -471,10 +473,7 @@ fn sample_group<const COAT: bool>(l: &BsdfLanes, u: &SampleInputs, out: &mut Sam
         angle[k] = if diffuse[k] { theta } else { TAU * u.u0[k] };
     }
     let (mut cos, mut sin) = ([0.0f32; LANES], [0.0f32; LANES]);
-    for k in 0..LANES {
-        cos[k] = angle[k].cos();
-        sin[k] = angle[k].sin();
-    }
+    crate::trig::sin_cos_lanes(&angle, &mut sin, &mut cos);
     for k in 0..LANES {
         let p = P::at(l, k);
         let wo = V::at(&wo_local, k);
