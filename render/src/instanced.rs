@@ -35,6 +35,24 @@ fn apply(rows: &[[f32; 4]; 3], v: Vec3, w: f32) -> Vec3 {
     }))
 }
 
+/// A prototype-space point of instance `inst` in world space.
+#[inline(always)]
+pub fn point_to_world(inst: &Instance, p: Vec3) -> Vec3 {
+    apply(&inst.world_from_object, p, 1.0)
+}
+
+/// A prototype-space normal of instance `inst` in world space: `object_from_worldᵀ · n` (the inverse
+/// transpose of `world_from_object`), not normalized.
+#[inline(always)]
+pub fn normal_to_world(inst: &Instance, n: Vec3) -> Vec3 {
+    let m = &inst.object_from_world;
+    Vec3::new(
+        m[0][0] * n.x + m[1][0] * n.y + m[2][0] * n.z,
+        m[0][1] * n.x + m[1][1] * n.y + m[2][1] * n.z,
+        m[0][2] * n.x + m[1][2] * n.y + m[2][2] * n.z,
+    )
+}
+
 impl<'a> Instances<'a> {
     /// Wraps the validated view's instancing sections.
     pub fn new(view: &blob::SceneView<'a>) -> Self {
@@ -81,22 +99,24 @@ impl<'a> Instances<'a> {
         self.instances.iter().map(|i| self.prototypes[i.prototype as usize].triangle_count as u64).sum()
     }
 
+    /// The record of `instance` (for callers that move several points or normals of one hit: one
+    /// lookup, then [`point_to_world`] and [`normal_to_world`]).
+    #[inline]
+    pub fn record(&self, instance: u32) -> &'a Instance {
+        &self.instances[instance as usize]
+    }
+
     /// A prototype-space point of `instance` in world space.
     #[inline]
     pub fn to_world_point(&self, instance: u32, p: Vec3) -> Vec3 {
-        apply(&self.instances[instance as usize].world_from_object, p, 1.0)
+        point_to_world(self.record(instance), p)
     }
 
     /// A prototype-space normal of `instance` in world space: `object_from_worldᵀ · n` (the inverse
     /// transpose of `world_from_object`), not normalized.
     #[inline]
     pub fn to_world_normal(&self, instance: u32, n: Vec3) -> Vec3 {
-        let m = &self.instances[instance as usize].object_from_world;
-        Vec3::new(
-            m[0][0] * n.x + m[1][0] * n.y + m[2][0] * n.z,
-            m[0][1] * n.x + m[1][1] * n.y + m[2][1] * n.z,
-            m[0][2] * n.x + m[1][2] * n.y + m[2][2] * n.z,
-        )
+        normal_to_world(self.record(instance), n)
     }
 
     /// The ray in `instance`'s prototype space (same `t`).
