@@ -5,7 +5,7 @@
 //! the pool is already ordered by pixel and then sample: accumulation reads it front to back.
 //!
 //! Eight paths at a time: their keys are laid out in lanes, the pixel jitter comes from
-//! [`sampler_lanes::sample_2d_lanes`] and the rays and cones from [`camera::camera_ray_lanes`], both
+//! [`sampler_lanes::pair_lanes`] (from seeds hashed once per pixel) and the rays and cones from [`camera::camera_ray_lanes`], both
 //! bit-exact against the scalar film loop's `sample_2d`, `generate_ray` and `pixel_cone` (tested in
 //! their modules on random inputs; the equivalence tests compare whole images).
 //!
@@ -37,7 +37,7 @@ use super::{sampler_lanes, Context, RayState, Worker};
 use crate::camera::{self, CameraLanes, RayLanes};
 use crate::film::Tile;
 use crate::integrator::RayCounts;
-use crate::sampler::{dim, hash_u32};
+use crate::sampler::{dim, hash_u32, PairSeeds};
 use glam::Vec3;
 
 /// Fills the pool with the camera rays of samples `s0 .. s0 + samples` of every pixel of `tile`, and the
@@ -55,11 +55,10 @@ pub(super) fn camera_rays<T>(
     let cam =
         CameraLanes::new(ctx.camera, ctx.forward, ctx.width, ctx.height, ctx.options.texture_footprint_scale);
     let seed_hash = hash_u32(ctx.options.seed);
-    let mut keys = PathKeys::default();
     let mut jitter = [[0.0f32; LANES]; 2];
     let mut out = RayLanes::default();
     let mut flush = |keys: &PathKeys, len: usize, states: &mut Vec<RayState>| {
-        sampler_lanes::sample_2d_lanes(seed_hash, &keys.pixel, &keys.sample, 0, dim::PIXEL, &mut jitter);
+        sampler_lanes::pair_lanes(&keys.jitter_seeds, &keys.sample, &mut jitter);
         camera::camera_ray_lanes(&cam, &keys.x, &keys.y, &jitter[0], &jitter[1], &mut out);
         let at = |c: &[[f32; LANES]; 3], k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
         states.extend((0..len).map(|k| RayState {
@@ -78,28 +77,45 @@ pub(super) fn camera_rays<T>(
             bounces: 0,
         }));
     };
+    // Keys are written lane by lane (scalar stores) and read by the kernels as whole vectors: read
+    // right after being written, a vector load cannot take its data from eight pending stores and
+    // stalls until they reach the cache (a third of the jitter kernel's perf samples sat on that
+    // load). So keys are filled for `BATCH` groups before the first of them runs.
+    let mut batch = [PathKeys::default(); BATCH];
+    let mut run = |batch: &[PathKeys; BATCH], len: usize, states: &mut Vec<RayState>| {
+        for (g, keys) in batch.iter().enumerate().take(len.div_ceil(LANES)) {
+            // A last partial group's idle lanes keep earlier keys: computed and dropped.
+            flush(keys, (len - g * LANES).min(LANES), states);
+        }
+    };
     let mut len = 0;
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             let pixel = y * ctx.width + x;
+            // The pixel's jitter seeds, shared by all its samples (hashed once here, not per path).
+            let jitter_seeds = PairSeeds::new(seed_hash, pixel, 0, dim::PIXEL);
             for sample in s0..s0 + samples {
-                (keys.pixel[len], keys.sample[len], keys.x[len], keys.y[len]) = (pixel, sample, x, y);
+                let (keys, k) = (&mut batch[len / LANES], len % LANES);
+                (keys.pixel[k], keys.sample[k], keys.x[k], keys.y[k]) = (pixel, sample, x, y);
+                keys.jitter_seeds.set(k, jitter_seeds);
                 len += 1;
-                if len == LANES {
-                    flush(&keys, len, &mut w.states);
+                if len == BATCH * LANES {
+                    run(&batch, len, &mut w.states);
                     len = 0;
                 }
             }
         }
     }
     if len > 0 {
-        // The idle lanes keep the previous group's keys: computed and dropped.
-        flush(&keys, len, &mut w.states);
+        run(&batch, len, &mut w.states);
     }
     w.rays.extend(0..w.states.len() as u32);
     w.first_hits[..w.states.len()].fill(None);
     rays.camera += w.states.len() as u64;
 }
+
+/// Lane groups whose keys are written before the first of them is read (see `camera_rays`).
+const BATCH: usize = 8;
 
 /// Eight paths' camera keys and pixel coordinates.
 #[derive(Clone, Copy, Debug, Default)]
@@ -109,6 +125,7 @@ struct PathKeys {
     sample: [u32; LANES],
     x: [u32; LANES],
     y: [u32; LANES],
+    jitter_seeds: sampler_lanes::PairSeedLanes,
 }
 
 #[cfg(test)]
