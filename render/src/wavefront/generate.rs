@@ -89,11 +89,22 @@ pub(super) fn camera_rays<T>(
         }
     };
     let mut len = 0;
+    let mut row_seeds = sampler_lanes::PairSeedLanes::default();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             let pixel = y * ctx.width + x;
-            // The pixel's jitter seeds, shared by all its samples (hashed once here, not per path).
-            let jitter_seeds = PairSeeds::new(seed_hash, pixel, 0, dim::PIXEL);
+            // The jitter seeds of a pixel are shared by all its samples: hashed once per pixel, eight
+            // pixels of a row at a time (pixels past the row's end are hashed and never read).
+            let j = ((x - tile.x0) as usize) % LANES;
+            if j == 0 {
+                let row_pixels = std::array::from_fn(|k| pixel.wrapping_add(k as u32));
+                sampler_lanes::pair_seed_lanes(seed_hash, &row_pixels, 0, dim::PIXEL, &mut row_seeds);
+            }
+            let jitter_seeds = PairSeeds {
+                index: row_seeds.index[j],
+                first: row_seeds.first[j],
+                second: row_seeds.second[j],
+            };
             for sample in s0..s0 + samples {
                 let (keys, k) = (&mut batch[len / LANES], len % LANES);
                 (keys.pixel[k], keys.sample[k], keys.x[k], keys.y[k]) = (pixel, sample, x, y);

@@ -104,6 +104,25 @@ impl PairSeedLanes {
     }
 }
 
+/// `out` lane `k` = `PairSeeds::new(seed_hash, pixel[k], vertex, dimension)`: the seeds of eight
+/// pixels at once (the camera jitter's, a tile row at a time).
+#[allow(clippy::needless_range_loop)]
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
+pub fn pair_seed_lanes(
+    seed_hash: u32,
+    pixel: &[u32; LANES],
+    vertex: u32,
+    dimension: u32,
+    out: &mut PairSeedLanes,
+) {
+    for k in 0..LANES {
+        let pair_seed = hash_combine(hash_combine(hash_combine(seed_hash, pixel[k]), vertex), dimension / 2);
+        out.index[k] = pair_seed;
+        out.first[k] = hash_combine(pair_seed, 0);
+        out.second[k] = hash_combine(pair_seed, 1);
+    }
+}
+
 /// `out[i][k]` = `seeds_k.sample_2d(sample[k])[i]`: a 2D sample of eight paths whose pair seeds
 /// were hashed beforehand (the camera jitter: once per pixel, not once per path).
 ///
@@ -169,6 +188,12 @@ mod tests {
                     sample[k] = if round % 3 == 0 { hash_u32(x) } else { (x >> 11) % 65_536 };
                     seeds.set(k, PairSeeds::new(hash_u32(seed), pixel[k], vertex, dimension));
                 }
+                let mut hashed = PairSeedLanes::default();
+                pair_seed_lanes(hash_u32(seed), &pixel, vertex, dimension, &mut hashed);
+                assert_eq!(
+                    (hashed.index, hashed.first, hashed.second),
+                    (seeds.index, seeds.first, seeds.second)
+                );
                 let mut out = [[0.0; LANES]; 2];
                 pair_lanes(&seeds, &sample, &mut out);
                 for k in 0..LANES {
