@@ -1,6 +1,17 @@
 //! Stage 6: accumulation. Reads the finished pool of a chunk (ordered by pixel, then sample: the
 //! radiance queue, already sorted by pixel) and adds each path to its pixel's running sums in sample
 //! order, exactly as the scalar film loop does; [`finish`] turns the sums into the tile.
+//!
+//! Callgrind (instructions, wavefront, 120×80, 8 spp, 1 thread), before → after walking the pool
+//! in pixel runs and collecting the tile's arrays: [`chunk`] tractor 4.41 M → 3.74 M, simple 3.77 M
+//! → 2.82 M; [`finish`] 1.10 M → 0.57 M (all three scenes). Perf, simple, 1280×852, 16 spp, 1
+//! thread (contended, two runs each): `chunk` + `finish` 2.19 / 2.06 % → 1.58 / 1.54 %.
+//!
+//! Writing the tiles straight into the image instead of into per-tile arrays that `film` copies
+//! was measured and not done: the copy (`film::render_scene_with_progress`) is 0.44 M
+//! instructions of 143 M on the simple scene (0.3 %; 0.01 % of the perf samples at 1280×852),
+//! and tiles are squares, not row bands, so writing them in place from parallel jobs would need
+//! `unsafe` aliasing of the image buffers for that.
 
 use super::Worker;
 use crate::film::TileResult;

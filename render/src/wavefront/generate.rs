@@ -28,9 +28,37 @@
 //! 1.32–1.58×.
 //!
 //! The perf share after is the sum of `sample_2d_lanes`, `camera_ray_lanes`, `camera_rays` and its
-//! state writes. Left as they are: hoisting the per-pixel pair seed out of the jitter lanes (the
-//! lanes of a group mostly share a pixel; ~8 instructions a ray, 0.1 % of the process) and
-//! vector stores for the state writes' constant fields (~15 a ray, 0.2 %).
+//! state writes.
+//!
+//! # The jitter's seeds once per pixel, keys a batch ahead
+//! `sample_2d_lanes` still took more of the simple scene's samples than `vertex_lanes` (perf,
+//! 320×213, 16 spp, 1 thread: 3.4 % against 1.6 %) although it ran 21 instructions a ray: a third
+//! of its samples sat on its first vector load. The keys were written lane by lane (scalar stores)
+//! just before; a vector load cannot be forwarded from eight pending stores and waits for them to
+//! reach the cache. Now the keys of [`BATCH`] groups are written before the first group runs, and
+//! the jitter's pair seeds (five of its seven hashes, a chain of ten dependent `vpmulld`s) are
+//! hashed once per pixel, eight pixels of a tile row at a time
+//! ([`sampler_lanes::pair_seed_lanes`]), and carried in lanes to [`sampler_lanes::pair_lanes`].
+//! Hashing them per pixel in scalar code instead (first version) took more instructions than it
+//! saved at 8 spp (+0.4 M on the simple scene) and no time at 16 spp.
+//!
+//! | measure (wavefront, 1 thread) | tractor | shading-heavy | simple |
+//! |---|---|---|---|
+//! | `camera_rays` instructions, inclusive (callgrind, 120×80, 8 spp) | 7.65 M → 7.83 M | 7.65 M → 7.83 M | 7.65 M → 7.83 M |
+//! | jitter kernel instructions (`sample_2d_lanes` → `pair_lanes`) | 1.63 M → 0.87 M | 1.63 M → 0.87 M | 1.63 M → 0.87 M |
+//! | whole process instructions (with [`super::accumulate`]'s changes) | 391.67 M → 390.65 M | 644.38 M → 643.35 M | 143.10 M → 141.85 M (−0.9 %) |
+//!
+//! Perf, simple, 1280×852, 16 spp, 1 thread, two runs each (contended): jitter kernel 3.02 / 2.91 %
+//! → 1.77 / 1.62 %; the camera stage (jitter, ray lanes, state writes, `camera_rays`) 7.65 / 7.39 %
+//! → 7.15 / 6.91 % (the per-pixel hashing and the batch bookkeeping moved into `camera_rays`: 0.8
+//! → 1.5 %). Every image is the same bytes as before (EXRs of all three bench scenes, both
+//! integrators, compared with `cmp`).
+//!
+//! Left as they are: the 92-byte [`RayState`] writes (~37 instructions a ray, ten scalar
+//! load-store pairs and six constant stores: already tight, and bound by the stores into the
+//! 377 KB pool rather than by instructions; 1.6–1.8 % of the simple scene's samples), and
+//! `camera_ray_lanes` (2.1–2.4 %: its three `vdivps` must stay divisions to equal the scalar
+//! `generate_ray` bit for bit).
 
 use super::lanes::LANES;
 use super::{sampler_lanes, Context, RayState, Worker};
