@@ -171,12 +171,38 @@ pub fn sample_1d(key: SampleKey, vertex: u32, dimension: u32) -> f32 {
 #[inline]
 pub fn sample_2d(key: SampleKey, vertex: u32, dimension: u32) -> [f32; 2] {
     debug_assert!(dimension.is_multiple_of(2), "2D samples start on an even dimension");
-    let pair_seed = pair_seed(key, vertex, dimension / 2);
-    let index = pair_index(key.sample, pair_seed);
-    [
-        unit_from_reversed(index, hash_combine(pair_seed, 0)),
-        unit_from_reversed(sobol1_reversed(index), hash_combine(pair_seed, 1)),
-    ]
+    PairSeeds::new(hash_u32(key.seed), key.pixel, vertex, dimension).sample_2d(key.sample)
+}
+
+/// The hashes of one (seed, pixel, vertex, pair) that every sample of the pixel shares: the pair
+/// seed that shuffles the Sobol index and the scramble seeds of its two coordinates. Five of the
+/// seven hashes of a 2D sample, so a caller drawing many samples of one pixel computes them once
+/// (the wavefront's camera jitter, [`crate::wavefront::sampler_lanes::pair_lanes`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PairSeeds {
+    /// Scrambles the sample index.
+    pub index: u32,
+    /// Scrambles the first coordinate (dimension `2·pair`).
+    pub first: u32,
+    /// Scrambles the second coordinate (dimension `2·pair + 1`).
+    pub second: u32,
+}
+
+impl PairSeeds {
+    /// The seeds of dimensions `dimension`, `dimension + 1` (even) at `vertex` of `pixel`'s paths;
+    /// `seed_hash` is `hash_u32(seed)`.
+    #[inline]
+    pub fn new(seed_hash: u32, pixel: u32, vertex: u32, dimension: u32) -> Self {
+        let pair_seed = hash_combine(hash_combine(hash_combine(seed_hash, pixel), vertex), dimension / 2);
+        PairSeeds { index: pair_seed, first: hash_combine(pair_seed, 0), second: hash_combine(pair_seed, 1) }
+    }
+
+    /// `sample_2d` of sample `sample` of the pixel, vertex and pair these seeds were made for.
+    #[inline(always)]
+    pub fn sample_2d(&self, sample: u32) -> [f32; 2] {
+        let index = pair_index(sample, self.index);
+        [unit_from_reversed(index, self.first), unit_from_reversed(sobol1_reversed(index), self.second)]
+    }
 }
 
 /// The sampler as first written (bit-serial Sobol, every scramble reversing in and out): the

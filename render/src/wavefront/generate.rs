@@ -5,7 +5,7 @@
 //! the pool is already ordered by pixel and then sample: accumulation reads it front to back.
 //!
 //! Eight paths at a time: their keys are laid out in lanes, the pixel jitter comes from
-//! [`sampler_lanes::sample_2d_lanes`] and the rays and cones from [`camera::camera_ray_lanes`], both
+//! [`sampler_lanes::pair_lanes`] (from seeds hashed once per pixel) and the rays and cones from [`camera::camera_ray_lanes`], both
 //! bit-exact against the scalar film loop's `sample_2d`, `generate_ray` and `pixel_cone` (tested in
 //! their modules on random inputs; the equivalence tests compare whole images).
 //!
@@ -28,16 +28,44 @@
 //! 1.32–1.58×.
 //!
 //! The perf share after is the sum of `sample_2d_lanes`, `camera_ray_lanes`, `camera_rays` and its
-//! state writes. Left as they are: hoisting the per-pixel pair seed out of the jitter lanes (the
-//! lanes of a group mostly share a pixel; ~8 instructions a ray, 0.1 % of the process) and
-//! vector stores for the state writes' constant fields (~15 a ray, 0.2 %).
+//! state writes.
+//!
+//! # The jitter's seeds once per pixel, keys a batch ahead
+//! `sample_2d_lanes` still took more of the simple scene's samples than `vertex_lanes` (perf,
+//! 320×213, 16 spp, 1 thread: 3.4 % against 1.6 %) although it ran 21 instructions a ray: a third
+//! of its samples sat on its first vector load. The keys were written lane by lane (scalar stores)
+//! just before; a vector load cannot be forwarded from eight pending stores and waits for them to
+//! reach the cache. Now the keys of [`BATCH`] groups are written before the first group runs, and
+//! the jitter's pair seeds (five of its seven hashes, a chain of ten dependent `vpmulld`s) are
+//! hashed once per pixel, eight pixels of a tile row at a time
+//! ([`sampler_lanes::pair_seed_lanes`]), and carried in lanes to [`sampler_lanes::pair_lanes`].
+//! Hashing them per pixel in scalar code instead (first version) took more instructions than it
+//! saved at 8 spp (+0.4 M on the simple scene) and no time at 16 spp.
+//!
+//! | measure (wavefront, 1 thread) | tractor | shading-heavy | simple |
+//! |---|---|---|---|
+//! | `camera_rays` instructions, inclusive (callgrind, 120×80, 8 spp) | 7.65 M → 7.83 M | 7.65 M → 7.83 M | 7.65 M → 7.83 M |
+//! | jitter kernel instructions (`sample_2d_lanes` → `pair_lanes`) | 1.63 M → 0.87 M | 1.63 M → 0.87 M | 1.63 M → 0.87 M |
+//! | whole process instructions (with [`super::accumulate`]'s changes) | 391.67 M → 390.65 M | 644.38 M → 643.35 M | 143.10 M → 141.85 M (−0.9 %) |
+//!
+//! Perf, simple, 1280×852, 16 spp, 1 thread, two runs each (contended): jitter kernel 3.02 / 2.91 %
+//! → 1.77 / 1.62 %; the camera stage (jitter, ray lanes, state writes, `camera_rays`) 7.65 / 7.39 %
+//! → 7.15 / 6.91 % (the per-pixel hashing and the batch bookkeeping moved into `camera_rays`: 0.8
+//! → 1.5 %). Every image is the same bytes as before (EXRs of all three bench scenes, both
+//! integrators, compared with `cmp`).
+//!
+//! Left as they are: the 92-byte [`RayState`] writes (~37 instructions a ray, ten scalar
+//! load-store pairs and six constant stores: already tight, and bound by the stores into the
+//! 377 KB pool rather than by instructions; 1.6–1.8 % of the simple scene's samples), and
+//! `camera_ray_lanes` (2.1–2.4 %: its three `vdivps` must stay divisions to equal the scalar
+//! `generate_ray` bit for bit).
 
 use super::lanes::LANES;
 use super::{sampler_lanes, Context, RayState, Worker};
 use crate::camera::{self, CameraLanes, RayLanes};
 use crate::film::Tile;
 use crate::integrator::RayCounts;
-use crate::sampler::{dim, hash_u32};
+use crate::sampler::{dim, hash_u32, PairSeeds};
 use glam::Vec3;
 
 /// Fills the pool with the camera rays of samples `s0 .. s0 + samples` of every pixel of `tile`, and the
@@ -55,11 +83,10 @@ pub(super) fn camera_rays<T>(
     let cam =
         CameraLanes::new(ctx.camera, ctx.forward, ctx.width, ctx.height, ctx.options.texture_footprint_scale);
     let seed_hash = hash_u32(ctx.options.seed);
-    let mut keys = PathKeys::default();
     let mut jitter = [[0.0f32; LANES]; 2];
     let mut out = RayLanes::default();
     let mut flush = |keys: &PathKeys, len: usize, states: &mut Vec<RayState>| {
-        sampler_lanes::sample_2d_lanes(seed_hash, &keys.pixel, &keys.sample, 0, dim::PIXEL, &mut jitter);
+        sampler_lanes::pair_lanes(&keys.jitter_seeds, &keys.sample, &mut jitter);
         camera::camera_ray_lanes(&cam, &keys.x, &keys.y, &jitter[0], &jitter[1], &mut out);
         let at = |c: &[[f32; LANES]; 3], k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
         states.extend((0..len).map(|k| RayState {
@@ -78,28 +105,56 @@ pub(super) fn camera_rays<T>(
             bounces: 0,
         }));
     };
+    // Keys are written lane by lane (scalar stores) and read by the kernels as whole vectors: read
+    // right after being written, a vector load cannot take its data from eight pending stores and
+    // stalls until they reach the cache (a third of the jitter kernel's perf samples sat on that
+    // load). So keys are filled for `BATCH` groups before the first of them runs.
+    let mut batch = [PathKeys::default(); BATCH];
+    let mut run = |batch: &[PathKeys; BATCH], len: usize, states: &mut Vec<RayState>| {
+        for (g, keys) in batch.iter().enumerate().take(len.div_ceil(LANES)) {
+            // A last partial group's idle lanes keep earlier keys: computed and dropped.
+            flush(keys, (len - g * LANES).min(LANES), states);
+        }
+    };
     let mut len = 0;
+    let mut row_seeds = sampler_lanes::PairSeedLanes::default();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             let pixel = y * ctx.width + x;
+            // The jitter seeds of a pixel are shared by all its samples: hashed once per pixel, eight
+            // pixels of a row at a time (pixels past the row's end are hashed and never read).
+            let j = ((x - tile.x0) as usize) % LANES;
+            if j == 0 {
+                let row_pixels = std::array::from_fn(|k| pixel.wrapping_add(k as u32));
+                sampler_lanes::pair_seed_lanes(seed_hash, &row_pixels, 0, dim::PIXEL, &mut row_seeds);
+            }
+            let jitter_seeds = PairSeeds {
+                index: row_seeds.index[j],
+                first: row_seeds.first[j],
+                second: row_seeds.second[j],
+            };
             for sample in s0..s0 + samples {
-                (keys.pixel[len], keys.sample[len], keys.x[len], keys.y[len]) = (pixel, sample, x, y);
+                let (keys, k) = (&mut batch[len / LANES], len % LANES);
+                (keys.pixel[k], keys.sample[k], keys.x[k], keys.y[k]) = (pixel, sample, x, y);
+                keys.jitter_seeds.set(k, jitter_seeds);
                 len += 1;
-                if len == LANES {
-                    flush(&keys, len, &mut w.states);
+                if len == BATCH * LANES {
+                    run(&batch, len, &mut w.states);
                     len = 0;
                 }
             }
         }
     }
     if len > 0 {
-        // The idle lanes keep the previous group's keys: computed and dropped.
-        flush(&keys, len, &mut w.states);
+        run(&batch, len, &mut w.states);
     }
     w.rays.extend(0..w.states.len() as u32);
     w.first_hits[..w.states.len()].fill(None);
     rays.camera += w.states.len() as u64;
 }
+
+/// Lane groups whose keys are written before the first of them is read (see `camera_rays`).
+const BATCH: usize = 8;
 
 /// Eight paths' camera keys and pixel coordinates.
 #[derive(Clone, Copy, Debug, Default)]
@@ -109,6 +164,7 @@ struct PathKeys {
     sample: [u32; LANES],
     x: [u32; LANES],
     y: [u32; LANES],
+    jitter_seeds: sampler_lanes::PairSeedLanes,
 }
 
 #[cfg(test)]
