@@ -159,6 +159,10 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     // The surfaces the sort kept, out of the worker while the runs borrow it mutably (a move of
     // the vector, no copy; put back below so its memory serves the next wave).
     let kept = std::mem::take(&mut w.surfaces);
+    let mut slots = RunSlots {
+        built: [const { None }; LANES],
+        inputs: [ShadingInputs::constant(&blob::Material::default()); LANES],
+    };
     let n = w.shade.len();
     let mut start = 0;
     while start < n {
@@ -167,7 +171,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         if super::intersect::is_curve(&w.hits[first as usize]) {
             super::shade_curves::vertex(ctx, w, first, rays);
         } else {
-            run(ctx, w, &kept, start, end, rays);
+            run(ctx, w, &kept, &mut slots, start, end, rays);
         }
         start = end;
     }
@@ -213,21 +217,25 @@ fn run<T: Touch>(
     ctx: &Context<'_, '_, T>,
     w: &mut Worker,
     kept: &[Surface],
+    run_slots: &mut RunSlots,
     start: usize,
     end: usize,
     rays: &mut RayCounts,
 ) {
     let scene: &Scene = ctx.scene;
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
-    let mut built: [Option<Surface>; LANES] = [const { None }; LANES];
+    let RunSlots { built, inputs } = run_slots;
     let (mut paths, mut slots, mut count) = ([0u32; LANES], [NO_SURFACE; LANES], 0);
     for &e in &w.shade[start..end] {
         let i = sort::index(e);
         let slot = if ctx.textured { w.surface_slot[i as usize] } else { NO_SURFACE };
         if slot == NO_SURFACE {
             let (hit, st) = (&w.hits[i as usize], &w.states[i as usize]);
-            built[count] = scene.surface(hit, -st.dir, st.cone().width_at(hit.t));
-            if built[count].is_none() {
+            // Written straight into its slot (a member that was skipped leaves a stale slot, which
+            // the next member overwrites).
+            let surface = &mut built[count];
+            *surface = scene.surface(hit, -st.dir, st.cone().width_at(hit.t));
+            if surface.is_none() {
                 continue; // a degenerate triangle
             }
         }
@@ -238,13 +246,14 @@ fn run<T: Touch>(
     if count == 0 {
         return;
     }
+    let built = &*built;
     let surface = |k: usize| match slots[k] {
         NO_SURFACE => built[k].as_ref().expect("a member without a kept surface has a built one"),
         slot => &kept[slot as usize],
     };
     let material = surface(0).material;
-    let inputs = if count == 1 {
-        [scene.shade(surface(0), filter, touch); LANES]
+    if count == 1 {
+        inputs[0] = scene.shade(surface(0), filter, touch);
     } else {
         let at: [&crate::shading::UvFootprint; LANES] =
             std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
@@ -255,8 +264,9 @@ fn run<T: Touch>(
             filter,
             touch,
             &mut w.registers,
-        )
-    };
+            inputs,
+        );
+    }
     w.clock.shader_evaluations += count as u64;
     if w.clock.enabled() {
         w.clock.lap(if w.textured_materials[material as usize] { Phase::Texturing } else { Phase::Shading });
@@ -268,6 +278,20 @@ fn run<T: Touch>(
         }
     }
     w.clock.lap(Phase::Integration);
+}
+
+/// Where a run's surfaces (those the sort key did not keep) and shading inputs are written: one set
+/// per shade stage, reused by every run, so that each surface and each lane's inputs are written
+/// once, where they are read from (no per-run initialisation, no copy of a returned array).
+///
+/// They used to be a per-run stack array of surfaces, cleared per run, and the material program's
+/// 640-byte array of returned inputs (a lone hit broadcast its inputs into all eight lanes); see the
+/// module docs for the figures.
+struct RunSlots {
+    /// Surfaces built in [`run`], by position in the run.
+    built: [Option<Surface>; LANES],
+    /// The run's shading inputs, by position in the run; lanes past the run hold stale values.
+    inputs: [ShadingInputs; LANES],
 }
 
 /// A run member whose surface is not kept by the sort key (`Worker::surface_slot`).
