@@ -71,6 +71,33 @@
 //! instructions each). `Shading::sort_key` clears its register file per call (`memset`, 4.4 M
 //! instructions on shading-heavy; `shading.rs`).
 //!
+//! # Written in place (was: returned by value)
+//! The run's built surfaces and shading inputs now live in [`RunSlots`], one set per stage:
+//! [`material_lanes::evaluate_lanes`] writes each lane's inputs where [`prepare`] reads them
+//! (it returned a 640-byte array, copied by a `memcpy` call per group), a lone hit's scalar
+//! program writes lane 0 only (it was broadcast into all eight lanes), and each surface is
+//! assigned straight into its slot (the per-run array of surfaces is no longer cleared per run).
+//! Together with the escaped rays' dome and distant lights walked once per batch
+//! ([`super::intersect`]), callgrind (whole process, wavefront, 120×80, 8 spp, 1 thread):
+//!
+//! | scene | instructions | `memcpy` instructions | escaped emission (inclusive) |
+//! |---|---|---|---|
+//! | tractor | 391.7 M → 383.4 M (−2.1 %) | 9.07 M → 5.42 M | 8.02 M → 3.33 M |
+//! | shading-heavy | 644.5 M → 635.4 M (−1.4 %) | 11.25 M → 7.51 M | 7.82 M → 3.24 M |
+//! | simple | 143.1 M → 138.8 M (−3.0 %) | 2.42 M → 1.75 M | 6.06 M → 1.73 M |
+//!
+//! `memcpy` calls from this stage fell from 141 k to 51 k on the tractor (from 92 k to none on
+//! shading-heavy); what is left are the surfaces `Scene::surface` returns by value (the compiler
+//! does not build them in their slot) and the sort key's kept surfaces (pushed into the worker's
+//! table, [`super::intersect::sort_keys`]). `perf` (1 thread, 320×213, 16 spp, contended, % of
+//! the wavefront's samples): `memmove` 3.09 → 2.17 % (tractor), 1.91 → 1.15 % (shading-heavy),
+//! 3.31 → 2.41 % (simple); escaped emission 1.98 → 0.37 %, 0.80 → 0.32 %, 3.10 → 0.80 %.
+//! `bench integrators` (contended, 3 runs each, alternating), best wavefront CPU s: tractor
+//! 0.546 → 0.536, shading-heavy 1.082 → 0.999, simple 0.180 → 0.168; speed-up over scalar
+//! 1.78 / 1.52 / 1.48× → 1.44 / 1.69 / 1.56× (tractor), 1.28 / 1.45 / 1.48× → 1.36 / 1.51 /
+//! 1.47× (shading-heavy), 1.49 / 1.77 / 1.69× → 1.75 / 1.59 / 1.77× (simple): within the noise
+//! of the loaded machine. Images unchanged (EXR bytes equal before and after on all three blobs).
+//!
 //! Lost (kept out): putting the next ray queue and the occlusion queue back in pool order after
 //! shading (a bitmap over the pool, [`u32::trailing_zeros`] walk), so the intersect and occlusion
 //! stages read path states and shadow rays in memory order and neighbouring pixels' rays traverse
