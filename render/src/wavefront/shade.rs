@@ -97,6 +97,11 @@
 //! 1.78 / 1.52 / 1.48× → 1.44 / 1.69 / 1.56× (tractor), 1.28 / 1.45 / 1.48× → 1.36 / 1.51 /
 //! 1.47× (shading-heavy), 1.49 / 1.77 / 1.69× → 1.75 / 1.59 / 1.77× (simple): within the noise
 //! of the loaded machine. Images unchanged (EXR bytes equal before and after on all three blobs).
+//! With the sort key's level from the footprint's exponent as well (`shading.rs`), a second
+//! alternating set (contended): best wavefront CPU s 0.535 → 0.516 (tractor), 0.981 → 0.993
+//! (shading-heavy), 0.185 → 0.172 (simple); speed-up over scalar 1.61 / 1.69 / 1.65× → 1.73 /
+//! 1.65 / 1.67×, 1.48 / 1.45 / 1.36× → 1.42 / 1.56 / 1.51×, 1.62 / 1.56 / 1.62× → 1.75 / 1.77 /
+//! 1.67×.
 //!
 //! Lost (kept out): putting the next ray queue and the occlusion queue back in pool order after
 //! shading (a bitmap over the pool, [`u32::trailing_zeros`] walk), so the intersect and occlusion
