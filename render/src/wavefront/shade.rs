@@ -71,6 +71,38 @@
 //! instructions each). `Shading::sort_key` clears its register file per call (`memset`, 4.4 M
 //! instructions on shading-heavy; `shading.rs`).
 //!
+//! # Written in place (was: returned by value)
+//! The run's built surfaces and shading inputs now live in [`RunSlots`], one set per stage:
+//! [`material_lanes::evaluate_lanes`] writes each lane's inputs where [`prepare`] reads them
+//! (it returned a 640-byte array, copied by a `memcpy` call per group), a lone hit's scalar
+//! program writes lane 0 only (it was broadcast into all eight lanes), and each surface is
+//! assigned straight into its slot (the per-run array of surfaces is no longer cleared per run).
+//! Together with the escaped rays' dome and distant lights walked once per batch
+//! ([`super::intersect`]), callgrind (whole process, wavefront, 120×80, 8 spp, 1 thread):
+//!
+//! | scene | instructions | `memcpy` instructions | escaped emission (inclusive) |
+//! |---|---|---|---|
+//! | tractor | 391.7 M → 383.4 M (−2.1 %) | 9.07 M → 5.42 M | 8.02 M → 3.33 M |
+//! | shading-heavy | 644.5 M → 635.4 M (−1.4 %) | 11.25 M → 7.51 M | 7.82 M → 3.24 M |
+//! | simple | 143.1 M → 138.8 M (−3.0 %) | 2.42 M → 1.75 M | 6.06 M → 1.73 M |
+//!
+//! `memcpy` calls from this stage fell from 141 k to 51 k on the tractor (from 92 k to none on
+//! shading-heavy); what is left are the surfaces `Scene::surface` returns by value (the compiler
+//! does not build them in their slot) and the sort key's kept surfaces (pushed into the worker's
+//! table, [`super::intersect::sort_keys`]). `perf` (1 thread, 320×213, 16 spp, contended, % of
+//! the wavefront's samples): `memmove` 3.09 → 2.17 % (tractor), 1.91 → 1.15 % (shading-heavy),
+//! 3.31 → 2.41 % (simple); escaped emission 1.98 → 0.37 %, 0.80 → 0.32 %, 3.10 → 0.80 %.
+//! `bench integrators` (contended, 3 runs each, alternating), best wavefront CPU s: tractor
+//! 0.546 → 0.536, shading-heavy 1.082 → 0.999, simple 0.180 → 0.168; speed-up over scalar
+//! 1.78 / 1.52 / 1.48× → 1.44 / 1.69 / 1.56× (tractor), 1.28 / 1.45 / 1.48× → 1.36 / 1.51 /
+//! 1.47× (shading-heavy), 1.49 / 1.77 / 1.69× → 1.75 / 1.59 / 1.77× (simple): within the noise
+//! of the loaded machine. Images unchanged (EXR bytes equal before and after on all three blobs).
+//! With the sort key's level from the footprint's exponent as well (`shading.rs`), a second
+//! alternating set (contended): best wavefront CPU s 0.535 → 0.516 (tractor), 0.981 → 0.993
+//! (shading-heavy), 0.185 → 0.172 (simple); speed-up over scalar 1.61 / 1.69 / 1.65× → 1.73 /
+//! 1.65 / 1.67×, 1.48 / 1.45 / 1.36× → 1.42 / 1.56 / 1.51×, 1.62 / 1.56 / 1.62× → 1.75 / 1.77 /
+//! 1.67×.
+//!
 //! Lost (kept out): putting the next ray queue and the occlusion queue back in pool order after
 //! shading (a bitmap over the pool, [`u32::trailing_zeros`] walk), so the intersect and occlusion
 //! stages read path states and shadow rays in memory order and neighbouring pixels' rays traverse
@@ -159,6 +191,10 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     // The surfaces the sort kept, out of the worker while the runs borrow it mutably (a move of
     // the vector, no copy; put back below so its memory serves the next wave).
     let kept = std::mem::take(&mut w.surfaces);
+    let mut slots = RunSlots {
+        built: [const { None }; LANES],
+        inputs: [ShadingInputs::constant(&blob::Material::default()); LANES],
+    };
     let n = w.shade.len();
     let mut start = 0;
     while start < n {
@@ -167,7 +203,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         if super::intersect::is_curve(&w.hits[first as usize]) {
             super::shade_curves::vertex(ctx, w, first, rays);
         } else {
-            run(ctx, w, &kept, start, end, rays);
+            run(ctx, w, &kept, &mut slots, start, end, rays);
         }
         start = end;
     }
@@ -213,21 +249,25 @@ fn run<T: Touch>(
     ctx: &Context<'_, '_, T>,
     w: &mut Worker,
     kept: &[Surface],
+    run_slots: &mut RunSlots,
     start: usize,
     end: usize,
     rays: &mut RayCounts,
 ) {
     let scene: &Scene = ctx.scene;
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
-    let mut built: [Option<Surface>; LANES] = [const { None }; LANES];
+    let RunSlots { built, inputs } = run_slots;
     let (mut paths, mut slots, mut count) = ([0u32; LANES], [NO_SURFACE; LANES], 0);
     for &e in &w.shade[start..end] {
         let i = sort::index(e);
         let slot = if ctx.textured { w.surface_slot[i as usize] } else { NO_SURFACE };
         if slot == NO_SURFACE {
             let (hit, st) = (&w.hits[i as usize], &w.states[i as usize]);
-            built[count] = scene.surface(hit, -st.dir, st.cone().width_at(hit.t));
-            if built[count].is_none() {
+            // Written straight into its slot (a member that was skipped leaves a stale slot, which
+            // the next member overwrites).
+            let surface = &mut built[count];
+            *surface = scene.surface(hit, -st.dir, st.cone().width_at(hit.t));
+            if surface.is_none() {
                 continue; // a degenerate triangle
             }
         }
@@ -238,13 +278,14 @@ fn run<T: Touch>(
     if count == 0 {
         return;
     }
+    let built = &*built;
     let surface = |k: usize| match slots[k] {
         NO_SURFACE => built[k].as_ref().expect("a member without a kept surface has a built one"),
         slot => &kept[slot as usize],
     };
     let material = surface(0).material;
-    let inputs = if count == 1 {
-        [scene.shade(surface(0), filter, touch); LANES]
+    if count == 1 {
+        inputs[0] = scene.shade(surface(0), filter, touch);
     } else {
         let at: [&crate::shading::UvFootprint; LANES] =
             std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
@@ -255,8 +296,9 @@ fn run<T: Touch>(
             filter,
             touch,
             &mut w.registers,
-        )
-    };
+            inputs,
+        );
+    }
     w.clock.shader_evaluations += count as u64;
     if w.clock.enabled() {
         w.clock.lap(if w.textured_materials[material as usize] { Phase::Texturing } else { Phase::Shading });
@@ -268,6 +310,20 @@ fn run<T: Touch>(
         }
     }
     w.clock.lap(Phase::Integration);
+}
+
+/// Where a run's surfaces (those the sort key did not keep) and shading inputs are written: one set
+/// per shade stage, reused by every run, so that each surface and each lane's inputs are written
+/// once, where they are read from (no per-run initialisation, no copy of a returned array).
+///
+/// They used to be a per-run stack array of surfaces, cleared per run, and the material program's
+/// 640-byte array of returned inputs (a lone hit broadcast its inputs into all eight lanes); see the
+/// module docs for the figures.
+struct RunSlots {
+    /// Surfaces built in [`run`], by position in the run.
+    built: [Option<Surface>; LANES],
+    /// The run's shading inputs, by position in the run; lanes past the run hold stale values.
+    inputs: [ShadingInputs; LANES],
 }
 
 /// A run member whose surface is not kept by the sort key (`Worker::surface_slot`).
