@@ -29,6 +29,22 @@
 //! reference on random inputs; `equivalence_tests` and the scene tests compare whole images (max and
 //! mean absolute difference 0).
 //!
+//! # Where it stands (idle 2-core machine, `bench integrators`, 320×213, 16 spp, three runs)
+//! Wavefront/scalar CPU time: tractor 1.85–1.94×, shading-heavy 1.38–1.60×, simple 1.38–1.75×;
+//! shading+texturing+integration 1.58–1.65×, 1.37–1.63×, 1.31–1.82× (images equal bit for bit), so the
+//! wavefront is the default. What got it there, each step measured in its module's docs: area-light
+//! emission with eight *rays* per light test ([`emission_lanes`], 146 M → 51 M instructions on the
+//! shading-heavy scene, where the scalar loop takes 249 M), camera rays and the vertex's random
+//! numbers truly 8-wide ([`generate`], [`sampler_lanes`]), light kernels specialised to the scene's
+//! light kinds ([`light_lanes`]), one inlinable sin/cos for both integrators ([`crate::trig`]: the
+//! lane kernels had called libm per lane), phase 1 run by run with surfaces built in their slots
+//! ([`shade`]), and escaped rays' dome/distant emission once per batch. Shared work got faster in
+//! both integrators too (the triangle block test on `Vec4` lanes in [`crate::accel`], `Scene::surface`,
+//! texture lookups without libm). Still short of the ≥ 3× shading+integration goal: per hit, the
+//! surface rebuild (gathers from the blob) and the texture gathers are memory-bound and stay scalar,
+//! and the UsdPreviewSurface programs are three or four ops, so the lanes have little arithmetic to
+//! win on. The sections below are the history of earlier steps, with the figures of their day.
+//!
 //! # Where it wins and where it loses (`bench integrators`; callgrind instruction counts, 1 thread)
 //! Render instructions scalar → wavefront: tractor 292 M → 260 M (1.12×), shading-heavy (textured, 48
 //! sphere lights) 513 M → 401 M (1.28×), simple 97 M → 86 M (1.13×). The BVH queries are the same
