@@ -178,8 +178,15 @@ fn ray_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32) -> Option<f32> {
     if disc < 0.0 {
         return None;
     }
+    sphere_roots(b, c, disc)
+}
+
+/// The rest of [`ray_sphere`] once the discriminant is known not to be negative: the nearest
+/// positive root of the numerically stable pair. The wavefront's emission kernel computes `b`, `c`
+/// and `disc` for eight rays at once and calls this for the rays that pass.
+#[inline(always)]
+pub(crate) fn sphere_roots(b: f32, c: f32, disc: f32) -> Option<f32> {
     let sq = disc.sqrt();
-    // Numerically stable roots.
     let q = if b > 0.0 { -b - sq } else { -b + sq };
     let (mut t0, mut t1) = (q, if q != 0.0 { c / q } else { 0.0 });
     if t0 > t1 {

@@ -53,7 +53,7 @@
 use super::bsdf_lanes::{Lanes, Lanes3};
 use super::lanes::LANES;
 use crate::area_groups::{self, GroupBox};
-use crate::lights::{Light, Lights, Shape};
+use crate::lights::{sphere_roots, Light, Lights, Shape};
 use glam::Vec3;
 
 /// Rays a batch holds at most (the intersect stage's batch).
@@ -349,25 +349,6 @@ fn plane_rejects(ray: &RayLanes, center: [f32; 3], n: [f32; 3], s: &mut RejectLa
         bits[k] = ((t.min(-cos) > 0.0) as u32) << k;
     }
     bits.iter().fold(0, |a, b| a | b)
-}
-
-/// `ray_sphere`'s rest, for a ray whose discriminant is not negative: the nearest positive root
-/// (the numerically stable pair).
-#[inline(always)]
-pub fn sphere_roots(b: f32, c: f32, disc: f32) -> Option<f32> {
-    let sq = disc.sqrt();
-    let q = if b > 0.0 { -b - sq } else { -b + sq };
-    let (mut t0, mut t1) = (q, if q != 0.0 { c / q } else { 0.0 });
-    if t0 > t1 {
-        std::mem::swap(&mut t0, &mut t1);
-    }
-    if t0 > 0.0 {
-        Some(t0)
-    } else if t1 > 0.0 {
-        Some(t1)
-    } else {
-        None
-    }
 }
 
 /// `Light::intersect`'s rect/disk rest: whether the plane point at `t` lies inside the shape.

@@ -103,7 +103,11 @@ fn options() -> RenderOptions {
 
 /// Renders `view` with both integrators and asserts the images are equal bit for bit (beauty and
 /// every AOV), with the same ray and shader-evaluation counts.
-fn both_integrators(view: &blob::SceneView, options: &RenderOptions, what: &str) -> (Image, Image) {
+pub(super) fn both_integrators(
+    view: &blob::SceneView,
+    options: &RenderOptions,
+    what: &str,
+) -> (Image, Image) {
     let scalar =
         render_image(view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() }).unwrap();
     let wave =

@@ -798,7 +798,7 @@ mod tests {
     /// wavefront image equals the scalar one bit for bit.
     #[test]
     fn wavefront_equals_scalar_with_few_lights() {
-        use crate::{render_image, Integrator, RenderOptions};
+        use crate::RenderOptions;
         let cases: [(&[&str], bool); 3] =
             [(&["dome", "sun"], false), (&["delta"], false), (&["dome", "rect", "sphere"], true)];
         for (keep, emitters) in cases {
@@ -811,20 +811,8 @@ mod tests {
                 max_depth: 5,
                 ..RenderOptions::default()
             };
-            let render = |integrator| {
-                render_image(&view, &RenderOptions { integrator, ..options.clone() }).expect("renders")
-            };
-            let (scalar, wave) = (render(Integrator::Scalar), render(Integrator::Wavefront));
-            let max = scalar
-                .beauty
-                .iter()
-                .flatten()
-                .zip(wave.beauty.iter().flatten())
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0f32, f32::max);
-            eprintln!("{keep:?}: wavefront vs scalar max |diff| {max:e}");
-            assert_eq!(max, 0.0, "{keep:?}");
-            assert_eq!(scalar.beauty, wave.beauty, "{keep:?}");
+            let (scalar, wave) =
+                crate::wavefront::equivalence_tests::both_integrators(&view, &options, &format!("{keep:?}"));
             let mean = scalar.beauty.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / 1024.0;
             assert!(mean > 0.01, "{keep:?}: lit, mean luminance {mean}");
             assert!(wave.stats.counters.light_lanes_active > 0, "{keep:?}");
