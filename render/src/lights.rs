@@ -640,33 +640,15 @@ impl<'a> Lights<'a> {
     /// Radiance from the dome and distant cones along an escaping direction `d`, MIS-weighted
     /// against light sampling (`bsdf_pdf = None` for camera rays).
     pub fn escaped_emission(&self, d: Vec3, bsdf_pdf: Option<f32>) -> Vec3 {
-        let mut sum = Vec3::ZERO;
-        for &i in &self.infinite {
-            let light = &self.lights[i];
-            let (le, pdf) = match light.shape {
-                Shape::Dome => (light.radiance, 1.0 / (4.0 * PI)),
-                Shape::TexturedDome { map } => {
-                    let (texel, pdf) = self.dome_maps[map as usize].texel_and_pdf(d);
-                    (light.radiance * texel, pdf)
-                }
-                Shape::Distant { to_light, one_minus_cos_max } => {
-                    if 1.0 - d.dot(to_light) > one_minus_cos_max {
-                        continue;
-                    }
-                    (light.radiance, 1.0 / (TAU * one_minus_cos_max))
-                }
-                _ => continue,
-            };
-            let w = bsdf_pdf.map_or(1.0, |b| power_heuristic(b, self.select_pmf * pdf));
-            sum += le * w;
-        }
-        sum
+        let mut sum = [Vec3::ZERO];
+        self.escaped_emission_rays(&[d], &[bsdf_pdf], &mut sum);
+        sum[0]
     }
 
     /// [`Lights::escaped_emission`] of many escaping rays (directions `dirs`, BSDF pdfs
-    /// `bsdf_pdfs`), added to `sums` (zero on entry for the scalar's sum): the light list is walked
-    /// once, each light's `match` resolved once for all rays, with the scalar's arithmetic per
-    /// (ray, light) in the scalar's order, so each sum equals the scalar one bit for bit.
+    /// `bsdf_pdfs`), added to `sums` (zero on entry for the single ray's sum): the light list is
+    /// walked once, each light's `match` resolved once for all rays (the wavefront passes a batch;
+    /// the scalar integrator one ray), so each ray's sum is the same in both.
     // Lane loops index three columns by the same ray number.
     #[allow(clippy::needless_range_loop)]
     pub(crate) fn escaped_emission_rays(&self, dirs: &[Vec3], bsdf_pdfs: &[Option<f32>], sums: &mut [Vec3]) {
