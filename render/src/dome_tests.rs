@@ -396,6 +396,7 @@ fn wavefront_image_equals_the_scalar_one_under_a_textured_dome() {
     let o = options(24, 16);
     let scalar = render(&scene, &RenderOptions { integrator: Integrator::Scalar, ..o.clone() });
     let wavefront = render(&scene, &RenderOptions { integrator: Integrator::Wavefront, ..o });
+    crate::dispatch_tests::record_image("textured dome", &scalar);
     let max_diff = scalar
         .beauty
         .iter()

@@ -39,6 +39,8 @@ pub mod bsdf;
 pub mod camera;
 pub mod cli;
 pub mod curves;
+#[cfg(test)]
+mod dispatch_tests;
 pub mod dome_map;
 #[cfg(test)]
 mod dome_tests;

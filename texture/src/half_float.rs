@@ -68,4 +68,19 @@ mod tests {
         assert_eq!(to_f32_soft(0xfc00), f32::NEG_INFINITY);
         assert!(to_f32_soft(0x7e00).is_nan());
     }
+
+    /// `scripts/test-fallback.sh` runs this crate's tests under qemu on CPU models without F16C and
+    /// sets `RENDER_EMULATED_CPU`: there [`all_halves_agree`] must have exercised `half`'s software
+    /// conversion, not F16C.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn emulated_cpus_convert_without_f16c() {
+        let f16c = is_x86_feature_detected!("f16c");
+        eprintln!("half-float decoding uses {}", if f16c { "F16C" } else { "the software conversion" });
+        match std::env::var("RENDER_EMULATED_CPU").as_deref() {
+            Err(_) => {}
+            Ok("no-avx" | "avx-no-avx2") => assert!(!f16c, "the emulated CPU should have no F16C"),
+            Ok(other) => panic!("RENDER_EMULATED_CPU={other:?}: expected \"no-avx\" or \"avx-no-avx2\""),
+        }
+    }
 }

@@ -128,6 +128,7 @@ pub(super) fn both_integrators(
     assert_eq!(scalar.depth, wave.depth);
     assert_eq!(scalar.stats.rays, wave.stats.rays);
     assert_eq!(scalar.stats.shader_evaluations, wave.stats.shader_evaluations);
+    crate::dispatch_tests::record_image(what, &scalar);
     (scalar, wave)
 }
 
@@ -367,6 +368,7 @@ fn wavefront_equals_scalar_for_every_texture_filter() {
         assert_eq!(max, 0.0, "{texture_filter:?}");
         assert_eq!(scalar.beauty, wave.beauty, "{texture_filter:?}");
         assert_eq!(scalar.albedo, wave.albedo, "{texture_filter:?}");
+        crate::dispatch_tests::record_image(&format!("texture filter {texture_filter:?}"), &scalar);
         images.push(scalar.beauty);
     }
     // The filters differ, so each comparison exercised its own lookups.
