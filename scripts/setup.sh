@@ -9,9 +9,10 @@ if ! command -v cargo >/dev/null 2>&1; then
     exit 1
 fi
 
-# Debian packages: a C/C++ toolchain for crates that build C, OpenSubdiv (subdiv/ links it), and
-# Python's venv module.
-apt_packages=(build-essential pkg-config python3-venv libosd-dev)
+# Debian packages: a C/C++ toolchain for crates that build C, OpenSubdiv (subdiv/ links it),
+# Python's venv module, and qemu-user (scripts/test-fallback.sh runs the kernel tests on emulated CPUs
+# without AVX2).
+apt_packages=(build-essential pkg-config python3-venv libosd-dev qemu-user)
 missing=()
 for p in "${apt_packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
