@@ -26,23 +26,24 @@ if ! command -v qemu-x86_64 >/dev/null 2>&1; then
     exit 1
 fi
 
-# The lib test binaries of render and texture and the ingest and render programs, as
-# `cargo test --workspace` (scripts/test.sh) built them: the same command here recompiles nothing.
-binaries=$(cargo test --release --locked --workspace --no-run --message-format=json |
+# Executables as scripts/test.sh builds them (the same cargo commands here recompile nothing): the lib
+# test binaries of render and texture, and the ingest and render programs.
+list_executables() {
     python3 -c '
 import json, sys
 for line in sys.stdin:
     m = json.loads(line)
-    if m.get("reason") != "compiler-artifact" or not m.get("executable"):
-        continue
-    name, kind, test = m["target"]["name"], m["target"]["kind"], m["profile"]["test"]
-    if test and kind == ["lib"] and name in ("render", "texture"):
-        print(name + "-tests", m["executable"])
-    elif not test and kind == ["bin"] and name in ("render", "ingest"):
-        print(name, m["executable"])')
-pick() { awk -v name="$1" '$1 == name { print $2 }' <<<"$binaries"; }
-render_tests=$(pick render-tests) texture_tests=$(pick texture-tests)
-render_bin=$(pick render) ingest_bin=$(pick ingest)
+    if m.get("reason") == "compiler-artifact" and m.get("executable"):
+        suffix = "-tests" if m["profile"]["test"] else ""
+        print(m["target"]["name"] + "/" + m["target"]["kind"][0] + suffix, m["executable"])'
+}
+binaries=$(
+    cargo build --release --locked -p ingest -p render --message-format=json | list_executables
+    cargo test --release --locked --workspace --no-run --message-format=json | list_executables
+)
+pick() { awk -v name="$1" '$1 == name { print $2 }' <<<"$binaries" | tail -1; }
+render_tests=$(pick render/lib-tests) texture_tests=$(pick texture/lib-tests)
+render_bin=$(pick render/bin) ingest_bin=$(pick ingest/bin)
 if [ -z "$render_tests" ] || [ -z "$texture_tests" ] || [ -z "$render_bin" ] || [ -z "$ingest_bin" ]; then
     echo "error: cargo did not list the render and texture test binaries and the ingest and render programs" >&2
     exit 1
@@ -91,16 +92,24 @@ if [ "$recorded" -lt 8 ]; then
 fi
 
 "$ingest_bin" -q examples/tractor.usda -o "$work/tractor.blob"
+mkdir -p "$work/logs"
 render_example() { # OUT.exr INTEGRATOR [EMULATOR...]
-    local out=$1 integrator=$2
+    local out=$1 integrator=$2 log
     shift 2
-    "$@" "$render_bin" "$work/tractor.blob" -o "$out" --res 96x72 --spp 8 --threads 2 \
-        --integrator "$integrator" >/dev/null
+    log="$work/logs/$(basename "$(dirname "$out")")-$integrator.log"
+    if ! "$@" "$render_bin" "$work/tractor.blob" -o "$out" --res 96x72 --spp 8 --threads 2 \
+        --integrator "$integrator" >"$log" 2>&1; then
+        cat "$log" >&2
+        echo "error: render failed: $* $render_bin ... --integrator $integrator" >&2
+        return 1
+    fi
 }
 for integrator in wavefront scalar; do
     render_example "$work/native/tractor-$integrator.exr" "$integrator"
 done
 
+# No kernel has an AVX-without-AVX2 clone today, so SandyBridge runs the same baseline clones as
+# Nehalem; it is there for code that checks AVX alone, and for such a clone if one is ever added.
 for model in Nehalem:no-avx SandyBridge:avx-no-avx2; do
     cpu=${model%%:*} features=${model#*:}
     start=$SECONDS
@@ -113,7 +122,7 @@ for model in Nehalem:no-avx SandyBridge:avx-no-avx2; do
     qemu-x86_64 -cpu "$cpu" "$texture_tests" -q emulated_cpus_convert_without_f16c --nocapture 2> >(quiet_qemu)
     unset RENDER_EMULATED_CPU RENDER_TEST_IMAGE_DIR
     for integrator in wavefront scalar; do
-        render_example "$work/$cpu/tractor-$integrator.exr" "$integrator" qemu-x86_64 -cpu "$cpu" 2> >(quiet_qemu)
+        render_example "$work/$cpu/tractor-$integrator.exr" "$integrator" qemu-x86_64 -cpu "$cpu"
     done
     # The same bits from the AVX2 and the baseline clones, for every recorded image.
     if ! diff -r "$work/native" "$work/$cpu"; then
