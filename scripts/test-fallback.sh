@@ -76,6 +76,14 @@ render_filters=(
     dome_tests::wavefront_image_equals_the_scalar_one_under_a_textured_dome
 )
 
+# A renamed test would silently drop out of the selection: every name must still match.
+for filter in "${render_filters[@]}"; do
+    if ! grep -q ': test$' <<<"$("$render_tests" --list "$filter")"; then
+        echo "error: no render test matches \"$filter\"; update render_filters in $0" >&2
+        exit 1
+    fi
+done
+
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
