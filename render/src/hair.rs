@@ -35,18 +35,27 @@ pub const ALPHA_DEGREES: f32 = 2.0;
 #[derive(Clone, Copy, Debug)]
 pub struct HairBsdf {
     /// Tangent (x), y, z (towards the viewer) in world space.
-    x: Vec3,
-    y: Vec3,
-    z: Vec3,
-    h: f32,
-    gamma_o: f32,
-    eta: f32,
-    sigma_a: Vec3,
-    v: [f32; P_MAX + 1],
-    s: f32,
-    sin_2k_alpha: [f32; 3],
-    cos_2k_alpha: [f32; 3],
-    color: Vec3,
+    pub(crate) x: Vec3,
+    pub(crate) y: Vec3,
+    pub(crate) z: Vec3,
+    pub(crate) h: f32,
+    pub(crate) gamma_o: f32,
+    pub(crate) eta: f32,
+    pub(crate) sigma_a: Vec3,
+    pub(crate) v: [f32; P_MAX + 1],
+    pub(crate) s: f32,
+    pub(crate) sin_2k_alpha: [f32; 3],
+    pub(crate) cos_2k_alpha: [f32; 3],
+    pub(crate) color: Vec3,
+}
+
+/// The frame's z axis for a fibre along unit `tangent` seen from `wo`: `wo` without its component
+/// along the fibre, normalized (any perpendicular when `wo` runs along the fibre). It is also the
+/// hit's shading normal, so [`crate::integrator::Surface`] keeps it and the BSDF is built from it
+/// where the hit is shaded ([`HairBsdf::from_view_axis`]).
+pub fn view_axis(tangent: Vec3, wo: Vec3) -> Vec3 {
+    let x = tangent;
+    (wo - x * wo.dot(x)).try_normalize().unwrap_or_else(|| crate::bsdf::Frame::new(x).t)
 }
 
 #[inline]
@@ -166,9 +175,14 @@ fn np(phi_: f32, p: usize, s: f32, gamma_o: f32, gamma_t: f32) -> f32 {
 impl HairBsdf {
     /// A fibre with tangent `tangent`, viewed from `wo`, hit at offset `h`, of colour `color`.
     pub fn new(tangent: Vec3, wo: Vec3, h: f32, color: Vec3) -> Self {
-        Self::with_params(
+        Self::from_view_axis(tangent, view_axis(tangent, wo), h, color)
+    }
+
+    /// [`HairBsdf::new`] with the frame's z axis `z` already found ([`view_axis`]).
+    pub fn from_view_axis(tangent: Vec3, z: Vec3, h: f32, color: Vec3) -> Self {
+        Self::with_axes(
             tangent,
-            wo,
+            z,
             h,
             sigma_a_from_color(color, BETA_N),
             BETA_M,
@@ -190,8 +204,21 @@ impl HairBsdf {
         alpha_degrees: f32,
         color: Vec3,
     ) -> Self {
+        Self::with_axes(tangent, view_axis(tangent, wo), h, sigma_a, beta_m, beta_n, alpha_degrees, color)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn with_axes(
+        tangent: Vec3,
+        z: Vec3,
+        h: f32,
+        sigma_a: Vec3,
+        beta_m: f32,
+        beta_n: f32,
+        alpha_degrees: f32,
+        color: Vec3,
+    ) -> Self {
         let x = tangent;
-        let z = (wo - x * wo.dot(x)).try_normalize().unwrap_or_else(|| crate::bsdf::Frame::new(x).t);
         let y = z.cross(x);
         let h = h.clamp(-0.999, 0.999);
         let v0 = {
@@ -277,8 +304,10 @@ impl HairBsdf {
     }
 
     /// Value (divided by |cos| to [`HairBsdf::normal`], as the integrator multiplies it back) and
-    /// pdf for local directions.
-    fn eval_local(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    /// pdf for local directions. Shared with the lane kernels ([`crate::wavefront::hair_lanes`]),
+    /// which call it per lane after finding the local directions eight at a time.
+    #[inline(always)]
+    pub(crate) fn eval_local(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         let sin_o = wo.x;
         let cos_o = safe_sqrt(1.0 - sin_o * sin_o);
         let phi_o = wo.z.atan2(wo.y);
@@ -312,10 +341,32 @@ impl HairBsdf {
         self.eval_local(self.local(wo), self.local(wi))
     }
 
+    /// The pdf of sampling `wi` for `wo` (world directions): [`HairBsdf::eval`]'s second half.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval_local(self.local(wo), self.local(wi)).1
+    }
+
     /// Samples an incident direction: `u_lobe` picks the lobe and (rescaled) the azimuth, `u` the
     /// longitudinal angle.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
         let wo_l = self.local(wo);
+        let (_, cos_phi) = crate::trig::sin_cos(TAU * u[1]);
+        let (wi_l, f, pdf) = self.sample_local(wo_l, u_lobe, u[0], cos_phi)?;
+        // Hair lobes are broad in azimuth: widen ray cones as a diffuse bounce does.
+        Some(BsdfSample { wi: self.world(wi_l), f, pdf, lobe_alpha: 1.0 })
+    }
+
+    /// [`HairBsdf::sample`] in the local frame, given `cos(2π u[1])`: the local incident direction,
+    /// value and pdf, `None` when absorbed. Shared with the lane kernels, which find the local `wo`,
+    /// the cosine and the world direction eight at a time.
+    #[inline(always)]
+    pub(crate) fn sample_local(
+        &self,
+        wo_l: Vec3,
+        u_lobe: f32,
+        u0: f32,
+        cos_phi: f32,
+    ) -> Option<(Vec3, Vec3, f32)> {
         let sin_o = wo_l.x;
         let cos_o = safe_sqrt(1.0 - sin_o * sin_o);
         let phi_o = wo_l.z.atan2(wo_l.y);
@@ -330,10 +381,9 @@ impl HairBsdf {
         let ul = (ul / pdfs[p].max(1e-12)).clamp(0.0, 0.999_999);
         let (sin_op, cos_op) = self.tilted(p, sin_o, cos_o);
         let v = self.v[p];
-        let u0 = u[0].max(1e-5);
+        let u0 = u0.max(1e-5);
         let cos_theta = 1.0 + v * (u0 + (1.0 - u0) * (-2.0 / v).exp()).ln();
         let sin_theta = safe_sqrt(1.0 - cos_theta * cos_theta);
-        let (_, cos_phi) = crate::trig::sin_cos(TAU * u[1]);
         let sin_i = -cos_theta * sin_op + sin_theta * cos_phi * cos_op;
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
         let dphi = if p < P_MAX {
@@ -348,8 +398,7 @@ impl HairBsdf {
         if pdf.is_nan() || pdf <= 0.0 || f == Vec3::ZERO {
             return None;
         }
-        // Hair lobes are broad in azimuth: widen ray cones as a diffuse bounce does.
-        Some(BsdfSample { wi: self.world(wi_l), f, pdf, lobe_alpha: 1.0 })
+        Some((wi_l, f, pdf))
     }
 }
 

@@ -146,23 +146,40 @@ pub struct Surface {
     curve: Option<CurveSurface>,
 }
 
-/// What a curve or point hit adds to [`Surface`].
-struct CurveSurface {
-    /// Hair BSDF (curves) rather than UsdPreviewSurface (points).
-    hair: Option<HairBsdf>,
-    /// Diffuse colour (points with per-point colours).
-    color: Vec3,
+/// What a curve or point hit adds to [`Surface`]: 36 bytes (with the `Option` around it, whose
+/// tag hides in this enum's) where the built hair BSDF was 116 and was moved with every triangle
+/// hit's surface too. The BSDF is built from it where the hit is shaded ([`Scene::bsdf`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum CurveSurface {
+    /// A fibre (Chiang hair BSDF).
+    Hair(HairFibre),
+    /// A point: UsdPreviewSurface with this diffuse colour (its per-point colour or the material's).
+    Point {
+        /// Diffuse colour.
+        color: Vec3,
+    },
+}
+
+/// What the hair BSDF of a fibre hit is built from ([`HairBsdf::from_view_axis`], with the
+/// surface's `ns` as the frame's z axis).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct HairFibre {
+    /// Unit tangent along the fibre.
+    pub(crate) tangent: Vec3,
+    /// Offset across the fibre, in [−1, 1].
+    pub(crate) h: f32,
+    /// Fibre colour.
+    pub(crate) color: Vec3,
     /// Rays leave a fibre from `p + w · spawn` (its diameter and then some): a fibre's own hair BSDF
-    /// already accounts for light crossing it, so the ray must not meet the same fibre again. Zero for
-    /// points (offset along the normal like triangles).
-    spawn: f32,
+    /// already accounts for light crossing it, so the ray must not meet the same fibre again.
+    pub(crate) spawn: f32,
 }
 
 impl Surface {
     /// Origin for a ray leaving the surface in direction `w`.
     pub(crate) fn spawn(&self, w: Vec3) -> Vec3 {
         match &self.curve {
-            Some(c) if c.spawn > 0.0 => self.p + w * c.spawn,
+            Some(CurveSurface::Hair(fibre)) => self.p + w * fibre.spawn,
             _ => offset_ray_origin(self.p, if w.dot(self.ng) >= 0.0 { self.ng } else { -self.ng }),
         }
     }
@@ -344,7 +361,7 @@ impl<'a> Scene<'a> {
             let sphere = &curves.spheres[(hit.prim - segments) as usize];
             let color =
                 if has_colors { Vec3::from(sphere.color) } else { Vec3::from(material.diffuse_color) };
-            (hit.n, CurveSurface { hair: None, color, spawn: 0.0 })
+            (hit.n, CurveSurface::Point { color })
         } else {
             let attr = &curves.attributes[hit.prim as usize];
             let color = if has_colors {
@@ -352,9 +369,11 @@ impl<'a> Scene<'a> {
             } else {
                 Vec3::from(material.diffuse_color)
             };
-            let hair = HairBsdf::new(hit.tangent, wo, hit.h, color);
             let spawn = 2.5 * hit.radius + 1e-5 * hit.p.abs().max_element().max(1.0);
-            (hair.normal(), CurveSurface { hair: Some(hair), color, spawn })
+            // The hair frame's z axis is the shading normal; the BSDF's other parameters are
+            // built from the fibre where the hit is shaded.
+            let z = crate::hair::view_axis(hit.tangent, wo);
+            (z, CurveSurface::Hair(HairFibre { tangent: hit.tangent, h: hit.h, color, spawn }))
         };
         Surface {
             p: hit.p,
@@ -372,9 +391,13 @@ impl<'a> Scene<'a> {
     /// The BSDF at `s` from its evaluated shading inputs.
     pub(crate) fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs) -> SurfaceBsdf {
         match &s.curve {
-            Some(CurveSurface { hair: Some(h), .. }) => SurfaceBsdf::Hair(*h),
-            Some(c) => SurfaceBsdf::Preview(Bsdf::from_inputs(
-                &crate::shading::ShadingInputs { diffuse_color: c.color, ..*inputs },
+            // `ns` is still the frame's z axis: a normal map cannot move it on a curve, which has no
+            // `dpdu` ([`Scene::mapped_normal`] keeps `ns` then).
+            Some(CurveSurface::Hair(f)) => {
+                SurfaceBsdf::Hair(HairBsdf::from_view_axis(f.tangent, s.ns, f.h, f.color))
+            }
+            Some(CurveSurface::Point { color }) => SurfaceBsdf::Preview(Bsdf::from_inputs(
+                &crate::shading::ShadingInputs { diffuse_color: *color, ..*inputs },
                 s.ns,
                 s.ng,
             )),
