@@ -40,13 +40,73 @@ pub struct HairBsdf {
     pub(crate) z: Vec3,
     pub(crate) h: f32,
     pub(crate) gamma_o: f32,
-    pub(crate) eta: f32,
     pub(crate) sigma_a: Vec3,
+    pub(crate) color: Vec3,
+    pub(crate) lobes: Lobes,
+}
+
+/// What a fibre's roughness, scale tilt and index of refraction fix, the same at every hit of
+/// fibres with the same parameters (every curve today: [`Lobes::default_fibre`] is computed once).
+///
+/// Besides the model's parameters it holds the lobes' normalizations, which the evaluation used
+/// to recompute per call: `ln(1/(2v))` and `2v·sinh(1/v)` of each longitudinal term and the
+/// trimmed logistic's `F(π) − F(−π)` and `F(−π)`. Same operations, done once, so the same bits:
+/// an evaluation makes 15 libm calls instead of 25 (two `logf`, two `sinhf` and six `expf` fewer).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Lobes {
+    pub(crate) eta: f32,
+    /// Longitudinal variance per lobe (R, TT, TRT, residual).
     pub(crate) v: [f32; P_MAX + 1],
+    /// Azimuthal logistic scale.
     pub(crate) s: f32,
     pub(crate) sin_2k_alpha: [f32; 3],
     pub(crate) cos_2k_alpha: [f32; 3],
-    pub(crate) color: Vec3,
+    /// `ln(1 / (2v))` per lobe (the normalization of `M_p` for `v ≤ 0.1`).
+    pub(crate) log_norm: [f32; P_MAX + 1],
+    /// `sinh(1/v) · 2 · v` per lobe (the normalization of `M_p` for `v > 0.1`).
+    pub(crate) sinh_norm: [f32; P_MAX + 1],
+    /// `F(π) − F(−π)` of the logistic of scale `s`: the trimmed logistic's mass.
+    pub(crate) trim: f32,
+    /// `F(−π)`.
+    pub(crate) cdf_lo: f32,
+}
+
+impl Lobes {
+    /// The lobes of a fibre with longitudinal roughness `beta_m`, azimuthal roughness `beta_n` and
+    /// scales tilted by `alpha_degrees`.
+    pub(crate) fn new(beta_m: f32, beta_n: f32, alpha_degrees: f32) -> Self {
+        let v0 = {
+            let b = 0.726 * beta_m + 0.812 * beta_m * beta_m + 3.7 * beta_m.powi(20);
+            b * b
+        };
+        let s = (PI / 8.0).sqrt() * (0.265 * beta_n + 1.194 * beta_n * beta_n + 5.372 * beta_n.powi(22));
+        let mut sin_2k_alpha = [0.0; 3];
+        let mut cos_2k_alpha = [0.0; 3];
+        sin_2k_alpha[0] = alpha_degrees.to_radians().sin();
+        cos_2k_alpha[0] = safe_sqrt(1.0 - sin_2k_alpha[0] * sin_2k_alpha[0]);
+        for i in 1..3 {
+            sin_2k_alpha[i] = 2.0 * cos_2k_alpha[i - 1] * sin_2k_alpha[i - 1];
+            cos_2k_alpha[i] = cos_2k_alpha[i - 1].powi(2) - sin_2k_alpha[i - 1].powi(2);
+        }
+        let v = [v0, 0.25 * v0, 4.0 * v0, 4.0 * v0];
+        Lobes {
+            eta: ETA,
+            v,
+            s,
+            sin_2k_alpha,
+            cos_2k_alpha,
+            log_norm: v.map(|v| (1.0 / (2.0 * v)).ln()),
+            sinh_norm: v.map(|v| (1.0 / v).sinh() * 2.0 * v),
+            trim: logistic_cdf(PI, s) - logistic_cdf(-PI, s),
+            cdf_lo: logistic_cdf(-PI, s),
+        }
+    }
+
+    /// The lobes of every curve's fibre ([`BETA_M`], [`BETA_N`], [`ALPHA_DEGREES`]), computed once.
+    pub(crate) fn default_fibre() -> &'static Lobes {
+        static DEFAULT: std::sync::OnceLock<Lobes> = std::sync::OnceLock::new();
+        DEFAULT.get_or_init(|| Lobes::new(BETA_M, BETA_N, ALPHA_DEGREES))
+    }
 }
 
 /// The frame's z axis for a fibre along unit `tangent` seen from `wo`: `wo` without its component
@@ -100,13 +160,16 @@ fn log_i0(x: f32) -> f32 {
     }
 }
 
-fn mp(cos_i: f32, cos_o: f32, sin_i: f32, sin_o: f32, v: f32) -> f32 {
+/// `M_p` for lobe `p` of `lobes`.
+#[inline(always)]
+fn mp(cos_i: f32, cos_o: f32, sin_i: f32, sin_o: f32, lobes: &Lobes, p: usize) -> f32 {
+    let v = lobes.v[p];
     let a = cos_i * cos_o / v;
     let b = sin_i * sin_o / v;
     if v <= 0.1 {
-        (log_i0(a) - b - 1.0 / v + std::f32::consts::LN_2 + (1.0 / (2.0 * v)).ln()).exp()
+        (log_i0(a) - b - 1.0 / v + std::f32::consts::LN_2 + lobes.log_norm[p]).exp()
     } else {
-        (-b).exp() * i0(a) / ((1.0 / v).sinh() * 2.0 * v)
+        (-b).exp() * i0(a) / lobes.sinh_norm[p]
     }
 }
 
@@ -151,17 +214,21 @@ fn logistic_cdf(x: f32, s: f32) -> f32 {
     1.0 / (1.0 + (-x / s).exp())
 }
 
-fn trimmed_logistic(x: f32, s: f32, a: f32, b: f32) -> f32 {
-    logistic(x, s) / (logistic_cdf(b, s) - logistic_cdf(a, s))
+/// The logistic of scale `lobes.s` trimmed to [−π, π].
+#[inline(always)]
+fn trimmed_logistic(x: f32, lobes: &Lobes) -> f32 {
+    logistic(x, lobes.s) / lobes.trim
 }
 
-fn sample_trimmed_logistic(u: f32, s: f32, a: f32, b: f32) -> f32 {
-    let k = logistic_cdf(b, s) - logistic_cdf(a, s);
-    let x = -s * (1.0 / (u * k + logistic_cdf(a, s)) - 1.0).ln();
-    x.clamp(a, b)
+#[inline(always)]
+fn sample_trimmed_logistic(u: f32, lobes: &Lobes) -> f32 {
+    let (s, k) = (lobes.s, lobes.trim);
+    let x = -s * (1.0 / (u * k + lobes.cdf_lo) - 1.0).ln();
+    x.clamp(-PI, PI)
 }
 
-fn np(phi_: f32, p: usize, s: f32, gamma_o: f32, gamma_t: f32) -> f32 {
+#[inline(always)]
+fn np(phi_: f32, p: usize, lobes: &Lobes, gamma_o: f32, gamma_t: f32) -> f32 {
     let mut dphi = phi_ - phi(p, gamma_o, gamma_t);
     while dphi > PI {
         dphi -= TAU;
@@ -169,7 +236,7 @@ fn np(phi_: f32, p: usize, s: f32, gamma_o: f32, gamma_t: f32) -> f32 {
     while dphi < -PI {
         dphi += TAU;
     }
-    trimmed_logistic(dphi, s, -PI, PI)
+    trimmed_logistic(dphi, lobes)
 }
 
 impl HairBsdf {
@@ -180,16 +247,7 @@ impl HairBsdf {
 
     /// [`HairBsdf::new`] with the frame's z axis `z` already found ([`view_axis`]).
     pub fn from_view_axis(tangent: Vec3, z: Vec3, h: f32, color: Vec3) -> Self {
-        Self::with_axes(
-            tangent,
-            z,
-            h,
-            sigma_a_from_color(color, BETA_N),
-            BETA_M,
-            BETA_N,
-            ALPHA_DEGREES,
-            color,
-        )
+        Self::with_axes(tangent, z, h, sigma_a_from_color(color, BETA_N), *Lobes::default_fibre(), color)
     }
 
     /// Full parameter set (σ_a directly).
@@ -204,50 +262,15 @@ impl HairBsdf {
         alpha_degrees: f32,
         color: Vec3,
     ) -> Self {
-        Self::with_axes(tangent, view_axis(tangent, wo), h, sigma_a, beta_m, beta_n, alpha_degrees, color)
+        let lobes = Lobes::new(beta_m, beta_n, alpha_degrees);
+        Self::with_axes(tangent, view_axis(tangent, wo), h, sigma_a, lobes, color)
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn with_axes(
-        tangent: Vec3,
-        z: Vec3,
-        h: f32,
-        sigma_a: Vec3,
-        beta_m: f32,
-        beta_n: f32,
-        alpha_degrees: f32,
-        color: Vec3,
-    ) -> Self {
+    fn with_axes(tangent: Vec3, z: Vec3, h: f32, sigma_a: Vec3, lobes: Lobes, color: Vec3) -> Self {
         let x = tangent;
         let y = z.cross(x);
         let h = h.clamp(-0.999, 0.999);
-        let v0 = {
-            let b = 0.726 * beta_m + 0.812 * beta_m * beta_m + 3.7 * beta_m.powi(20);
-            b * b
-        };
-        let s = (PI / 8.0).sqrt() * (0.265 * beta_n + 1.194 * beta_n * beta_n + 5.372 * beta_n.powi(22));
-        let mut sin_2k_alpha = [0.0; 3];
-        let mut cos_2k_alpha = [0.0; 3];
-        sin_2k_alpha[0] = alpha_degrees.to_radians().sin();
-        cos_2k_alpha[0] = safe_sqrt(1.0 - sin_2k_alpha[0] * sin_2k_alpha[0]);
-        for i in 1..3 {
-            sin_2k_alpha[i] = 2.0 * cos_2k_alpha[i - 1] * sin_2k_alpha[i - 1];
-            cos_2k_alpha[i] = cos_2k_alpha[i - 1].powi(2) - sin_2k_alpha[i - 1].powi(2);
-        }
-        HairBsdf {
-            x,
-            y,
-            z,
-            h,
-            gamma_o: safe_asin(h),
-            eta: ETA,
-            sigma_a,
-            v: [v0, 0.25 * v0, 4.0 * v0, 4.0 * v0],
-            s,
-            sin_2k_alpha,
-            cos_2k_alpha,
-            color,
-        }
+        HairBsdf { x, y, z, h, gamma_o: safe_asin(h), sigma_a, color, lobes }
     }
 
     /// The direction the integrator multiplies `f` by the cosine to (`f` already divides by it).
@@ -270,7 +293,7 @@ impl HairBsdf {
 
     /// Longitudinal angles of `wo` tilted by the scales for lobe `p`.
     fn tilted(&self, p: usize, sin_o: f32, cos_o: f32) -> (f32, f32) {
-        let (s, c) = (self.sin_2k_alpha, self.cos_2k_alpha);
+        let (s, c) = (self.lobes.sin_2k_alpha, self.lobes.cos_2k_alpha);
         let (sin_op, cos_op) = match p {
             0 => (sin_o * c[1] - cos_o * s[1], cos_o * c[1] + sin_o * s[1]),
             1 => (sin_o * c[0] + cos_o * s[0], cos_o * c[0] - sin_o * s[0]),
@@ -284,14 +307,15 @@ impl HairBsdf {
     fn attenuation(&self, wo: Vec3) -> ([Vec3; P_MAX + 1], f32) {
         let sin_o = wo.x;
         let cos_o = safe_sqrt(1.0 - sin_o * sin_o);
-        let sin_t = sin_o / self.eta;
+        let eta = self.lobes.eta;
+        let sin_t = sin_o / eta;
         let cos_t = safe_sqrt(1.0 - sin_t * sin_t);
-        let etap = (self.eta * self.eta - sin_o * sin_o).sqrt() / cos_o.max(1e-6);
+        let etap = (eta * eta - sin_o * sin_o).sqrt() / cos_o.max(1e-6);
         let sin_gamma_t = self.h / etap;
         let cos_gamma_t = safe_sqrt(1.0 - sin_gamma_t * sin_gamma_t);
         let gamma_t = safe_asin(sin_gamma_t);
         let t = (-self.sigma_a * (2.0 * cos_gamma_t / cos_t.max(1e-6))).exp();
-        (ap(cos_o, self.eta, self.h, t), gamma_t)
+        (ap(cos_o, eta, self.h, t), gamma_t)
     }
 
     fn lobe_pdfs(&self, ap: &[Vec3; P_MAX + 1]) -> [f32; P_MAX + 1] {
@@ -321,12 +345,12 @@ impl HairBsdf {
         let mut pdf = 0.0;
         for p in 0..P_MAX {
             let (sin_op, cos_op) = self.tilted(p, sin_o, cos_o);
-            let m = mp(cos_i, cos_op, sin_i, sin_op, self.v[p]);
-            let n = np(dphi, p, self.s, self.gamma_o, gamma_t);
+            let m = mp(cos_i, cos_op, sin_i, sin_op, &self.lobes, p);
+            let n = np(dphi, p, &self.lobes, self.gamma_o, gamma_t);
             f += ap[p] * (m * n);
             pdf += pdfs[p] * m * n;
         }
-        let m = mp(cos_i, cos_o, sin_i, sin_o, self.v[P_MAX]);
+        let m = mp(cos_i, cos_o, sin_i, sin_o, &self.lobes, P_MAX);
         f += ap[P_MAX] * (m / TAU);
         pdf += pdfs[P_MAX] * m / TAU;
         let cos = wi.z.abs();
@@ -380,14 +404,14 @@ impl HairBsdf {
         }
         let ul = (ul / pdfs[p].max(1e-12)).clamp(0.0, 0.999_999);
         let (sin_op, cos_op) = self.tilted(p, sin_o, cos_o);
-        let v = self.v[p];
+        let v = self.lobes.v[p];
         let u0 = u0.max(1e-5);
         let cos_theta = 1.0 + v * (u0 + (1.0 - u0) * (-2.0 / v).exp()).ln();
         let sin_theta = safe_sqrt(1.0 - cos_theta * cos_theta);
         let sin_i = -cos_theta * sin_op + sin_theta * cos_phi * cos_op;
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
         let dphi = if p < P_MAX {
-            phi(p, self.gamma_o, gamma_t) + sample_trimmed_logistic(ul, self.s, -PI, PI)
+            phi(p, self.gamma_o, gamma_t) + sample_trimmed_logistic(ul, &self.lobes)
         } else {
             TAU * ul
         };

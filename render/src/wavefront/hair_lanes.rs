@@ -21,12 +21,12 @@
 
 use super::bsdf_lanes::{EvalLanes, Lanes, Lanes3, SampleInputs, SampleLanes, V};
 use super::lanes::LANES;
-use crate::hair::HairBsdf;
+use crate::hair::{HairBsdf, Lobes};
 use glam::Vec3;
 use std::f32::consts::TAU;
 
 /// Eight hair BSDFs and their outgoing directions, transposed.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 pub struct HairLanes {
     /// Fibre tangent (frame x).
@@ -39,22 +39,32 @@ pub struct HairLanes {
     pub h: Lanes,
     /// `asin h`.
     pub gamma_o: Lanes,
-    /// Index of refraction.
-    pub eta: Lanes,
     /// Absorption coefficient.
     pub sigma_a: Lanes3,
-    /// Longitudinal variances of the lobes R, TT, TRT and the residual.
-    pub v: [Lanes; 4],
-    /// Azimuthal logistic scale.
-    pub s: Lanes,
-    /// `sin 2^k α`, k = 0, 1, 2.
-    pub sin_2k_alpha: [Lanes; 3],
-    /// `cos 2^k α`.
-    pub cos_2k_alpha: [Lanes; 3],
     /// Fibre colour.
     pub color: Lanes3,
     /// World-space direction towards the viewer.
     pub wo: Lanes3,
+    /// Per lane: what the fibre's roughness fixes (records, not columns: only the per-lane lobe
+    /// code reads them).
+    lobes: [Lobes; LANES],
+}
+
+impl Default for HairLanes {
+    fn default() -> Self {
+        let zero = [[0.0; LANES]; 3];
+        HairLanes {
+            x: zero,
+            y: zero,
+            z: zero,
+            h: [0.0; LANES],
+            gamma_o: [0.0; LANES],
+            sigma_a: zero,
+            color: zero,
+            wo: zero,
+            lobes: [*Lobes::default_fibre(); LANES],
+        }
+    }
 }
 
 impl HairLanes {
@@ -70,15 +80,7 @@ impl HairLanes {
         put(&mut self.wo, wo);
         self.h[k] = hair.h;
         self.gamma_o[k] = hair.gamma_o;
-        self.eta[k] = hair.eta;
-        self.s[k] = hair.s;
-        for p in 0..4 {
-            self.v[p][k] = hair.v[p];
-        }
-        for i in 0..3 {
-            self.sin_2k_alpha[i][k] = hair.sin_2k_alpha[i];
-            self.cos_2k_alpha[i][k] = hair.cos_2k_alpha[i];
-        }
+        self.lobes[k] = hair.lobes;
     }
 
     /// Lane `k`'s BSDF (what [`HairLanes::set`] wrote).
@@ -91,13 +93,9 @@ impl HairLanes {
             z: v3(&self.z),
             h: self.h[k],
             gamma_o: self.gamma_o[k],
-            eta: self.eta[k],
             sigma_a: v3(&self.sigma_a),
-            v: [self.v[0][k], self.v[1][k], self.v[2][k], self.v[3][k]],
-            s: self.s[k],
-            sin_2k_alpha: [self.sin_2k_alpha[0][k], self.sin_2k_alpha[1][k], self.sin_2k_alpha[2][k]],
-            cos_2k_alpha: [self.cos_2k_alpha[0][k], self.cos_2k_alpha[1][k], self.cos_2k_alpha[2][k]],
             color: v3(&self.color),
+            lobes: self.lobes[k],
         }
     }
 }
