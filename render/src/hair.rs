@@ -43,6 +43,26 @@ pub struct HairBsdf {
     pub(crate) sigma_a: Vec3,
     pub(crate) color: Vec3,
     pub(crate) lobes: Lobes,
+    pub(crate) view: View,
+}
+
+/// What depends on the viewing direction only. A hair BSDF is built for one `wo` (its frame
+/// already is), so these are found once per hit rather than in the light sample's evaluation, the
+/// BSDF sample and the sample's evaluation each (the transmittance's three `expf`, an `asinf` and
+/// an `atan2f`, three times per hit before). Same operations on the same local `wo`: same bits.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct View {
+    /// Sine and cosine of `wo`'s longitudinal angle (its local x).
+    pub(crate) sin_o: f32,
+    pub(crate) cos_o: f32,
+    /// Azimuth of `wo`.
+    pub(crate) phi_o: f32,
+    /// Attenuation per lobe.
+    pub(crate) ap: [Vec3; P_MAX + 1],
+    /// Refracted offset angle.
+    pub(crate) gamma_t: f32,
+    /// Lobe selection probabilities.
+    pub(crate) pdfs: [f32; P_MAX + 1],
 }
 
 /// What a fibre's roughness, scale tilt and index of refraction fix, the same at every hit of
@@ -51,7 +71,8 @@ pub struct HairBsdf {
 /// Besides the model's parameters it holds the lobes' normalizations, which the evaluation used
 /// to recompute per call: `ln(1/(2v))` and `2v·sinh(1/v)` of each longitudinal term and the
 /// trimmed logistic's `F(π) − F(−π)` and `F(−π)`. Same operations, done once, so the same bits:
-/// an evaluation makes 15 libm calls instead of 25 (two `logf`, two `sinhf` and six `expf` fewer).
+/// an evaluation makes 15 libm calls instead of 25 (two `logf`, two `sinhf` and six `expf` fewer),
+/// a sample one `expf` fewer.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Lobes {
     pub(crate) eta: f32,
@@ -69,6 +90,8 @@ pub(crate) struct Lobes {
     pub(crate) trim: f32,
     /// `F(−π)`.
     pub(crate) cdf_lo: f32,
+    /// `exp(−2/v)` per lobe (the longitudinal sample's lower end).
+    pub(crate) exp_neg2_over_v: [f32; P_MAX + 1],
 }
 
 impl Lobes {
@@ -99,6 +122,7 @@ impl Lobes {
             sinh_norm: v.map(|v| (1.0 / v).sinh() * 2.0 * v),
             trim: logistic_cdf(PI, s) - logistic_cdf(-PI, s),
             cdf_lo: logistic_cdf(-PI, s),
+            exp_neg2_over_v: v.map(|v| (-2.0 / v).exp()),
         }
     }
 
@@ -242,12 +266,14 @@ fn np(phi_: f32, p: usize, lobes: &Lobes, gamma_o: f32, gamma_t: f32) -> f32 {
 impl HairBsdf {
     /// A fibre with tangent `tangent`, viewed from `wo`, hit at offset `h`, of colour `color`.
     pub fn new(tangent: Vec3, wo: Vec3, h: f32, color: Vec3) -> Self {
-        Self::from_view_axis(tangent, view_axis(tangent, wo), h, color)
+        Self::from_view_axis(tangent, wo, view_axis(tangent, wo), h, color)
     }
 
-    /// [`HairBsdf::new`] with the frame's z axis `z` already found ([`view_axis`]).
-    pub fn from_view_axis(tangent: Vec3, z: Vec3, h: f32, color: Vec3) -> Self {
-        Self::with_axes(tangent, z, h, sigma_a_from_color(color, BETA_N), *Lobes::default_fibre(), color)
+    /// [`HairBsdf::new`] with the frame's z axis `z` already found ([`view_axis`] of `tangent`
+    /// and `wo`).
+    pub fn from_view_axis(tangent: Vec3, wo: Vec3, z: Vec3, h: f32, color: Vec3) -> Self {
+        let sigma_a = sigma_a_from_color(color, BETA_N);
+        Self::with_axes(tangent, wo, z, h, sigma_a, *Lobes::default_fibre(), color)
     }
 
     /// Full parameter set (σ_a directly).
@@ -263,14 +289,27 @@ impl HairBsdf {
         color: Vec3,
     ) -> Self {
         let lobes = Lobes::new(beta_m, beta_n, alpha_degrees);
-        Self::with_axes(tangent, view_axis(tangent, wo), h, sigma_a, lobes, color)
+        Self::with_axes(tangent, wo, view_axis(tangent, wo), h, sigma_a, lobes, color)
     }
 
-    fn with_axes(tangent: Vec3, z: Vec3, h: f32, sigma_a: Vec3, lobes: Lobes, color: Vec3) -> Self {
+    fn with_axes(tangent: Vec3, wo: Vec3, z: Vec3, h: f32, sigma_a: Vec3, lobes: Lobes, color: Vec3) -> Self {
         let x = tangent;
         let y = z.cross(x);
         let h = h.clamp(-0.999, 0.999);
-        HairBsdf { x, y, z, h, gamma_o: safe_asin(h), sigma_a, color, lobes }
+        let mut hair =
+            HairBsdf { x, y, z, h, gamma_o: safe_asin(h), sigma_a, color, lobes, view: View::default() };
+        let wo = hair.local(wo);
+        let sin_o = wo.x;
+        let (ap, gamma_t) = hair.attenuation(wo);
+        hair.view = View {
+            sin_o,
+            cos_o: safe_sqrt(1.0 - sin_o * sin_o),
+            phi_o: wo.z.atan2(wo.y),
+            ap,
+            gamma_t,
+            pdfs: hair.lobe_pdfs(&ap),
+        };
+        hair
     }
 
     /// The direction the integrator multiplies `f` by the cosine to (`f` already divides by it).
@@ -328,18 +367,14 @@ impl HairBsdf {
     }
 
     /// Value (divided by |cos| to [`HairBsdf::normal`], as the integrator multiplies it back) and
-    /// pdf for local directions. Shared with the lane kernels ([`crate::wavefront::hair_lanes`]),
+    /// pdf for local `wi`. Shared with the lane kernels ([`crate::wavefront::hair_lanes`]),
     /// which call it per lane after finding the local directions eight at a time.
     #[inline(always)]
-    pub(crate) fn eval_local(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        let sin_o = wo.x;
-        let cos_o = safe_sqrt(1.0 - sin_o * sin_o);
-        let phi_o = wo.z.atan2(wo.y);
+    pub(crate) fn eval_local(&self, wi: Vec3) -> (Vec3, f32) {
+        let View { sin_o, cos_o, phi_o, ap, gamma_t, pdfs, .. } = self.view;
         let sin_i = wi.x;
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
         let phi_i = wi.z.atan2(wi.y);
-        let (ap, gamma_t) = self.attenuation(wo);
-        let pdfs = self.lobe_pdfs(&ap);
         let dphi = phi_i - phi_o;
         let mut f = Vec3::ZERO;
         let mut pdf = 0.0;
@@ -360,42 +395,31 @@ impl HairBsdf {
         (f, pdf)
     }
 
-    /// Value and pdf for world directions.
-    pub fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        self.eval_local(self.local(wo), self.local(wi))
+    /// Value and pdf towards world direction `wi`, for the `wo` the BSDF was built for.
+    pub fn eval(&self, wi: Vec3) -> (Vec3, f32) {
+        self.eval_local(self.local(wi))
     }
 
-    /// The pdf of sampling `wi` for `wo` (world directions): [`HairBsdf::eval`]'s second half.
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.eval_local(self.local(wo), self.local(wi)).1
+    /// The pdf of sampling world direction `wi`: [`HairBsdf::eval`]'s second half.
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        self.eval_local(self.local(wi)).1
     }
 
-    /// Samples an incident direction: `u_lobe` picks the lobe and (rescaled) the azimuth, `u` the
-    /// longitudinal angle.
-    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
-        let wo_l = self.local(wo);
+    /// Samples an incident direction for the `wo` the BSDF was built for: `u_lobe` picks the lobe
+    /// and (rescaled) the azimuth, `u` the longitudinal angle.
+    pub fn sample(&self, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
         let (_, cos_phi) = crate::trig::sin_cos(TAU * u[1]);
-        let (wi_l, f, pdf) = self.sample_local(wo_l, u_lobe, u[0], cos_phi)?;
+        let (wi_l, f, pdf) = self.sample_local(u_lobe, u[0], cos_phi)?;
         // Hair lobes are broad in azimuth: widen ray cones as a diffuse bounce does.
         Some(BsdfSample { wi: self.world(wi_l), f, pdf, lobe_alpha: 1.0 })
     }
 
     /// [`HairBsdf::sample`] in the local frame, given `cos(2π u[1])`: the local incident direction,
-    /// value and pdf, `None` when absorbed. Shared with the lane kernels, which find the local `wo`,
-    /// the cosine and the world direction eight at a time.
+    /// value and pdf, `None` when absorbed. Shared with the lane kernels, which find the cosine and
+    /// the world direction eight at a time.
     #[inline(always)]
-    pub(crate) fn sample_local(
-        &self,
-        wo_l: Vec3,
-        u_lobe: f32,
-        u0: f32,
-        cos_phi: f32,
-    ) -> Option<(Vec3, Vec3, f32)> {
-        let sin_o = wo_l.x;
-        let cos_o = safe_sqrt(1.0 - sin_o * sin_o);
-        let phi_o = wo_l.z.atan2(wo_l.y);
-        let (ap, gamma_t) = self.attenuation(wo_l);
-        let pdfs = self.lobe_pdfs(&ap);
+    pub(crate) fn sample_local(&self, u_lobe: f32, u0: f32, cos_phi: f32) -> Option<(Vec3, Vec3, f32)> {
+        let View { sin_o, cos_o, phi_o, gamma_t, pdfs, .. } = self.view;
         let mut p = 0;
         let mut ul = u_lobe;
         while p < P_MAX && ul >= pdfs[p] {
@@ -406,7 +430,7 @@ impl HairBsdf {
         let (sin_op, cos_op) = self.tilted(p, sin_o, cos_o);
         let v = self.lobes.v[p];
         let u0 = u0.max(1e-5);
-        let cos_theta = 1.0 + v * (u0 + (1.0 - u0) * (-2.0 / v).exp()).ln();
+        let cos_theta = 1.0 + v * (u0 + (1.0 - u0) * self.lobes.exp_neg2_over_v[p]).ln();
         let sin_theta = safe_sqrt(1.0 - cos_theta * cos_theta);
         let sin_i = -cos_theta * sin_op + sin_theta * cos_phi * cos_op;
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
@@ -418,7 +442,7 @@ impl HairBsdf {
         // |φ_o| ≤ π and |Δφ| < 8π: inside `sin_cos`'s domain.
         let (sin_phi_i, cos_phi_i) = crate::trig::sin_cos(phi_o + dphi);
         let wi_l = Vec3::new(sin_i, cos_i * cos_phi_i, cos_i * sin_phi_i);
-        let (f, pdf) = self.eval_local(wo_l, wi_l);
+        let (f, pdf) = self.eval_local(wi_l);
         if pdf.is_nan() || pdf <= 0.0 || f == Vec3::ZERO {
             return None;
         }
@@ -438,12 +462,12 @@ mod tests {
         Vec3::new(r * phi.cos(), r * phi.sin(), z)
     }
 
-    /// ∫ f |cos| dω over the sphere for a random view, estimated by uniform sampling.
-    fn albedo(bsdf: &HairBsdf, wo: Vec3, rng: &mut Rng, n: usize) -> Vec3 {
+    /// ∫ f |cos| dω over the sphere for the BSDF's view, estimated by uniform sampling.
+    fn albedo(bsdf: &HairBsdf, rng: &mut Rng, n: usize) -> Vec3 {
         let mut sum = Vec3::ZERO;
         for _ in 0..n {
             let wi = uniform_sphere(rng);
-            let (f, _) = bsdf.eval(wo, wi);
+            let (f, _) = bsdf.eval(wi);
             sum += f * wi.dot(bsdf.normal()).abs();
         }
         sum * (4.0 * PI / n as f32)
@@ -459,7 +483,7 @@ mod tests {
                 let wo = uniform_sphere(&mut rng);
                 let h = -1.0 + 2.0 * rng.next_f32();
                 let hair = HairBsdf::with_params(Vec3::X, wo, h, Vec3::ZERO, beta, beta, 2.0, Vec3::ONE);
-                let a = albedo(&hair, wo, &mut rng, 200_000).y;
+                let a = albedo(&hair, &mut rng, 200_000).y;
                 worst = worst.max(a);
                 lowest = lowest.min(a);
             }
@@ -473,13 +497,13 @@ mod tests {
         let mut rng = Rng(11);
         let wo = Vec3::new(0.3, 0.2, 0.9).normalize();
         let hair = HairBsdf::new(Vec3::X, wo, 0.3, Vec3::new(0.6, 0.3, 0.1));
-        let a = albedo(&hair, wo, &mut rng, 200_000);
+        let a = albedo(&hair, &mut rng, 200_000);
         assert!(a.x < 1.0 && a.x > a.y && a.y > a.z, "{a}");
         // Importance-sampled estimate of the same integral.
         let n = 200_000;
         let mut sum = Vec3::ZERO;
         for _ in 0..n {
-            if let Some(s) = hair.sample(wo, rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
+            if let Some(s) = hair.sample(rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
                 sum += s.f * s.wi.dot(hair.normal()).abs() / s.pdf;
             }
         }

@@ -30,9 +30,11 @@
 //! reciprocal for the divisions by the uv determinant and the Gram determinant (`x / d` and
 //! `x · (1 / d)` differ in the last bit); computing the footprint lazily, only for materials that
 //! read uvs (on the bench scenes every hit with uvs is on a textured material: tractor 37 300 of
-//! 88 326 hits have uvs, all textured, shading-heavy all 90 601, so there is nothing to skip). Left:
-//! `Surface` is ~250 bytes (the hair BSDF of curve hits is 116 of them), so moving one costs a
-//! `memcpy` call (29 instructions; 0.35–0.5 % of the process on tractor and shading-heavy).
+//! 88 326 hits have uvs, all textured, shading-heavy all 90 601, so there is nothing to skip). `Surface` was
+//! 248 bytes, 116 of them the hair BSDF of curve hits, and moving one cost a `memcpy` call (29
+//! instructions; 0.35–0.5 % of the process on tractor and shading-heavy); it now keeps the fibre
+//! (tangent, offset, colour, spawn distance; [`CurveSurface`]) and is 148 bytes, the hair BSDF built
+//! where a curve hit is shaded.
 
 use crate::accel::offset_ray_origin;
 use crate::bsdf::{Bsdf, BsdfSample, Frame};
@@ -146,6 +148,10 @@ pub struct Surface {
     curve: Option<CurveSurface>,
 }
 
+// Moved (and, in the wavefront, stored) for every hit: 248 bytes while it carried the built hair
+// BSDF (116 bytes), 148 since it keeps the fibre's 32 bytes instead.
+const _: () = assert!(std::mem::size_of::<Surface>() == 148);
+
 /// What a curve or point hit adds to [`Surface`]: 36 bytes (with the `Option` around it, whose
 /// tag hides in this enum's) where the built hair BSDF was 116 and was moved with every triangle
 /// hit's surface too. The BSDF is built from it where the hit is shaded ([`Scene::bsdf`]).
@@ -192,16 +198,17 @@ pub(crate) enum SurfaceBsdf {
 }
 
 impl SurfaceBsdf {
+    // A hair BSDF was built for the hit's `wo` ([`Scene::bsdf`]), the one these are called with.
     pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         match self {
             SurfaceBsdf::Preview(b) => b.eval(wo, wi),
-            SurfaceBsdf::Hair(h) => h.eval(wo, wi),
+            SurfaceBsdf::Hair(h) => h.eval(wi),
         }
     }
     pub(crate) fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
         match self {
             SurfaceBsdf::Preview(b) => b.sample(wo, u_lobe, u),
-            SurfaceBsdf::Hair(h) => h.sample(wo, u_lobe, u),
+            SurfaceBsdf::Hair(h) => h.sample(u_lobe, u),
         }
     }
     pub(crate) fn albedo(&self) -> Vec3 {
@@ -388,13 +395,14 @@ impl<'a> Scene<'a> {
         }
     }
 
-    /// The BSDF at `s` from its evaluated shading inputs.
-    pub(crate) fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs) -> SurfaceBsdf {
+    /// The BSDF at `s` seen from `wo` (the direction `s` was built for) from its evaluated shading
+    /// inputs.
+    pub(crate) fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs, wo: Vec3) -> SurfaceBsdf {
         match &s.curve {
             // `ns` is still the frame's z axis: a normal map cannot move it on a curve, which has no
             // `dpdu` ([`Scene::mapped_normal`] keeps `ns` then).
             Some(CurveSurface::Hair(f)) => {
-                SurfaceBsdf::Hair(HairBsdf::from_view_axis(f.tangent, s.ns, f.h, f.color))
+                SurfaceBsdf::Hair(HairBsdf::from_view_axis(f.tangent, wo, s.ns, f.h, f.color))
             }
             Some(CurveSurface::Point { color }) => SurfaceBsdf::Preview(Bsdf::from_inputs(
                 &crate::shading::ShadingInputs { diffuse_color: *color, ..*inputs },
@@ -582,7 +590,7 @@ impl<'a> Scene<'a> {
                 s.ns = Self::mapped_normal(&s, n, wo);
             }
 
-            let bsdf = self.bsdf(&s, &inputs);
+            let bsdf = self.bsdf(&s, &inputs, wo);
             if result.first_hit.is_none() && bounces == 0 {
                 result.first_hit =
                     Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });

@@ -5,11 +5,13 @@
 //! One copy of the lobe mathematics: the kernels find the local directions (the frame dots), the
 //! `cos 2πu` of the longitudinal sample ([`crate::trig::sin_cos_lanes`]) and the world direction of
 //! a sample eight at a time, loops LLVM vectorises under [`multiversion`]; between those, each lane
-//! runs [`HairBsdf::eval_local`] / [`HairBsdf::sample_local`], the very functions the scalar
-//! [`HairBsdf::eval`] and [`HairBsdf::sample`] call, on a `HairBsdf` gathered from the columns. The
+//! runs `HairBsdf::eval_local` / `HairBsdf::sample_local`, the very functions the scalar
+//! [`HairBsdf::eval`] and [`HairBsdf::sample`] call, on a `HairBsdf` gathered from the columns and
+//! the per-lane records (the roughness terms and the view terms, found once per fibre and hit). The
 //! lanes therefore equal the scalar BSDF bit for bit by construction, and the tests check it on
-//! random fibres, directions, offsets, colours, absorptions and roughnesses (NaN-free inputs; the
-//! scalar code's early returns are the lanes' `ok` mask).
+//! 16 000 random cases per kernel: fibres, views, directions (some along the fibre), offsets over
+//! the whole width, colour-derived, zero and direct absorptions, roughnesses 0.05–1 and tilts
+//! ±5° (the scalar code's `None` is the lanes' `ok` mask).
 //!
 //! Why the lobes stay per lane: they are ~25 libm calls per evaluation (two `atan2`, `asin`, three
 //! `exp` for the transmittance, per lobe the longitudinal term's `exp`/`ln`/`sinh` and the trimmed
@@ -21,7 +23,7 @@
 
 use super::bsdf_lanes::{EvalLanes, Lanes, Lanes3, SampleInputs, SampleLanes, V};
 use super::lanes::LANES;
-use crate::hair::{HairBsdf, Lobes};
+use crate::hair::{HairBsdf, Lobes, View};
 use glam::Vec3;
 use std::f32::consts::TAU;
 
@@ -43,11 +45,10 @@ pub struct HairLanes {
     pub sigma_a: Lanes3,
     /// Fibre colour.
     pub color: Lanes3,
-    /// World-space direction towards the viewer.
-    pub wo: Lanes3,
-    /// Per lane: what the fibre's roughness fixes (records, not columns: only the per-lane lobe
-    /// code reads them).
+    /// Per lane: what the fibre's roughness fixes and what the view does (records, not columns:
+    /// only the per-lane lobe code reads them).
     lobes: [Lobes; LANES],
+    view: [View; LANES],
 }
 
 impl Default for HairLanes {
@@ -61,26 +62,26 @@ impl Default for HairLanes {
             gamma_o: [0.0; LANES],
             sigma_a: zero,
             color: zero,
-            wo: zero,
             lobes: [*Lobes::default_fibre(); LANES],
+            view: [View::default(); LANES],
         }
     }
 }
 
 impl HairLanes {
-    /// Writes `hair` seen from `wo` into lane `k`.
+    /// Writes `hair` into lane `k`.
     #[inline]
-    pub fn set(&mut self, k: usize, hair: &HairBsdf, wo: Vec3) {
+    pub fn set(&mut self, k: usize, hair: &HairBsdf) {
         let put = |dst: &mut Lanes3, v: Vec3| (dst[0][k], dst[1][k], dst[2][k]) = (v.x, v.y, v.z);
         put(&mut self.x, hair.x);
         put(&mut self.y, hair.y);
         put(&mut self.z, hair.z);
         put(&mut self.sigma_a, hair.sigma_a);
         put(&mut self.color, hair.color);
-        put(&mut self.wo, wo);
         self.h[k] = hair.h;
         self.gamma_o[k] = hair.gamma_o;
         self.lobes[k] = hair.lobes;
+        self.view[k] = hair.view;
     }
 
     /// Lane `k`'s BSDF (what [`HairLanes::set`] wrote).
@@ -96,6 +97,7 @@ impl HairLanes {
             sigma_a: v3(&self.sigma_a),
             color: v3(&self.color),
             lobes: self.lobes[k],
+            view: self.view[k],
         }
     }
 }
@@ -118,11 +120,10 @@ fn lane(c: &Lanes3, k: usize) -> Vec3 {
 /// [`HairBsdf::eval`] on eight lanes: `wi` towards the light, per lane.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn eval_lanes(l: &HairLanes, wi: &Lanes3, out: &mut EvalLanes) {
-    let (mut wo_l, mut wi_l) = ([[0.0; LANES]; 3], [[0.0; LANES]; 3]);
-    to_local_lanes(l, &l.wo, &mut wo_l);
+    let mut wi_l = [[0.0; LANES]; 3];
     to_local_lanes(l, wi, &mut wi_l);
     for k in 0..LANES {
-        let (f, pdf) = l.at(k).eval_local(lane(&wo_l, k), lane(&wi_l, k));
+        let (f, pdf) = l.at(k).eval_local(lane(&wi_l, k));
         (out.f[0][k], out.f[1][k], out.f[2][k]) = (f.x, f.y, f.z);
         out.pdf[k] = pdf;
     }
@@ -131,11 +132,10 @@ pub fn eval_lanes(l: &HairLanes, wi: &Lanes3, out: &mut EvalLanes) {
 /// [`HairBsdf::pdf`] on eight lanes.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn pdf_lanes(l: &HairLanes, wi: &Lanes3, out: &mut Lanes) {
-    let (mut wo_l, mut wi_l) = ([[0.0; LANES]; 3], [[0.0; LANES]; 3]);
-    to_local_lanes(l, &l.wo, &mut wo_l);
+    let mut wi_l = [[0.0; LANES]; 3];
     to_local_lanes(l, wi, &mut wi_l);
-    for k in 0..LANES {
-        out[k] = l.at(k).eval_local(lane(&wo_l, k), lane(&wi_l, k)).1;
+    for (k, pdf) in out.iter_mut().enumerate() {
+        *pdf = l.at(k).eval_local(lane(&wi_l, k)).1;
     }
 }
 
@@ -143,16 +143,12 @@ pub fn pdf_lanes(l: &HairLanes, wi: &Lanes3, out: &mut Lanes) {
 /// returned `None`; their other outputs are zero).
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn sample_lanes(l: &HairLanes, u: &SampleInputs, out: &mut SampleLanes) {
-    let mut wo_l = [[0.0; LANES]; 3];
-    to_local_lanes(l, &l.wo, &mut wo_l);
-    let (mut angle, mut sin_phi, mut cos_phi) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-    for k in 0..LANES {
-        angle[k] = TAU * u.u1[k];
-    }
+    let angle = u.u1.map(|u1| TAU * u1);
+    let (mut sin_phi, mut cos_phi) = ([0.0; LANES], [0.0; LANES]);
     crate::trig::sin_cos_lanes(&angle, &mut sin_phi, &mut cos_phi);
     let mut wi_l = [[0.0; LANES]; 3];
     for k in 0..LANES {
-        let sampled = l.at(k).sample_local(lane(&wo_l, k), u.u_lobe[k], u.u0[k], cos_phi[k]);
+        let sampled = l.at(k).sample_local(u.u_lobe[k], u.u0[k], cos_phi[k]);
         let (w, f, pdf) = sampled.unwrap_or((Vec3::ZERO, Vec3::ZERO, 0.0));
         (wi_l[0][k], wi_l[1][k], wi_l[2][k]) = (w.x, w.y, w.z);
         (out.f[0][k], out.f[1][k], out.f[2][k]) = (f.x, f.y, f.z);
@@ -183,11 +179,11 @@ mod tests {
 
     /// A random fibre: any tangent and view, `h` across the whole width (and the clamped ends),
     /// colour-derived or direct absorption (zero included), roughness 0.05–1, tilt −5°–5°.
-    fn fibre(rng: &mut Rng) -> (HairBsdf, Vec3) {
+    fn fibre(rng: &mut Rng) -> HairBsdf {
         let (tangent, wo) = (direction(rng), direction(rng));
         let h = -1.0 + 2.0 * rng.next_f32();
         let color = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
-        let hair = match rng.next_f32() {
+        match rng.next_f32() {
             c if c < 0.4 => HairBsdf::new(tangent, wo, h, color),
             c => {
                 let sigma_a = if c < 0.5 { Vec3::ZERO } else { color * 4.0 };
@@ -195,8 +191,7 @@ mod tests {
                 let alpha = -5.0 + 10.0 * rng.next_f32();
                 HairBsdf::with_params(tangent, wo, h, sigma_a, beta_m, beta_n, alpha, color)
             }
-        };
-        (hair, wo)
+        }
     }
 
     fn bits(v: Vec3) -> [u32; 3] {
@@ -204,12 +199,12 @@ mod tests {
     }
 
     /// Eight random fibres with a direction each for `eval`/`pdf` and random numbers for `sample`.
-    fn group(rng: &mut Rng) -> ([(HairBsdf, Vec3); LANES], HairLanes, Lanes3, SampleInputs) {
-        let fibres: [(HairBsdf, Vec3); LANES] = std::array::from_fn(|_| fibre(rng));
+    fn group(rng: &mut Rng) -> ([HairBsdf; LANES], HairLanes, Lanes3, SampleInputs) {
+        let fibres: [HairBsdf; LANES] = std::array::from_fn(|_| fibre(rng));
         let mut lanes = HairLanes::default();
         let (mut wi, mut u) = ([[0.0; LANES]; 3], SampleInputs::default());
-        for (k, (hair, wo)) in fibres.iter().enumerate() {
-            lanes.set(k, hair, *wo);
+        for (k, hair) in fibres.iter().enumerate() {
+            lanes.set(k, hair);
             // Half towards the fibre's side of the viewer, some grazing ones along the tangent.
             let w = if rng.next_f32() < 0.1 { hair.x } else { direction(rng) };
             (wi[0][k], wi[1][k], wi[2][k]) = (w.x, w.y, w.z);
@@ -229,12 +224,12 @@ mod tests {
             let (mut out, mut pdfs) = (EvalLanes::default(), [0.0; LANES]);
             eval_lanes(&lanes, &wi, &mut out);
             pdf_lanes(&lanes, &wi, &mut pdfs);
-            for (k, (hair, wo)) in fibres.iter().enumerate() {
+            for (k, hair) in fibres.iter().enumerate() {
                 let w = lane(&wi, k);
-                let (f, pdf) = hair.eval(*wo, w);
+                let (f, pdf) = hair.eval(w);
                 assert_eq!(bits(lane(&out.f, k)), bits(f), "f, lane {k}: {:?} vs {f}", lane(&out.f, k));
                 assert_eq!(out.pdf[k].to_bits(), pdf.to_bits(), "pdf, lane {k}");
-                assert_eq!(pdfs[k].to_bits(), hair.pdf(*wo, w).to_bits(), "pdf kernel, lane {k}");
+                assert_eq!(pdfs[k].to_bits(), hair.pdf(w).to_bits(), "pdf kernel, lane {k}");
                 nonzero += (pdf > 0.0 && f.max_element() > 0.0) as usize;
                 cases += 1;
             }
@@ -252,9 +247,9 @@ mod tests {
             let (fibres, lanes, _, u) = group(&mut rng);
             let mut out = SampleLanes::default();
             sample_lanes(&lanes, &u, &mut out);
-            for (k, (hair, wo)) in fibres.iter().enumerate() {
+            for (k, hair) in fibres.iter().enumerate() {
                 cases += 1;
-                match hair.sample(*wo, u.u_lobe[k], [u.u0[k], u.u1[k]]) {
+                match hair.sample(u.u_lobe[k], [u.u0[k], u.u1[k]]) {
                     Some(s) => {
                         sampled += 1;
                         assert_eq!(out.ok[k], 1, "lane {k} absorbed, scalar sampled");

@@ -108,7 +108,7 @@ pub(super) fn vertex<T: Touch>(
     if let Some(n) = inputs.normal {
         s.ns = crate::scene::Scene::mapped_normal(&s, n, wo);
     }
-    let bsdf = scene.bsdf(&s, &inputs);
+    let bsdf = scene.bsdf(&s, &inputs, wo);
     let first = &mut w.first_hits[i as usize];
     if first.is_none() && st.bounces == 0 {
         *first = Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: st.travelled + hit.t });
@@ -143,7 +143,7 @@ pub(super) fn vertex<T: Touch>(
         }
     };
     let k = group.len;
-    group.hair.set(k, &hair, wo);
+    group.hair.set(k, &hair);
     if let Some(ls) = &light {
         (group.light_wi[0][k], group.light_wi[1][k], group.light_wi[2][k]) = (ls.wi.x, ls.wi.y, ls.wi.z);
     }
