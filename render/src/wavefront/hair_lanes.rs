@@ -13,13 +13,32 @@
 //! the whole width, colour-derived, zero and direct absorptions, roughnesses 0.05–1 and tilts
 //! ±5° (the scalar code's `None` is the lanes' `ok` mask).
 //!
-//! Why the lobes stay per lane: they are ~25 libm calls per evaluation (two `atan2`, `asin`, three
-//! `exp` for the transmittance, per lobe the longitudinal term's `exp`/`ln`/`sinh` and the trimmed
-//! logistic's three `exp`), which LLVM cannot vectorise. Hair-specific vector `exp`/`ln`/`atan2`
-//! polynomials shared by both integrators (as [`crate::trig::sin_cos`] replaced `sincosf`) are the
-//! next step; they change the hair image of both integrators, so they were left for a separate
-//! change. Figures (callgrind and contended timings of a 20 000-strand groom) are in
-//! [`super::shade_curves`].
+//! Why the lobes stay per lane: they are libm calls LLVM cannot vectorise (per evaluation an
+//! `atan2f` and, per lobe, the longitudinal term's `expf` (and `logf` of the Bessel term for the
+//! narrow R and TT lobes) and the logistic's `expf`: ten; a sample adds two `logf`), and branches
+//! (lobe choice, the Bessel term's two forms, azimuth wrapping). What changed the cost instead was
+//! doing less of it, in `hair.rs`, for both integrators, with the same bits: the lobes'
+//! normalizations once per roughness ([`crate::hair::Lobes`], cached for the default fibre), and
+//! the view's terms (transmittance, lobe weights, azimuth of `wo`) once per hit rather than in the
+//! light sample's evaluation, the BSDF sample and the sample's own evaluation
+//! ([`crate::hair::View`]). Libm calls per shaded fibre hit with a light sample: ~64 → ~31.
+//! Vector `expf`/`logf`/`atan2f` polynomials shared by both integrators (as
+//! [`crate::trig::sin_cos`] replaced `sincosf`) and a branch-free lobe loop are the next step; they
+//! change the hair image of both integrators, so they were left for a separate change.
+//!
+//! Callgrind, instructions, 1 thread, a 20 000-strand groom (cubic Béziers on a sphere, a sun and a
+//! sky; 80×54, 4 spp; every image below is byte-identical to the first):
+//!
+//! | step | scalar process | wavefront process | wavefront shade stage | hair kernels (sample + eval) |
+//! |---|---|---|---|---|
+//! | before: fibre hits shaded one by one, hair BSDF inside `Surface` | 1617.2 M | 1592.7 M | 308.8 M | (scalar calls) |
+//! | these lane kernels, fibre hits in groups of eight | 1611.0 M | 1597.5 M | 313.7 M | 117.4 + 82.3 M |
+//! | + lobe normalizations once per roughness | 1527.4 M | 1509.4 M | 267.4 M | 93.3 + 61.2 M |
+//! | + view terms once per hit | 1474.7 M | 1460.5 M | 230.0 M | 52.2 + 41.5 M |
+//!
+//! The lanes alone gained nothing (the libm calls are the same calls); the two reductions took
+//! the shade stage 25 % down. The curve traversal, untouched, moved by up to −37 M between these
+//! builds (code placement), so compare the stage columns rather than the process ones.
 
 use super::bsdf_lanes::{EvalLanes, Lanes, Lanes3, SampleInputs, SampleLanes, V};
 use super::lanes::LANES;
