@@ -33,7 +33,7 @@
 //! 88 326 hits have uvs, all textured, shading-heavy all 90 601, so there is nothing to skip). `Surface` was
 //! 248 bytes, 116 of them the hair BSDF of curve hits, and moving one cost a `memcpy` call (29
 //! instructions; 0.35–0.5 % of the process on tractor and shading-heavy); it now keeps the fibre
-//! (tangent, offset, colour, spawn distance; [`CurveSurface`]) and is 148 bytes, the hair BSDF built
+//! (tangent, offset, colour, spawn distance; `CurveSurface`) and is 148 bytes, the hair BSDF built
 //! where a curve hit is shaded.
 
 use crate::accel::offset_ray_origin;

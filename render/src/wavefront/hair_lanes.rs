@@ -1,6 +1,6 @@
 //! The Chiang hair BSDF ([`crate::hair::HairBsdf`]) evaluated, sampled and its pdf found eight fibre
 //! hits at a time, in AoSoA form (`[f32; 8]` columns), for the wavefront's curve hits
-//! ([`super::shade_curves`]).
+//! (`shade_curves`).
 //!
 //! One copy of the lobe mathematics: the kernels find the local directions (the frame dots), the
 //! `cos 2πu` of the longitudinal sample ([`crate::trig::sin_cos_lanes`]) and the world direction of
@@ -18,10 +18,10 @@
 //! narrow R and TT lobes) and the logistic's `expf`: ten; a sample adds two `logf`), and branches
 //! (lobe choice, the Bessel term's two forms, azimuth wrapping). What changed the cost instead was
 //! doing less of it, in `hair.rs`, for both integrators, with the same bits: the lobes'
-//! normalizations once per roughness ([`crate::hair::Lobes`], cached for the default fibre), and
+//! normalizations once per roughness (`hair::Lobes`, cached for the default fibre), and
 //! the view's terms (transmittance, lobe weights, azimuth of `wo`) once per hit rather than in the
 //! light sample's evaluation, the BSDF sample and the sample's own evaluation
-//! ([`crate::hair::View`]). Libm calls per shaded fibre hit with a light sample: ~64 → ~31.
+//! (`hair::View`). Libm calls per shaded fibre hit with a light sample: ~64 → ~31.
 //! Vector `expf`/`logf`/`atan2f` polynomials shared by both integrators (as
 //! [`crate::trig::sin_cos`] replaced `sincosf`) and a branch-free lobe loop are the next step; they
 //! change the hair image of both integrators, so they were left for a separate change.
