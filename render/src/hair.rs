@@ -35,18 +35,112 @@ pub const ALPHA_DEGREES: f32 = 2.0;
 #[derive(Clone, Copy, Debug)]
 pub struct HairBsdf {
     /// Tangent (x), y, z (towards the viewer) in world space.
-    x: Vec3,
-    y: Vec3,
-    z: Vec3,
-    h: f32,
-    gamma_o: f32,
-    eta: f32,
-    sigma_a: Vec3,
-    v: [f32; P_MAX + 1],
-    s: f32,
-    sin_2k_alpha: [f32; 3],
-    cos_2k_alpha: [f32; 3],
-    color: Vec3,
+    pub(crate) x: Vec3,
+    pub(crate) y: Vec3,
+    pub(crate) z: Vec3,
+    pub(crate) h: f32,
+    pub(crate) gamma_o: f32,
+    pub(crate) sigma_a: Vec3,
+    pub(crate) color: Vec3,
+    pub(crate) lobes: Lobes,
+    pub(crate) view: View,
+}
+
+/// What depends on the viewing direction only. A hair BSDF is built for one `wo` (its frame
+/// already is), so these are found once per hit rather than in the light sample's evaluation, the
+/// BSDF sample and the sample's evaluation each (the transmittance's three `expf`, an `asinf` and
+/// an `atan2f`, three times per hit before). Same operations on the same local `wo`: same bits.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct View {
+    /// Sine and cosine of `wo`'s longitudinal angle (its local x).
+    pub(crate) sin_o: f32,
+    pub(crate) cos_o: f32,
+    /// Azimuth of `wo`.
+    pub(crate) phi_o: f32,
+    /// Attenuation per lobe.
+    pub(crate) ap: [Vec3; P_MAX + 1],
+    /// Refracted offset angle.
+    pub(crate) gamma_t: f32,
+    /// Lobe selection probabilities.
+    pub(crate) pdfs: [f32; P_MAX + 1],
+}
+
+/// What a fibre's roughness, scale tilt and index of refraction fix, the same at every hit of
+/// fibres with the same parameters (every curve today: [`Lobes::default_fibre`] is computed once).
+///
+/// Besides the model's parameters it holds the lobes' normalizations, which the evaluation used
+/// to recompute per call: `ln(1/(2v))` and `2v·sinh(1/v)` of each longitudinal term and the
+/// trimmed logistic's `F(π) − F(−π)` and `F(−π)`. Same operations, done once, so the same bits:
+/// two `logf`, two `sinhf` and six `expf` fewer per evaluation, one `expf` fewer per sample. With
+/// the view's terms found once per hit ([`View`]), an evaluation makes 10 libm calls where it
+/// made 25.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Lobes {
+    pub(crate) eta: f32,
+    /// Longitudinal variance per lobe (R, TT, TRT, residual).
+    pub(crate) v: [f32; P_MAX + 1],
+    /// Azimuthal logistic scale.
+    pub(crate) s: f32,
+    pub(crate) sin_2k_alpha: [f32; 3],
+    pub(crate) cos_2k_alpha: [f32; 3],
+    /// `ln(1 / (2v))` per lobe (the normalization of `M_p` for `v ≤ 0.1`).
+    pub(crate) log_norm: [f32; P_MAX + 1],
+    /// `sinh(1/v) · 2 · v` per lobe (the normalization of `M_p` for `v > 0.1`).
+    pub(crate) sinh_norm: [f32; P_MAX + 1],
+    /// `F(π) − F(−π)` of the logistic of scale `s`: the trimmed logistic's mass.
+    pub(crate) trim: f32,
+    /// `F(−π)`.
+    pub(crate) cdf_lo: f32,
+    /// `exp(−2/v)` per lobe (the longitudinal sample's lower end).
+    pub(crate) exp_neg2_over_v: [f32; P_MAX + 1],
+}
+
+impl Lobes {
+    /// The lobes of a fibre with longitudinal roughness `beta_m`, azimuthal roughness `beta_n` and
+    /// scales tilted by `alpha_degrees`.
+    pub(crate) fn new(beta_m: f32, beta_n: f32, alpha_degrees: f32) -> Self {
+        let v0 = {
+            let b = 0.726 * beta_m + 0.812 * beta_m * beta_m + 3.7 * beta_m.powi(20);
+            b * b
+        };
+        let s = (PI / 8.0).sqrt() * (0.265 * beta_n + 1.194 * beta_n * beta_n + 5.372 * beta_n.powi(22));
+        let mut sin_2k_alpha = [0.0; 3];
+        let mut cos_2k_alpha = [0.0; 3];
+        sin_2k_alpha[0] = alpha_degrees.to_radians().sin();
+        cos_2k_alpha[0] = safe_sqrt(1.0 - sin_2k_alpha[0] * sin_2k_alpha[0]);
+        for i in 1..3 {
+            sin_2k_alpha[i] = 2.0 * cos_2k_alpha[i - 1] * sin_2k_alpha[i - 1];
+            cos_2k_alpha[i] = cos_2k_alpha[i - 1].powi(2) - sin_2k_alpha[i - 1].powi(2);
+        }
+        let v = [v0, 0.25 * v0, 4.0 * v0, 4.0 * v0];
+        Lobes {
+            eta: ETA,
+            v,
+            s,
+            sin_2k_alpha,
+            cos_2k_alpha,
+            log_norm: v.map(|v| (1.0 / (2.0 * v)).ln()),
+            sinh_norm: v.map(|v| (1.0 / v).sinh() * 2.0 * v),
+            trim: logistic_cdf(PI, s) - logistic_cdf(-PI, s),
+            cdf_lo: logistic_cdf(-PI, s),
+            exp_neg2_over_v: v.map(|v| (-2.0 / v).exp()),
+        }
+    }
+
+    /// The lobes of every curve's fibre ([`BETA_M`], [`BETA_N`], [`ALPHA_DEGREES`]), computed once.
+    pub(crate) fn default_fibre() -> &'static Lobes {
+        static DEFAULT: std::sync::OnceLock<Lobes> = std::sync::OnceLock::new();
+        DEFAULT.get_or_init(|| Lobes::new(BETA_M, BETA_N, ALPHA_DEGREES))
+    }
+}
+
+/// The frame's z axis for a fibre along unit `tangent` seen from `wo`: `wo` without its component
+/// along the fibre, normalized (any perpendicular when `wo` runs along the fibre). It is also the
+/// hit's shading normal, so [`crate::integrator::Surface`] keeps it and the BSDF is built from it
+/// where the hit is shaded ([`HairBsdf::from_view_axis`]).
+pub fn view_axis(tangent: Vec3, wo: Vec3) -> Vec3 {
+    let x = tangent;
+    (wo - x * wo.dot(x)).try_normalize().unwrap_or_else(|| crate::bsdf::Frame::new(x).t)
 }
 
 #[inline]
@@ -91,13 +185,16 @@ fn log_i0(x: f32) -> f32 {
     }
 }
 
-fn mp(cos_i: f32, cos_o: f32, sin_i: f32, sin_o: f32, v: f32) -> f32 {
+/// `M_p` for lobe `p` of `lobes`.
+#[inline(always)]
+fn mp(cos_i: f32, cos_o: f32, sin_i: f32, sin_o: f32, lobes: &Lobes, p: usize) -> f32 {
+    let v = lobes.v[p];
     let a = cos_i * cos_o / v;
     let b = sin_i * sin_o / v;
     if v <= 0.1 {
-        (log_i0(a) - b - 1.0 / v + std::f32::consts::LN_2 + (1.0 / (2.0 * v)).ln()).exp()
+        (log_i0(a) - b - 1.0 / v + std::f32::consts::LN_2 + lobes.log_norm[p]).exp()
     } else {
-        (-b).exp() * i0(a) / ((1.0 / v).sinh() * 2.0 * v)
+        (-b).exp() * i0(a) / lobes.sinh_norm[p]
     }
 }
 
@@ -142,17 +239,21 @@ fn logistic_cdf(x: f32, s: f32) -> f32 {
     1.0 / (1.0 + (-x / s).exp())
 }
 
-fn trimmed_logistic(x: f32, s: f32, a: f32, b: f32) -> f32 {
-    logistic(x, s) / (logistic_cdf(b, s) - logistic_cdf(a, s))
+/// The logistic of scale `lobes.s` trimmed to [−π, π].
+#[inline(always)]
+fn trimmed_logistic(x: f32, lobes: &Lobes) -> f32 {
+    logistic(x, lobes.s) / lobes.trim
 }
 
-fn sample_trimmed_logistic(u: f32, s: f32, a: f32, b: f32) -> f32 {
-    let k = logistic_cdf(b, s) - logistic_cdf(a, s);
-    let x = -s * (1.0 / (u * k + logistic_cdf(a, s)) - 1.0).ln();
-    x.clamp(a, b)
+#[inline(always)]
+fn sample_trimmed_logistic(u: f32, lobes: &Lobes) -> f32 {
+    let (s, k) = (lobes.s, lobes.trim);
+    let x = -s * (1.0 / (u * k + lobes.cdf_lo) - 1.0).ln();
+    x.clamp(-PI, PI)
 }
 
-fn np(phi_: f32, p: usize, s: f32, gamma_o: f32, gamma_t: f32) -> f32 {
+#[inline(always)]
+fn np(phi_: f32, p: usize, lobes: &Lobes, gamma_o: f32, gamma_t: f32) -> f32 {
     let mut dphi = phi_ - phi(p, gamma_o, gamma_t);
     while dphi > PI {
         dphi -= TAU;
@@ -160,22 +261,20 @@ fn np(phi_: f32, p: usize, s: f32, gamma_o: f32, gamma_t: f32) -> f32 {
     while dphi < -PI {
         dphi += TAU;
     }
-    trimmed_logistic(dphi, s, -PI, PI)
+    trimmed_logistic(dphi, lobes)
 }
 
 impl HairBsdf {
     /// A fibre with tangent `tangent`, viewed from `wo`, hit at offset `h`, of colour `color`.
     pub fn new(tangent: Vec3, wo: Vec3, h: f32, color: Vec3) -> Self {
-        Self::with_params(
-            tangent,
-            wo,
-            h,
-            sigma_a_from_color(color, BETA_N),
-            BETA_M,
-            BETA_N,
-            ALPHA_DEGREES,
-            color,
-        )
+        Self::from_view_axis(tangent, wo, view_axis(tangent, wo), h, color)
+    }
+
+    /// [`HairBsdf::new`] with the frame's z axis `z` already found ([`view_axis`] of `tangent`
+    /// and `wo`).
+    pub fn from_view_axis(tangent: Vec3, wo: Vec3, z: Vec3, h: f32, color: Vec3) -> Self {
+        let sigma_a = sigma_a_from_color(color, BETA_N);
+        Self::with_axes(tangent, wo, z, h, sigma_a, *Lobes::default_fibre(), color)
     }
 
     /// Full parameter set (σ_a directly).
@@ -190,37 +289,28 @@ impl HairBsdf {
         alpha_degrees: f32,
         color: Vec3,
     ) -> Self {
+        let lobes = Lobes::new(beta_m, beta_n, alpha_degrees);
+        Self::with_axes(tangent, wo, view_axis(tangent, wo), h, sigma_a, lobes, color)
+    }
+
+    fn with_axes(tangent: Vec3, wo: Vec3, z: Vec3, h: f32, sigma_a: Vec3, lobes: Lobes, color: Vec3) -> Self {
         let x = tangent;
-        let z = (wo - x * wo.dot(x)).try_normalize().unwrap_or_else(|| crate::bsdf::Frame::new(x).t);
         let y = z.cross(x);
         let h = h.clamp(-0.999, 0.999);
-        let v0 = {
-            let b = 0.726 * beta_m + 0.812 * beta_m * beta_m + 3.7 * beta_m.powi(20);
-            b * b
+        let mut hair =
+            HairBsdf { x, y, z, h, gamma_o: safe_asin(h), sigma_a, color, lobes, view: View::default() };
+        let wo = hair.local(wo);
+        let sin_o = wo.x;
+        let (ap, gamma_t) = hair.attenuation(wo);
+        hair.view = View {
+            sin_o,
+            cos_o: safe_sqrt(1.0 - sin_o * sin_o),
+            phi_o: wo.z.atan2(wo.y),
+            ap,
+            gamma_t,
+            pdfs: hair.lobe_pdfs(&ap),
         };
-        let s = (PI / 8.0).sqrt() * (0.265 * beta_n + 1.194 * beta_n * beta_n + 5.372 * beta_n.powi(22));
-        let mut sin_2k_alpha = [0.0; 3];
-        let mut cos_2k_alpha = [0.0; 3];
-        sin_2k_alpha[0] = alpha_degrees.to_radians().sin();
-        cos_2k_alpha[0] = safe_sqrt(1.0 - sin_2k_alpha[0] * sin_2k_alpha[0]);
-        for i in 1..3 {
-            sin_2k_alpha[i] = 2.0 * cos_2k_alpha[i - 1] * sin_2k_alpha[i - 1];
-            cos_2k_alpha[i] = cos_2k_alpha[i - 1].powi(2) - sin_2k_alpha[i - 1].powi(2);
-        }
-        HairBsdf {
-            x,
-            y,
-            z,
-            h,
-            gamma_o: safe_asin(h),
-            eta: ETA,
-            sigma_a,
-            v: [v0, 0.25 * v0, 4.0 * v0, 4.0 * v0],
-            s,
-            sin_2k_alpha,
-            cos_2k_alpha,
-            color,
-        }
+        hair
     }
 
     /// The direction the integrator multiplies `f` by the cosine to (`f` already divides by it).
@@ -243,7 +333,7 @@ impl HairBsdf {
 
     /// Longitudinal angles of `wo` tilted by the scales for lobe `p`.
     fn tilted(&self, p: usize, sin_o: f32, cos_o: f32) -> (f32, f32) {
-        let (s, c) = (self.sin_2k_alpha, self.cos_2k_alpha);
+        let (s, c) = (self.lobes.sin_2k_alpha, self.lobes.cos_2k_alpha);
         let (sin_op, cos_op) = match p {
             0 => (sin_o * c[1] - cos_o * s[1], cos_o * c[1] + sin_o * s[1]),
             1 => (sin_o * c[0] + cos_o * s[0], cos_o * c[0] - sin_o * s[0]),
@@ -257,14 +347,15 @@ impl HairBsdf {
     fn attenuation(&self, wo: Vec3) -> ([Vec3; P_MAX + 1], f32) {
         let sin_o = wo.x;
         let cos_o = safe_sqrt(1.0 - sin_o * sin_o);
-        let sin_t = sin_o / self.eta;
+        let eta = self.lobes.eta;
+        let sin_t = sin_o / eta;
         let cos_t = safe_sqrt(1.0 - sin_t * sin_t);
-        let etap = (self.eta * self.eta - sin_o * sin_o).sqrt() / cos_o.max(1e-6);
+        let etap = (eta * eta - sin_o * sin_o).sqrt() / cos_o.max(1e-6);
         let sin_gamma_t = self.h / etap;
         let cos_gamma_t = safe_sqrt(1.0 - sin_gamma_t * sin_gamma_t);
         let gamma_t = safe_asin(sin_gamma_t);
         let t = (-self.sigma_a * (2.0 * cos_gamma_t / cos_t.max(1e-6))).exp();
-        (ap(cos_o, self.eta, self.h, t), gamma_t)
+        (ap(cos_o, eta, self.h, t), gamma_t)
     }
 
     fn lobe_pdfs(&self, ap: &[Vec3; P_MAX + 1]) -> [f32; P_MAX + 1] {
@@ -277,27 +368,25 @@ impl HairBsdf {
     }
 
     /// Value (divided by |cos| to [`HairBsdf::normal`], as the integrator multiplies it back) and
-    /// pdf for local directions.
-    fn eval_local(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        let sin_o = wo.x;
-        let cos_o = safe_sqrt(1.0 - sin_o * sin_o);
-        let phi_o = wo.z.atan2(wo.y);
+    /// pdf for local `wi`. Shared with the lane kernels ([`crate::wavefront::hair_lanes`]),
+    /// which call it per lane after finding the local directions eight at a time.
+    #[inline(always)]
+    pub(crate) fn eval_local(&self, wi: Vec3) -> (Vec3, f32) {
+        let View { sin_o, cos_o, phi_o, ap, gamma_t, pdfs, .. } = self.view;
         let sin_i = wi.x;
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
         let phi_i = wi.z.atan2(wi.y);
-        let (ap, gamma_t) = self.attenuation(wo);
-        let pdfs = self.lobe_pdfs(&ap);
         let dphi = phi_i - phi_o;
         let mut f = Vec3::ZERO;
         let mut pdf = 0.0;
         for p in 0..P_MAX {
             let (sin_op, cos_op) = self.tilted(p, sin_o, cos_o);
-            let m = mp(cos_i, cos_op, sin_i, sin_op, self.v[p]);
-            let n = np(dphi, p, self.s, self.gamma_o, gamma_t);
+            let m = mp(cos_i, cos_op, sin_i, sin_op, &self.lobes, p);
+            let n = np(dphi, p, &self.lobes, self.gamma_o, gamma_t);
             f += ap[p] * (m * n);
             pdf += pdfs[p] * m * n;
         }
-        let m = mp(cos_i, cos_o, sin_i, sin_o, self.v[P_MAX]);
+        let m = mp(cos_i, cos_o, sin_i, sin_o, &self.lobes, P_MAX);
         f += ap[P_MAX] * (m / TAU);
         pdf += pdfs[P_MAX] * m / TAU;
         let cos = wi.z.abs();
@@ -307,20 +396,31 @@ impl HairBsdf {
         (f, pdf)
     }
 
-    /// Value and pdf for world directions.
-    pub fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        self.eval_local(self.local(wo), self.local(wi))
+    /// Value and pdf towards world direction `wi`, for the `wo` the BSDF was built for.
+    pub fn eval(&self, wi: Vec3) -> (Vec3, f32) {
+        self.eval_local(self.local(wi))
     }
 
-    /// Samples an incident direction: `u_lobe` picks the lobe and (rescaled) the azimuth, `u` the
-    /// longitudinal angle.
-    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
-        let wo_l = self.local(wo);
-        let sin_o = wo_l.x;
-        let cos_o = safe_sqrt(1.0 - sin_o * sin_o);
-        let phi_o = wo_l.z.atan2(wo_l.y);
-        let (ap, gamma_t) = self.attenuation(wo_l);
-        let pdfs = self.lobe_pdfs(&ap);
+    /// The pdf of sampling world direction `wi`: [`HairBsdf::eval`]'s second half.
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        self.eval_local(self.local(wi)).1
+    }
+
+    /// Samples an incident direction for the `wo` the BSDF was built for: `u_lobe` picks the lobe
+    /// and (rescaled) the azimuth, `u` the longitudinal angle.
+    pub fn sample(&self, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
+        let (_, cos_phi) = crate::trig::sin_cos(TAU * u[1]);
+        let (wi_l, f, pdf) = self.sample_local(u_lobe, u[0], cos_phi)?;
+        // Hair lobes are broad in azimuth: widen ray cones as a diffuse bounce does.
+        Some(BsdfSample { wi: self.world(wi_l), f, pdf, lobe_alpha: 1.0 })
+    }
+
+    /// [`HairBsdf::sample`] in the local frame, given `cos(2π u[1])`: the local incident direction,
+    /// value and pdf, `None` when absorbed. Shared with the lane kernels, which find the cosine and
+    /// the world direction eight at a time.
+    #[inline(always)]
+    pub(crate) fn sample_local(&self, u_lobe: f32, u0: f32, cos_phi: f32) -> Option<(Vec3, Vec3, f32)> {
+        let View { sin_o, cos_o, phi_o, gamma_t, pdfs, .. } = self.view;
         let mut p = 0;
         let mut ul = u_lobe;
         while p < P_MAX && ul >= pdfs[p] {
@@ -329,27 +429,25 @@ impl HairBsdf {
         }
         let ul = (ul / pdfs[p].max(1e-12)).clamp(0.0, 0.999_999);
         let (sin_op, cos_op) = self.tilted(p, sin_o, cos_o);
-        let v = self.v[p];
-        let u0 = u[0].max(1e-5);
-        let cos_theta = 1.0 + v * (u0 + (1.0 - u0) * (-2.0 / v).exp()).ln();
+        let v = self.lobes.v[p];
+        let u0 = u0.max(1e-5);
+        let cos_theta = 1.0 + v * (u0 + (1.0 - u0) * self.lobes.exp_neg2_over_v[p]).ln();
         let sin_theta = safe_sqrt(1.0 - cos_theta * cos_theta);
-        let (_, cos_phi) = crate::trig::sin_cos(TAU * u[1]);
         let sin_i = -cos_theta * sin_op + sin_theta * cos_phi * cos_op;
         let cos_i = safe_sqrt(1.0 - sin_i * sin_i);
         let dphi = if p < P_MAX {
-            phi(p, self.gamma_o, gamma_t) + sample_trimmed_logistic(ul, self.s, -PI, PI)
+            phi(p, self.gamma_o, gamma_t) + sample_trimmed_logistic(ul, &self.lobes)
         } else {
             TAU * ul
         };
         // |φ_o| ≤ π and |Δφ| < 8π: inside `sin_cos`'s domain.
         let (sin_phi_i, cos_phi_i) = crate::trig::sin_cos(phi_o + dphi);
         let wi_l = Vec3::new(sin_i, cos_i * cos_phi_i, cos_i * sin_phi_i);
-        let (f, pdf) = self.eval_local(wo_l, wi_l);
+        let (f, pdf) = self.eval_local(wi_l);
         if pdf.is_nan() || pdf <= 0.0 || f == Vec3::ZERO {
             return None;
         }
-        // Hair lobes are broad in azimuth: widen ray cones as a diffuse bounce does.
-        Some(BsdfSample { wi: self.world(wi_l), f, pdf, lobe_alpha: 1.0 })
+        Some((wi_l, f, pdf))
     }
 }
 
@@ -365,12 +463,12 @@ mod tests {
         Vec3::new(r * phi.cos(), r * phi.sin(), z)
     }
 
-    /// ∫ f |cos| dω over the sphere for a random view, estimated by uniform sampling.
-    fn albedo(bsdf: &HairBsdf, wo: Vec3, rng: &mut Rng, n: usize) -> Vec3 {
+    /// ∫ f |cos| dω over the sphere for the BSDF's view, estimated by uniform sampling.
+    fn albedo(bsdf: &HairBsdf, rng: &mut Rng, n: usize) -> Vec3 {
         let mut sum = Vec3::ZERO;
         for _ in 0..n {
             let wi = uniform_sphere(rng);
-            let (f, _) = bsdf.eval(wo, wi);
+            let (f, _) = bsdf.eval(wi);
             sum += f * wi.dot(bsdf.normal()).abs();
         }
         sum * (4.0 * PI / n as f32)
@@ -386,7 +484,7 @@ mod tests {
                 let wo = uniform_sphere(&mut rng);
                 let h = -1.0 + 2.0 * rng.next_f32();
                 let hair = HairBsdf::with_params(Vec3::X, wo, h, Vec3::ZERO, beta, beta, 2.0, Vec3::ONE);
-                let a = albedo(&hair, wo, &mut rng, 200_000).y;
+                let a = albedo(&hair, &mut rng, 200_000).y;
                 worst = worst.max(a);
                 lowest = lowest.min(a);
             }
@@ -400,13 +498,13 @@ mod tests {
         let mut rng = Rng(11);
         let wo = Vec3::new(0.3, 0.2, 0.9).normalize();
         let hair = HairBsdf::new(Vec3::X, wo, 0.3, Vec3::new(0.6, 0.3, 0.1));
-        let a = albedo(&hair, wo, &mut rng, 200_000);
+        let a = albedo(&hair, &mut rng, 200_000);
         assert!(a.x < 1.0 && a.x > a.y && a.y > a.z, "{a}");
         // Importance-sampled estimate of the same integral.
         let n = 200_000;
         let mut sum = Vec3::ZERO;
         for _ in 0..n {
-            if let Some(s) = hair.sample(wo, rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
+            if let Some(s) = hair.sample(rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
                 sum += s.f * s.wi.dot(hair.normal()).abs() / s.pdf;
             }
         }

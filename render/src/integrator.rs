@@ -30,9 +30,11 @@
 //! reciprocal for the divisions by the uv determinant and the Gram determinant (`x / d` and
 //! `x · (1 / d)` differ in the last bit); computing the footprint lazily, only for materials that
 //! read uvs (on the bench scenes every hit with uvs is on a textured material: tractor 37 300 of
-//! 88 326 hits have uvs, all textured, shading-heavy all 90 601, so there is nothing to skip). Left:
-//! `Surface` is ~250 bytes (the hair BSDF of curve hits is 116 of them), so moving one costs a
-//! `memcpy` call (29 instructions; 0.35–0.5 % of the process on tractor and shading-heavy).
+//! 88 326 hits have uvs, all textured, shading-heavy all 90 601, so there is nothing to skip). `Surface` was
+//! 248 bytes, 116 of them the hair BSDF of curve hits, and moving one cost a `memcpy` call (29
+//! instructions; 0.35–0.5 % of the process on tractor and shading-heavy); it now keeps the fibre
+//! (tangent, offset, colour, spawn distance; `CurveSurface`) and is 148 bytes, the hair BSDF built
+//! where a curve hit is shaded.
 
 use crate::accel::offset_ray_origin;
 use crate::bsdf::{Bsdf, BsdfSample, Frame};
@@ -146,23 +148,44 @@ pub struct Surface {
     curve: Option<CurveSurface>,
 }
 
-/// What a curve or point hit adds to [`Surface`].
-struct CurveSurface {
-    /// Hair BSDF (curves) rather than UsdPreviewSurface (points).
-    hair: Option<HairBsdf>,
-    /// Diffuse colour (points with per-point colours).
-    color: Vec3,
+// Moved (and, in the wavefront, stored) for every hit: 248 bytes while it carried the built hair
+// BSDF (116 bytes), 148 since it keeps the fibre's 32 bytes instead.
+const _: () = assert!(std::mem::size_of::<Surface>() == 148);
+
+/// What a curve or point hit adds to [`Surface`]: 36 bytes (with the `Option` around it, whose
+/// tag hides in this enum's) where the built hair BSDF was 116 and was moved with every triangle
+/// hit's surface too. The BSDF is built from it where the hit is shaded ([`Scene::bsdf`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum CurveSurface {
+    /// A fibre (Chiang hair BSDF).
+    Hair(HairFibre),
+    /// A point: UsdPreviewSurface with this diffuse colour (its per-point colour or the material's).
+    Point {
+        /// Diffuse colour.
+        color: Vec3,
+    },
+}
+
+/// What the hair BSDF of a fibre hit is built from ([`HairBsdf::from_view_axis`], with the
+/// surface's `ns` as the frame's z axis).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct HairFibre {
+    /// Unit tangent along the fibre.
+    pub(crate) tangent: Vec3,
+    /// Offset across the fibre, in [−1, 1].
+    pub(crate) h: f32,
+    /// Fibre colour.
+    pub(crate) color: Vec3,
     /// Rays leave a fibre from `p + w · spawn` (its diameter and then some): a fibre's own hair BSDF
-    /// already accounts for light crossing it, so the ray must not meet the same fibre again. Zero for
-    /// points (offset along the normal like triangles).
-    spawn: f32,
+    /// already accounts for light crossing it, so the ray must not meet the same fibre again.
+    pub(crate) spawn: f32,
 }
 
 impl Surface {
     /// Origin for a ray leaving the surface in direction `w`.
     pub(crate) fn spawn(&self, w: Vec3) -> Vec3 {
         match &self.curve {
-            Some(c) if c.spawn > 0.0 => self.p + w * c.spawn,
+            Some(CurveSurface::Hair(fibre)) => self.p + w * fibre.spawn,
             _ => offset_ray_origin(self.p, if w.dot(self.ng) >= 0.0 { self.ng } else { -self.ng }),
         }
     }
@@ -175,16 +198,17 @@ pub(crate) enum SurfaceBsdf {
 }
 
 impl SurfaceBsdf {
+    // A hair BSDF was built for the hit's `wo` ([`Scene::bsdf`]), the one these are called with.
     pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         match self {
             SurfaceBsdf::Preview(b) => b.eval(wo, wi),
-            SurfaceBsdf::Hair(h) => h.eval(wo, wi),
+            SurfaceBsdf::Hair(h) => h.eval(wi),
         }
     }
     pub(crate) fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
         match self {
             SurfaceBsdf::Preview(b) => b.sample(wo, u_lobe, u),
-            SurfaceBsdf::Hair(h) => h.sample(wo, u_lobe, u),
+            SurfaceBsdf::Hair(h) => h.sample(u_lobe, u),
         }
     }
     pub(crate) fn albedo(&self) -> Vec3 {
@@ -344,7 +368,7 @@ impl<'a> Scene<'a> {
             let sphere = &curves.spheres[(hit.prim - segments) as usize];
             let color =
                 if has_colors { Vec3::from(sphere.color) } else { Vec3::from(material.diffuse_color) };
-            (hit.n, CurveSurface { hair: None, color, spawn: 0.0 })
+            (hit.n, CurveSurface::Point { color })
         } else {
             let attr = &curves.attributes[hit.prim as usize];
             let color = if has_colors {
@@ -352,9 +376,11 @@ impl<'a> Scene<'a> {
             } else {
                 Vec3::from(material.diffuse_color)
             };
-            let hair = HairBsdf::new(hit.tangent, wo, hit.h, color);
             let spawn = 2.5 * hit.radius + 1e-5 * hit.p.abs().max_element().max(1.0);
-            (hair.normal(), CurveSurface { hair: Some(hair), color, spawn })
+            // The hair frame's z axis is the shading normal; the BSDF's other parameters are
+            // built from the fibre where the hit is shaded.
+            let z = crate::hair::view_axis(hit.tangent, wo);
+            (z, CurveSurface::Hair(HairFibre { tangent: hit.tangent, h: hit.h, color, spawn }))
         };
         Surface {
             p: hit.p,
@@ -369,12 +395,22 @@ impl<'a> Scene<'a> {
         }
     }
 
-    /// The BSDF at `s` from its evaluated shading inputs.
-    pub(crate) fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs) -> SurfaceBsdf {
+    /// The BSDF at `s` seen from `wo` (the direction `s` was built for) from its evaluated shading
+    /// inputs.
+    ///
+    /// Always inlined: a hair BSDF (252 bytes with its per-view terms) makes the enum too large for
+    /// LLVM to inline this on its own, and the out-of-line call returning it through memory cost
+    /// the scalar integrator's triangle hits 0.4–0.8 % of its instructions (callgrind, bench scenes).
+    #[inline(always)]
+    pub(crate) fn bsdf(&self, s: &Surface, inputs: &crate::shading::ShadingInputs, wo: Vec3) -> SurfaceBsdf {
         match &s.curve {
-            Some(CurveSurface { hair: Some(h), .. }) => SurfaceBsdf::Hair(*h),
-            Some(c) => SurfaceBsdf::Preview(Bsdf::from_inputs(
-                &crate::shading::ShadingInputs { diffuse_color: c.color, ..*inputs },
+            // `ns` is still the frame's z axis: a normal map cannot move it on a curve, which has no
+            // `dpdu` ([`Scene::mapped_normal`] keeps `ns` then).
+            Some(CurveSurface::Hair(f)) => {
+                SurfaceBsdf::Hair(HairBsdf::from_view_axis(f.tangent, wo, s.ns, f.h, f.color))
+            }
+            Some(CurveSurface::Point { color }) => SurfaceBsdf::Preview(Bsdf::from_inputs(
+                &crate::shading::ShadingInputs { diffuse_color: *color, ..*inputs },
                 s.ns,
                 s.ng,
             )),
@@ -559,7 +595,7 @@ impl<'a> Scene<'a> {
                 s.ns = Self::mapped_normal(&s, n, wo);
             }
 
-            let bsdf = self.bsdf(&s, &inputs);
+            let bsdf = self.bsdf(&s, &inputs, wo);
             if result.first_hit.is_none() && bounces == 0 {
                 result.first_hit =
                     Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });

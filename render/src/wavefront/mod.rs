@@ -127,9 +127,8 @@
 //! every kind's arithmetic); groups whose lanes all picked a light at infinity now skip the other
 //! kinds' (15.5 M; whole process tractor −0.8 %, simple −0.4 %, shading-heavy +0.04 % for the test).
 //!
-//! Not done yet: a lane version of the hair BSDF (curve hits are shaded per hit, [`shade_curves`]);
-//! MoonRay-style queues that flush into their handler when full (stages here run a whole wave at a
-//! time).
+//! Not done yet: MoonRay-style queues that flush into their handler when full (stages here run a
+//! whole wave at a time).
 //!
 //! # Surfaces, material programs and texture lookups in lanes
 //! Phase 1a runs the material programs of runs of up to eight consecutive hits on one material
@@ -162,6 +161,7 @@ pub mod emission_lanes;
 #[cfg(test)]
 mod equivalence_tests;
 mod generate;
+pub mod hair_lanes;
 mod intersect;
 pub mod lanes;
 pub mod light_lanes;

@@ -195,18 +195,20 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         built: [const { None }; LANES],
         inputs: [ShadingInputs::constant(&blob::Material::default()); LANES],
     };
+    let mut fibres = super::shade_curves::CurveGroup::default();
     let n = w.shade.len();
     let mut start = 0;
     while start < n {
         let end = run_end(&w.shade, start, &w.materials, |i| super::intersect::is_curve(&w.hits[i]));
         let first = sort::index(w.shade[start]);
         if super::intersect::is_curve(&w.hits[first as usize]) {
-            super::shade_curves::vertex(ctx, w, first, rays);
+            super::shade_curves::vertex(ctx, w, &mut fibres, first, rays);
         } else {
             run(ctx, w, &kept, &mut slots, start, end, rays);
         }
         start = end;
     }
+    super::shade_curves::flush(ctx, w, &mut fibres, rays);
     if w.scatter_points > 0 {
         scatter(ctx, w, rays);
     }
