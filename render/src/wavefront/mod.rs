@@ -168,6 +168,8 @@ pub mod light_lanes;
 pub mod material_lanes;
 mod occlusion;
 pub mod packet;
+pub mod queue;
+pub mod queues;
 pub mod roulette;
 pub mod sampler_lanes;
 mod shade;
@@ -325,7 +327,11 @@ pub struct Worker {
     /// Register file of the material-program lanes.
     registers: Box<material_lanes::RegisterLanes>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
-    occlusion: Vec<u32>,
+    occlusion: queue::Queue<u32>,
+    /// Which loop renders the tiles.
+    driver: queues::Driver,
+    /// The queue driver's queues, pools and film (`None` for the wave driver).
+    queues: Option<queues::QueueState>,
     /// Per-pixel running sums of the current tile.
     pixels: Vec<accumulate::PixelSum>,
     /// Stage timers.
@@ -356,10 +362,18 @@ impl Counters {
     }
 }
 
+/// The driver renders use.
+pub const DEFAULT_DRIVER: queues::Driver = queues::Driver::Wave;
+
 impl Worker {
-    /// Pools for tiles of `tile_size²` pixels of `scene`.
+    /// Pools for tiles of `tile_size²` pixels of `scene`, for the [`DEFAULT_DRIVER`].
     /// `phase_stats` times the phases ([`crate::stats::Phase`]).
     pub fn new(tile_size: u32, scene: &Scene, phase_stats: bool) -> Self {
+        Self::with_driver(tile_size, scene, phase_stats, DEFAULT_DRIVER)
+    }
+
+    /// Pools for tiles of `tile_size²` pixels of `scene`, rendered by `driver`.
+    pub fn with_driver(tile_size: u32, scene: &Scene, phase_stats: bool, driver: queues::Driver) -> Self {
         let view = &scene.view;
         let materials = view.materials.len();
         let textured_materials = view
@@ -391,7 +405,16 @@ impl Worker {
             surface_slot: vec![u32::MAX; paths],
             materials: vec![0; paths],
             registers: Box::default(),
-            occlusion: Vec::with_capacity(paths),
+            occlusion: match driver {
+                queues::Driver::Wave => queue::Queue::new(paths, paths),
+                // Each path has at most one shadow ray waiting.
+                queues::Driver::Queues(c) => queue::Queue::new(c.occlusion, paths),
+            },
+            driver,
+            queues: match driver {
+                queues::Driver::Wave => None,
+                queues::Driver::Queues(c) => Some(queues::QueueState::new(c, paths, pixels, materials + 1)),
+            },
             pixels: Vec::with_capacity(pixels),
             seconds: StageSeconds::default(),
             counters: Counters::default(),
@@ -429,13 +452,42 @@ fn timed<R>(slot: &mut f64, f: impl FnOnce() -> R) -> R {
     r
 }
 
-/// Renders one tile breadth-first: the whole wavefront loop, stage by stage.
+impl Worker {
+    /// The queue driver's batch sizes per handler (`None` for the wave driver).
+    pub fn queue_batches(&self) -> Option<&queues::QueueBatches> {
+        self.queues.as_ref().map(|q| &q.batches)
+    }
+
+    /// The storage of every queue and pool (to check that rendering allocates nothing).
+    pub fn storage(&self) -> Vec<usize> {
+        let mut s = vec![
+            self.states.capacity(),
+            self.rays.capacity(),
+            self.next_rays.capacity(),
+            self.shade.capacity(),
+            self.scratch.capacity(),
+            self.surfaces.capacity(),
+            self.occlusion.storage(),
+            self.pixels.capacity(),
+        ];
+        if let Some(q) = &self.queues {
+            s.extend(q.storage());
+        }
+        s
+    }
+}
+
+/// Renders one tile breadth-first, with the worker's driver.
 pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &Tile) -> TileResult {
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
     let spp = ctx.options.spp as usize;
-    let per_chunk = (w.states.capacity() / npix).clamp(1, spp);
     let mut rays = RayCounts::default();
     accumulate::begin(w, npix);
+    if let queues::Driver::Queues(_) = w.driver {
+        queues::render(ctx, w, tile, &mut rays);
+        return accumulate::finish(w, spp as u32, rays);
+    }
+    let per_chunk = (w.states.capacity() / npix).clamp(1, spp);
     let mut s0 = 0;
     while s0 < spp {
         let samples = per_chunk.min(spp - s0);
@@ -451,6 +503,7 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
             w.clock.lap(Phase::Shading);
             timed(&mut secs.sort, || sort::shade_queue(w));
             w.clock.lap(Phase::Overhead);
+            w.occlusion.clear();
             timed(&mut secs.shade, || shade::shade(ctx, w, &mut rays));
             timed(&mut secs.occlusion, || occlusion::any_hit(ctx, w, &mut rays));
             w.clock.lap(Phase::Intersect);
