@@ -37,11 +37,19 @@ pub struct Finished {
     pub sample: FilmSample,
 }
 
-/// The radiance queue's handler: writes a batch of finished paths into the chunk's film, sorted by
-/// slot (so by pixel, then sample) first, so the writes walk the film forwards.
-pub(super) fn write_film(batch: &mut [Finished], film: &mut [FilmSample]) {
-    batch.sort_unstable_by_key(|f| f.slot);
-    for f in batch.iter() {
+/// Size of a radiance-queue entry: slot 4, radiance 12, first hit 32 (`Option<FirstHit>`).
+pub const FINISHED_BYTES: usize = 48;
+const _: () = assert!(std::mem::size_of::<Finished>() == FINISHED_BYTES);
+
+/// The radiance queue's handler: writes a batch of finished paths into the chunk's film.
+///
+/// Not sorted by pixel first (as MoonRay's radiance queue is, whose film is shared between
+/// threads): this film is the worker's own and indexed by (pixel, sample) slot, so the order of the
+/// writes changes nothing but locality, and sorting did not pay for itself. Cachegrind, tractor at
+/// 120×80, 8 spp, 1 thread, queue driver: with `sort_unstable_by_key(slot)` per batch 388.9 M
+/// instructions and 2.31 M D1 misses, without 381.5 M and 2.34 M (the quicksort took 7 M).
+pub(super) fn write_film(batch: &[Finished], film: &mut [FilmSample]) {
+    for f in batch {
         film[f.slot as usize] = f.sample;
     }
 }

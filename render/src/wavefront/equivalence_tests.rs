@@ -572,3 +572,20 @@ fn queue_driver_equals_scalar_with_every_light_kind() {
     };
     queue_driver_equals_scalar(&view, &options, "every light kind");
 }
+
+/// The batch sizes each queue handler sees on the bench scenes (120×80, 8 spp, 1 thread, default
+/// capacities), for the figures in [`super::queues`]' docs; also checks those renders against the
+/// scalar integrator. Needs the bench blobs: `cargo test --release -p render -- --ignored bench_scene`.
+#[test]
+#[ignore]
+fn bench_scene_queue_batches() {
+    for scene in ["tractor", "shading-heavy", "simple"] {
+        let path = std::path::PathBuf::from(format!("/work/bench-blobs/{scene}.blob"));
+        let bytes = crate::read_blob(&path).unwrap();
+        let view = crate::parse_blob(&path, &bytes).unwrap();
+        let options =
+            RenderOptions { spp: 8, resolution: Some([120, 80]), threads: 1, ..RenderOptions::default() };
+        eprintln!("== {scene}");
+        queue_driver_equals_scalar(&view, &options, scene);
+    }
+}

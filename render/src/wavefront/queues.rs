@@ -342,20 +342,21 @@ fn flush_rays(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, rays: &mut RayC
             let i = sort::index(e) as usize;
             let material = intersect::hit_material(ctx.scene, &w.hits[i], &w.curve_hits[i]);
             w.materials[i] = material;
-            q.passed_on[i] = true;
             let m = (material as usize).min(last);
             if q.shade[m].push(i as u32) && q.shade[m].len() == q.shade[m].capacity() {
                 q.full_shade.push(m as u32);
             }
         }
-        end_unpassed(q, w.rays.iter().copied());
+        // The escaped paths: the only ones whose hit has an infinite distance (their hits are
+        // still in L1 from the emission pass).
+        q.ended.extend(w.rays.iter().copied().filter(|&i| w.hits[i as usize].t == f32::INFINITY));
     });
     w.seconds = secs;
     w.clock.lap(Phase::Shading);
 }
 
-/// Moves the paths of `batch` that the handler did not pass on (`passed_on` false) to `ended`, and
-/// clears the flags.
+/// Moves the paths of `batch` that the shade handler did not pass on (`passed_on` false) to
+/// `ended`, and clears the flags.
 fn end_unpassed(q: &mut QueueState, batch: impl Iterator<Item = u32>) {
     for i in batch {
         let passed = &mut q.passed_on[i as usize];
@@ -376,11 +377,14 @@ fn flush_shade(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, m: usize, rays
     q.shade[m].clear();
     q.batches.shade.record(w.shade.len());
     let mut secs = w.seconds;
-    timed(&mut secs.sort, || intersect::sort_keys(ctx, w));
-    w.clock.lap(Phase::Shading);
-    let n = w.shade.len();
-    timed(&mut secs.sort, || sort::radix_sort_by_key(&mut w.shade, &mut w.scratch[..n]));
-    w.clock.lap(Phase::Overhead);
+    // Without texels every key is 0 and the ray handler has recorded the materials: nothing to sort.
+    if ctx.textured {
+        timed(&mut secs.sort, || intersect::sort_keys(ctx, w));
+        w.clock.lap(Phase::Shading);
+        let n = w.shade.len();
+        timed(&mut secs.sort, || sort::radix_sort_by_key(&mut w.shade, &mut w.scratch[..n]));
+        w.clock.lap(Phase::Overhead);
+    }
     timed(&mut secs.shade, || shade::shade(ctx, w, rays));
     let q = w.queues.as_mut().expect("queues");
     for &i in &w.next_rays {
