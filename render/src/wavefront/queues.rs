@@ -16,7 +16,7 @@
 //!
 //! One worker (a rayon task per tile) owns all its queues: no locks, no central scheduler; every
 //! queue's storage is allocated in [`QueueState::new`] and never grows ([`Queue`]). The handlers are
-//! called by one loop ([`render_chunk`]), "flush whichever queue is full", in this order: occlusion,
+//! called by one loop (`render_chunk`), "flush whichever queue is full", in this order: occlusion,
 //! a full shade queue, the ray queue; when nothing is full and no path is free (or the chunk's camera
 //! paths are all out) it flushes the longest waiting queue: the drain. The loop keeps the depth
 //! bounded where MoonRay's handlers call each other from inside `push`.
@@ -27,23 +27,69 @@
 //! | ray | path index | 32: [`super::RayState`] slot |
 //! | shade, one per material | path index; on flush `key << 32 \| index` | 64: [`super::sort`]'s layout |
 //! | occlusion | path index ([`super::ShadowRay`] in a side table) | 32 |
-//! | radiance | [`Finished`]: film slot + radiance + first hit | 32 + 96 + 256 bits |
+//! | radiance | `Finished`: film slot + radiance + first hit | 32 + 96 + 256 bits |
 //!
 //! # Bit-exactness
 //! Paths add their radiance terms in the scalar integrator's order: the occlusion queue is flushed
 //! before every ray flush, so the light sample of vertex k is added before the emission the
 //! continuation finds at vertex k + 1; a path that ends with a shadow ray pending waits in `ended`
 //! until the next occlusion flush. Paths finish in any order: each writes its (pixel, sample) slot of
-//! the chunk's film, and [`super::accumulate::film`] sums the slots in sample order, as the scalar
+//! the chunk's film, and `accumulate::film` sums the slots in sample order, as the scalar
 //! film loop does. Scheduling therefore never changes the image: the equivalence tests render with
 //! tiny capacities (every flush path, the drain, the regeneration) and compare bit for bit.
 //!
 //! # Why per-worker shade queues
-//! Shade queues shared between threads would need an ordering of flushes across threads to stay
-//! deterministic in anything but the image (counters, timing laps) and a lock-free multi-producer
-//! queue on the hot path; a tile's paths already fill 8-lane groups (`--stats`: 99.7 % lane use with
-//! the wave driver), so the queues stay per worker, as MoonRay's are (its shade queues are shared
-//! only because its paths are sorted per material across threads).
+//! Shade queues shared between threads would need a lock or a lock-free multi-producer queue on the
+//! hot path, and the order in which threads' hits meet in a shared batch would differ from run to
+//! run (the image would not change, since every path's terms keep their order, but the batches,
+//! counters and timings would). They would pay only if per-worker batches ran short of full 8-lane
+//! groups, and they do not: a tile's paths already fill them (`--stats`: 99.7 % lane use with the
+//! wave driver, 98.8–99.8 % with this one), so the queues stay per worker.
+//!
+//! # Measured against the wave driver (not the default: [`super::DEFAULT_DRIVER`])
+//! Both drivers run the same kernels and give the same bytes (EXRs of the three bench scenes
+//! compared with `cmp`; the equivalence tests at tiny, medium and default capacities on 1 and 3
+//! threads). Cachegrind, whole process, 120×80, 8 spp, 1 thread (instructions; D1 misses, read +
+//! write):
+//!
+//! | scene | wave driver | queue driver | queue/wave |
+//! |---|---|---|---|
+//! | tractor | 366.0 M; 1.85 M | 381.0 M; 2.35 M | +4.1 %; +27 % |
+//! | shading-heavy | 612.5 M; 4.21 M | 626.7 M; 4.73 M | +2.3 %; +12 % |
+//! | simple | 136.1 M; 0.76 M | 145.5 M; 1.05 M | +6.9 %; +39 % |
+//!
+//! `bench integrators` (320×213, 16 spp, 2 threads, wavefront speed-up over the scalar integrator
+//! in CPU seconds, drivers alternating, 3 runs each, contended: load average 8–10 on the 2 cores):
+//! tractor wave 1.67–1.78× / queues 1.50–1.63×, shading-heavy 1.13–1.58× / 1.35–1.39×, simple
+//! 1.75–1.81× / 1.43–1.71× (with the radiance batches sorted); a second series without the sort
+//! (below): tractor 1.46–1.73× / 1.34–1.66×, shading-heavy 1.16–1.48× / 1.43–1.60×, simple
+//! 1.54–1.64× / 1.34–1.67×. The noise is as large as the difference; the counts above are not.
+//!
+//! Where the extra work goes (cachegrind, tractor): retiring a path reads its radiance and first
+//! hit when it has gone cold (142 k read misses) and `accumulate::film` reads the film
+//! back (59 k), where the wave driver's accumulation read the path states in place (120 k); the
+//! queues' per-path bookkeeping (free list, film slot, pass-on flags, the material distribution,
+//! ~100 instructions per ray-queue entry: 15 M over 155 k). What the queues could win does not show here: a tile's
+//! samples (16×16 × 16 spp = 4096) fit the wave driver's pool, whose waves keep the 8-lane groups
+//! full to the last bounce (99.7 %), so regeneration has no short waves to fill; smaller queues
+//! and pools (1024 paths, ray queue 256, shade queues 64) took *more* D1 misses (2.60 M on the
+//! tractor), as paths scatter over more flushes. Sorting each radiance batch by film slot before
+//! writing it (as MoonRay sorts its radiance queue by pixel) cost 7.3 M
+//! instructions for 1 % fewer misses, and is left out (`accumulate::write_film`).
+//!
+//! Batch sizes per handler (the ignored test `bench_scene_queue_batches`; tractor, 120×80, 8 spp,
+//! default capacities; batches per power-of-two bucket of size, up to):
+//!
+//! | handler | batches | mean | ≤ 8 | ≤ 64 | ≤ 256 | ≤ 1024 |
+//! |---|---|---|---|---|---|---|
+//! | rays | 317 | 489 | 58 | 55 | 44 | 160 |
+//! | shade (all materials) | 427 | 207 | 147 | 97 | 63 | 120 |
+//! | occlusion | 269 | 235 | 52 | 66 | 64 | 87 |
+//! | radiance | 300 | 256 | | | 300 | |
+//!
+//! The small batches are the drain's (a chunk's last bounces, one flush per material); shading-heavy
+//! has the same shape (rays mean 520, shade 237), the simple scene's two materials take 28 shade
+//! batches of mean 597.
 
 use super::accumulate::{self, FilmSample, Finished};
 use super::queue::{BatchHistogram, Queue};
