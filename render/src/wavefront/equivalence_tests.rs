@@ -446,7 +446,11 @@ fn render_with_driver(
                         .enumerate()
                         .skip(k)
                         .step_by(threads)
-                        .map(|(t, tile)| (t, super::render(ctx, &mut w, tile)))
+                        .map(|(t, tile)| {
+                            let r = super::render(ctx, &mut w, tile);
+                            assert!(w.is_drained(), "the drain left work in the queues");
+                            (t, r)
+                        })
                         .collect();
                     assert_eq!(w.storage(), storage, "rendering grew a queue or pool");
                     (done, w.clock.shader_evaluations, w.queue_batches().copied())

@@ -484,6 +484,12 @@ impl Worker {
         self.queues.as_ref().map(|q| &q.batches)
     }
 
+    /// No queue holds an entry and no path is in flight (the queue driver after each tile; always
+    /// true for the wave driver between tiles).
+    pub fn is_drained(&self) -> bool {
+        self.occlusion.is_empty() && self.queues.as_ref().is_none_or(|q| q.is_drained())
+    }
+
     /// The storage of every queue and pool (to check that rendering allocates nothing).
     pub fn storage(&self) -> Vec<usize> {
         let mut s = vec![

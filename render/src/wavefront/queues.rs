@@ -238,6 +238,11 @@ impl QueueState {
         s
     }
 
+    /// Nothing waits anywhere and every path slot is free (true after every chunk's drain).
+    pub fn is_drained(&self) -> bool {
+        self.is_empty() && self.free.len() == self.config.paths
+    }
+
     /// Nothing waits anywhere.
     fn is_empty(&self) -> bool {
         self.rays.is_empty()
@@ -340,7 +345,7 @@ fn render_chunk(
             accumulate::write_film(batch, film)
         })
     });
-    debug_assert!(q.is_empty() && q.free.len() == q.config.paths);
+    debug_assert!(q.is_drained());
 }
 
 /// Camera paths for chunk positions `positions`, into free pool slots and the ray queue.
