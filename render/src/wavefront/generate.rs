@@ -92,6 +92,10 @@ pub(super) fn camera_rays<T>(
 /// handed to `put` with their position: position `p` is pixel `p / samples` of the tile (row-major)
 /// and sample `s0 + p % samples`. The queue driver asks for the next few positions whenever paths
 /// are free; the wave driver for the whole chunk.
+///
+/// Starting anywhere in the chunk (the pixel, sample and jitter seeds are walked from `paths.start`
+/// rather than by nested loops over the tile) cost the wave driver's camera stage 7.83 M → 9.52 M
+/// instructions (callgrind, tractor, 120×80, 8 spp; +0.46 % of the process), the same image.
 pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
     ctx: &Context<'_, '_, T>,
     tile: &Tile,
