@@ -3,7 +3,9 @@
 //! one path at a time, with the per-path arithmetic in 8-lane AoSoA kernels.
 //!
 //! One worker (one rayon task per tile, each with its own [`Worker`] of preallocated pools and queues:
-//! no locks, no allocation on the hot path) runs, per tile and per chunk of that tile's samples:
+//! no locks, no allocation on the hot path) runs one of two drivers over the same stage kernels
+//! ([`queues::Driver`]). The default, the *wave* driver, runs per tile and per chunk of that tile's
+//! samples (bounce-synchronous: each stage over the whole wave of surviving paths):
 //!
 //! ```text
 //! generate ─► ray queue ─► intersect (+ area-light emission, 8 rays per lane group)
@@ -18,6 +20,28 @@
 //!                └──────────────────────────────────────────────────────── next ray queue ◄─────┘
 //! occlusion (any hit) ─► radiance; accumulate (per pixel, in sample order) ─► tile
 //! ```
+//!
+//! The *queue* driver ([`queues`], MoonRay §4–6) runs the same kernels from bounded queues that are
+//! flushed into their handler when full, with path regeneration and a drain ending each chunk:
+//!
+//! ```text
+//! camera paths (into free pool slots) ─► ray queue ─(full: 1024)─► intersect + emission
+//!   ▲                                      ▲          escaped: ended ┘ └─► shade queue of the hit's
+//!   │                                      │                               material (one per material)
+//!   │                                      │          ┌──────────(full: 256)──┘
+//!   │                                      │          ▼
+//!   │                                      │   sort keys ─► radix sort ─► shade (phase 1 runs,
+//!   │                                      └── continuations ◄──────────  phase 2 groups of 8)
+//!   │                       occlusion queue ◄── shadow rays ◄──────────────┘     └─► ended
+//!   │   (full: 1024, and before every ray flush) ─► any hit ─► radiance += contribution
+//!   │                                      then ended paths ─► radiance queue ─(full: 256)─► film
+//!   └──────────────── their pool slots are free again ◄──┘    (a slot per (pixel, sample) of the chunk)
+//! film ─► accumulate (per pixel, in sample order) ─► tile
+//! ```
+//!
+//! Queue entries (bits): ray queue and occlusion queue 32 (a [`RayState`] index; the shadow ray in a
+//! side table indexed the same way); shade queues 32 while waiting, 64 once flushed (`key << 32 |
+//! index`, the key layout in [`sort`]); radiance queue [`queues`]' table (slot, radiance, first hit).
 //!
 //! Paths are the [`RayState`] pool; queue entries are 32-bit indices into it (the shade queue holds
 //! 64-bit `key << 32 | index` entries, see [`sort`]). Every random number comes from the stateless
@@ -127,8 +151,9 @@
 //! every kind's arithmetic); groups whose lanes all picked a light at infinity now skip the other
 //! kinds' (15.5 M; whole process tractor −0.8 %, simple −0.4 %, shading-heavy +0.04 % for the test).
 //!
-//! Not done yet: MoonRay-style queues that flush into their handler when full (stages here run a
-//! whole wave at a time).
+//! MoonRay-style queues that flush into their handler when full: built ([`queues`]), equal to the
+//! scalar image bit for bit, and slower than the wave driver here (figures in [`queues`]), so the
+//! wave driver stays the default ([`DEFAULT_DRIVER`]).
 //!
 //! # Surfaces, material programs and texture lookups in lanes
 //! Phase 1a runs the material programs of runs of up to eight consecutive hits on one material
@@ -168,6 +193,8 @@ pub mod light_lanes;
 pub mod material_lanes;
 mod occlusion;
 pub mod packet;
+pub mod queue;
+pub mod queues;
 pub mod roulette;
 pub mod sampler_lanes;
 mod shade;
@@ -325,7 +352,11 @@ pub struct Worker {
     /// Register file of the material-program lanes.
     registers: Box<material_lanes::RegisterLanes>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
-    occlusion: Vec<u32>,
+    occlusion: queue::Queue<u32>,
+    /// Which loop renders the tiles.
+    driver: queues::Driver,
+    /// The queue driver's queues, pools and film (`None` for the wave driver).
+    queues: Option<queues::QueueState>,
     /// Per-pixel running sums of the current tile.
     pixels: Vec<accumulate::PixelSum>,
     /// Stage timers.
@@ -356,10 +387,19 @@ impl Counters {
     }
 }
 
+/// The driver renders use: the wave driver, which ran fewer instructions with fewer L1 data misses
+/// than the queue driver on all three bench scenes (see [`queues`]).
+pub const DEFAULT_DRIVER: queues::Driver = queues::Driver::Wave;
+
 impl Worker {
-    /// Pools for tiles of `tile_size²` pixels of `scene`.
+    /// Pools for tiles of `tile_size²` pixels of `scene`, for the [`DEFAULT_DRIVER`].
     /// `phase_stats` times the phases ([`crate::stats::Phase`]).
     pub fn new(tile_size: u32, scene: &Scene, phase_stats: bool) -> Self {
+        Self::with_driver(tile_size, scene, phase_stats, DEFAULT_DRIVER)
+    }
+
+    /// Pools for tiles of `tile_size²` pixels of `scene`, rendered by `driver`.
+    pub fn with_driver(tile_size: u32, scene: &Scene, phase_stats: bool, driver: queues::Driver) -> Self {
         let view = &scene.view;
         let materials = view.materials.len();
         let textured_materials = view
@@ -391,7 +431,16 @@ impl Worker {
             surface_slot: vec![u32::MAX; paths],
             materials: vec![0; paths],
             registers: Box::default(),
-            occlusion: Vec::with_capacity(paths),
+            occlusion: match driver {
+                queues::Driver::Wave => queue::Queue::new(paths, paths),
+                // Each path has at most one shadow ray waiting.
+                queues::Driver::Queues(c) => queue::Queue::new(c.occlusion, paths),
+            },
+            driver,
+            queues: match driver {
+                queues::Driver::Wave => None,
+                queues::Driver::Queues(c) => Some(queues::QueueState::new(c, paths, pixels, materials + 1)),
+            },
             pixels: Vec::with_capacity(pixels),
             seconds: StageSeconds::default(),
             counters: Counters::default(),
@@ -429,13 +478,48 @@ fn timed<R>(slot: &mut f64, f: impl FnOnce() -> R) -> R {
     r
 }
 
-/// Renders one tile breadth-first: the whole wavefront loop, stage by stage.
+impl Worker {
+    /// The queue driver's batch sizes per handler (`None` for the wave driver).
+    pub fn queue_batches(&self) -> Option<&queues::QueueBatches> {
+        self.queues.as_ref().map(|q| &q.batches)
+    }
+
+    /// No queue holds an entry and no path is in flight (the queue driver after each tile; always
+    /// true for the wave driver between tiles).
+    pub fn is_drained(&self) -> bool {
+        self.occlusion.is_empty() && self.queues.as_ref().is_none_or(|q| q.is_drained())
+    }
+
+    /// The storage of every queue and pool (to check that rendering allocates nothing).
+    pub fn storage(&self) -> Vec<usize> {
+        let mut s = vec![
+            self.states.capacity(),
+            self.rays.capacity(),
+            self.next_rays.capacity(),
+            self.shade.capacity(),
+            self.scratch.capacity(),
+            self.surfaces.capacity(),
+            self.occlusion.storage(),
+            self.pixels.capacity(),
+        ];
+        if let Some(q) = &self.queues {
+            s.extend(q.storage());
+        }
+        s
+    }
+}
+
+/// Renders one tile breadth-first, with the worker's driver.
 pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &Tile) -> TileResult {
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
     let spp = ctx.options.spp as usize;
-    let per_chunk = (w.states.capacity() / npix).clamp(1, spp);
     let mut rays = RayCounts::default();
     accumulate::begin(w, npix);
+    if let queues::Driver::Queues(_) = w.driver {
+        queues::render(ctx, w, tile, &mut rays);
+        return accumulate::finish(w, spp as u32, rays);
+    }
+    let per_chunk = (w.states.capacity() / npix).clamp(1, spp);
     let mut s0 = 0;
     while s0 < spp {
         let samples = per_chunk.min(spp - s0);
@@ -451,6 +535,7 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
             w.clock.lap(Phase::Shading);
             timed(&mut secs.sort, || sort::shade_queue(w));
             w.clock.lap(Phase::Overhead);
+            w.occlusion.clear();
             timed(&mut secs.shade, || shade::shade(ctx, w, &mut rays));
             timed(&mut secs.occlusion, || occlusion::any_hit(ctx, w, &mut rays));
             w.clock.lap(Phase::Intersect);

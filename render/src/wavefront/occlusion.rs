@@ -6,12 +6,13 @@ use super::{Context, Worker};
 use crate::integrator::RayCounts;
 use texture::Touch;
 
-/// Traces every queued shadow ray: any hit among the triangles (with stochastic pass-through, as in
-/// the scalar path), then among the curves and points, which always block.
+/// Traces every queued shadow ray and empties the queue: any hit among the triangles (with
+/// stochastic pass-through, as in the scalar path), then among the curves and points, which always
+/// block.
 pub(super) fn any_hit<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, _rays: &mut RayCounts) {
     let filter = ctx.settings.filter;
     let scene = ctx.scene;
-    for &i in &w.occlusion {
+    for &i in w.occlusion.as_slice() {
         let r = &w.shadow[i as usize];
         if scene.shadow_transmits(r.origin, r.dir, r.tmax, r.seed, filter, ctx.touch)
             && !scene.curves.any_hit(r.origin, r.dir, r.tmax)
@@ -19,4 +20,5 @@ pub(super) fn any_hit<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, _rays:
             w.states[i as usize].radiance += r.contribution;
         }
     }
+    w.occlusion.clear();
 }

@@ -184,10 +184,12 @@ pub struct KernelLanes {
     pub origin: Lanes3,
 }
 
-/// Shades every queued hit: curve and point hits one by one, the others run by run.
+/// Shades every hit of the shade queue (`w.shade`): curve and point hits one by one, the others run
+/// by run. The continuations go to `w.next_rays` (cleared first), the shadow rays are appended to the
+/// occlusion queue.
 pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
     w.next_rays.clear();
-    w.occlusion.clear();
+    let shadow_rays_before = w.occlusion.len();
     // The surfaces the sort kept, out of the worker while the runs borrow it mutably (a move of
     // the vector, no copy; put back below so its memory serves the next wave).
     let kept = std::mem::take(&mut w.surfaces);
@@ -213,7 +215,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         scatter(ctx, w, rays);
     }
     w.surfaces = kept;
-    rays.shadow += w.occlusion.len() as u64;
+    rays.shadow += (w.occlusion.len() - shadow_rays_before) as u64;
 }
 
 /// The end of the run starting at queue position `start`: a curve or point hit alone (`curve(i)`
