@@ -10,7 +10,10 @@
 //!
 //! The table also knows which kinds the scene has ([`LightTable::new`] keeps a kind mask), and
 //! each group knows which kinds its lanes picked. The kernel runs in four steps over the lanes:
-//! 1. selection (the uniform pick, 8-wide), gathering each lane's record into AoSoA columns: only
+//! 1. selection, gathering each lane's record into AoSoA columns: the uniform pick 8-wide when every
+//!    light is at infinity (the table is then `uniform`), else the scalar
+//!    [`crate::lights::tree::LightSelector::select`] per lane (the light tree's descent: a loop of
+//!    data-dependent depth, with each lane's probability kept for step 4's pdfs); then only
 //!    the columns the scene's kinds read (a rect's or disk's axes and normal only when the scene has
 //!    one), and for up to `BLEND_GATHER_MAX` lights by blending each light's record into the lanes
 //!    that picked it (8-wide bit masks) rather than copying a record per lane; then, if a lane picked
@@ -779,10 +782,8 @@ mod tests {
         assert!(uniform.iter().all(|&n| n > 5), "rounds of one light on every lane: {uniform:?}");
     }
 
-    /// A many-light table: every kind plus 120 sphere, rect, disk and point lights around the
-    /// scene, so lanes descend the light tree to different depths and pick different lights.
-    #[test]
-    fn lanes_equal_the_scalar_sample_with_many_lights() {
+    /// `every_light_kind` plus 120 sphere, rect, disk and point lights around the scene.
+    fn many_lights() -> ingest::Scene {
         use ingest::{Light as SceneLight, LightKind};
         let mut scene = every_light_kind();
         let mut rng = Rng(99);
@@ -804,11 +805,38 @@ mod tests {
                 world_from_light: glam::Mat4::from_translation(c) * turn,
             });
         }
-        let mut used = 0;
-        let (per_light, _) = assert_lanes_equal_scalar(&scene, &[], 3000, &mut |_, _| {});
-        used += per_light.iter().filter(|&&n| n > 0).count();
+        scene
+    }
+
+    /// A many-light table: lanes descend the light tree to different depths and pick different
+    /// lights; each equals the scalar sample bit for bit.
+    #[test]
+    fn lanes_equal_the_scalar_sample_with_many_lights() {
+        let (per_light, _) = assert_lanes_equal_scalar(&many_lights(), &[], 3000, &mut |_, _| {});
+        let used = per_light.iter().filter(|&&n| n > 0).count();
         assert_eq!(per_light.len(), 128, "127 UsdLux lights and the emissive triangles");
         assert!(used > 110, "only {used} lights sampled");
+    }
+
+    /// Whole images under 127 lights and emissive triangles: light-tree selection in the lane
+    /// kernel, its pmf in the MIS of the emission BSDF rays meet (the ray-lane emission kernel), and
+    /// the wavefront image equals the scalar one bit for bit.
+    #[test]
+    fn wavefront_equals_scalar_with_many_lights() {
+        let bytes = testscene::bytes(&many_lights());
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        let options = crate::RenderOptions {
+            spp: 4,
+            resolution: Some([32, 32]),
+            tile_size: 16,
+            max_depth: 4,
+            ..crate::RenderOptions::default()
+        };
+        let (scalar, wave) =
+            crate::wavefront::equivalence_tests::both_integrators(&view, &options, "many lights");
+        let mean = scalar.beauty.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / 1024.0;
+        assert!(mean > 0.05, "lit, mean luminance {mean}");
+        assert!(wave.stats.counters.light_lanes_active > 0);
     }
 
     /// A dome and a sun (the tractor's lights): the blended gather and the path for lights at
