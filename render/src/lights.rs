@@ -622,6 +622,11 @@ impl<'a> Lights<'a> {
     /// `tmax`, MIS-weighted against light sampling from `prev` = (previous scattering point, BSDF pdf);
     /// `prev = None` for camera rays (weight 1).
     pub fn area_emission(&self, o: Vec3, d: Vec3, tmax: f32, prev: Option<(Vec3, f32)>) -> Vec3 {
+        // Most scenes have no area light: skip the ray's inverse direction and the group walk
+        // (callgrind, tractor, scalar, 120×80 at 8 spp: 11.3 M instructions here without it).
+        if self.area.is_empty() {
+            return Vec3::ZERO;
+        }
         let mut sum = Vec3::ZERO;
         let (o_a, inv_d) = (o.to_array(), d.recip().to_array());
         for (g, (group, b)) in self.area.chunks(area_groups::GROUP).zip(&self.area_boxes).enumerate() {

@@ -8,7 +8,11 @@
 //! [`LightSelector::new`] builds the tree over them once. Lights at infinity (domes, distant lights)
 //! have no bounds: each takes one slot of a uniform first choice, the tree (when it is not empty)
 //! one more slot, as PBRT does. Scenes with lights at infinity only therefore select exactly as the
-//! uniform selection did. [`LightSelector::select`] turns one uniform number into a light and its
+//! uniform selection did. Measured on the shading-heavy bench scene (dome, sun, 48 spheres; RMSE at
+//! 160×107 against a 1024-spp reference): one tree slot 0.201 at 16 spp and 0.073 at 64 spp; ⌈√48⌉
+//! tree slots 0.200 and 0.078; one slot per bounded light (the uniform selection's share) 0.295
+//! and 0.134, no better than uniform selection (0.298, 0.136): the sun then gets 1/50 of the
+//! samples. [`LightSelector::select`] turns one uniform number into a light and its
 //! probability at a shading point; [`LightSelector::pmf`] gives the probability any light would
 //! have had there. The scalar integrator, the wavefront's lane kernel (which runs the scalar descent
 //! per lane) and the MIS weights of emission found by BSDF rays all go through these two functions.
@@ -32,6 +36,12 @@
 //! order when no axis separates the centroids; a forced median split once the depth could exceed
 //! the 64 path bits. Every step is a deterministic function of the input order: same scene, same
 //! tree. Cost O(n log n) for balanced splits.
+//!
+//! Measured (contended machine; RMSE over RGB at 160×107 against a 1024-spp tree render, shading-heavy
+//! bench scene): uniform selection 0.298 at 16 spp and 0.136 at 64 spp, the tree 0.201 and 0.073
+//! (1.48× and 1.86× lower). Cost (callgrind, 120×80, 8 spp, one thread): shading-heavy +4.2 % of the
+//! wavefront's instructions and +2.7 % of the scalar integrator's; tractor and simple (lights at
+//! infinity only) render the same bytes as before, within 0.4 % of the instructions.
 //!
 //! Sampling descends with one uniform number, rescaled into the chosen child's range at each level
 //! (clamped below 1); at a node where both children have zero importance (every light below
