@@ -213,11 +213,11 @@ impl AreaLightLanes {
         let rays = &self.rays[..n.div_ceil(LANES)];
         hit_rays(&self.shapes, &self.boxes, rays, n, &mut self.rejects, &mut self.hits);
         for h in &self.hits {
-            let (j, light) = (h.ray as usize, &self.lights[h.light as usize]);
+            let j = h.ray as usize;
             let (group, k) = (&self.rays[j / LANES], j % LANES);
             let o = Vec3::new(group.o[0][k], group.o[1][k], group.o[2][k]);
             let d = Vec3::new(group.d[0][k], group.d[1][k], group.d[2][k]);
-            sums[j] += lights.area_term(light, light.radiance, o, d, h.t, self.prev[j]);
+            sums[j] += lights.area_term(h.light as usize, o, d, h.t, self.prev[j]);
         }
         sums
     }
