@@ -9,7 +9,9 @@
 //!   wall seconds, as Mrays and M shader evaluations per CPU second;
 //! * the phase breakdown from one more render with `phase_stats` (its timers cost a few percent, so
 //!   they never time the speed runs): intersection, shading, texturing, integration, overhead;
-//! * the wavefront's SIMD lane utilisation, and the largest beauty difference between the two images.
+//! * the wavefront's SIMD lane utilisation, and the largest beauty difference between the two images;
+//! * the wavefront under its queue driver (`--integrator wavefront-queues`, MoonRay's queues flushed
+//!   when full) as a third row: its speed-up and whether its image equals the scalar one.
 //!
 //! Outputs in `out`: `integrators.json`, `integrators.md` (the table) and `integrators.svg` (stacked
 //! bars of CPU µs per sample by phase, scalar beside wavefront per scene).
@@ -89,6 +91,10 @@ struct SceneResult {
     size: [u32; 2],
     scalar: Figures,
     wave: Figures,
+    /// The wavefront under its queue driver (`--integrator wavefront-queues`).
+    queues: Figures,
+    /// Whether the queue driver's image equals the scalar one bit for bit.
+    queues_equal: bool,
     max_diff: f32,
     mean_diff: f64,
 }
@@ -123,6 +129,8 @@ fn measure(
     let wave = best_of(view, &with(Integrator::Wavefront, false), repeat)?;
     let scalar_timed = render_image(view, &with(Integrator::Scalar, true))?;
     let wave_timed = render_image(view, &with(Integrator::Wavefront, true))?;
+    let queues = best_of(view, &with(Integrator::WavefrontQueues, false), repeat)?;
+    let queues_timed = render_image(view, &with(Integrator::WavefrontQueues, true))?;
     let (mut max_diff, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
     for (a, b) in scalar.image.beauty.iter().flatten().zip(wave.image.beauty.iter().flatten()) {
         let d = (a - b).abs();
@@ -135,6 +143,8 @@ fn measure(
         size: [scalar.image.width, scalar.image.height],
         scalar: figures(&scalar, &scalar_timed),
         wave: figures(&wave, &wave_timed),
+        queues_equal: queues.image.beauty == scalar.image.beauty,
+        queues: figures(&queues, &queues_timed),
         max_diff,
         mean_diff: sum / n.max(1) as f64,
     })
@@ -399,7 +409,7 @@ fn table(results: &[SceneResult], spp: u32, threads: usize, load: &str) -> Strin
         if threads == 0 { "all".to_string() } else { threads.to_string() }
     );
     for r in results {
-        for (label, f) in [("scalar", &r.scalar), ("wavefront", &r.wave)] {
+        for (label, f) in [("scalar", &r.scalar), ("wavefront", &r.wave), ("wavefront-queues", &r.queues)] {
             let p = pct(&f.phases);
             s += &format!(
                 "| {} | {}×{} | {label} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
@@ -420,15 +430,18 @@ fn table(results: &[SceneResult], spp: u32, threads: usize, load: &str) -> Strin
             );
         }
     }
-    s += "\n| scene | wavefront speed-up (CPU) | shading+texturing+integration speed-up | max abs Δ beauty | mean abs Δ |\n|---|---|---|---|---|\n";
+    s += "\n| scene | wavefront speed-up (CPU) | shading+texturing+integration speed-up | max abs Δ beauty | mean abs Δ | \
+          queue driver speed-up (CPU) | queue driver image = scalar |\n|---|---|---|---|---|---|---|\n";
     for r in results {
         s += &format!(
-            "| {} | {:.2}× | {:.2}× | {:e} | {:e} |\n",
+            "| {} | {:.2}× | {:.2}× | {:e} | {:e} | {:.2}× | {} |\n",
             r.name,
             r.speedup(),
             r.shading_speedup(),
             r.max_diff,
-            r.mean_diff
+            r.mean_diff,
+            r.scalar.cpu / r.queues.cpu.max(1e-9),
+            if r.queues_equal { "yes" } else { "NO" },
         );
     }
     s
@@ -447,7 +460,8 @@ fn json(results: &[SceneResult], spp: u32, load: &str) -> serde_json::Value {
         "loadavg": load,
         "scenes": results.iter().map(|r| serde_json::json!({
             "name": r.name, "width": r.size[0], "height": r.size[1],
-            "scalar": f(&r.scalar), "wavefront": f(&r.wave),
+            "scalar": f(&r.scalar), "wavefront": f(&r.wave), "wavefront_queues": f(&r.queues),
+            "queues_image_equals_scalar": r.queues_equal,
             "speedup": r.speedup(), "shading_speedup": r.shading_speedup(),
             "max_abs_beauty_difference": r.max_diff, "mean_abs_beauty_difference": r.mean_diff,
         })).collect::<Vec<_>>(),

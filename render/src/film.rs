@@ -55,6 +55,10 @@ pub enum Integrator {
     /// bench scene (`bench integrators`).
     #[default]
     Wavefront,
+    /// The wavefront integrator under its queue driver ([`crate::wavefront::queues`]: bounded queues
+    /// flushed into their handlers when full, MoonRay's scheme); the same image, kept selectable so
+    /// `bench integrators` measures it beside the default wave driver, which is faster here.
+    WavefrontQueues,
 }
 
 impl std::str::FromStr for Integrator {
@@ -63,7 +67,8 @@ impl std::str::FromStr for Integrator {
         match s {
             "scalar" => Ok(Integrator::Scalar),
             "wavefront" => Ok(Integrator::Wavefront),
-            _ => Err(format!("unknown integrator {s:?} (scalar or wavefront)")),
+            "wavefront-queues" => Ok(Integrator::WavefrontQueues),
+            _ => Err(format!("unknown integrator {s:?} (scalar, wavefront or wavefront-queues)")),
         }
     }
 }
@@ -293,7 +298,13 @@ fn render_with_touch<T: texture::Touch + Sync>(
     ));
     let results: Vec<TileResult> = match options.integrator {
         Integrator::Scalar => pool.install(|| tiles.par_iter().map(render_tile).collect()),
-        Integrator::Wavefront => {
+        Integrator::Wavefront | Integrator::WavefrontQueues => {
+            let driver = match options.integrator {
+                Integrator::WavefrontQueues => {
+                    crate::wavefront::queues::Driver::Queues(crate::wavefront::queues::QueueConfig::DEFAULT)
+                }
+                _ => crate::wavefront::DEFAULT_DRIVER,
+            };
             let ctx = crate::wavefront::Context {
                 scene,
                 camera: &camera,
@@ -323,7 +334,11 @@ fn render_with_touch<T: texture::Touch + Sync>(
                 tiles
                     .par_iter()
                     .map_init(
-                        || Merge(crate::wavefront::Worker::new(ts, scene, options.phase_stats), &stages),
+                        || {
+                            let worker =
+                                crate::wavefront::Worker::with_driver(ts, scene, options.phase_stats, driver);
+                            Merge(worker, &stages)
+                        },
                         |m, tile| {
                             let r = crate::wavefront::render(&ctx, &mut m.0, tile);
                             let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;

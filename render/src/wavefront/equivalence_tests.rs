@@ -128,6 +128,16 @@ pub(super) fn both_integrators(
     assert_eq!(scalar.depth, wave.depth);
     assert_eq!(scalar.stats.rays, wave.stats.rays);
     assert_eq!(scalar.stats.shader_evaluations, wave.stats.shader_evaluations);
+    // The queue driver, selected the way `render --integrator wavefront-queues` selects it.
+    let queues =
+        render_image(view, &RenderOptions { integrator: Integrator::WavefrontQueues, ..options.clone() })
+            .unwrap();
+    assert_eq!(scalar.beauty, queues.beauty, "{what}: the queue driver's image differs");
+    assert_eq!(
+        (&scalar.albedo, &scalar.normal, &scalar.depth),
+        (&queues.albedo, &queues.normal, &queues.depth)
+    );
+    assert_eq!(scalar.stats.rays, queues.stats.rays);
     crate::dispatch_tests::record_image(what, &scalar);
     (scalar, wave)
 }
