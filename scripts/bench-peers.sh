@@ -49,10 +49,11 @@ if ! ls /usr/lib/x86_64-linux-gnu/libLLVM.so.1[6-9]* /usr/lib/x86_64-linux-gnu/l
         exit 1
     fi
 fi
+cargo build --release --locked -p ingest -p render -p bench
+# Set after the build: rustup finds its toolchains through HOME.
 export HOME=$WORK/home # Blender's config and Dr.Jit's kernel cache stay in the work folder
 mkdir -p "$HOME" "$OUT/sweep" "$OUT/ref"
 
-cargo build --release --locked -p ingest -p render -p bench
 
 SPPS=1
 s=2
@@ -88,13 +89,18 @@ run() {
     fi
 }
 
-# ---- references (kept across runs unless PEERS_FRESH=1; seeds independent of the sweeps')
-if [ "${PEERS_FRESH:-0}" = 1 ] || [ ! -f "$OUT/ref/mitsuba.json" ]; then
+# ---- references (each kept across runs unless PEERS_FRESH=1; seeds independent of the sweeps')
+[ "${PEERS_FRESH:-0}" = 1 ] && rm -f "$OUT"/ref/*.exr
+if [ ! -f "$OUT/ref/reference_$REF_SPP.exr" ]; then
     # 256 spp per pass: one llvm pass holds res² × spp lanes in memory.
     "$PY" "$PEERS/run_mitsuba.py" "$SCENE_XML" --variant llvm_ad_rgb --spp-list 256 --passes $((REF_SPP / 256)) \
         --repeat 1 --seed 1000 --name reference "${COMMON[@]}" --out-dir "$OUT/ref" >"$OUT/ref/mitsuba.json"
+fi
+if [ ! -f "$OUT/ref/cycles_$OWN_REF_SPP.exr" ]; then
     "$PY" "$PEERS/run_cycles.py" "$SCENE_USD" --spp-list "$OWN_REF_SPP" --repeat 1 --seed 1000 "${COMMON[@]}" \
         --out-dir "$OUT/ref" >"$OUT/ref/cycles.json" 2>"$OUT/ref/cycles.log"
+fi
+if [ ! -f "$OUT/ref/ours_wavefront_$OWN_REF_SPP.exr" ]; then
     "$PY" "$PEERS/run_ours.py" "$SCENE_USD" --bin-dir "$BIN" --spp-list "$OWN_REF_SPP" --repeat 1 --seed 1000 \
         --name ours_wavefront "${COMMON[@]}" --out-dir "$OUT/ref" >"$OUT/ref/ours.json"
 fi
