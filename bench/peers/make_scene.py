@@ -166,6 +166,15 @@ def usd_mesh(stage, name, v, n, f, mat, smooth):
     return m
 
 
+def metal_bsdf_xml(kind):
+    if kind == 'principled':
+        return (f'<bsdf type="principled"><rgb name="base_color" value="{METAL_COL[0]} {METAL_COL[1]} {METAL_COL[2]}"/>'
+                f'<float name="metallic" value="1"/><float name="roughness" value="{METAL_ROUGH}"/></bsdf>')
+    return ('<bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
+            f'<float name="alpha" value="{METAL_ROUGH**2:.6g}"/><string name="material" value="none"/>'
+            f'<rgb name="specular_reflectance" value="{METAL_COL[0]} {METAL_COL[1]} {METAL_COL[2]}"/></bsdf>')
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument('outdir', nargs='?', default='scene')
@@ -175,6 +184,9 @@ def main():
     ap.add_argument('--max-depth', type=int, default=8)
     ap.add_argument('--lambert', choices=['ior1', 'specwf0', 'default'], default='ior1',
                     help='how the diffuse UsdPreviewSurfaces ask for "no specular"')
+    ap.add_argument('--mitsuba-metal', choices=['conductor', 'principled'], default='conductor',
+                    help="Mitsuba's metal box: roughconductor with a constant reflectance (no Fresnel), or "
+                         "principled metallic = 1 (Schlick from base_color to white, as UsdPreviewSurface)")
     ap.add_argument('--mitsuba-light', choices=['null', 'black'], default='null',
                     help="BSDF of Mitsuba's emitter rectangle")
     ap.add_argument('--light-parent', choices=['xform', 'typeless'], default='xform',
@@ -199,9 +211,7 @@ def main():
         'Sphere': (sph, dict(diffuse=SPHERE_COL),
                    f'<bsdf type="diffuse"><rgb name="reflectance" value="{SPHERE_COL[0]} {SPHERE_COL[1]} {SPHERE_COL[2]}"/></bsdf>'),
         'MetalBox': (bx, dict(diffuse=METAL_COL, metallic=1.0, roughness=METAL_ROUGH, lambert=False),
-                     '<bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
-                     f'<float name="alpha" value="{METAL_ROUGH**2:.6g}"/><string name="material" value="none"/>'
-                     f'<rgb name="specular_reflectance" value="{METAL_COL[0]} {METAL_COL[1]} {METAL_COL[2]}"/></bsdf>'),
+                     metal_bsdf_xml(a.mitsuba_metal)),
     }
 
     # ---------------- USD
