@@ -42,8 +42,34 @@ impl Reach {
     }
 }
 
-/// Reads the curves of `peers.json` (`renderers[].points[]` with `spp`, `seconds`, `rmse`).
-pub fn curves(json: &serde_json::Value) -> anyhow::Result<Vec<Curve>> {
+/// Which time a curve plots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Clock {
+    /// Wall seconds to the image (`seconds`).
+    Wall,
+    /// CPU-seconds of the render (`cpu_seconds`): the work done, less sensitive to other processes
+    /// taking the cores on a shared machine.
+    Cpu,
+}
+
+impl Clock {
+    fn field(self) -> &'static str {
+        match self {
+            Clock::Wall => "seconds",
+            Clock::Cpu => "cpu_seconds",
+        }
+    }
+
+    fn label(self) -> &'static str {
+        match self {
+            Clock::Wall => "wall seconds (time to image)",
+            Clock::Cpu => "CPU-seconds of the render",
+        }
+    }
+}
+
+/// Reads the curves of `peers.json` (`renderers[].points[]` with `spp`, `rmse` and the clock's field).
+pub fn curves(json: &serde_json::Value, clock: Clock) -> anyhow::Result<Vec<Curve>> {
     let renderers = json["renderers"].as_array().context("peers.json: no `renderers` array")?;
     renderers
         .iter()
@@ -58,7 +84,11 @@ pub fn curves(json: &serde_json::Value) -> anyhow::Result<Vec<Curve>> {
                         p[k].as_f64()
                             .with_context(|| format!("peers.json: renderer {name}: a point without `{k}`"))
                     };
-                    Ok(Point { spp: field("spp")? as u32, seconds: field("seconds")?, rmse: field("rmse")? })
+                    Ok(Point {
+                        spp: field("spp")? as u32,
+                        seconds: field(clock.field())?,
+                        rmse: field("rmse")?,
+                    })
                 })
                 .collect::<anyhow::Result<Vec<_>>>()?;
             let mut curve = Curve { name, points };
@@ -105,7 +135,7 @@ pub fn target_rmse(curves: &[Curve], renderer: &str, spp: u32) -> anyhow::Result
 
 /// Markdown: per renderer, the seconds to reach `target` RMSE (fastest first), the ratio to the
 /// fastest, the spp that took, and the lowest RMSE of the sweep with its seconds.
-pub fn table(curves: &[Curve], target: f64, target_label: &str) -> String {
+pub fn table(curves: &[Curve], target: f64, target_label: &str, clock: Clock) -> String {
     let mut rows: Vec<(&Curve, Reach)> = curves.iter().map(|c| (c, time_to_reach(c, target))).collect();
     rows.sort_by(|a, b| {
         let key = |r: Reach| r.seconds().unwrap_or(f64::INFINITY);
@@ -113,7 +143,7 @@ pub fn table(curves: &[Curve], target: f64, target_label: &str) -> String {
     });
     let fastest = rows.first().and_then(|r| r.1.seconds());
     let mut md = String::new();
-    let _ = writeln!(md, "Time to reach RMSE {target:.5} ({target_label}):\n");
+    let _ = writeln!(md, "Time to reach RMSE {target:.5} ({target_label}), in {}:\n", clock.label());
     let _ =
         writeln!(md, "| renderer | seconds to reach | × the fastest | spp needed | lowest RMSE (seconds) |");
     let _ = writeln!(md, "|---|---|---|---|---|");
@@ -136,7 +166,7 @@ pub fn table(curves: &[Curve], target: f64, target_label: &str) -> String {
 }
 
 /// RMSE against seconds, log–log, one curve per renderer, the target RMSE as a dashed line.
-pub fn chart(curves: &[Curve], target: f64, title: &str, path: &Path) -> anyhow::Result<()> {
+pub fn chart(curves: &[Curve], target: f64, title: &str, clock: Clock, path: &Path) -> anyhow::Result<()> {
     let points = || curves.iter().flat_map(|c| c.points.iter());
     let (t0, t1) =
         points().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| (lo.min(p.seconds), hi.max(p.seconds)));
@@ -153,7 +183,7 @@ pub fn chart(curves: &[Curve], target: f64, title: &str, path: &Path) -> anyhow:
         .x_label_area_size(40)
         .y_label_area_size(64)
         .build_cartesian_2d((t0 * 0.8..t1 * 1.25).log_scale(), (e0 * 0.8..e1 * 1.25).log_scale())?;
-    chart.configure_mesh().x_desc("render seconds (time to image)").y_desc("RMSE vs reference").draw()?;
+    chart.configure_mesh().x_desc(clock.label()).y_desc("RMSE vs reference").draw()?;
     chart.draw_series(DashedLineSeries::new(
         [(t0 * 0.8, target), (t1 * 1.25, target)],
         6,
@@ -177,31 +207,32 @@ pub fn chart(curves: &[Curve], target: f64, title: &str, path: &Path) -> anyhow:
     Ok(())
 }
 
-/// Reads `peers.json`, writes `peers.md` and `peers.svg` into `out` and prints the table.
+/// Reads `peers.json`, writes the table and chart for each clock into `out` (`peers.md`, `peers.svg`
+/// for wall seconds; `peers_cpu.md`, `peers_cpu.svg` for CPU-seconds) and prints the tables.
 pub fn run(json_path: &Path, target_renderer: &str, target_spp: u32, out: &Path) -> anyhow::Result<()> {
     let text =
         std::fs::read_to_string(json_path).with_context(|| format!("cannot read {}", json_path.display()))?;
     let json: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("{} is not JSON", json_path.display()))?;
-    let curves = curves(&json).with_context(|| format!("{}", json_path.display()))?;
-    let target = target_rmse(&curves, target_renderer, target_spp)?;
-    let label = format!("{target_renderer} at {target_spp} spp");
-    let md = table(&curves, target, &label);
     std::fs::create_dir_all(out)?;
-    std::fs::write(out.join("peers.md"), &md)?;
     let reference = &json["reference"];
-    let title = format!(
-        "RMSE vs time to image, reference {} at {} spp",
-        reference["renderer"].as_str().unwrap_or("?"),
-        reference["spp"].as_u64().unwrap_or(0)
-    );
-    chart(&curves, target, &title, &out.join("peers.svg"))?;
-    print!("{md}");
-    println!(
-        "table and chart written to {} and {}",
-        out.join("peers.md").display(),
-        out.join("peers.svg").display()
-    );
+    let label = format!("{target_renderer} at {target_spp} spp");
+    for (clock, stem) in [(Clock::Wall, "peers"), (Clock::Cpu, "peers_cpu")] {
+        let curves = curves(&json, clock).with_context(|| format!("{}", json_path.display()))?;
+        let target = target_rmse(&curves, target_renderer, target_spp)?;
+        let md = table(&curves, target, &label, clock);
+        let (md_path, svg_path) = (out.join(format!("{stem}.md")), out.join(format!("{stem}.svg")));
+        std::fs::write(&md_path, &md)?;
+        let title = format!(
+            "RMSE vs {}, reference {} at {} spp",
+            if clock == Clock::Wall { "wall seconds" } else { "CPU-seconds" },
+            reference["renderer"].as_str().unwrap_or("?"),
+            reference["spp"].as_u64().unwrap_or(0)
+        );
+        chart(&curves, target, &title, clock, &svg_path)?;
+        println!("{md}");
+        println!("written to {} and {}\n", md_path.display(), svg_path.display());
+    }
     Ok(())
 }
 
@@ -259,7 +290,7 @@ mod tests {
         }];
         let target = target_rmse(&curves, "fast", 16).unwrap();
         assert!((target - 0.1).abs() < 1e-12);
-        let md = table(&curves, target, "fast at 16 spp");
+        let md = table(&curves, target, "fast at 16 spp", Clock::Wall);
         let rows: Vec<&str> =
             md.lines().filter(|l| l.starts_with("| ") && !l.starts_with("| renderer")).collect();
         assert_eq!(rows.len(), 3, "{md}");
@@ -274,13 +305,18 @@ mod tests {
         let json = serde_json::json!({"renderers": [
             {"name": "cycles", "points": [{"spp": 2, "seconds": 0.4, "rmse": 0.1}, {"spp": 1, "seconds": 0.2, "rmse": 0.14}]}
         ]});
-        let c = curves(&json).unwrap();
+        let c = curves(&json, Clock::Wall).unwrap();
         assert_eq!(c[0].name, "cycles");
         assert_eq!(c[0].points.iter().map(|p| p.spp).collect::<Vec<_>>(), vec![1, 2]);
         let bad =
             serde_json::json!({"renderers": [{"name": "cycles", "points": [{"spp": 1, "seconds": 0.2}]}]});
-        let err = format!("{:#}", curves(&bad).unwrap_err());
+        let err = format!("{:#}", curves(&bad, Clock::Wall).unwrap_err());
         assert!(err.contains("cycles") && err.contains("`rmse`"), "{err}");
+        // The CPU clock reads `cpu_seconds`, and names it when it is missing.
+        let err = format!("{:#}", curves(&json, Clock::Cpu).unwrap_err());
+        assert!(err.contains("`cpu_seconds`"), "{err}");
+        let cpu = serde_json::json!({"renderers": [{"name": "ours", "points": [{"spp": 1, "seconds": 0.5, "cpu_seconds": 0.9, "rmse": 0.1}]}]});
+        assert_eq!(curves(&cpu, Clock::Cpu).unwrap()[0].points[0].seconds, 0.9);
         assert!(target_rmse(&c, "mitsuba", 16).is_err());
         assert!(format!("{:#}", target_rmse(&c, "cycles", 16).unwrap_err()).contains("16-spp"));
     }
@@ -290,7 +326,8 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("peers-table-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("peers.svg");
-        chart(&[mc_curve("ours", 0.4, 0.05), mc_curve("cycles", 0.4, 0.15)], 0.1, "test", &path).unwrap();
+        chart(&[mc_curve("ours", 0.4, 0.05), mc_curve("cycles", 0.4, 0.15)], 0.1, "test", Clock::Cpu, &path)
+            .unwrap();
         let svg = std::fs::read_to_string(&path).unwrap();
         // plotters writes each text element's content on a line of its own.
         let texts: Vec<&str> = svg.lines().map(str::trim).collect();
