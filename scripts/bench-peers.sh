@@ -125,7 +125,16 @@ done
 run mitsuba_llvm_ad_rgb "$PY" "$PEERS/run_mitsuba.py" "$SCENE_XML" --variant llvm_ad_rgb --spp-list "$SPPS" \
     --repeat "$REPEAT" "${COMMON[@]}" --out-dir "$OUT/sweep"
 
-"$PY" "$PEERS/score.py" "$OUT"/sweep/{ours_wavefront,ours_scalar,cycles,mitsuba_scalar_rgb,mitsuba_llvm_ad_rgb,mitsuba_llvm_cold}.json \
+# Mitsuba at its best: the low-discrepancy sampler (the scene's XML asks for `independent`, Mitsuba's
+# default). ldsampler rounds the sample count up to a power of 4 (at least 4), so its sweep runs 4, 16, ….
+sed 's/<sampler type="independent">/<sampler type="ldsampler">/' "$SCENE_XML" >"${SCENE_XML%.xml}_ldsampler.xml"
+LD_SPPS=4
+s=16
+while [ "$s" -le $((2 * MAX_SPP)) ]; do LD_SPPS="$LD_SPPS,$s"; s=$((s * 4)); done
+run mitsuba_llvm_ad_rgb_ldsampler "$PY" "$PEERS/run_mitsuba.py" "${SCENE_XML%.xml}_ldsampler.xml" --variant llvm_ad_rgb \
+    --spp-list "$LD_SPPS" --repeat "$REPEAT" --name mitsuba_llvm_ad_rgb_ldsampler "${COMMON[@]}" --out-dir "$OUT/sweep"
+
+"$PY" "$PEERS/score.py" "$OUT"/sweep/{ours_wavefront,ours_scalar,cycles,mitsuba_scalar_rgb,mitsuba_llvm_ad_rgb,mitsuba_llvm_cold,mitsuba_llvm_ad_rgb_ldsampler}.json \
     --reference "$OUT/ref/reference_$REF_SPP.exr" --reference-renderer mitsuba_llvm_ad_rgb --reference-spp "$REF_SPP" \
     --agree "mitsuba_llvm_ad_rgb=$OUT/ref/reference_$REF_SPP.exr@$REF_SPP" \
     --agree "cycles=$OUT/ref/cycles_$OWN_REF_SPP.exr@$OWN_REF_SPP" \

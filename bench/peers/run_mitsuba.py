@@ -16,6 +16,7 @@ import glob
 import json
 import os
 import resource
+import sys
 import time
 
 
@@ -51,6 +52,9 @@ def main():
     ap.add_argument('--out-dir', required=True)
     a = ap.parse_args()
     name = a.name or f'mitsuba_{a.variant}'
+    # Mitsuba logs warnings to stdout: keep stdout for the JSON line only.
+    real_stdout = os.dup(1)
+    os.dup2(2, 1)
     os.makedirs(a.out_dir, exist_ok=True)
     if a.variant.startswith('llvm') and 'DRJIT_LIBLLVM_PATH' not in os.environ and newest_libllvm():
         os.environ['DRJIT_LIBLLVM_PATH'] = newest_libllvm()
@@ -96,6 +100,8 @@ def main():
         if jit:
             row['llvm_compile_ms'] = compiled  # backend compile time per repeat (0: memory/disk cache hit)
         rows.append(row)
+    sys.stdout.flush()
+    os.dup2(real_stdout, 1)
     print(json.dumps({'renderer': name, 'tool': 'mitsuba', 'version': mi.__version__, 'variant': a.variant,
                       'threads': dr.thread_count(), 'res': a.res, 'max_depth': a.max_depth,
                       'import_s': round(t_import, 3), 'load_s': round(t_load, 3),
