@@ -21,6 +21,9 @@
 //! - `bench ingest [ASSETS]`: seconds to compose a stage and list its gprims, ours against usd-core
 //!   (`Usd.Stage.Open` + the same listing) on the same files, default the three largest shared assets.
 //!
+//! - `bench peers-table PEERS.json`: from `scripts/bench-peers.sh`'s sweeps of ours, Cycles and Mitsuba 3,
+//!   the time each renderer needs to reach one RMSE (markdown) and RMSE against seconds (SVG).
+//!
 //! Figures go to stdout and to a JSON file.
 
 mod convergence;
@@ -29,6 +32,7 @@ mod ingest_speed;
 mod instancing;
 mod instancing_ingest;
 mod integrators;
+mod peers_table;
 mod rays;
 mod subdiv;
 mod textures;
@@ -173,6 +177,20 @@ enum Cmd {
         res: u32,
         /// Work folder for the chart and results.
         #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+    /// Peers: time to reach an RMSE (markdown) and RMSE vs seconds (SVG) from bench-peers.sh's peers.json.
+    PeersTable {
+        /// The JSON written by scripts/bench-peers.sh.
+        json: PathBuf,
+        /// Renderer whose RMSE at --target-spp is the target.
+        #[arg(long, default_value = "mitsuba_llvm_ad_rgb")]
+        target_renderer: String,
+        /// Samples per pixel of the target renderer's point.
+        #[arg(long, default_value_t = 16)]
+        target_spp: u32,
+        /// Folder for peers.md and peers.svg.
+        #[arg(long, default_value = "out/bench/peers")]
         out: PathBuf,
     },
     /// Ingest speed: compose and list a stage, ours against usd-core on the same files.
@@ -348,6 +366,9 @@ fn main() -> anyhow::Result<()> {
         Cmd::Curves { strands, res, out } => {
             std::fs::create_dir_all(&out)?;
             curves::run(strands, res, &out)?;
+        }
+        Cmd::PeersTable { json, target_renderer, target_spp, out } => {
+            peers_table::run(&json, &target_renderer, target_spp, &out)?;
         }
         Cmd::Ingest { assets, python, repeat, out } => {
             let assets = if assets.is_empty() {
