@@ -50,8 +50,15 @@
 //! With the light tree (callgrind, same settings, this kernel inclusive): shading-heavy 9.92 →
 //! 50.82 M (the per-lane scalar descent: about six levels of two importance evaluations for its 48
 //! sphere lights), the whole render 609.5 → 634.9 M (+4.2 %); tractor 6.03 → 6.11 M and simple
-//! unchanged (lights at infinity only: the 8-wide uniform pick stays). The descent is left scalar:
-//! its depth differs per lane; an 8-wide importance of both children per level is the next step.
+//! unchanged (lights at infinity only: the 8-wide uniform pick stays). The descent is left scalar.
+//! Tried and kept out (branch `treelanes`): the descent 8 lanes at a time, both children's 64-byte
+//! node records gathered into columns per level, the importance 8-wide with the scalar operations
+//! (bit-exact on 23 k random lanes), the last two lanes finished by the scalar descent: the kernel
+//! took 50.52 M against 50.82 M (−0.6 %). Only about a third of a group's lanes descend at all (the
+//! first choice has three slots here: dome, sun, tree), and the per-lane gathers of records at random
+//! indices cost about 60 % of a level, eating what the 8-wide arithmetic saves; it would also have
+//! kept a second copy of the importance arithmetic in step with the scalar one. Next to try:
+//! collecting the descending lanes of several groups before descending, or hardware gathers.
 //!
 //! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
