@@ -54,9 +54,12 @@
 //! mean absolute difference 0).
 //!
 //! # Where it stands (idle 2-core machine, `bench integrators`, 320×213, 16 spp, three runs)
-//! Wavefront/scalar CPU time: tractor 1.85–1.94×, shading-heavy 1.38–1.60×, simple 1.38–1.75×;
-//! shading+texturing+integration 1.58–1.65×, 1.37–1.63×, 1.31–1.82× (images equal bit for bit), so the
-//! wavefront is the default. What got it there, each step measured in its module's docs: area-light
+//! Wavefront/scalar CPU time: tractor 1.74–1.99×, shading-heavy 1.37–1.51×, simple 1.71–1.82×;
+//! shading+texturing+integration 1.46–1.69×, 1.27–1.40×, 1.59–1.89× (images equal bit for bit), so the
+//! wavefront is the default. The queue driver ([`queues`]) beside it: 1.60–1.96×, 1.33–1.51×,
+//! 1.43–1.72×. Shading-heavy lost ground to the light tree ([`crate::lights::tree`], 1.5–1.9× lower
+//! RMSE at equal spp there): its descent is the same scalar code per lane in both integrators (before
+//! it the figures were 1.85–1.94×, 1.38–1.60×, 1.38–1.75×; 1.58–1.65×, 1.37–1.63×, 1.31–1.82×). What got it there, each step measured in its module's docs: area-light
 //! emission with eight *rays* per light test ([`emission_lanes`], 146 M → 51 M instructions on the
 //! shading-heavy scene, where the scalar loop takes 249 M), camera rays and the vertex's random
 //! numbers truly 8-wide ([`generate`], [`sampler_lanes`]), light kernels specialised to the scene's
