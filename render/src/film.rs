@@ -154,6 +154,21 @@ pub(crate) struct Tile {
     pub(crate) y1: u32,
 }
 
+/// The image's `tile_size`-square tiles in row-major order, clipped to its edges.
+pub(crate) fn tiles(width: u32, height: u32, tile_size: u32) -> Vec<Tile> {
+    let ts = tile_size;
+    (0..height.div_ceil(ts))
+        .flat_map(|ty| {
+            (0..width.div_ceil(ts)).map(move |tx| Tile {
+                x0: tx * ts,
+                y0: ty * ts,
+                x1: ((tx + 1) * ts).min(width),
+                y1: ((ty + 1) * ts).min(height),
+            })
+        })
+        .collect()
+}
+
 pub(crate) struct TileResult {
     pub(crate) beauty: Vec<[f32; 4]>,
     pub(crate) albedo: Vec<[f32; 3]>,
@@ -221,16 +236,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
         .map_err(|e| RenderError::ThreadPool(e.to_string()))?;
 
     let ts = options.tile_size;
-    let tiles: Vec<Tile> = (0..height.div_ceil(ts))
-        .flat_map(|ty| {
-            (0..width.div_ceil(ts)).map(move |tx| Tile {
-                x0: tx * ts,
-                y0: ty * ts,
-                x1: ((tx + 1) * ts).min(width),
-                y1: ((ty + 1) * ts).min(height),
-            })
-        })
-        .collect();
+    let tiles = tiles(width, height, ts);
     let total = tiles.len();
     let done = std::sync::atomic::AtomicUsize::new(0);
     let start = Instant::now();

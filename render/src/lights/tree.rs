@@ -81,15 +81,7 @@ impl LightBounds {
     /// triangles' entry (whose bounds [`crate::lights::Lights::new`] computes from the triangles).
     pub fn of(light: &Light) -> Option<Self> {
         let max = light.radiance.max_element().max(0.0);
-        let everywhere = |lo: Vec3, hi: Vec3, phi: f32| LightBounds {
-            lo,
-            hi,
-            phi,
-            axis: Vec3::Z,
-            theta_o: PI,
-            theta_e: FRAC_PI_2,
-            two_sided: false,
-        };
+        let everywhere = |lo, hi, phi| Self::omnidirectional(lo, hi, phi, false);
         match light.shape {
             // `radiance` holds the intensity: power 4π I.
             Shape::Point { position } => Some(everywhere(position, position, 4.0 * PI * max)),
@@ -117,15 +109,13 @@ impl LightBounds {
     pub fn of_triangles(corners: impl Iterator<Item = Vec3>, phi: f32) -> Option<Self> {
         let (lo, hi) =
             corners.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| (lo.min(c), hi.max(c)));
-        (lo.cmple(hi).all()).then_some(LightBounds {
-            lo,
-            hi,
-            phi,
-            axis: Vec3::Z,
-            theta_o: PI,
-            theta_e: FRAC_PI_2,
-            two_sided: true,
-        })
+        (lo.cmple(hi).all()).then_some(Self::omnidirectional(lo, hi, phi, true))
+    }
+
+    /// Bounds of emitters in the box `lo`..`hi` that may emit in every direction (the cone is the
+    /// whole sphere, so the axis is arbitrary).
+    fn omnidirectional(lo: Vec3, hi: Vec3, phi: f32, two_sided: bool) -> Self {
+        LightBounds { lo, hi, phi, axis: Vec3::Z, theta_o: PI, theta_e: FRAC_PI_2, two_sided }
     }
 
     /// The bounds of both (PBRT's `Union`: boxes, power, the cone holding both cones).

@@ -101,6 +101,11 @@ fn options() -> RenderOptions {
     }
 }
 
+/// The largest absolute difference between two beauty images, over every channel.
+fn max_abs_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
+    a.iter().flatten().zip(b.iter().flatten()).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max)
+}
+
 /// Renders `view` with both integrators and asserts the images are equal bit for bit (beauty and
 /// every AOV), with the same ray and shader-evaluation counts.
 pub(super) fn both_integrators(
@@ -367,13 +372,7 @@ fn wavefront_equals_scalar_for_every_texture_filter() {
                 .unwrap();
         let wave =
             render_image(&view, &RenderOptions { integrator: Integrator::Wavefront, ..options }).unwrap();
-        let max = scalar
-            .beauty
-            .iter()
-            .flatten()
-            .zip(wave.beauty.iter().flatten())
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
+        let max = max_abs_diff(&scalar.beauty, &wave.beauty);
         eprintln!("{texture_filter:?}: wavefront vs scalar: max abs diff {max:e}");
         assert_eq!(max, 0.0, "{texture_filter:?}");
         assert_eq!(scalar.beauty, wave.beauty, "{texture_filter:?}");
@@ -406,7 +405,6 @@ fn render_with_driver(
     driver: super::queues::Driver,
     threads: usize,
 ) -> DriverImage {
-    use crate::film::Tile;
     let scene = crate::scene::Scene::new(*view);
     let camera_index = scene.camera_index(None).unwrap();
     let [width, height] = scene.resolution(options.resolution, camera_index);
@@ -425,17 +423,7 @@ fn render_with_driver(
         touch: &texture::NoTouch,
         textured: scene.shading.textures().texel_bytes() > 0,
     };
-    let ts = options.tile_size;
-    let tiles: Vec<Tile> = (0..height.div_ceil(ts))
-        .flat_map(|ty| {
-            (0..width.div_ceil(ts)).map(move |tx| Tile {
-                x0: tx * ts,
-                y0: ty * ts,
-                x1: ((tx + 1) * ts).min(width),
-                y1: ((ty + 1) * ts).min(height),
-            })
-        })
-        .collect();
+    let tiles = crate::film::tiles(width, height, options.tile_size);
     let n = (width * height) as usize;
     let mut image = DriverImage {
         beauty: vec![[0.0; 4]; n],
@@ -451,7 +439,7 @@ fn render_with_driver(
             .map(|k| {
                 let (ctx, tiles) = (&ctx, &tiles);
                 s.spawn(move || {
-                    let mut w = super::Worker::with_driver(ts, ctx.scene, false, driver);
+                    let mut w = super::Worker::with_driver(options.tile_size, ctx.scene, false, driver);
                     let storage = w.storage();
                     let done: Vec<_> = tiles
                         .iter()
@@ -522,13 +510,7 @@ fn queue_driver_equals_scalar(view: &blob::SceneView, options: &RenderOptions, w
     for (name, config) in [("default", QueueConfig::DEFAULT), ("medium", MEDIUM), ("tiny", TINY)] {
         for threads in [1, 3] {
             let q = render_with_driver(view, options, Driver::Queues(config), threads);
-            let max = scalar
-                .beauty
-                .iter()
-                .flatten()
-                .zip(q.beauty.iter().flatten())
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0f32, f32::max);
+            let max = max_abs_diff(&scalar.beauty, &q.beauty);
             eprintln!("{what}, {name} queues, {threads} threads: max abs diff {max:e}\n{}", q.batches);
             assert_eq!(max, 0.0, "{what}, {name}, {threads} threads");
             assert_eq!(scalar.beauty, q.beauty, "{what}, {name}, {threads} threads");
