@@ -48,14 +48,16 @@
 //! contributes nothing at that point) it takes each with probability ½, so the probabilities over
 //! all lights always sum to 1.
 
+mod build;
+mod node;
+
 use crate::lights::{Light, Shape};
 use glam::Vec3;
-use std::f32::consts::{FRAC_PI_2, PI, TAU};
+use node::{child_probabilities, Node, LEAF};
+use std::f32::consts::{FRAC_PI_2, PI};
 
 /// The largest f32 below 1.
 const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
-/// SAH buckets per axis.
-const BUCKETS: usize = 12;
 
 /// What the tree knows of a light with a position.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -131,22 +133,6 @@ impl LightBounds {
             two_sided: self.two_sided || other.two_sided,
         }
     }
-
-    /// PBRT's SAH-like cost of a node with these bounds split along `axis` of the parent's box
-    /// `diagonal`: power × the solid angle its emission may cover × box area × how thin the box is
-    /// along the split.
-    fn cost(&self, diagonal: Vec3, axis: usize) -> f32 {
-        let theta_o = self.theta_o;
-        let theta_w = (theta_o + self.theta_e).min(PI);
-        let (sin_o, cos_o) = theta_o.sin_cos();
-        let m_omega = TAU * (1.0 - cos_o)
-            + FRAC_PI_2
-                * (2.0 * theta_w * sin_o - (theta_o - 2.0 * theta_w).cos() - 2.0 * theta_o * sin_o + cos_o);
-        let kr = diagonal.max_element() / diagonal[axis];
-        let d = self.hi - self.lo;
-        let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
-        self.phi * m_omega * kr * area
-    }
 }
 
 /// The smallest cone (axis, half-angle) holding the cones (`a`, `theta_a`) and (`b`, `theta_b`).
@@ -168,102 +154,22 @@ fn cone_union(a: Vec3, theta_a: f32, b: Vec3, theta_b: f32) -> (Vec3, f32) {
     ((rotation * a).normalize(), theta_o)
 }
 
-/// Flag of a leaf node.
-const LEAF: u32 = 1;
-/// Flag of a node whose lights emit on both sides.
-const TWO_SIDED: u32 = 2;
-
-/// One tree node, 64 bytes (see the module docs).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[repr(C, align(64))]
-struct Node {
-    /// Centre of the bounding sphere of the node's box.
-    center: [f32; 3],
-    /// Its squared radius.
-    radius2: f32,
-    /// Unit axis of the normals' cone.
-    axis: [f32; 3],
-    phi: f32,
-    cos_o: f32,
-    sin_o: f32,
-    cos_e: f32,
-    /// [`LEAF`] | [`TWO_SIDED`].
-    flags: u32,
-    /// A leaf's light (index into the selection list), an interior node's second child.
-    index: u32,
-    _pad: [u32; 3],
-}
-
-const _: () = assert!(std::mem::size_of::<Node>() == 64);
-
-impl Node {
-    fn new(b: &LightBounds, flags: u32, index: u32) -> Self {
-        let center = (b.lo + b.hi) * 0.5;
-        let (sin_o, cos_o) = if b.theta_o >= PI { (0.0, -1.0) } else { b.theta_o.sin_cos() };
-        // Every emitter here ends at θ_e = π/2; store its cosine as exactly 0.
-        let cos_e = if b.theta_e == FRAC_PI_2 { 0.0 } else { b.theta_e.cos() };
-        Node {
-            center: center.to_array(),
-            radius2: (b.hi - center).length_squared(),
-            axis: b.axis.to_array(),
-            phi: b.phi,
-            cos_o,
-            sin_o: sin_o.max(0.0),
-            cos_e,
-            flags: flags | if b.two_sided { TWO_SIDED } else { 0 },
-            index,
-            _pad: [0; 3],
-        }
-    }
-
-    /// How much the node's lights may contribute at `p`: φ · cos θ' / d², where θ' is the smallest
-    /// angle between the emission cone and the direction to `p` over the node's bounding sphere
-    /// (PBRT's `LightBounds::Importance` without the receiver's normal term). Zero only where no
-    /// light below can emit towards `p`.
-    #[inline]
-    fn importance(&self, p: Vec3) -> f32 {
-        let v = p - Vec3::from(self.center);
-        let dist2 = v.length_squared();
-        // Inside the bounding sphere the distance says nothing: clamp it to the radius.
-        let d2 = dist2.max(self.radius2);
-        let wi = if dist2 > 0.0 { v / dist2.sqrt() } else { Vec3::ZERO };
-        let cos_w = Vec3::from(self.axis).dot(wi);
-        let cos_w = if self.flags & TWO_SIDED != 0 { cos_w.abs() } else { cos_w };
-        let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
-        // The angle the bounding sphere subtends from `p` (everything from inside).
-        let (cos_b, sin_b) = if dist2 <= self.radius2 {
-            (-1.0, 0.0)
-        } else {
-            let sin2 = self.radius2 / dist2;
-            ((1.0 - sin2).max(0.0).sqrt(), sin2.sqrt())
-        };
-        // cos(max(0, θ_w − θ_o)), then cos(max(0, θ_x − θ_b)).
-        let (cos_x, sin_x) = if cos_w > self.cos_o {
-            (1.0, 0.0)
-        } else {
-            (cos_w * self.cos_o + sin_w * self.sin_o, sin_w * self.cos_o - cos_w * self.sin_o)
-        };
-        let cos_p = if cos_x > cos_b { 1.0 } else { cos_x * cos_b + sin_x * sin_b };
-        if cos_p <= self.cos_e {
-            return 0.0;
-        }
-        self.phi * cos_p / d2
-    }
-}
-
-/// A light's place in the tree: one bit per level from the root (1 = second child).
+/// A light's place in the tree: the child slot chosen at each level from the root, three bits
+/// a level (level `i` in bits `3i..3i + 3`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Path {
-    bits: u64,
+    digits: u128,
+    /// Levels: nodes from the root to the light's.
     depth: u32,
 }
 
 /// No path: the light is not in the tree.
-const NOT_IN_TREE: Path = Path { bits: 0, depth: u32::MAX };
+const NOT_IN_TREE: Path = Path { digits: 0, depth: u32::MAX };
 
 /// The light BVH over the bounded lights.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LightTree {
+    /// The root first.
     nodes: Vec<Node>,
     /// By selection-list index.
     paths: Vec<Path>,
@@ -273,13 +179,9 @@ impl LightTree {
     /// Builds the tree over `items` (selection-list index, bounds); `count` is the length of the
     /// selection list.
     pub fn new(items: &[(u32, LightBounds)], count: usize) -> Self {
-        let mut tree =
-            LightTree { nodes: Vec::with_capacity(2 * items.len()), paths: vec![NOT_IN_TREE; count] };
-        if !items.is_empty() {
-            let mut items = items.to_vec();
-            tree.build(&mut items, 0, 0);
-        }
-        tree
+        let mut paths = vec![NOT_IN_TREE; count];
+        let nodes = if items.is_empty() { Vec::new() } else { build::build(items, &mut paths) };
+        LightTree { nodes, paths }
     }
 
     /// Whether no light is in the tree.
@@ -287,156 +189,71 @@ impl LightTree {
         self.nodes.is_empty()
     }
 
-    /// Appends the subtree of `items` at depth `depth` reached by `bits`; returns its root's bounds.
-    fn build(&mut self, items: &mut [(u32, LightBounds)], depth: u32, bits: u64) -> LightBounds {
-        let at = self.nodes.len();
-        if let [(light, b)] = items {
-            self.nodes.push(Node::new(b, LEAF, *light));
-            self.paths[*light as usize] = Path { bits, depth };
-            return *b;
-        }
-        self.nodes.push(Node::default());
-        let mid = split(items, depth);
-        let (first, second) = items.split_at_mut(mid);
-        let a = self.build(first, depth + 1, bits);
-        let second_at = self.nodes.len() as u32;
-        let b = self.build(second, depth + 1, bits | 1 << depth);
-        let both = a.union(&b);
-        self.nodes[at] = Node::new(&both, 0, second_at);
-        both
-    }
-
-    /// The two children's probabilities at `p` (½ each when neither may contribute).
-    #[inline]
-    fn child_probabilities(&self, node: usize, p: Vec3) -> [f32; 2] {
-        let a = self.nodes[node + 1].importance(p);
-        let b = self.nodes[self.nodes[node].index as usize].importance(p);
-        let sum = a + b;
-        if sum > 0.0 && sum.is_finite() {
-            [a / sum, b / sum]
-        } else {
-            [0.5, 0.5]
-        }
-    }
-
     /// Chooses a light at `p` with `u` in [0, 1): its selection-list index and probability. The
     /// tree must not be empty.
-    pub fn sample(&self, p: Vec3, mut u: f32) -> (usize, f32) {
-        let (mut node, mut pmf) = (0usize, 1.0f32);
-        loop {
-            let n = &self.nodes[node];
-            if n.flags & LEAF != 0 {
-                return (n.index as usize, pmf);
-            }
-            let [first, second] = self.child_probabilities(node, p);
-            if u < first {
-                u = (u / first).min(ONE_MINUS_EPSILON);
-                pmf *= first;
-                node += 1;
-            } else {
-                u = ((u - first) / second).clamp(0.0, ONE_MINUS_EPSILON);
-                pmf *= second;
-                node = n.index as usize;
-            }
-        }
+    #[inline]
+    pub fn sample(&self, p: Vec3, u: f32) -> (usize, f32) {
+        descend(&self.nodes, p.to_array(), u)
     }
 
     /// The probability [`LightTree::sample`] chooses `light` at `p` (0 if it is not in the tree).
+    #[inline]
     pub fn pmf(&self, p: Vec3, light: usize) -> f32 {
-        let Some(&Path { bits, depth }) = self.paths.get(light).filter(|path| path.depth != u32::MAX) else {
-            return 0.0;
-        };
-        let (mut node, mut pmf) = (0usize, 1.0f32);
-        for level in 0..depth {
-            let probabilities = self.child_probabilities(node, p);
-            let second = (bits >> level & 1) as usize;
-            pmf *= probabilities[second];
-            node = if second == 1 { self.nodes[node].index as usize } else { node + 1 };
+        match self.paths.get(light) {
+            Some(&path) if path.depth != u32::MAX => replay(&self.nodes, p.to_array(), path),
+            _ => 0.0,
         }
-        pmf
     }
 
-    /// Number of levels below the root of the deepest leaf.
+    /// Number of levels of the deepest light.
     #[cfg(test)]
     fn depth(&self) -> u32 {
         self.paths.iter().filter(|p| p.depth != u32::MAX).map(|p| p.depth).max().unwrap_or(0)
     }
 }
 
-/// Partitions `items` for a node at `depth` and returns the size of the first part (in 1..len).
-fn split(items: &mut [(u32, LightBounds)], depth: u32) -> usize {
-    let n = items.len();
-    let centroid = |b: &LightBounds| (b.lo + b.hi) * 0.5;
-    let (lo, hi) = items.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (_, b)| {
-        let c = centroid(b);
-        (lo.min(c), hi.max(c))
-    });
-    let extent = hi - lo;
-    // Past this depth the 64 path bits could run out below a chain of uneven splits: halve instead.
-    let must_halve = depth as usize + (usize::BITS - (n - 1).leading_zeros()) as usize >= 62;
-    let best = if must_halve { None } else { best_bucket_split(items, lo, extent) };
-    if let Some((axis, bucket)) = best {
-        let bucket_of = |b: &LightBounds| bucket_index(centroid(b)[axis], lo[axis], extent[axis]);
-        let mid = partition(items, |(_, b)| bucket_of(b) <= bucket);
-        if mid > 0 && mid < n {
-            return mid;
-        }
-    }
-    // Median along the widest axis, ties by light index: deterministic and balanced.
-    let axis = extent.max_position();
-    let mid = n / 2;
-    items.select_nth_unstable_by(mid, |(i, a), (j, b)| {
-        centroid(a)[axis].total_cmp(&centroid(b)[axis]).then(i.cmp(j))
-    });
-    mid
-}
-
-fn bucket_index(c: f32, lo: f32, extent: f32) -> usize {
-    (((c - lo) / extent * BUCKETS as f32) as usize).min(BUCKETS - 1)
-}
-
-/// The SAH's best (axis, last bucket of the first part), or `None` if no axis spreads the centroids.
-fn best_bucket_split(items: &[(u32, LightBounds)], lo: Vec3, extent: Vec3) -> Option<(usize, usize)> {
-    let (box_lo, box_hi) =
-        items.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), (_, b)| (l.min(b.lo), h.max(b.hi)));
-    let diagonal = box_hi - box_lo;
-    let mut best: Option<(f32, usize, usize)> = None;
-    for axis in 0..3 {
-        if extent[axis].is_nan() || extent[axis] <= 0.0 {
-            continue;
-        }
-        let mut buckets: [Option<LightBounds>; BUCKETS] = [None; BUCKETS];
-        for (_, b) in items {
-            let k = bucket_index((b.lo[axis] + b.hi[axis]) * 0.5, lo[axis], extent[axis]);
-            buckets[k] = Some(buckets[k].map_or(*b, |acc| acc.union(b)));
-        }
-        let merge = |acc: Option<LightBounds>, b: &Option<LightBounds>| match (acc, b) {
-            (Some(a), Some(b)) => Some(a.union(b)),
-            (a, b) => a.or(*b),
-        };
-        for last in 0..BUCKETS - 1 {
-            let below = buckets[..=last].iter().fold(None, merge);
-            let above = buckets[last + 1..].iter().fold(None, merge);
-            let (Some(below), Some(above)) = (below, above) else { continue };
-            let cost = below.cost(diagonal, axis) + above.cost(diagonal, axis);
-            if cost.is_finite() && best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, axis, last));
+/// [`LightTree::sample`]: at each node, one 8-lane pass for the children's probabilities, then the
+/// child whose slice of the cumulative probabilities holds `u`, and `u` rescaled into that slice.
+/// Children of probability 0 are never chosen (a `u` past the rounded total takes the last child
+/// that may contribute).
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
+fn descend(nodes: &[Node], p: [f32; 3], mut u: f32) -> (usize, f32) {
+    let (mut node, mut pmf) = (&nodes[0], 1.0f32);
+    loop {
+        let probabilities = child_probabilities(node, p);
+        let (mut chosen, mut below, mut cdf) = (0, 0.0f32, 0.0f32);
+        for (k, &probability) in probabilities.iter().enumerate().take(node.len as usize) {
+            if probability > 0.0 {
+                (chosen, below) = (k, cdf);
+                cdf += probability;
+                if u < cdf {
+                    break;
+                }
             }
         }
+        let probability = probabilities[chosen];
+        u = ((u - below) / probability).clamp(0.0, ONE_MINUS_EPSILON);
+        pmf *= probability;
+        if node.flags[chosen] & LEAF != 0 {
+            return (node.child[chosen] as usize, pmf);
+        }
+        node = &nodes[node.child[chosen] as usize];
     }
-    best.map(|(_, axis, last)| (axis, last))
 }
 
-/// Moves the items for which `first` holds to the front (in place, deterministic); returns how many.
-fn partition<T>(items: &mut [T], first: impl Fn(&T) -> bool) -> usize {
-    let mut mid = 0;
-    for i in 0..items.len() {
-        if first(&items[i]) {
-            items.swap(i, mid);
-            mid += 1;
+/// [`LightTree::pmf`]: the same probabilities as [`descend`], multiplied in the same order along
+/// the light's stored path, so the two agree bit for bit.
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
+fn replay(nodes: &[Node], p: [f32; 3], path: Path) -> f32 {
+    let (mut node, mut pmf) = (&nodes[0], 1.0f32);
+    for level in 0..path.depth {
+        let slot = (path.digits >> (3 * level) & 7) as usize;
+        pmf *= child_probabilities(node, p)[slot];
+        if level + 1 < path.depth {
+            node = &nodes[node.child[slot] as usize];
         }
     }
-    mid
+    pmf
 }
 
 /// Light selection: a uniform first choice among the lights at infinity and the tree, then the
