@@ -110,7 +110,8 @@ impl LightBounds {
         let theta_w = (theta_o + self.theta_e).min(PI);
         let (sin_o, cos_o) = theta_o.sin_cos();
         TAU * (1.0 - cos_o)
-            + FRAC_PI_2 * (2.0 * theta_w * sin_o - (theta_o - 2.0 * theta_w).cos() - 2.0 * theta_o * sin_o + cos_o)
+            + FRAC_PI_2
+                * (2.0 * theta_w * sin_o - (theta_o - 2.0 * theta_w).cos() - 2.0 * theta_o * sin_o + cos_o)
     }
 
     /// PBRT's SAH-like cost of a node with these bounds split along `axis` of the parent's box
@@ -201,4 +202,3 @@ fn partition<T>(items: &mut [T], first: impl Fn(&T) -> bool) -> usize {
     }
     mid
 }
-

@@ -156,7 +156,6 @@ fn the_build_is_deterministic_and_bounded_in_depth() {
     assert!(tree.depth() <= 3 && at_two >= 40, "depth {}, {at_two} of 48 lights at 2 levels", tree.depth());
 }
 
-
 /// Every light's stored path leads to it: slot digits replayed from the root end at its leaf lane.
 #[test]
 fn paths_lead_to_their_lights() {
@@ -192,7 +191,8 @@ fn textbook_importance(n: &node::Node, k: usize, p: Vec3) -> f32 {
     let v = p - center;
     let dist2 = v.x * v.x + v.y * v.y + v.z * v.z;
     let d2 = dist2.max(n.radius2[k]);
-    let mut cos_w = if dist2 > 0.0 { (axis.x * v.x + axis.y * v.y + axis.z * v.z) / dist2.sqrt() } else { 0.0 };
+    let mut cos_w =
+        if dist2 > 0.0 { (axis.x * v.x + axis.y * v.y + axis.z * v.z) / dist2.sqrt() } else { 0.0 };
     if n.flags[k] & node::TWO_SIDED != 0 {
         cos_w = cos_w.abs();
     }
@@ -204,8 +204,11 @@ fn textbook_importance(n: &node::Node, k: usize, p: Vec3) -> f32 {
         ((1.0 - sin2).max(0.0).sqrt(), sin2.sqrt())
     };
     let (cos_o, sin_o) = (n.cos_o[k], n.sin_o[k]);
-    let (cos_x, sin_x) =
-        if cos_w > cos_o { (1.0, 0.0) } else { (cos_w * cos_o + sin_w * sin_o, sin_w * cos_o - cos_w * sin_o) };
+    let (cos_x, sin_x) = if cos_w > cos_o {
+        (1.0, 0.0)
+    } else {
+        (cos_w * cos_o + sin_w * sin_o, sin_w * cos_o - cos_w * sin_o)
+    };
     let cos_p = if cos_x > cos_b { 1.0 } else { cos_x * cos_b + sin_x * sin_b };
     if cos_p <= n.cos_e[k] {
         return 0.0;
@@ -249,9 +252,9 @@ fn eight_lane_importance_equals_the_scalar_formula_bit_for_bit() {
             _ => random_point(&mut rng, 12.0),
         };
         let lanes = eight_lanes(&n, p.to_array());
-        for k in 0..8 {
+        for (k, lane) in lanes.iter().enumerate() {
             let expected = textbook_importance(&n, k, p);
-            assert_eq!(lanes[k].to_bits(), expected.to_bits(), "case {case} lane {k}: {n:?} at {p}");
+            assert_eq!(lane.to_bits(), expected.to_bits(), "case {case} lane {k}: {n:?} at {p}");
             if k < n.len as usize {
                 (nonzero, zero) = if expected > 0.0 { (nonzero + 1, zero) } else { (nonzero, zero + 1) };
             }
