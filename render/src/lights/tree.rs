@@ -53,7 +53,7 @@ mod node;
 
 use crate::lights::{Light, Shape};
 use glam::Vec3;
-use node::{child_probabilities, Node, LEAF};
+use node::{child_probabilities, choose, Node, LEAF};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 /// The largest f32 below 1.
@@ -213,24 +213,14 @@ impl LightTree {
 }
 
 /// [`LightTree::sample`]: at each node, one 8-lane pass for the children's probabilities, then the
-/// child whose slice of the cumulative probabilities holds `u`, and `u` rescaled into that slice.
-/// Children of probability 0 are never chosen (a `u` past the rounded total takes the last child
-/// that may contribute).
+/// child whose slice of the cumulative probabilities holds `u` ([`choose`]), and `u` rescaled into
+/// that slice.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn descend(nodes: &[Node], p: [f32; 3], mut u: f32) -> (usize, f32) {
     let (mut node, mut pmf) = (&nodes[0], 1.0f32);
     loop {
         let probabilities = child_probabilities(node, p);
-        let (mut chosen, mut below, mut cdf) = (0, 0.0f32, 0.0f32);
-        for (k, &probability) in probabilities.iter().enumerate().take(node.len as usize) {
-            if probability > 0.0 {
-                (chosen, below) = (k, cdf);
-                cdf += probability;
-                if u < cdf {
-                    break;
-                }
-            }
-        }
+        let (chosen, below) = choose(&probabilities, node.len, u);
         let probability = probabilities[chosen];
         u = ((u - below) / probability).clamp(0.0, ONE_MINUS_EPSILON);
         pmf *= probability;

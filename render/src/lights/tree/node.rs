@@ -149,3 +149,26 @@ pub(super) fn child_probabilities(n: &Node, p: [f32; 3]) -> [f32; WIDTH] {
     }
     out
 }
+
+/// The categorical choice among the first `len` lanes of `probabilities` with `u` in [0, 1): the
+/// first lane whose cumulative probability exceeds `u`, and the cumulative probability below it.
+/// Never a lane of probability 0: a `u` past the rounded total takes the last lane that has some.
+///
+/// Branch-free (a count of the prefix sums at or below `u`, then selects): the choice is a coin
+/// flip per node, so the scan it replaced (`if u < cdf { break }`) mispredicted about once a node.
+/// The prefix sums add pairwise (three dependent additions, not seven); they stay non-decreasing,
+/// and a lane of probability 0 repeats the sum before it exactly, so the first sum above `u` always
+/// belongs to a lane with probability.
+#[inline(always)]
+pub(super) fn choose(probabilities: &[f32; WIDTH], len: u32, u: f32) -> (usize, f32) {
+    let w = probabilities;
+    let (s01, s23, s45, s67) = (w[0] + w[1], w[2] + w[3], w[4] + w[5], w[6] + w[7]);
+    let s0123 = s01 + s23;
+    let cdf =
+        [w[0], s01, s01 + w[2], s0123, s0123 + w[4], s0123 + s45, s0123 + (s45 + w[6]), s0123 + (s45 + s67)];
+    let at_or_below = cdf.iter().map(|&c| (c <= u) as u32).sum::<u32>();
+    let last_with_probability =
+        (0..WIDTH as u32).fold(0, |last, k| if w[k as usize] > 0.0 { k } else { last });
+    let chosen = if at_or_below < len { at_or_below } else { last_with_probability } as usize;
+    (chosen, if chosen == 0 { 0.0 } else { cdf[chosen - 1] })
+}
