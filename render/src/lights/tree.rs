@@ -23,37 +23,68 @@
 //! every ray's state by a normal for this one weight was rejected. The normal term (PBRT's
 //! `cos θ_i` bound) would mostly help points facing away from whole clusters of lights.
 //!
-//! Node layout: [`Node`] is 64 bytes (one cache line), `repr(C, align(64))`; nodes are compacted depth first in a `Vec` — an
-//! interior node's first child follows it, its second child's index is stored — so the tree is
-//! offsets, not pointers. A node keeps what importance reads: the centre and squared radius of its
-//! box's bounding sphere, φ, the cone's axis, cos/sin θ_o and cos θ_e, plus one `u32` of flags and
-//! the child index or light index. Each light's path from the root (one bit per level, 1 = second
-//! child) is stored beside the tree, so `pmf` walks the same decisions as sampling and multiplies
-//! the same factors in the same order: the two agree bit for bit.
+//! Node layout: the tree is 8-wide. A [`Node`] (512 bytes, `repr(C, align(64))`, in
+//! `tree/node.rs`) holds up to eight children's bounds column by column — `[f32; 8]` columns of the
+//! centre and squared radius of each child's bounding sphere, the cone's axis, cos/sin θ_o, cos θ_e,
+//! φ, flags, and the child's node index or light index — so one node's eight importances are one
+//! 8-lane pass (AVX2 under [`multiversion`], 4 `vsqrtps` and 3 `vdivps` for all eight), where the
+//! binary tree made two scalar calls per level. Nodes sit in a `Vec`, root first. Each light's path
+//! from the root (three bits per level: the child slot) is stored beside the tree, so `pmf` replays
+//! the same decisions as sampling and multiplies the same factors in the same order: the two agree
+//! bit for bit.
 //!
-//! Build: binned SAH over the three axes (12 buckets; PBRT's cost φ · M_Ω · surface area · K_r, which
-//! also weighs how spread the emission cones are), falling back to a median split by light index
-//! order when no axis separates the centroids; a forced median split once the depth could exceed
-//! the 64 path bits. Every step is a deterministic function of the input order: same scene, same
-//! tree. Cost O(n log n) for balanced splits.
+//! Build (`tree/build.rs`): a binary tree by binned SAH over the three axes (12 buckets; PBRT's
+//! cost φ · M_Ω · surface area · K_r, which also weighs how spread the emission cones are), falling
+//! back to a median split by light index order when no axis separates the centroids, and a forced
+//! median split once the depth could exceed the 42 levels the 128 path bits hold; then collapsed
+//! (Embree's BVH2 → BVH8): a node starts with the binary node's two children and, while it has
+//! fewer than eight, opens the interior child of largest φ · M_Ω · surface area (then φ: lights at
+//! one point have no area) in place. Every step is a deterministic function of the input order:
+//! same scene, same tree. The bench scene's ring of 48 sphere lights: binary depth 6, wide depth 2
+//! for 40 of them and 3 for 8 (2.1 nodes per descent on the bench render). Tried: opening the child
+//! with the most lights instead (depth the same here): floor-test RMSE 0.354 against 0.330.
 //!
-//! Measured (contended machine; RMSE over RGB at 160×107 against a 1024-spp tree render, shading-heavy
-//! bench scene): uniform selection 0.298 at 16 spp and 0.136 at 64 spp, the tree 0.201 and 0.073
-//! (1.48× and 1.86× lower). Cost (callgrind, 120×80, 8 spp, one thread): shading-heavy +4.2 % of the
-//! wavefront's instructions and +2.7 % of the scalar integrator's; tractor and simple (lights at
-//! infinity only) render the same bytes as before, within 0.4 % of the instructions.
+//! Sampling descends with one uniform number: at each node the children's probabilities (their
+//! share of the node's importance; 1 / children each where none may contribute, so the
+//! probabilities over all lights always sum to 1), the categorical choice among them (branch-free:
+//! pairwise prefix sums of the importances, the count of those at or below `u` · their sum), and
+//! `u` rescaled into the chosen child's slice (clamped below 1). A child of probability 0 is never
+//! chosen. The descent is latency-bound (square roots and divisions in a chain, then the next
+//! node's address depends on the choice), so the choice compares weights rather than dividing
+//! all eight first, and φ / d² is divided before the angles are known.
 //!
-//! Sampling descends with one uniform number, rescaled into the chosen child's range at each level
-//! (clamped below 1); at a node where both children have zero importance (every light below
-//! contributes nothing at that point) it takes each with probability ½, so the probabilities over
-//! all lights always sum to 1.
+//! Measured (contended machine). RMSE over RGB at 160×107 against a 1024-spp render of the same
+//! build (`bench convergence`, shading-heavy): uniform selection 0.298 at 16 spp and 0.136 at 64
+//! spp; the binary tree 0.2025 and 0.0739; the 8-wide tree 0.2015 and 0.0733 (no worse: the dome and
+//! the sun hold two of the three first-choice slots). Irradiance under 128 floor lights (the
+//! variance test): RMSE 3.65× below uniform selection, the binary tree's 2.37×: the wide node
+//! ranks eight subtrees by their own bounds where the binary tree multiplied looser ones.
+//!
+//! Cost, callgrind instructions (120×80, 8 spp, one thread), binary tree → 8-wide tree:
+//!
+//! | scene | scalar | wavefront |
+//! |---|---|---|
+//! | shading-heavy (48 spheres, dome, sun) | 982.22 → 955.67 M (−2.7 %) | 636.82 → 611.21 M (−4.0 %) |
+//! | tractor (dome, sun: no tree) | 534.42 → 533.98 M | 365.54 → 365.55 M |
+//! | simple (no tree) | 191.61 → 191.54 M | 135.64 → 135.65 M |
+//!
+//! Tractor and simple render the same bytes as before. On shading-heavy the wavefront's
+//! `sample_lanes` (inclusive) went 50.82 → 26.09 M and the scalar `Lights::sample` 58.69 → 33.08
+//! M; the descent itself is 11.7 M for 30 k descents, 64 k node passes. The first form of the
+//! choice (a scan with `if u < cdf { break }`) took 1.6 M fewer instructions but mispredicted
+//! about once a node (callgrind's branch simulator: 82 k mispredictions in the descent, 17.5 k
+//! branch-free; 2.75 → 2.47 M in the whole render). perf, shading-heavy, one thread, 320×213, 16 spp
+//! (share of samples): wavefront `child_probabilities` 5.1 % + `sample_lanes` 5.2 % (the descent
+//! inlined) → `descend` PERF_DESCEND_WF + `select` PERF_SELECT_WF + `sample_lanes` PERF_LANES_WF; scalar
+//! `child_probabilities` 3.6 % + `Lights::sample` 3.5 % → `descend` PERF_DESCEND_SC + `Lights::sample` PERF_SAMPLE_SC.
+//! `bench integrators` (CPU s, 2 threads, 3 runs each, interleaved): BENCH_FIGURES
 
 mod build;
 mod node;
 
 use crate::lights::{Light, Shape};
 use glam::Vec3;
-use node::{child_probabilities, choose, Node, LEAF};
+use node::{child_weights, choose, Node, LEAF};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 /// The largest f32 below 1.
@@ -212,18 +243,18 @@ impl LightTree {
     }
 }
 
-/// [`LightTree::sample`]: at each node, one 8-lane pass for the children's probabilities, then the
-/// child whose slice of the cumulative probabilities holds `u` ([`choose`]), and `u` rescaled into
-/// that slice.
+/// [`LightTree::sample`]: at each node, one 8-lane pass for the children's weights, then the child
+/// whose slice of the cumulative weights holds `u · sum` ([`choose`]), and `u` rescaled into that
+/// slice; the probability it multiplies is the chosen child's `w / sum`, as [`replay`]'s.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn descend(nodes: &[Node], p: [f32; 3], mut u: f32) -> (usize, f32) {
     let (mut node, mut pmf) = (&nodes[0], 1.0f32);
     loop {
-        let probabilities = child_probabilities(node, p);
-        let (chosen, below) = choose(&probabilities, node.len, u);
-        let probability = probabilities[chosen];
-        u = ((u - below) / probability).clamp(0.0, ONE_MINUS_EPSILON);
-        pmf *= probability;
+        let (w, sum) = child_weights(node, p);
+        let target = u * sum;
+        let (chosen, below) = choose(&w, node.len, target);
+        pmf *= w[chosen] / sum;
+        u = ((target - below) / w[chosen]).clamp(0.0, ONE_MINUS_EPSILON);
         if node.flags[chosen] & LEAF != 0 {
             return (node.child[chosen] as usize, pmf);
         }
@@ -231,14 +262,15 @@ fn descend(nodes: &[Node], p: [f32; 3], mut u: f32) -> (usize, f32) {
     }
 }
 
-/// [`LightTree::pmf`]: the same probabilities as [`descend`], multiplied in the same order along
-/// the light's stored path, so the two agree bit for bit.
+/// [`LightTree::pmf`]: the same probabilities (`w / sum` of the same weights) as [`descend`],
+/// multiplied in the same order along the light's stored path, so the two agree bit for bit.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn replay(nodes: &[Node], p: [f32; 3], path: Path) -> f32 {
     let (mut node, mut pmf) = (&nodes[0], 1.0f32);
     for level in 0..path.depth {
         let slot = (path.digits >> (3 * level) & 7) as usize;
-        pmf *= child_probabilities(node, p)[slot];
+        let (w, sum) = child_weights(node, p);
+        pmf *= w[slot] / sum;
         if level + 1 < path.depth {
             node = &nodes[node.child[slot] as usize];
         }

@@ -1,5 +1,5 @@
 //! The wide tree's node: up to [`WIDTH`] children whose bounds are stored column by column, so
-//! the importance of all of a node's children is one 8-lane pass ([`child_probabilities`]).
+//! the importance of all of a node's children is one 8-lane pass ([`child_weights`]).
 
 use super::LightBounds;
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -82,7 +82,7 @@ impl Node {
 /// below can emit towards `p`.
 ///
 /// Branch-free (every `if` is a select) so that the loop over a node's lanes in
-/// [`child_probabilities`] compiles to 8-wide code; the tests hold it to the branchy textbook form
+/// [`importances`] compiles to 8-wide code; the tests hold it to the branchy textbook form
 /// bit for bit.
 #[inline(always)]
 pub(super) fn importance(n: &Node, k: usize, p: [f32; 3]) -> f32 {
@@ -108,7 +108,8 @@ pub(super) fn importance(n: &Node, k: usize, p: [f32; 3]) -> f32 {
     let cos_x = if within { 1.0 } else { cos_w * cos_o + sin_w * sin_o };
     let sin_x = if within { 0.0 } else { sin_w * cos_o - cos_w * sin_o };
     let cos_p = if cos_x > cos_b { 1.0 } else { cos_x * cos_b + sin_x * sin_b };
-    let value = n.phi[k] * cos_p / d2;
+    // φ / d² first: that division does not wait for the angles.
+    let value = n.phi[k] / d2 * cos_p;
     if cos_p <= n.cos_e[k] {
         0.0
     } else {
@@ -127,46 +128,42 @@ pub(super) fn importances(n: &Node, p: [f32; 3]) -> [f32; WIDTH] {
     out
 }
 
-/// The probability of each child at `p`: its share of the node's importance, or 1 / `len` each
-/// when no child may contribute (or a sum is not finite: `p` on a point light), so the
-/// probabilities over all lights always sum to 1. Empty lanes get 0.
-#[allow(clippy::needless_range_loop)]
+/// The children's weights at `p` and their sum: child `k`'s probability is `w[k] / sum`, its share
+/// of the node's importance, or 1 / `len` each (weights 1, sum `len`) when no child may contribute
+/// or a sum is not finite (`p` on a point light), so the probabilities over all lights always sum
+/// to 1. Empty lanes weigh 0.
 #[inline(always)]
-pub(super) fn child_probabilities(n: &Node, p: [f32; 3]) -> [f32; WIDTH] {
+pub(super) fn child_weights(n: &Node, p: [f32; 3]) -> ([f32; WIDTH], f32) {
     let w = importances(n, p);
-    // A fixed pairwise order: the same sum (and so the same bits) in sampling and in `pmf`.
+    // A fixed pairwise order: the same sum (and so the same bits) in sampling and in `pmf`; it is
+    // also the last of `choose`'s prefix sums.
     let sum = ((w[0] + w[1]) + (w[2] + w[3])) + ((w[4] + w[5]) + (w[6] + w[7]));
-    let mut out = [0.0; WIDTH];
     if sum > 0.0 && sum.is_finite() {
-        for k in 0..WIDTH {
-            out[k] = w[k] / sum;
-        }
+        (w, sum)
     } else {
-        let even = 1.0 / n.len as f32;
-        for k in 0..WIDTH {
-            out[k] = if (k as u32) < n.len { even } else { 0.0 };
-        }
+        (std::array::from_fn(|k| if (k as u32) < n.len { 1.0 } else { 0.0 }), n.len as f32)
     }
-    out
 }
 
-/// The categorical choice among the first `len` lanes of `probabilities` with `u` in [0, 1): the
-/// first lane whose cumulative probability exceeds `u`, and the cumulative probability below it.
-/// Never a lane of probability 0: a `u` past the rounded total takes the last lane that has some.
+/// The categorical choice among the first `len` lanes of weights `w` at `target` in [0, sum of
+/// `w`): the first lane whose cumulative weight exceeds `target`, and the cumulative weight below
+/// it. Never a lane of weight 0: a `target` at or past the rounded total takes the last lane that
+/// has weight.
 ///
-/// Branch-free (a count of the prefix sums at or below `u`, then selects): the choice is a coin
-/// flip per node, so the scan it replaced (`if u < cdf { break }`) mispredicted about once a node.
-/// The prefix sums add pairwise (three dependent additions, not seven); they stay non-decreasing,
-/// and a lane of probability 0 repeats the sum before it exactly, so the first sum above `u` always
-/// belongs to a lane with probability.
+/// Weights, not probabilities: [`descend`](super::descend) compares `u · sum` with them, so the
+/// next node's importance does not wait for eight divisions (its one division, the chosen
+/// child's probability, is off that chain). Branch-free (a count of the prefix sums at or below
+/// `target`, then selects): the choice is a coin flip per node, and a scan that breaks at the
+/// child mispredicts about once a node. The prefix sums add pairwise (three dependent additions,
+/// not seven); they never decrease, and a lane of weight 0 repeats the sum before it exactly, so
+/// the first sum above `target` always belongs to a lane with weight.
 #[inline(always)]
-pub(super) fn choose(probabilities: &[f32; WIDTH], len: u32, u: f32) -> (usize, f32) {
-    let w = probabilities;
+pub(super) fn choose(w: &[f32; WIDTH], len: u32, target: f32) -> (usize, f32) {
     let (s01, s23, s45, s67) = (w[0] + w[1], w[2] + w[3], w[4] + w[5], w[6] + w[7]);
     let s0123 = s01 + s23;
     let cdf =
         [w[0], s01, s01 + w[2], s0123, s0123 + w[4], s0123 + s45, s0123 + (s45 + w[6]), s0123 + (s45 + s67)];
-    let at_or_below = cdf.iter().map(|&c| (c <= u) as u32).sum::<u32>();
+    let at_or_below = cdf.iter().map(|&c| (c <= target) as u32).sum::<u32>();
     let last_with_probability =
         (0..WIDTH as u32).fold(0, |last, k| if w[k as usize] > 0.0 { k } else { last });
     let chosen = if at_or_below < len { at_or_below } else { last_with_probability } as usize;

@@ -213,7 +213,7 @@ fn textbook_importance(n: &node::Node, k: usize, p: Vec3) -> f32 {
     if cos_p <= n.cos_e[k] {
         return 0.0;
     }
-    n.phi[k] * cos_p / d2
+    n.phi[k] / d2 * cos_p
 }
 
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
@@ -356,34 +356,39 @@ fn tree_selection_beats_uniform_selection_on_many_lights() {
     assert!(uniform_error > 3.0 * tree_error, "tree {tree_error}, uniform {uniform_error}");
 }
 
-/// The branch-free choice picks the first child whose cumulative probability exceeds `u`, never a
-/// child of probability 0, and a `u` past the rounded total falls to the last child with some; the
-/// returned lower end is the sum of the probabilities before the child (within rounding).
+/// The branch-free choice picks the first child whose cumulative weight exceeds the target, never
+/// a child of weight 0, and a target at or past the rounded total falls to the last child with
+/// some; the returned lower end is the sum of the weights before the child (within rounding).
 #[test]
-fn choice_takes_the_first_child_above_u_and_never_one_of_probability_zero() {
+fn choice_takes_the_first_child_above_the_target_and_never_one_of_weight_zero() {
     let mut rng = Rng(31);
     for case in 0..100_000 {
         let len = 1 + case % 8;
         let mut w = [0.0f32; 8];
         for weight in w.iter_mut().take(len) {
-            *weight = if rng.next_f32() < 0.3 { 0.0 } else { rng.next_f32() };
+            *weight = if rng.next_f32() < 0.3 { 0.0 } else { rng.range(0.0, 50.0) };
         }
         if w.iter().all(|&x| x == 0.0) {
             w[((rng.next_f32() * len as f32) as usize).min(len - 1)] = 1.0;
         }
-        let sum: f32 = w.iter().sum();
-        w.iter_mut().for_each(|x| *x /= sum);
-        let u = match case % 5 {
-            0 => ONE_MINUS_EPSILON,
+        let sum = ((w[0] + w[1]) + (w[2] + w[3])) + ((w[4] + w[5]) + (w[6] + w[7]));
+        let target = match case % 5 {
+            0 => ONE_MINUS_EPSILON * sum,
             1 => 0.0,
-            _ => rng.next_f32(),
+            2 => sum,
+            _ => rng.next_f32() * sum,
         };
-        let (chosen, below) = node::choose(&w, len as u32, u);
-        assert!(chosen < len && w[chosen] > 0.0, "{w:?} u {u}: chose {chosen}");
+        let (chosen, below) = node::choose(&w, len as u32, target);
+        assert!(chosen < len && w[chosen] > 0.0, "{w:?} target {target}: chose {chosen}");
         let before: f64 = w[..chosen].iter().map(|&x| x as f64).sum();
-        assert!((below as f64 - before).abs() < 1e-6, "{w:?} u {u}: below {below}, sum {before}");
+        assert!(
+            (below as f64 - before).abs() < 1e-5 * sum as f64,
+            "{w:?} target {target}: below {below}, {before}"
+        );
         let last = (0..len).rev().find(|&k| w[k] > 0.0).unwrap();
-        assert!(below <= u && (u < below + w[chosen] || chosen == last), "{w:?} u {u}: chose {chosen}");
-        assert!(w[..chosen].iter().sum::<f32>() <= u + 1e-6, "{w:?} u {u}: a child before {chosen} holds u");
+        assert!(
+            below <= target && (target < below + w[chosen] || chosen == last),
+            "{w:?} target {target}: chose {chosen}"
+        );
     }
 }
