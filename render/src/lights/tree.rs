@@ -64,20 +64,24 @@
 //!
 //! | scene | scalar | wavefront |
 //! |---|---|---|
-//! | shading-heavy (48 spheres, dome, sun) | 982.22 → 955.67 M (−2.7 %) | 636.82 → 611.21 M (−4.0 %) |
-//! | tractor (dome, sun: no tree) | 534.42 → 533.98 M | 365.54 → 365.55 M |
-//! | simple (no tree) | 191.61 → 191.54 M | 135.64 → 135.65 M |
+//! | shading-heavy (48 spheres, dome, sun) | 982.22 → 955.70 M (−2.7 %) | 636.82 → 611.24 M (−4.0 %) |
+//! | tractor (dome, sun: no tree) | 534.42 → 533.95 M | 365.54 → 365.55 M |
+//! | simple (no tree) | 191.61 → 191.53 M | 135.64 → 135.65 M |
 //!
 //! Tractor and simple render the same bytes as before. On shading-heavy the wavefront's
-//! `sample_lanes` (inclusive) went 50.82 → 26.09 M and the scalar `Lights::sample` 58.69 → 33.08
+//! `sample_lanes` (inclusive) went 50.82 → 26.12 M and the scalar `Lights::sample` 58.69 → 33.11
 //! M; the descent itself is 11.7 M for 30 k descents, 64 k node passes. The first form of the
-//! choice (a scan with `if u < cdf { break }`) took 1.6 M fewer instructions but mispredicted
-//! about once a node (callgrind's branch simulator: 82 k mispredictions in the descent, 17.5 k
-//! branch-free; 2.75 → 2.47 M in the whole render). perf, shading-heavy, one thread, 320×213, 16 spp
-//! (share of samples): wavefront `child_probabilities` 5.1 % + `sample_lanes` 5.2 % (the descent
-//! inlined) → `descend` PERF_DESCEND_WF + `select` PERF_SELECT_WF + `sample_lanes` PERF_LANES_WF; scalar
-//! `child_probabilities` 3.6 % + `Lights::sample` 3.5 % → `descend` PERF_DESCEND_SC + `Lights::sample` PERF_SAMPLE_SC.
-//! `bench integrators` (CPU s, 2 threads, 3 runs each, interleaved): BENCH_FIGURES
+//! choice (probabilities, then a scan with `if u < cdf { break }`) took 1.6 M fewer instructions
+//! but mispredicted about once a node (callgrind's branch simulator: 82 k mispredictions in the
+//! descent against 18 k; 2.75 → 2.44 M in the whole render). Timed in one process, interleaved,
+//! 10⁶ descents over the ring (contended): the branch-free choice by probabilities took the time of
+//! the scan (170 against 172 ns a descent), the choice by weights 13 % less. perf, shading-heavy, one thread, 320×213, 16 spp, share of samples
+//! (contended, one run each): wavefront `child_probabilities` 5.1 % + `sample_lanes` 4.5–5.2 % (the
+//! descent inlined) → `descend` 2.8 % + `select` 0.9 % + `sample_lanes` 2.0 %; scalar
+//! `child_probabilities` 3.6–4.0 % + `Lights::sample` 3.3–3.5 % → `descend` 2.1 % +
+//! `Lights::sample` 2.1 %. `bench integrators` (CPU s, 320×213, 16 spp, 2 threads, 3 runs each,
+//! before and after interleaved, load average 7 on 2 cores): shading-heavy wavefront 1.20–1.48 →
+//! 1.12–1.34, scalar 1.67–1.98 → 1.68–1.86, speed-up 1.34–1.40× → 1.25–1.51×: within the noise.
 
 mod build;
 mod node;

@@ -13,7 +13,8 @@
 //! 1. selection, gathering each lane's record into AoSoA columns: the uniform pick 8-wide when every
 //!    light is at infinity (the table is then `uniform`), else the scalar
 //!    [`crate::lights::tree::LightSelector::select`] per lane (the light tree's descent: a loop of
-//!    data-dependent depth, with each lane's probability kept for step 4's pdfs); then only
+//!    data-dependent depth over 8-wide nodes, with each lane's probability kept for step 4's
+//!    pdfs); then only
 //!    the columns the scene's kinds read (a rect's or disk's axes and normal only when the scene has
 //!    one), and for up to `BLEND_GATHER_MAX` lights by blending each light's record into the lanes
 //!    that picked it (8-wide bit masks) rather than copying a record per lane; then, if a lane picked
@@ -59,6 +60,9 @@
 //! indices cost about 60 % of a level, eating what the 8-wide arithmetic saves; it would also have
 //! kept a second copy of the importance arithmetic in step with the scalar one. Next to try:
 //! collecting the descending lanes of several groups before descending, or hardware gathers.
+//! Done instead: the tree is 8-wide, its nodes' child bounds in columns, so each lane's scalar
+//! descent is about two nodes of one 8-lane importance pass each (see [`crate::lights::tree`]):
+//! this kernel 50.82 → 26.09 M (the descent itself 11.7 M), the render 636.8 → 611.2 M.
 //!
 //! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
