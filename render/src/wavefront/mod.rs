@@ -191,6 +191,7 @@ mod equivalence_tests;
 mod generate;
 pub mod hair_lanes;
 mod intersect;
+mod key_lanes;
 pub mod lanes;
 pub mod light_lanes;
 pub mod material_lanes;
@@ -203,6 +204,7 @@ pub mod sampler_lanes;
 mod shade;
 mod shade_curves;
 pub mod sort;
+mod surface_lanes;
 
 use crate::accel::Hit;
 use crate::camera::{Camera, RayCone};
@@ -343,6 +345,8 @@ pub struct Worker {
     area_lights: emission_lanes::AreaLightLanes,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
     textured_materials: Vec<bool>,
+    /// Per material: how its sort key is computed ([`key_lanes`]).
+    key_plans: Vec<key_lanes::KeyPlan>,
     /// Surfaces reconstructed by the sort-key pass for textured hits (their sort key needs the uv
     /// footprint), used by shading instead of being rebuilt (`surface_slot` indexes it per path,
     /// `u32::MAX`: none kept). Shading builds the other hits' surfaces run by run on its stack.
@@ -429,6 +433,7 @@ impl Worker {
             scatter: Box::default(),
             scatter_points: 0,
             textured_materials,
+            key_plans: key_lanes::plans(&scene.shading, materials),
             area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),
             surface_slot: vec![u32::MAX; paths],

@@ -117,6 +117,7 @@ use super::light_lanes::{self, LightInputs, LightSampleLanes};
 use super::material_lanes;
 use super::roulette::{self, RouletteLanes, RouletteOut};
 use super::sampler_lanes::{self, KeyLanes, DIMS};
+use super::surface_lanes::{self, HitGroup};
 use super::{sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
@@ -196,6 +197,7 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     let mut slots = RunSlots {
         built: [const { None }; LANES],
         inputs: [ShadingInputs::constant(&blob::Material::default()); LANES],
+        group: HitGroup::default(),
     };
     let mut fibres = super::shade_curves::CurveGroup::default();
     let n = w.shade.len();
@@ -260,22 +262,34 @@ fn run<T: Touch>(
 ) {
     let scene: &Scene = ctx.scene;
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
-    let RunSlots { built, inputs } = run_slots;
-    let (mut paths, mut slots, mut count) = ([0u32; LANES], [NO_SURFACE; LANES], 0);
-    for &e in &w.shade[start..end] {
+    let RunSlots { built, inputs, group } = run_slots;
+    // The members the sort key kept no surface for are built together, eight lanes at a time
+    // ([`surface_lanes`]), into `built` in member order.
+    let (mut members, mut member_slots) = ([0u32; LANES], [NO_SURFACE; LANES]);
+    group.clear();
+    for (m, &e) in w.shade[start..end].iter().enumerate() {
         let i = sort::index(e);
         let slot = if ctx.textured { w.surface_slot[i as usize] } else { NO_SURFACE };
+        (members[m], member_slots[m]) = (i, slot);
         if slot == NO_SURFACE {
             let (hit, st) = (&w.hits[i as usize], &w.states[i as usize]);
-            // Written straight into its slot (a member that was skipped leaves a stale slot, which
-            // the next member overwrites).
-            let surface = &mut built[count];
-            *surface = scene.surface(hit, -st.dir, st.cone().width_at(hit.t));
-            if surface.is_none() {
-                continue; // a degenerate triangle
-            }
+            group.push(hit, -st.dir, st.cone().width_at(hit.t));
         }
-        (paths[count], slots[count]) = (i, slot);
+    }
+    surface_lanes::surfaces(scene, group, |k, s| built[k] = s);
+    // The members with a surface (a degenerate triangle has none: its path ends here, as in the
+    // scalar integrator), and where each built one is.
+    let (mut paths, mut slots, mut built_at, mut count, mut next_built) =
+        ([0u32; LANES], [NO_SURFACE; LANES], [0usize; LANES], 0, 0);
+    for m in 0..end - start {
+        if member_slots[m] == NO_SURFACE {
+            next_built += 1;
+            if built[next_built - 1].is_none() {
+                continue;
+            }
+            built_at[count] = next_built - 1;
+        }
+        (paths[count], slots[count]) = (members[m], member_slots[m]);
         count += 1;
     }
     w.clock.lap(Phase::Shading);
@@ -284,7 +298,7 @@ fn run<T: Touch>(
     }
     let built = &*built;
     let surface = |k: usize| match slots[k] {
-        NO_SURFACE => built[k].as_ref().expect("a member without a kept surface has a built one"),
+        NO_SURFACE => built[built_at[k]].as_ref().expect("a member without a kept surface has a built one"),
         slot => &kept[slot as usize],
     };
     let material = surface(0).material;
@@ -328,6 +342,8 @@ struct RunSlots {
     built: [Option<Surface>; LANES],
     /// The run's shading inputs, by position in the run; lanes past the run hold stale values.
     inputs: [ShadingInputs; LANES],
+    /// The hits whose surfaces are built in [`run`], with the surface kernel's columns.
+    group: HitGroup,
 }
 
 /// A run member whose surface is not kept by the sort key (`Worker::surface_slot`).
