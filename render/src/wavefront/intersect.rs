@@ -10,7 +10,7 @@
 
 use super::key_lanes::{self, KeyInputs, KeyPlan};
 use super::lanes::LANES;
-use super::surface_lanes::{self, HitGroup};
+use super::surface_lanes;
 use super::{emission_lanes, sort, Context, Worker};
 use crate::accel::Hit;
 use crate::curves::CurveHit;
@@ -142,7 +142,8 @@ pub(super) fn hit_material(scene: &Scene, hit: &Hit, curve: &CurveHit) -> u32 {
 pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene = ctx.scene;
     w.surfaces.clear();
-    let mut group = HitGroup::default();
+    // Shared with shading's runs, which leave their last group in it.
+    w.surface_group.clear();
     // Queue positions of the group's hits.
     let mut at = [0usize; LANES];
     for pos in 0..w.shade.len() {
@@ -158,24 +159,23 @@ pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
             continue;
         }
         let st = &w.states[i];
-        at[group.len()] = pos;
-        group.push(hit, -st.dir, st.cone().width_at(hit.t));
-        if group.is_full() {
-            keep_surfaces(scene, w, &mut group, &at);
-            group.clear();
+        at[w.surface_group.len()] = pos;
+        w.surface_group.push(hit, -st.dir, st.cone().width_at(hit.t));
+        if w.surface_group.is_full() {
+            keep_surfaces(scene, w, &at);
         }
     }
-    if !group.is_empty() {
-        keep_surfaces(scene, w, &mut group, &at);
+    if !w.surface_group.is_empty() {
+        keep_surfaces(scene, w, &at);
     }
 }
 
-/// The surfaces of `group` (the hits at queue positions `at`) into the kept-surface table, and
+/// The surfaces of the worker's surface group (the hits at queue positions `at`; emptied) into the kept-surface table, and
 /// their texture keys into the queue entries (a degenerate triangle keeps key 0 and no surface):
 /// in lanes ([`key_lanes`]) where the material's key has a lane plan, once per material where it
 /// does not depend on the hit, else by [`crate::shading::Shading::sort_key`].
-fn keep_surfaces(scene: &Scene, w: &mut Worker, group: &mut HitGroup, at: &[usize; LANES]) {
-    let Worker { shade, surfaces, surface_slot, key_plans, .. } = w;
+fn keep_surfaces(scene: &Scene, w: &mut Worker, at: &[usize; LANES]) {
+    let Worker { shade, surfaces, surface_slot, key_plans, surface_group: group, .. } = w;
     // The closure only stores: with the key work inside it, it was compiled out of line and every
     // surface went through memory to it (+1.1 M `memcpy` instructions on the tractor).
     let first = surfaces.len();
@@ -188,6 +188,7 @@ fn keep_surfaces(scene: &Scene, w: &mut Worker, group: &mut HitGroup, at: &[usiz
             kept += 1;
         }
     });
+    group.clear();
     let (mut inputs, mut lane_at) = (KeyInputs::default(), [0usize; LANES]);
     for (j, &pos) in kept_at[..kept].iter().enumerate() {
         let e = &mut shade[pos];

@@ -12,6 +12,15 @@
 //! on the hit at all (its coordinates are constants: the tractor's materials) has one key, found
 //! once. Materials whose first texture is a UDIM set read through the uv, or whose coordinates
 //! come from a primvar, keep the scalar key.
+//!
+//! Measured (callgrind, wavefront, 120×80, 8 spp, 1 thread): `Shading::sort_key` took 25.5 M
+//! instructions inclusive on shading-heavy (~280 a key), the lane kernel takes 9.2 M (~100 a key,
+//! most of it the per-lane plan gather); the tractor's 9.7 M of keys are all constant keys now
+//! (its textures read constant coordinates). Whole process with the surfaces in lanes: 621.0 M →
+//! 602.2 M on shading-heavy, 359.4 M → 345.7 M on the tractor (see [`super::surface_lanes`]).
+//! The quantisation is written so that it vectorises ([`morton`]): with `texture::float::floor`
+//! and the saturating `as u32` per lane the kernel compiled to a compare, a branch and a
+//! `cvttss2si` per lane (10.6 M against 9.2 M).
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
