@@ -170,10 +170,11 @@ pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     }
 }
 
-/// The surfaces of the worker's surface group (the hits at queue positions `at`; emptied) into the kept-surface table, and
-/// their texture keys into the queue entries (a degenerate triangle keeps key 0 and no surface):
-/// in lanes ([`key_lanes`]) where the material's key has a lane plan, once per material where it
-/// does not depend on the hit, else by [`crate::shading::Shading::sort_key`].
+/// The surfaces of the worker's surface group (the hits at queue positions `at`; the group is
+/// emptied) into the kept-surface table, and their texture keys into the queue entries (a
+/// degenerate triangle keeps key 0 and no surface): in lanes ([`key_lanes`]) where the material's
+/// key has a lane plan, once per material where it does not depend on the hit, else by
+/// [`crate::shading::Shading::sort_key`].
 fn keep_surfaces(scene: &Scene, w: &mut Worker, at: &[usize; LANES]) {
     let Worker { shade, surfaces, surface_slot, key_plans, surface_group: group, .. } = w;
     // The closure only stores: with the key work inside it, it was compiled out of line and every
