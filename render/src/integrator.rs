@@ -145,7 +145,7 @@ pub struct Surface {
     /// Triangle hit, or [`blob::NONE`] for curves and points.
     pub triangle: u32,
     /// Curve and point hits.
-    curve: Option<CurveSurface>,
+    pub(crate) curve: Option<CurveSurface>,
 }
 
 // Moved (and, in the wavefront, stored) for every hit: 248 bytes while it carried the built hair

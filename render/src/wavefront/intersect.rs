@@ -8,6 +8,9 @@
 //! and is recorded in `curve_hits`, with [`blob::NONE`] as the triangle of its [`Hit`] (whose `t` is
 //! the curve's, so the cone footprint is taken at the right distance).
 
+use super::key_lanes::{self, KeyInputs, KeyPlan};
+use super::lanes::LANES;
+use super::surface_lanes;
 use super::{emission_lanes, sort, Context, Worker};
 use crate::accel::Hit;
 use crate::curves::CurveHit;
@@ -133,11 +136,18 @@ pub(super) fn hit_material(scene: &Scene, hit: &Hit, curve: &CurveHit) -> u32 {
 /// shading, so each hit is reconstructed once. Hits on untextured materials keep key 0 and sort by
 /// material alone, and so do curve and point hits (they have no uv: their textures are read at uv 0,
 /// one key per material).
+///
+/// The textured hits' surfaces are built eight at a time ([`surface_lanes`]), in queue order, and
+/// pushed to the kept-surface table in that order.
 pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene = ctx.scene;
     w.surfaces.clear();
-    for e in w.shade.iter_mut() {
-        let i = sort::index(*e) as usize;
+    // Shared with shading's runs, which leave their last group in it.
+    w.surface_group.clear();
+    // Queue positions of the group's hits.
+    let mut at = [0usize; LANES];
+    for pos in 0..w.shade.len() {
+        let i = sort::index(w.shade[pos]) as usize;
         let hit = &w.hits[i];
         let material = hit_material(scene, hit, &w.curve_hits[i]);
         w.materials[i] = material;
@@ -149,10 +159,60 @@ pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
             continue;
         }
         let st = &w.states[i];
-        let Some(s) = scene.surface(hit, -st.dir, st.cone().width_at(hit.t)) else { continue };
-        let key = scene.shading.sort_key(s.material, &s.uv);
-        w.surface_slot[i] = w.surfaces.len() as u32;
-        w.surfaces.push(s);
-        *e = sort::entry(sort::shade_key(0, key), i as u32);
+        at[w.surface_group.len()] = pos;
+        w.surface_group.push(hit, -st.dir, st.cone().width_at(hit.t));
+        if w.surface_group.is_full() {
+            keep_surfaces(scene, w, &at);
+        }
+    }
+    if !w.surface_group.is_empty() {
+        keep_surfaces(scene, w, &at);
+    }
+}
+
+/// The surfaces of the worker's surface group (the hits at queue positions `at`; the group is
+/// emptied) into the kept-surface table, and their texture keys into the queue entries (a
+/// degenerate triangle keeps key 0 and no surface): in lanes ([`key_lanes`]) where the material's
+/// key has a lane plan, once per material where it does not depend on the hit, else by
+/// [`crate::shading::Shading::sort_key`].
+fn keep_surfaces(scene: &Scene, w: &mut Worker, at: &[usize; LANES]) {
+    let Worker { shade, surfaces, surface_slot, key_plans, surface_group: group, .. } = w;
+    // The closure only stores: with the key work inside it, it was compiled out of line and every
+    // surface went through memory to it (+1.1 M `memcpy` instructions on the tractor).
+    let first = surfaces.len();
+    let mut kept_at = [0usize; LANES];
+    let mut kept = 0;
+    surface_lanes::surfaces(scene, group, |k, s| {
+        if let Some(s) = s {
+            surfaces.push(s);
+            kept_at[kept] = at[k];
+            kept += 1;
+        }
+    });
+    group.clear();
+    let (mut inputs, mut lane_at) = (KeyInputs::default(), [0usize; LANES]);
+    for (j, &pos) in kept_at[..kept].iter().enumerate() {
+        let e = &mut shade[pos];
+        let (i, slot) = (sort::index(*e), first + j);
+        surface_slot[i as usize] = slot as u32;
+        let s = &surfaces[slot];
+        match key_plans[s.material as usize] {
+            KeyPlan::Constant(key) => *e = sort::entry(sort::shade_key(0, key), i),
+            KeyPlan::Scalar => {
+                *e = sort::entry(sort::shade_key(0, scene.shading.sort_key(s.material, &s.uv)), i);
+            }
+            KeyPlan::Uv(_) => {
+                lane_at[inputs.len()] = pos;
+                inputs.push(s.material, &s.uv);
+            }
+        }
+    }
+    if !inputs.is_empty() {
+        let mut keys = [0u32; LANES];
+        key_lanes::keys(&scene.shading, key_plans, &inputs, &mut keys);
+        for (&pos, &key) in lane_at[..inputs.len()].iter().zip(&keys) {
+            let e = &mut shade[pos];
+            *e = sort::entry(sort::shade_key(0, key), sort::index(*e));
+        }
     }
 }

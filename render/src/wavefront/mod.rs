@@ -162,16 +162,21 @@
 //! Phase 1a runs the material programs of runs of up to eight consecutive hits on one material
 //! ([`material_lanes`]: one pass over the op list with `[f32; 8]` registers, texture ops through
 //! `texture::sample_lanes_with`, whose MoonRay filter computes level, weights and blend in lane loops
-//! and gathers texels per lane; the other filters loop the scalar lookup). A lane version of surface
-//! reconstruction (bit-exact against `Scene::surface`, tested) lost and was removed:
+//! and gathers texels per lane; the other filters loop the scalar lookup). A first lane version of
+//! surface reconstruction (bit-exact against `Scene::surface`, tested) lost and was removed:
 //! Callgrind, instructions inside the wavefront render, all three `bench integrators` scenes at 120 px
 //! wide, 2 spp, 1 thread: before 859.5 M; with the material lanes clearing a 4 KiB register file per
 //! group 886.7 M (the clear alone 34 M); with a reused file and a written-register mask the programs
-//! cost 57.0 M against 65.8 M for the scalar evaluations they replace (−13 %). The surface lanes took
+//! cost 57.0 M against 65.8 M for the scalar evaluations they replace (−13 %). Those surface lanes took
 //! 23.2 M (under AVX2 multiversion; 28.0 M without) for surfaces that cost 12.7 M as scalar calls:
-//! every lane computes every branch (uv footprint, normal interpolation, instance transform gather)
-//! and the textured hits' surfaces are already built by the sort stage, so they stay scalar. Final:
-//! 854.1 M (−0.6 %). Timed
+//! every lane computed every branch (uv footprint, normal interpolation, instance transform gather),
+//! with out-of-line helper calls per lane, always eight lanes, and only for the hits the sort stage
+//! had not built. Final: 854.1 M (−0.6 %). The second version ([`surface_lanes`]) wins: each part
+//! runs only when a lane of the group needs it, the lane loops are call- and branch-free (8-wide
+//! `ymm` code in the AVX2 clone), groups of one or two hits stay scalar, and it serves both the
+//! sort-key pass and shading; with the sort keys in lanes ([`key_lanes`]: per-material plans,
+//! constant keys found once) the whole process runs 5.4 % fewer instructions on the tractor and on
+//! shading-heavy and 2.6 % fewer on the simple scene (figures in [`surface_lanes`]). Timed
 //! (contended, load average ~12 on the 2 cores, CPU seconds, wavefront/scalar side by side in one run
 //! each): before tractor 1.26×, shading-heavy 1.03×, simple 1.31×; with the material lanes 1.28×,
 //! 1.00×, 1.35× — within the ±10 % run-to-run noise there. Three more before/after pairs on a
@@ -191,6 +196,7 @@ mod equivalence_tests;
 mod generate;
 pub mod hair_lanes;
 mod intersect;
+mod key_lanes;
 pub mod lanes;
 pub mod light_lanes;
 pub mod material_lanes;
@@ -203,6 +209,7 @@ pub mod sampler_lanes;
 mod shade;
 mod shade_curves;
 pub mod sort;
+mod surface_lanes;
 
 use crate::accel::Hit;
 use crate::camera::{Camera, RayCone};
@@ -343,6 +350,11 @@ pub struct Worker {
     area_lights: emission_lanes::AreaLightLanes,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
     textured_materials: Vec<bool>,
+    /// Per material: how its sort key is computed ([`key_lanes`]).
+    key_plans: Vec<key_lanes::KeyPlan>,
+    /// Hits waiting for their surfaces ([`surface_lanes`]), with the kernel's columns (~2.5 KiB,
+    /// allocated once rather than cleared per stage).
+    surface_group: Box<surface_lanes::HitGroup>,
     /// Surfaces reconstructed by the sort-key pass for textured hits (their sort key needs the uv
     /// footprint), used by shading instead of being rebuilt (`surface_slot` indexes it per path,
     /// `u32::MAX`: none kept). Shading builds the other hits' surfaces run by run on its stack.
@@ -429,6 +441,8 @@ impl Worker {
             scatter: Box::default(),
             scatter_points: 0,
             textured_materials,
+            key_plans: key_lanes::plans(&scene.shading, materials),
+            surface_group: Box::default(),
             area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),
             surface_slot: vec![u32::MAX; paths],

@@ -4,7 +4,8 @@
 //! The queue is shaded run by run ([`run_end`]): a curve or point hit alone, which takes its whole
 //! vertex per hit ([`super::shade_curves`]), else up to eight consecutive triangle hits on one
 //! material (the queue is grouped by material), in these phases:
-//! 1a. the run's surfaces (the ones the sort key kept, else built into a stack array), then the
+//! 1a. the run's surfaces (the ones the sort key kept, else built together in lanes,
+//!    [`super::surface_lanes`]), then the
 //!    material program over the run in lanes ([`material_lanes::evaluate_lanes`]; a lone hit runs
 //!    the scalar program);
 //! 1. per hit: stochastic transparency, the normal map, emission at the hit (the depth limit ends
@@ -117,6 +118,7 @@ use super::light_lanes::{self, LightInputs, LightSampleLanes};
 use super::material_lanes;
 use super::roulette::{self, RouletteLanes, RouletteOut};
 use super::sampler_lanes::{self, KeyLanes, DIMS};
+use super::surface_lanes;
 use super::{sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
@@ -240,8 +242,8 @@ pub(super) fn run_end(
 }
 
 /// Phase 1 for the run of triangle hits at queue positions `start..end` (one material, at most
-/// eight): their surfaces (kept by the sort key, or built here into a stack array that stays in
-/// L1), their material program in lanes ([`material_lanes::evaluate_lanes`]; a lone hit runs the
+/// eight): their surfaces (kept by the sort key, or built here together, in lanes, into
+/// [`RunSlots`]), their material program in lanes ([`material_lanes::evaluate_lanes`]; a lone hit runs the
 /// scalar program), then per hit [`prepare`] into the scatter group, which runs as soon as it is
 /// full. A degenerate triangle (no surface) ends its path here, as in the scalar integrator.
 ///
@@ -261,22 +263,39 @@ fn run<T: Touch>(
     let scene: &Scene = ctx.scene;
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let RunSlots { built, inputs } = run_slots;
-    let (mut paths, mut slots, mut count) = ([0u32; LANES], [NO_SURFACE; LANES], 0);
-    for &e in &w.shade[start..end] {
+    let group = &mut *w.surface_group;
+    // The members the sort key kept no surface for are built together, eight lanes at a time
+    // ([`surface_lanes`]), into `built` in member order.
+    let (mut paths, mut slots, mut built_at) = ([0u32; LANES], [NO_SURFACE; LANES], [0usize; LANES]);
+    let mut count = end - start;
+    group.clear();
+    for (m, &e) in w.shade[start..end].iter().enumerate() {
         let i = sort::index(e);
         let slot = if ctx.textured { w.surface_slot[i as usize] } else { NO_SURFACE };
+        (paths[m], slots[m]) = (i, slot);
         if slot == NO_SURFACE {
             let (hit, st) = (&w.hits[i as usize], &w.states[i as usize]);
-            // Written straight into its slot (a member that was skipped leaves a stale slot, which
-            // the next member overwrites).
-            let surface = &mut built[count];
-            *surface = scene.surface(hit, -st.dir, st.cone().width_at(hit.t));
-            if surface.is_none() {
-                continue; // a degenerate triangle
-            }
+            group.push(hit, -st.dir, st.cone().width_at(hit.t));
         }
-        (paths[count], slots[count]) = (i, slot);
-        count += 1;
+    }
+    if !group.is_empty() {
+        surface_lanes::surfaces(scene, group, |k, s| built[k] = s);
+        group.clear();
+        // Keep the members with a surface (a degenerate triangle has none: its path ends here, as
+        // in the scalar integrator), in place, and note where each built one is.
+        let (mut with_surface, mut next_built) = (0, 0);
+        for m in 0..count {
+            if slots[m] == NO_SURFACE {
+                next_built += 1;
+                if built[next_built - 1].is_none() {
+                    continue;
+                }
+                built_at[with_surface] = next_built - 1;
+            }
+            (paths[with_surface], slots[with_surface]) = (paths[m], slots[m]);
+            with_surface += 1;
+        }
+        count = with_surface;
     }
     w.clock.lap(Phase::Shading);
     if count == 0 {
@@ -284,15 +303,19 @@ fn run<T: Touch>(
     }
     let built = &*built;
     let surface = |k: usize| match slots[k] {
-        NO_SURFACE => built[k].as_ref().expect("a member without a kept surface has a built one"),
+        NO_SURFACE => built[built_at[k]].as_ref().expect("a member without a kept surface has a built one"),
         slot => &kept[slot as usize],
     };
     let material = surface(0).material;
     if count == 1 {
         inputs[0] = scene.shade(surface(0), filter, touch);
     } else {
-        let at: [&crate::shading::UvFootprint; LANES] =
-            std::array::from_fn(|k| &surface(k.min(count - 1)).uv);
+        // Filled by a loop: `array::from_fn` stayed out of line here (+1.8 M instructions on the
+        // shading-heavy scene). Lanes past `count` are not read.
+        let mut at = [&surface(0).uv; LANES];
+        for (k, at) in at.iter_mut().enumerate().take(count).skip(1) {
+            *at = &surface(k).uv;
+        }
         material_lanes::evaluate_lanes(
             &scene.shading,
             material,

@@ -1,0 +1,629 @@
+//! Surface reconstruction for up to eight triangle hits at once: [`Scene::surface`] in lanes.
+//!
+//! A gather loop reads, per lane, the triangle's vertex indices, positions, normals and uvs and the
+//! instance's transforms (scalar loads into `[f32; 8]` columns); lane loops then move instanced
+//! vertices to world space, interpolate the point, build the geometric normal (cross, normalize,
+//! flip towards `wo`), the shading normal (interpolate, instance normal transform, normalize, the
+//! facing fallbacks), uv, `dp/du`, `dp/dv` and the ray cone's uv footprint (with the head-on
+//! fallback axis `Frame::new(d).t` computed in lanes too). Every branch of the scalar code is a
+//! per-lane select, and each part only runs when some lane of the group needs it (no uvs, no
+//! normals, no instance: skipped). The arithmetic is the scalar code's (`triangle_surface` in
+//! [`crate::integrator`]) IEEE operation for IEEE operation, in the same order, using glam 0.34's
+//! formulas: `dot` is `(x·x' + y·y') + z·z'`, `cross` is `(y·z' − y'·z, z·x' − z'·x, x·y' − x'·y)`,
+//! `try_normalize` multiplies by `1 / sqrt(v·v)` when that is finite and positive, `Vec3 / f32`
+//! divides each component; Rust never contracts into FMAs. So every lane equals [`Scene::surface`]
+//! bit for bit (tested on random hits below).
+//!
+//! An earlier lane version lost (1.8× the instructions of the scalar calls it replaced): it ran
+//! every branch in every lane whether or not a lane needed it, called the accel's out-of-line
+//! vertex and normal helpers per lane, built the fallback axis per lane with a scalar call, and
+//! always filled eight lanes. This one gates each part on the group, keeps the lane loops free of
+//! calls and branches so that LLVM vectorises them 8-wide in the AVX2 clone (`vmulps`, `vdivps`,
+//! `vsqrtps`, `vblendvps` on `ymm`; the only calls left are the bounds-check panics), and leaves
+//! groups of [`MIN_LANES`]` − 1` hits or fewer to the scalar function.
+//!
+//! Used by the sort-key pass (textured hits, whose surfaces are kept for shading;
+//! [`super::intersect`]) and by shading's runs for the hits it did not keep ([`super::shade`]).
+//! The kernel's columns live in the worker (one [`HitGroup`], ~2.5 KiB), not on the stack: zeroed
+//! per call they were two `memset`s per group, and per stage ~1 M instructions on shading-heavy.
+//!
+//! Measured (callgrind, whole process, wavefront, 120×80, 8 spp, 1 thread, instructions; images
+//! byte-identical before and after on all three bench blobs). "Surfaces" is `triangle_surface`
+//! inclusive before, the lane kernel inclusive after (gather included; the callers' per-lane
+//! `Surface` writes are in `sort_keys`/`shade`):
+//!
+//! | scene | process | surfaces | `sort_keys` inclusive | `shade` inclusive |
+//! |---|---|---|---|---|
+//! | tractor | 365.5 M → 345.7 M (−5.4 %) | 34.0 M → 17.1 M | 38.0 M → 19.4 M | 104.5 M → 103.1 M |
+//! | shading-heavy | 636.8 M → 602.2 M (−5.4 %) | 45.5 M → 19.2 M | 85.6 M → 51.8 M | 176.8 M → 175.9 M |
+//! | simple | 135.6 M → 132.1 M (−2.6 %) | 9.1 M → 3.8 M | 1.0 M → 0.9 M | 21.8 M → 18.2 M |
+//!
+//! The process figures include the sort keys in lanes ([`super::key_lanes`]); the surfaces alone
+//! took the processes to 359.4 / 621.0 / 132.9 M (−1.7 / −2.5 / −2.1 %). The kernel runs ~190
+//! instructions per hit on shading-heavy (the scalar function ~500), about half of them the
+//! gather's scalar loads and stores.
+//!
+//! `perf` (contended, load ~6 on the 2 cores; shading-heavy, wavefront, 320×213, 16 spp, 1 thread,
+//! % of samples): `triangle_surface` 8.7 + `Shading::sort_key` 2.8 + `sort_keys` 1.7 + `memmove`
+//! 1.2 = 14.5 % before; `surface_columns` 3.9 + `keep_surfaces` 1.9 + `sort_keys` 1.3 + the key
+//! kernel 1.1 + `memmove` 0.2 = 8.3 % after (`shade::shade`'s own 3.8 → 4.6 %). Task clock of that
+//! render (ms, 5 runs alternating with the old binary, sorted): shading-heavy 1181 / 1185 / 1378 /
+//! 1461 / 1554 before, 1110 / 1177 / 1221 / 1287 / 1328 after; tractor 529 / 556 / 643 / 666 /
+//! 666 → 494 / 512 / 539 / 579 / 711; simple 192 / 195 / 215 / 219 / 240 → 173 / 181 / 216 /
+//! 227 / 241. `bench integrators` (same load, 3 runs alternating, wavefront speed-up over scalar
+//! in CPU s): tractor 1.76 / 1.67 / 1.74× before, 1.65 / 2.11 / 1.57× after; shading-heavy
+//! 1.42 / 1.44 / 1.39× → 1.30 / 1.36 / 1.49×; simple 1.75 / 2.04 / 1.80× → 1.96 / 1.54 / 2.08×:
+//! the ±15 % run-to-run noise of that machine hides a 5 % change; the instruction counts above
+//! are the deterministic measure.
+
+// Lane loops index several columns by the same lane number.
+#![allow(clippy::needless_range_loop)]
+
+use super::lanes::LANES;
+use crate::accel::Hit;
+use crate::integrator::Surface;
+use crate::scene::Scene;
+use crate::shading::{MeshPoint, UvFootprint};
+use glam::Vec3;
+
+type Lanes = [f32; LANES];
+type Lanes2 = [Lanes; 2];
+type Lanes3 = [Lanes; 3];
+
+/// Groups smaller than this are built by the scalar [`Scene::surface`], one call per hit: the
+/// lane kernel's fixed cost (gather setup, eight-lane arithmetic) does not pay for one or two hits.
+pub const MIN_LANES: usize = 3;
+
+/// Up to eight triangle hits waiting for their surfaces, with the direction towards each ray's
+/// origin and its ray cone's width at the hit, and the kernel's working columns.
+///
+/// Reused group after group (one per stage): the columns (~2.5 KiB) are not cleared per group.
+/// Cleared per call, they were two `memset` calls per group (+1.9 M instructions on the
+/// shading-heavy bench scene); the kernel writes every column it reads for the group's lanes, and
+/// what it computes in the other lanes from stale values is never read.
+#[derive(Clone, Copy, Debug)]
+pub struct HitGroup {
+    hits: [Hit; LANES],
+    wo: [Vec3; LANES],
+    footprint: Lanes,
+    len: usize,
+    gathered: Gathered,
+    out: Columns,
+}
+
+impl Default for HitGroup {
+    fn default() -> Self {
+        let none = Hit { t: 0.0, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE };
+        HitGroup {
+            hits: [none; LANES],
+            wo: [Vec3::ZERO; LANES],
+            footprint: [0.0; LANES],
+            len: 0,
+            gathered: Gathered::default(),
+            out: Columns::default(),
+        }
+    }
+}
+
+impl HitGroup {
+    /// Adds a triangle hit seen along `-wo` by a cone of width `footprint` there (lane `self.len()`).
+    #[inline]
+    pub fn push(&mut self, hit: &Hit, wo: Vec3, footprint: f32) {
+        let k = self.len;
+        (self.hits[k], self.wo[k], self.footprint[k]) = (*hit, wo, footprint);
+        self.len += 1;
+    }
+
+    /// Hits in the group.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when the group holds no hit.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// True when the group holds eight hits.
+    #[inline]
+    pub fn is_full(&self) -> bool {
+        self.len == LANES
+    }
+
+    /// Empties the group (its lanes are overwritten by the next pushes).
+    #[inline]
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+}
+
+/// Calls `emit(k, scene.surface(hit k, …))` for every hit of `group`, in lane order: in lanes
+/// ([`surface_columns`]) for groups of [`MIN_LANES`] or more, else by the scalar function.
+#[inline]
+pub fn surfaces(scene: &Scene, group: &mut HitGroup, mut emit: impl FnMut(usize, Option<Surface>)) {
+    if group.len < MIN_LANES {
+        for k in 0..group.len {
+            emit(k, scene.surface(&group.hits[k], group.wo[k], group.footprint[k]));
+        }
+        return;
+    }
+    surface_columns(scene, group);
+    for k in 0..group.len {
+        emit(k, group.out.surface(&group.hits[k], k));
+    }
+}
+
+/// The lane kernel's results, one column per scalar.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+struct Columns {
+    p: Lanes3,
+    ng: Lanes3,
+    ns: Lanes3,
+    uv: Lanes2,
+    duv_dx: Lanes2,
+    duv_dy: Lanes2,
+    dpdu: Lanes3,
+    dpdv: Lanes3,
+    /// Non-zero where the triangle is not degenerate.
+    valid: [u32; LANES],
+    /// Non-zero where the mesh has uvs.
+    has_uv: [u32; LANES],
+    material: [u32; LANES],
+}
+
+impl Columns {
+    /// Lane `k` as a [`Surface`] for `hit`: `None` for a degenerate triangle.
+    #[inline(always)]
+    fn surface(&self, hit: &Hit, k: usize) -> Option<Surface> {
+        if self.valid[k] == 0 {
+            return None;
+        }
+        let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
+        let point = Some(MeshPoint { triangle: hit.triangle, b1: hit.b1, b2: hit.b2 });
+        let (uv, dpdu, dpdv) = if self.has_uv[k] != 0 {
+            let uv = UvFootprint {
+                uv: [self.uv[0][k], self.uv[1][k]],
+                duv_dx: [self.duv_dx[0][k], self.duv_dx[1][k]],
+                duv_dy: [self.duv_dy[0][k], self.duv_dy[1][k]],
+                has_uv: true,
+                point,
+            };
+            (uv, at(&self.dpdu), at(&self.dpdv))
+        } else {
+            (UvFootprint { point, ..UvFootprint::default() }, Vec3::ZERO, Vec3::ZERO)
+        };
+        Some(Surface {
+            p: at(&self.p),
+            ng: at(&self.ng),
+            ns: at(&self.ns),
+            material: self.material[k],
+            uv,
+            dpdu,
+            dpdv,
+            triangle: hit.triangle,
+            curve: None,
+        })
+    }
+}
+
+/// What the gather loop reads per lane. Lanes past the group's hits, and the normal, uv and
+/// instance columns of lanes whose mesh has none, hold stale values (from an earlier group) whose
+/// results the selects drop or nobody reads.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+struct Gathered {
+    /// Vertex positions as stored (prototype space for instanced triangles).
+    p: [Lanes3; 3],
+    /// Vertex normals.
+    n: [Lanes3; 3],
+    /// Vertex uvs.
+    t: [Lanes2; 3],
+    b1: Lanes,
+    b2: Lanes,
+    wo: Lanes3,
+    footprint: Lanes,
+    /// The instance's row-major `world_from_object` rows.
+    world_from_object: [[Lanes; 4]; 3],
+    /// `normal_from_object[r][c]` = the instance's `object_from_world[c][r]` (its transpose).
+    normal_from_object: [Lanes3; 3],
+    /// Non-zero where the mesh has normals, has uvs, the hit is on an instance.
+    has_normals: [u32; LANES],
+    has_uvs: [u32; LANES],
+    instanced: [u32; LANES],
+}
+
+/// `(a·b)` in glam's order: `(x·x' + y·y') + z·z'`.
+#[inline(always)]
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2])
+}
+
+/// glam's `a.cross(b)`.
+#[inline(always)]
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[1] * b[2] - b[1] * a[2], a[2] * b[0] - b[2] * a[0], a[0] * b[1] - b[0] * a[1]]
+}
+
+/// `a − b`.
+#[inline(always)]
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `a · s`.
+#[inline(always)]
+fn scale(a: [f32; 3], s: f32) -> [f32; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+
+/// `−a`.
+#[inline(always)]
+fn neg(a: [f32; 3]) -> [f32; 3] {
+    [-a[0], -a[1], -a[2]]
+}
+
+/// `a` where `pick`, else `b` (a per-lane blend).
+#[inline(always)]
+fn select(pick: bool, a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [if pick { a[0] } else { b[0] }, if pick { a[1] } else { b[1] }, if pick { a[2] } else { b[2] }]
+}
+
+/// glam's `v0 · b0 + v1 · b1 + v2 · b2` (component-wise products, summed left to right).
+#[inline(always)]
+fn interpolate(v: [[f32; 3]; 3], b: [f32; 3]) -> [f32; 3] {
+    let at = |c: usize| v[0][c] * b[0] + v[1][c] * b[1] + v[2][c] * b[2];
+    [at(0), at(1), at(2)]
+}
+
+#[inline(always)]
+fn lane(c: &Lanes3, k: usize) -> [f32; 3] {
+    [c[0][k], c[1][k], c[2][k]]
+}
+
+#[inline(always)]
+fn set(c: &mut Lanes3, k: usize, v: [f32; 3]) {
+    (c[0][k], c[1][k], c[2][k]) = (v[0], v[1], v[2]);
+}
+
+/// glam's `try_normalize` test on `1 / |v|`: finite and positive.
+#[inline(always)]
+fn normalizable(rcp: f32) -> bool {
+    rcp.is_finite() && rcp > 0.0
+}
+
+/// The barycentric weights of lane `k`: `(1 − b1 − b2, b1, b2)`.
+#[inline(always)]
+fn weights(g: &Gathered, k: usize) -> [f32; 3] {
+    let (b1, b2) = (g.b1[k], g.b2[k]);
+    [1.0 - b1 - b2, b1, b2]
+}
+
+/// The three vertices of lane `k` in the columns `v`.
+#[inline(always)]
+fn vertices(v: &[Lanes3; 3], k: usize) -> [[f32; 3]; 3] {
+    [lane(&v[0], k), lane(&v[1], k), lane(&v[2], k)]
+}
+
+/// The surfaces of `group`'s hits into `out`, lane `k` equal to `scene.surface(hit k, …)`.
+#[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+fn surface_columns(scene: &Scene, group: &mut HitGroup) {
+    let HitGroup { hits, wo, footprint, len, gathered: g, out } = group;
+    let view = &scene.view;
+    let positions = view.positions;
+    // As long as `positions` (validated) when present: the slicing is the only bounds check for
+    // those reads, as in the scalar function.
+    let normals = &view.normals[..positions.len().min(view.normals.len())];
+    let uvs = &view.uvs[..positions.len().min(view.uvs.len())];
+    let (mut any_normals, mut any_uvs, mut any_instanced) = (false, false, false);
+    for k in 0..*len {
+        let hit = &hits[k];
+        let tri = &view.triangles[hit.triangle as usize];
+        let [v0, v1, v2] = [tri.vertices[0] as usize, tri.vertices[1] as usize, tri.vertices[2] as usize];
+        set(&mut g.p[0], k, positions[v0]);
+        set(&mut g.p[1], k, positions[v1]);
+        set(&mut g.p[2], k, positions[v2]);
+        (g.b1[k], g.b2[k], g.footprint[k]) = (hit.b1, hit.b2, footprint[k]);
+        set(&mut g.wo, k, wo[k].to_array());
+        out.material[k] = view.triangle_materials[hit.triangle as usize];
+        let flags = view.meshes[tri.mesh as usize].flags;
+        let (has_normals, has_uvs) = (flags & blob::MESH_HAS_NORMALS != 0, flags & blob::MESH_HAS_UVS != 0);
+        let instanced = hit.instance != blob::NONE;
+        (g.has_normals[k], g.has_uvs[k], g.instanced[k]) =
+            (has_normals as u32, has_uvs as u32, instanced as u32);
+        (any_normals, any_uvs, any_instanced) =
+            (any_normals | has_normals, any_uvs | has_uvs, any_instanced | instanced);
+        if has_normals {
+            set(&mut g.n[0], k, normals[v0]);
+            set(&mut g.n[1], k, normals[v1]);
+            set(&mut g.n[2], k, normals[v2]);
+        }
+        if has_uvs {
+            (g.t[0][0][k], g.t[0][1][k]) = (uvs[v0][0], uvs[v0][1]);
+            (g.t[1][0][k], g.t[1][1][k]) = (uvs[v1][0], uvs[v1][1]);
+            (g.t[2][0][k], g.t[2][1][k]) = (uvs[v2][0], uvs[v2][1]);
+        }
+        if instanced {
+            let inst = scene.accel.instances().record(hit.instance);
+            for r in 0..3 {
+                for c in 0..4 {
+                    g.world_from_object[r][c][k] = inst.world_from_object[r][c];
+                }
+                for c in 0..3 {
+                    g.normal_from_object[r][c][k] = inst.object_from_world[c][r];
+                }
+            }
+        }
+    }
+    out.has_uv = g.has_uvs;
+
+    if any_instanced {
+        to_world(g);
+    }
+    geometry(g, out);
+    if any_normals {
+        shading_normals(g, any_instanced, out);
+    } else {
+        out.ns = out.ng;
+    }
+    if any_uvs {
+        texture_coordinates(g, out);
+    }
+}
+
+/// Instanced lanes' vertices moved to world space (`instanced::point_to_world`'s
+/// `((m₀·x + m₁·y) + m₂·z) + m₃·1` per row).
+#[inline(always)]
+fn to_world(g: &mut Gathered) {
+    let m = &g.world_from_object;
+    for i in 0..3 {
+        let p = &mut g.p[i];
+        for k in 0..LANES {
+            let v = lane(p, k);
+            let row = |r: usize| m[r][0][k] * v[0] + m[r][1][k] * v[1] + m[r][2][k] * v[2] + m[r][3][k] * 1.0;
+            set(p, k, select(g.instanced[k] != 0, [row(0), row(1), row(2)], v));
+        }
+    }
+}
+
+/// Point and geometric normal (flipped towards `wo`; the lane is invalid where it does not
+/// normalize).
+#[inline(always)]
+fn geometry(g: &Gathered, out: &mut Columns) {
+    for k in 0..LANES {
+        let [p0, p1, p2] = vertices(&g.p, k);
+        let n = cross(sub(p1, p0), sub(p2, p0));
+        let rcp = 1.0 / dot(n, n).sqrt();
+        let ng = scale(n, rcp);
+        let ng = select(dot(ng, lane(&g.wo, k)) < 0.0, neg(ng), ng);
+        set(&mut out.p, k, interpolate([p0, p1, p2], weights(g, k)));
+        set(&mut out.ng, k, ng);
+        out.valid[k] = normalizable(rcp) as u32;
+    }
+}
+
+/// The shading normals: interpolated, moved by the instance's normal transform, normalized,
+/// turned to `ng`'s side; `ng` where a lane has no normals, they do not normalize, or they face
+/// away from the viewer.
+#[inline(always)]
+fn shading_normals(g: &Gathered, instanced: bool, out: &mut Columns) {
+    for k in 0..LANES {
+        let mut n = interpolate(vertices(&g.n, k), weights(g, k));
+        if instanced {
+            // `instanced::normal_to_world`: `object_from_worldᵀ · n`.
+            let m = &g.normal_from_object;
+            let row = |r: usize| m[r][0][k] * n[0] + m[r][1][k] * n[1] + m[r][2][k] * n[2];
+            n = select(g.instanced[k] != 0, [row(0), row(1), row(2)], n);
+        }
+        let rcp = 1.0 / dot(n, n).sqrt();
+        let n = scale(n, rcp);
+        let ng = lane(&out.ng, k);
+        let ns = select(dot(n, ng) < 0.0, neg(n), n);
+        // NaN compares false: the scalar code keeps such a normal too.
+        let faces_away = dot(ns, lane(&g.wo, k)) < 1e-4;
+        let keep = g.has_normals[k] != 0 && normalizable(rcp) && !faces_away;
+        set(&mut out.ns, k, select(keep, ns, ng));
+    }
+}
+
+/// uv, `dp/du`, `dp/dv` (zero where the uv triangle's determinant is zero or not finite) and the
+/// ray cone's uv footprint (`uv_footprint` in [`crate::integrator`]).
+#[inline(always)]
+fn texture_coordinates(g: &Gathered, out: &mut Columns) {
+    for k in 0..LANES {
+        let [b0, b1, b2] = weights(g, k);
+        let [t0, t1, t2] =
+            [[g.t[0][0][k], g.t[0][1][k]], [g.t[1][0][k], g.t[1][1][k]], [g.t[2][0][k], g.t[2][1][k]]];
+        let [p0, p1, p2] = vertices(&g.p, k);
+        let (e1, e2) = (sub(p1, p0), sub(p2, p0));
+        out.uv[0][k] = t0[0] * b0 + t1[0] * b1 + t2[0] * b2;
+        out.uv[1][k] = t0[1] * b0 + t1[1] * b1 + t2[1] * b2;
+        let d1 = [t1[0] - t0[0], t1[1] - t0[1]];
+        let d2 = [t2[0] - t0[0], t2[1] - t0[1]];
+        let det = d1[0] * d2[1] - d1[1] * d2[0];
+        let solvable = det != 0.0 && det.is_finite();
+        let dpdu = sub(scale(e1, d2[1]), scale(e2, d1[1]));
+        let dpdv = sub(scale(e2, d1[0]), scale(e1, d2[0]));
+        let dpdu = [dpdu[0] / det, dpdu[1] / det, dpdu[2] / det];
+        let dpdv = [dpdv[0] / det, dpdv[1] / det, dpdv[2] / det];
+        set(&mut out.dpdu, k, select(solvable, dpdu, [0.0; 3]));
+        set(&mut out.dpdv, k, select(solvable, dpdv, [0.0; 3]));
+
+        // The footprint: the cone's ellipse axes on the triangle's plane, written in the edges.
+        let ng = lane(&out.ng, k);
+        let d = neg(lane(&g.wo, k));
+        let cos = dot(ng, d);
+        let a = sub(ng, scale(d, cos));
+        let rcp = 1.0 / dot(a, a).sqrt();
+        // Head on: `Frame::new(d).t`.
+        let sign = 1.0f32.copysign(d[2]);
+        let fa = -1.0 / (sign + d[2]);
+        let fb = d[0] * d[1] * fa;
+        let fallback = [1.0 + sign * d[0] * d[0] * fa, sign * fb, -sign * d[0]];
+        let axis1 = select(normalizable(rcp), scale(a, rcp), fallback);
+        let axis2 = cross(d, axis1);
+        let cos = if cos.abs() < 1e-4 { 1e-4f32.copysign(cos) } else { cos };
+        let (g11, g12, g22) = (dot(e1, e1), dot(e1, e2), dot(e2, e2));
+        let gram = g11 * g22 - g12 * g12;
+        let footprint = g.footprint[k];
+        let to_uv = |axis: [f32; 3]| -> [f32; 2] {
+            let v = scale(axis, footprint);
+            let w = sub(v, scale(d, dot(v, ng) / cos));
+            let (r1, r2) = (dot(w, e1), dot(w, e2));
+            let a = (r1 * g22 - r2 * g12) / gram;
+            let b = (r2 * g11 - r1 * g12) / gram;
+            let flat = gram <= 0.0;
+            [if flat { 0.0 } else { d1[0] * a + d2[0] * b }, if flat { 0.0 } else { d1[1] * a + d2[1] * b }]
+        };
+        let (dx, dy) = (to_uv(axis1), to_uv(axis2));
+        (out.duv_dx[0][k], out.duv_dx[1][k]) = (dx[0], dx[1]);
+        (out.duv_dy[0][k], out.duv_dy[1][k]) = (dy[0], dy[1]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testscene::{self, Rng};
+    use glam::{Mat4, Vec2};
+
+    /// Every field of a triangle surface as bits (a difference in the last place or in the sign
+    /// of a zero fails).
+    fn bits(s: &Surface) -> Vec<u32> {
+        let point = s.uv.point.expect("triangle surfaces record their point");
+        let mut out: Vec<u32> = [s.p, s.ng, s.ns, s.dpdu, s.dpdv]
+            .iter()
+            .flat_map(|v| v.to_array())
+            .chain(s.uv.uv)
+            .chain(s.uv.duv_dx)
+            .chain(s.uv.duv_dy)
+            .chain([point.b1, point.b2])
+            .map(f32::to_bits)
+            .collect();
+        out.extend([s.material, s.triangle, point.triangle, s.uv.has_uv as u32, s.curve.is_some() as u32]);
+        out
+    }
+
+    fn random_unit(rng: &mut Rng) -> Vec3 {
+        loop {
+            let v = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+            if let Some(u) = v.try_normalize() {
+                return u;
+            }
+        }
+    }
+
+    /// A scene with every case the kernel selects between: instanced spheres (non-uniform and
+    /// mirroring scales; normals through the instance's inverse transpose), a world-space sphere
+    /// with normals and uvs (degenerate triangles at its poles), one with uvs but no normals, a
+    /// random triangle cloud with neither, a card whose uvs are all equal (uv determinant 0) and
+    /// whose normals lean away from its face (shading normals that face away from some viewers),
+    /// and a mesh of zero-area triangles.
+    fn scene_bytes() -> blob::AlignedBytes {
+        let mut scene = testscene::instanced_spheres(10, 0x5eed);
+        scene.meshes.push(testscene::sphere(Vec3::new(1.0, 0.5, -1.0), 0.8, 6, 9, 0, false));
+        scene.meshes.push(ingest::Mesh {
+            normals: Vec::new(),
+            ..testscene::sphere(Vec3::new(-1.5, -0.5, 1.0), 0.7, 5, 8, 0, true)
+        });
+        let mut soup = testscene::random_triangles_mesh(40, 9);
+        let tilt = Mat4::from_rotation_x(0.7);
+        soup.positions.iter_mut().for_each(|p| *p = tilt.transform_point3(*p));
+        scene.meshes.push(soup);
+        let mut card = testscene::card(-2.0, 1.5, 0);
+        card.uvs = vec![Vec2::new(0.25, 0.75); 4];
+        card.normals = vec![
+            Vec3::new(0.9, 0.0, 0.2).normalize(),
+            Vec3::new(-0.3, 0.95, 0.1).normalize(),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(0.7, -0.7, -0.14).normalize(),
+        ];
+        scene.meshes.push(card);
+        let mut flat = testscene::card(1.0, 0.5, 0);
+        flat.path = "/flat".into();
+        flat.positions = vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0, Vec3::X];
+        flat.uvs = vec![Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE];
+        scene.meshes.push(flat);
+        testscene::bytes(&scene)
+    }
+
+    /// Lanes equal [`Scene::surface`] bit for bit on random hits, groups of 1 to 8 (both the
+    /// scalar shortcut and the kernel), from random directions (flipped normals, back-facing
+    /// shading normals), along the axes (head-on hits on the card: the fallback axis), with random
+    /// and zero footprints.
+    #[test]
+    fn lanes_equal_scalar_surfaces() {
+        let bytes = scene_bytes();
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        let scene = Scene::new(view);
+        let triangles = view.triangles.len() as u32;
+        let instances = view.instancing.instances.len() as u32;
+        // The card's triangles (z = −2), picked often so that axis-aligned views hit it head on.
+        let card: Vec<u32> = (0..triangles)
+            .filter(|&t| {
+                view.triangles[t as usize].vertices.iter().all(|&v| view.positions[v as usize][2] == -2.0)
+            })
+            .collect();
+        assert_eq!(card.len(), 2);
+        let mut rng = Rng(17);
+        let mut group = HitGroup::default();
+        let mut seen = [0u32; 7]; // compared, degenerate, instanced, uvs, normals, det 0, head on
+        for round in 0..3000 {
+            group.clear();
+            for _ in 0..1 + round % LANES {
+                let (mut b1, mut b2) = (rng.next_f32(), rng.next_f32());
+                if b1 + b2 > 1.0 {
+                    (b1, b2) = (1.0 - b1, 1.0 - b2);
+                }
+                let (triangle, instance) = if instances > 0 && rng.next_f32() < 0.3 {
+                    let instance = (rng.next_f32() * instances as f32) as u32;
+                    let inst = &view.instancing.instances[instance as usize];
+                    let proto = &view.instancing.prototypes[inst.prototype as usize];
+                    (proto.first_triangle + (rng.next_f32() * proto.triangle_count as f32) as u32, instance)
+                } else if rng.next_f32() < 0.1 {
+                    (card[(rng.next_f32() * card.len() as f32) as usize], blob::NONE)
+                } else {
+                    ((rng.next_f32() * triangles as f32) as u32, blob::NONE)
+                };
+                let wo = if rng.next_f32() < 0.15 {
+                    [Vec3::Z, -Vec3::Z, Vec3::X][(rng.next_f32() * 3.0) as usize]
+                } else {
+                    random_unit(&mut rng)
+                };
+                let footprint = if rng.next_f32() < 0.1 { 0.0 } else { rng.range(0.0, 0.05) };
+                group.push(&Hit { t: 1.0, triangle, b1, b2, instance }, wo, footprint);
+            }
+            let mut got = Vec::new();
+            surfaces(&scene, &mut group, |k, s| got.push((k, s)));
+            assert_eq!(got.len(), group.len());
+            for (k, lanes) in got {
+                let hit = &group.hits[k];
+                let want = scene.surface(hit, group.wo[k], group.footprint[k]);
+                assert_eq!(
+                    lanes.as_ref().map(bits),
+                    want.as_ref().map(bits),
+                    "lane {k} of {}: {hit:?}",
+                    group.len()
+                );
+                let tri = &view.triangles[hit.triangle as usize];
+                let flags = view.meshes[tri.mesh as usize].flags;
+                seen[0] += 1;
+                seen[1] += want.is_none() as u32;
+                seen[2] += (hit.instance != blob::NONE) as u32;
+                seen[3] += (flags & blob::MESH_HAS_UVS != 0) as u32;
+                seen[4] += (flags & blob::MESH_HAS_NORMALS != 0) as u32;
+                if let Some(s) = &want {
+                    seen[5] += (s.uv.has_uv && s.dpdu == Vec3::ZERO) as u32;
+                    seen[6] += (s.uv.has_uv && s.ng.cross(group.wo[k]) == Vec3::ZERO) as u32;
+                }
+            }
+        }
+        eprintln!("compared, degenerate, instanced, uvs, normals, det 0, head on: {seen:?}");
+        let [compared, degenerate, instanced, uvs, normals, det0, head_on] = seen;
+        assert!(compared > 10_000 && degenerate > 50 && instanced > 1000, "{seen:?}");
+        assert!(uvs > 1000 && compared - uvs > 500 && normals > 1000 && compared - normals > 500, "{seen:?}");
+        assert!(det0 > 20 && head_on > 5, "{seen:?}");
+    }
+}
