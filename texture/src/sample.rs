@@ -43,7 +43,12 @@ use crate::record::{TextureRecord, MAX_DIMENSION};
 use crate::srgb::SRGB_TO_LINEAR;
 use crate::stats::{NoTouch, Touch};
 
+mod lane_address;
 mod lanes;
+#[cfg(target_arch = "x86_64")]
+mod lanes_avx2;
+#[cfg(test)]
+pub(crate) use lanes::{sample_lanes_on, LanePath};
 pub use lanes::{sample_lanes_with, Lanes, LookupLanes, LANES};
 
 /// Most taps the anisotropic filter takes along the footprint's major axis; footprints more elongated
@@ -224,6 +229,10 @@ pub(crate) const NO_TEXEL: usize = usize::MAX;
 
 /// Decodes stored texels to linear RGBA.
 trait Decode {
+    /// `Some(srgb)` for the one-byte-per-channel formats (sRGB or unorm), which the AVX2 lane filter
+    /// gathers in hardware; `None` for the others.
+    const U8_SRGB: Option<bool> = None;
+
     /// One texel: `bytes` holds its `channels` stored channels.
     fn texel(bytes: &[u8], channels: u32) -> [f32; 4];
 
@@ -277,6 +286,8 @@ fn expand(channels: u32, colour: impl Fn(usize) -> f32, alpha: impl Fn(usize) ->
 }
 
 impl Decode for Srgb8 {
+    const U8_SRGB: Option<bool> = Some(true);
+
     #[inline(always)]
     fn texel(b: &[u8], channels: u32) -> [f32; 4] {
         expand(channels, |i| SRGB_TO_LINEAR[b[i] as usize], |i| b[i] as f32 * (1.0 / 255.0))
@@ -284,6 +295,8 @@ impl Decode for Srgb8 {
 }
 
 impl Decode for Unorm8 {
+    const U8_SRGB: Option<bool> = Some(false);
+
     #[inline(always)]
     fn texel(b: &[u8], channels: u32) -> [f32; 4] {
         let unorm = |i: usize| b[i] as f32 * (1.0 / 255.0);
@@ -408,15 +421,6 @@ impl<'a, D: Decode, T: Touch> Sampler<'a, D, T> {
         let n = lv.texel_bytes as usize;
         self.touch.touch(off, n);
         D::texel(&self.tex.texels[off..off + n], self.tex.record.channels)
-    }
-
-    /// Byte offset of the texel containing `uv` on `lv` (`NO_TEXEL` on a black border).
-    #[inline(always)]
-    fn nearest_address(&self, lv: &LevelLayout, uv: [f32; 2]) -> usize {
-        // `as i32` saturates huge or NaN coordinates (NaN → 0) instead of failing; wrap keeps them in range.
-        let x = floor(uv[0] * lv.width as f32) as i32;
-        let y = floor(uv[1] * lv.height as f32) as i32;
-        self.address(lv, x, y)
     }
 
     /// Texel containing `uv` on `level`.

@@ -13,10 +13,12 @@
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
 
+use super::lane_address::{offsets, wrap_lanes, LayoutLanes};
+#[cfg(target_arch = "x86_64")]
+use super::lanes_avx2;
 use super::{sample_with, Decode, Lookup, Sampler, Srgb8, TextureView, Unorm8, F16, NO_TEXEL};
 use crate::float::floor;
 use crate::format::{Filter, TexelFormat, Wrap};
-use crate::layout::LevelLayout;
 use crate::stats::Touch;
 
 /// Lookups per call.
@@ -56,6 +58,27 @@ impl LookupLanes {
     }
 }
 
+/// Which code the lane filter runs: chosen at run time from the CPU, so one binary serves every x86-64.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum LanePath {
+    /// Lane loops as the baseline target compiles them (SSE2), texels read one lane at a time.
+    Portable,
+    /// The same lane loops compiled for AVX2, 8-bit texels read by hardware gathers.
+    Avx2,
+}
+
+impl LanePath {
+    /// The best path this CPU supports.
+    #[inline(always)]
+    pub(crate) fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if is_x86_feature_detected!("avx2") {
+            return LanePath::Avx2;
+        }
+        LanePath::Portable
+    }
+}
+
 /// Filtered linear RGBA (`[channel][lane]`) of the first `count` lanes of `q`, reporting texel reads
 /// to `touch`; lane `k` equals `sample_with(tex, &q.lane(k), touch)` exactly.
 pub fn sample_lanes_with<T: Touch>(
@@ -63,6 +86,18 @@ pub fn sample_lanes_with<T: Touch>(
     q: &LookupLanes,
     count: usize,
     touch: &T,
+) -> [Lanes; 4] {
+    sample_lanes_on(tex, q, count, touch, LanePath::detect())
+}
+
+/// [`sample_lanes_with`] on the code `path` names (tests run both; a CPU without AVX2 runs the
+/// portable path whatever `path` says).
+pub(crate) fn sample_lanes_on<T: Touch>(
+    tex: &TextureView,
+    q: &LookupLanes,
+    count: usize,
+    touch: &T,
+    path: LanePath,
 ) -> [Lanes; 4] {
     let count = count.min(LANES);
     if q.filter != Filter::Moonray {
@@ -76,9 +111,11 @@ pub fn sample_lanes_with<T: Touch>(
         return out;
     }
     match tex.format {
-        TexelFormat::Srgb8 => Sampler::<Srgb8, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count),
-        TexelFormat::Unorm8 => Sampler::<Unorm8, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count),
-        TexelFormat::F16 => Sampler::<F16, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count),
+        TexelFormat::Srgb8 => Sampler::<Srgb8, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count, path),
+        TexelFormat::Unorm8 => {
+            Sampler::<Unorm8, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count, path)
+        }
+        TexelFormat::F16 => Sampler::<F16, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count, path),
     }
 }
 
@@ -96,7 +133,7 @@ struct LevelLanes {
 }
 
 /// `mip_level` for eight footprints; the `log2` calls are libm, one lane at a time.
-#[inline]
+#[inline(always)]
 fn levels(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
     let (w, h) = (width as f32, height as f32);
     let mut size = [0.0f32; LANES];
@@ -123,91 +160,191 @@ fn levels(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
 
 impl<D: Decode, T: Touch> Sampler<'_, D, T> {
     /// [`Filter::Moonray`] for the first `count` lanes of `q` (the lookups' own wraps, not the
-    /// sampler's first lane's, are the same for all lanes by construction of [`LookupLanes`]).
-    ///
-    /// Addresses first, texels second: the lane loop finds each tap's byte offset (level layouts built
-    /// once per level, not per lane), then [`Decode::gather`] reads and decodes exactly the taps in use,
-    /// all at once (one F16C conversion for half-float textures).
-    fn moonray_lanes(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
+    /// sampler's first lane's, are the same for all lanes by construction of [`LookupLanes`]), on
+    /// the code `path` names (the portable path when the CPU lacks what `path` needs).
+    fn moonray_lanes(&self, q: &LookupLanes, count: usize, path: LanePath) -> [Lanes; 4] {
+        #[cfg(target_arch = "x86_64")]
+        if path == LanePath::Avx2 && LanePath::detect() == LanePath::Avx2 {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            return unsafe { self.moonray_lanes_avx2(q, count) };
+        }
+        let _ = path;
+        self.moonray_lanes_in::<false>(q, count)
+    }
+
+    /// [`Self::moonray_lanes_in`] compiled for AVX2: the lane loops become 8-wide vector code and the
+    /// 8-bit texel reads become hardware gathers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn moonray_lanes_avx2(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
+        self.moonray_lanes_in::<true>(q, count)
+    }
+
+    /// The MoonRay filter in lanes. Levels first (libm `log2` per lane, as the scalar lookup), then
+    /// every tap's address for all lanes at once — tap 0 the level-0 bilinear corner (magnifying) or
+    /// the nearer level's texel, tap 1 its right neighbour or the coarser level's texel (only where
+    /// that level's weight is not 0), taps 2 and 3 the upper bilinear row (magnifying only) — then
+    /// one gather that reads and decodes the taps in use, then the blend. Under `AVX2` the addresses
+    /// and the 8-bit texel reads are intrinsics ([`lanes_avx2`]) where they apply; elsewhere
+    /// the lane loops of [`super::lane_address`] and [`Decode::gather`] (per lane; half floats in one
+    /// F16C conversion).
+    #[inline(always)]
+    fn moonray_lanes_in<const AVX2: bool>(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
         let rec = self.tex.record;
         let lv = levels(rec.width, rec.height, self.last_level(), q);
-        // Level-0 bilinear coordinates and weights, used by magnifying lanes only: a group of
-        // minifying lanes (most groups past the first bounce) skips them, and its blend then selects
-        // the level blend over a bilinear made of zeros.
-        let base = self.layout(0);
-        let (w0, h0) = (base.width as f32, base.height as f32);
-        let (mut x0, mut y0) = ([0.0f32; LANES], [0.0f32; LANES]);
         let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
-        if lv.magnify[..count].contains(&true) {
-            for k in 0..LANES {
-                let x = q.uv[0][k] * w0 - 0.5;
-                let y = q.uv[1][k] * h0 - 0.5;
-                x0[k] = floor(x);
-                y0[k] = floor(y);
-                fx[k] = x - x0[k];
-                fy[k] = y - y0[k];
-            }
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 && self.avx2_addressing() {
+            let choice = lanes_avx2::LevelChoice { magnify: &lv.magnify, l0: &lv.l0, l1: &lv.l1, t: &lv.t };
+            let (s, t) = (self.wrap_s, self.wrap_t);
+            let texel_bytes = self.tex.texel_bytes;
+            // SAFETY (both calls): `AVX2` is true only in `moonray_lanes_avx2`, which runs on CPUs with
+            // AVX2; `avx2_addressing` checked the sizes `addresses` requires.
+            let taps = unsafe {
+                lanes_avx2::addresses(rec, texel_bytes, s, t, &q.uv, &choice, count, (&mut fx, &mut fy))
+            };
+            let decoded = match D::U8_SRGB {
+                Some(srgb) => unsafe { lanes_avx2::gather_u8(self.tex.texels, rec.channels, srgb, &taps) },
+                None => None,
+            };
+            let at = taps.offset.map(|offset| offset.map(|o| o as usize));
+            let at: [[usize; LANES]; 4] = std::array::from_fn(|tap| {
+                std::array::from_fn(|k| if taps.present[tap][k] != 0 { at[tap][k] } else { NO_TEXEL })
+            });
+            let decoded = match decoded {
+                Some(decoded) => {
+                    self.touch_all(&at);
+                    decoded
+                }
+                None => {
+                    D::gather(self.tex.texels, rec.channels, texel_bytes as usize, &at, count, self.touch)
+                }
+            };
+            return blend(&lv, &decoded, &fx, &fy, count);
         }
-        // Addresses: four taps per magnifying lane, one or two per minifying lane.
-        let mut at = [[NO_TEXEL; LANES]; 4];
-        let mut layouts = LayoutCache::default();
-        for k in 0..count {
-            if lv.magnify[k] {
-                let (x0, y0) = (x0[k] as i32, y0[k] as i32);
-                let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
-                at[0][k] = self.address(&base, x0, y0);
-                at[1][k] = self.address(&base, x1, y0);
-                at[2][k] = self.address(&base, x0, y1);
-                at[3][k] = self.address(&base, x1, y1);
-            } else {
-                let uv = [q.uv[0][k], q.uv[1][k]];
-                at[0][k] = self.nearest_address(&layouts.get(self, lv.l0[k]), uv);
-                if lv.t[k] != 0.0 {
-                    at[1][k] = self.nearest_address(&layouts.get(self, lv.l1[k]), uv);
+        let at = self.addresses(&lv, q, count, (&mut fx, &mut fy));
+        let texel_bytes = self.tex.texel_bytes as usize;
+        let decoded = D::gather(self.tex.texels, rec.channels, texel_bytes, &at, count, self.touch);
+        blend(&lv, &decoded, &fx, &fy, count)
+    }
+
+    /// Whether [`lanes_avx2::addresses`] applies: power-of-two level-0 sizes (so every level's wraps
+    /// are masks) and a texel array under 2 GiB (32-bit offsets).
+    #[inline(always)]
+    fn avx2_addressing(&self) -> bool {
+        let rec = self.tex.record;
+        rec.width.is_power_of_two()
+            && rec.height.is_power_of_two()
+            && self.tex.texels.len() <= i32::MAX as usize
+    }
+
+    /// Reports every tap in `at` to the touch sink.
+    #[inline(always)]
+    fn touch_all(&self, at: &[[usize; LANES]; 4]) {
+        for tap in at {
+            for &off in tap {
+                if off != NO_TEXEL {
+                    self.touch.touch(off, self.tex.texel_bytes as usize);
                 }
             }
         }
-        let texel_bytes = self.tex.texel_bytes as usize;
-        let taps = D::gather(self.tex.texels, rec.channels, texel_bytes, &at, count, self.touch);
-        // Blend: bilinear (magnifying) or the two levels (minifying), selected per lane.
-        let mut out = [[0.0f32; LANES]; 4];
-        for c in 0..4 {
-            let [t00, t10, t01, t11] = [taps[0][c], taps[1][c], taps[2][c], taps[3][c]];
-            for k in 0..LANES {
-                let bottom = t00[k] + (t10[k] - t00[k]) * fx[k];
-                let top = t01[k] + (t11[k] - t01[k]) * fx[k];
-                let bilinear = bottom + (top - bottom) * fy[k];
-                let t = lv.t[k];
-                let levels = if t == 0.0 { t00[k] } else { t00[k] + (t10[k] - t00[k]) * t };
-                out[c][k] = if lv.magnify[k] { bilinear } else { levels };
-            }
-        }
-        // Lanes past `count` read nothing; keep them zero whatever the blend made of the zero taps.
-        for channel in &mut out {
-            channel[count..].fill(0.0);
-        }
-        out
     }
-}
 
-/// The layouts of the two levels most recently addressed: the lanes of a group mostly share one
-/// level pair, so each is built once per call rather than once per lane.
-#[derive(Default)]
-struct LayoutCache {
-    entries: [Option<(u32, LevelLayout)>; 2],
-}
-
-impl LayoutCache {
+    /// The taps' byte offsets (`NO_TEXEL` where a lane does not read the tap, or reads a black border)
+    /// and the level-0 bilinear weights, in lane loops.
     #[inline(always)]
-    fn get<D: Decode, T: Touch>(&mut self, sampler: &Sampler<'_, D, T>, level: u32) -> LevelLayout {
-        for (cached, layout) in self.entries.iter().flatten() {
-            if *cached == level {
-                return *layout;
-            }
+    fn addresses(
+        &self,
+        lv: &LevelLanes,
+        q: &LookupLanes,
+        count: usize,
+        (fx, fy): (&mut Lanes, &mut Lanes),
+    ) -> [[usize; LANES]; 4] {
+        let rec = self.tex.record;
+        let active: [bool; LANES] = std::array::from_fn(|k| k < count);
+        // Level-0 bilinear coordinates and weights (magnifying lanes) and the two levels' nearest
+        // texels (minifying lanes), both computed in every lane and selected.
+        let base = LayoutLanes::new(rec, &[0; LANES]);
+        let mut near_level = [0u32; LANES];
+        let mut far_level = [0u32; LANES];
+        for k in 0..LANES {
+            near_level[k] = if lv.magnify[k] { 0 } else { lv.l0[k] };
+            far_level[k] = if lv.magnify[k] { 0 } else { lv.l1[k] };
         }
-        let layout = sampler.layout(level);
-        self.entries[1] = self.entries[0];
-        self.entries[0] = Some((level, layout));
-        layout
+        let near = LayoutLanes::new(rec, &near_level);
+        let far = LayoutLanes::new(rec, &far_level);
+        let mut x = [[0i32; LANES]; 4];
+        let mut y = [[0i32; LANES]; 4];
+        let mut valid = [[false; LANES]; 4];
+        for k in 0..LANES {
+            let (u, v) = (q.uv[0][k], q.uv[1][k]);
+            // Bilinear on level 0, as `Sampler::bilinear`.
+            let bx = u * base.width[k] as f32 - 0.5;
+            let by = v * base.height[k] as f32 - 0.5;
+            let (bx0, by0) = (floor(bx), floor(by));
+            fx[k] = bx - bx0;
+            fy[k] = by - by0;
+            let (bx0, by0) = (bx0 as i32, by0 as i32);
+            let (bx1, by1) = (bx0.saturating_add(1), by0.saturating_add(1));
+            // Nearest on each level, as `Sampler::nearest`.
+            let nx = floor(u * near.width[k] as f32) as i32;
+            let ny = floor(v * near.height[k] as f32) as i32;
+            let nfx = floor(u * far.width[k] as f32) as i32;
+            let nfy = floor(v * far.height[k] as f32) as i32;
+            let magnify = lv.magnify[k];
+            x[0][k] = if magnify { bx0 } else { nx };
+            y[0][k] = if magnify { by0 } else { ny };
+            x[1][k] = if magnify { bx1 } else { nfx };
+            y[1][k] = if magnify { by0 } else { nfy };
+            (x[2][k], y[2][k]) = (bx0, by1);
+            (x[3][k], y[3][k]) = (bx1, by1);
+            valid[0][k] = active[k];
+            valid[1][k] = active[k] && (magnify || lv.t[k] != 0.0);
+            valid[2][k] = active[k] && magnify;
+            valid[3][k] = valid[2][k];
+        }
+        // Level sizes are powers of two when level 0's are (`max(n >> l, 1)`).
+        let pow2 = rec.width.is_power_of_two() && rec.height.is_power_of_two();
+        let mut at = [[NO_TEXEL; LANES]; 4];
+        for tap in 0..4 {
+            if valid[tap] == [false; LANES] {
+                continue; // unused by every lane: taps 2 and 3 when no lane magnifies
+            }
+            let layout = [&near, &far, &base, &base][tap];
+            let (xs, ys) = if pow2 {
+                (
+                    wrap_lanes::<true>(&x[tap], &layout.width, self.wrap_s, &mut valid[tap]),
+                    wrap_lanes::<true>(&y[tap], &layout.height, self.wrap_t, &mut valid[tap]),
+                )
+            } else {
+                (
+                    wrap_lanes::<false>(&x[tap], &layout.width, self.wrap_s, &mut valid[tap]),
+                    wrap_lanes::<false>(&y[tap], &layout.height, self.wrap_t, &mut valid[tap]),
+                )
+            };
+            at[tap] = offsets(layout, rec.tile_log2, self.tex.texel_bytes, &xs, &ys, &valid[tap]);
+        }
+        at
     }
+}
+
+/// The MoonRay blend of the decoded taps `[tap][channel][lane]`: bilinear (magnifying) or the two
+/// levels (minifying), selected per lane; lanes at or past `count` are zero.
+#[inline(always)]
+fn blend(lv: &LevelLanes, taps: &[[Lanes; 4]; 4], fx: &Lanes, fy: &Lanes, count: usize) -> [Lanes; 4] {
+    let mut out = [[0.0f32; LANES]; 4];
+    for c in 0..4 {
+        let [t00, t10, t01, t11] = [taps[0][c], taps[1][c], taps[2][c], taps[3][c]];
+        for k in 0..LANES {
+            let bottom = t00[k] + (t10[k] - t00[k]) * fx[k];
+            let top = t01[k] + (t11[k] - t01[k]) * fx[k];
+            let bilinear = bottom + (top - bottom) * fy[k];
+            let t = lv.t[k];
+            let levels = if t == 0.0 { t00[k] } else { t00[k] + (t10[k] - t00[k]) * t };
+            let value = if lv.magnify[k] { bilinear } else { levels };
+            // Lanes past `count` read nothing; keep them zero whatever the blend made of the zero taps.
+            out[c][k] = if k < count { value } else { 0.0 };
+        }
+    }
+    out
 }
