@@ -207,16 +207,16 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
                 Some(srgb) => unsafe { lanes_avx2::gather_u8(self.tex.texels, rec.channels, srgb, &taps) },
                 None => None,
             };
-            let at = taps.offset.map(|offset| offset.map(|o| o as usize));
-            let at: [[usize; LANES]; 4] = std::array::from_fn(|tap| {
-                std::array::from_fn(|k| if taps.present[tap][k] != 0 { at[tap][k] } else { NO_TEXEL })
-            });
             let decoded = match decoded {
                 Some(decoded) => {
-                    self.touch_all(&at);
+                    self.touch_all(&taps);
                     decoded
                 }
                 None => {
+                    let at: [[usize; LANES]; 4] = std::array::from_fn(|tap| {
+                        let (offset, present) = (&taps.offset[tap], &taps.present[tap]);
+                        std::array::from_fn(|k| if present[k] != 0 { offset[k] as usize } else { NO_TEXEL })
+                    });
                     D::gather(self.tex.texels, rec.channels, texel_bytes as usize, &at, count, self.touch)
                 }
             };
@@ -228,6 +228,7 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         blend(&lv, &decoded, &fx, &fy, count)
     }
 
+    #[cfg(target_arch = "x86_64")]
     /// Whether [`lanes_avx2::addresses`] applies: power-of-two level-0 sizes (so every level's wraps
     /// are masks) and a texel array under 2 GiB (32-bit offsets).
     #[inline(always)]
@@ -238,13 +239,14 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
             && self.tex.texels.len() <= i32::MAX as usize
     }
 
-    /// Reports every tap in `at` to the touch sink.
+    /// Reports every tap the lanes read to the touch sink (nothing to do for [`crate::NoTouch`]).
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn touch_all(&self, at: &[[usize; LANES]; 4]) {
-        for tap in at {
-            for &off in tap {
-                if off != NO_TEXEL {
-                    self.touch.touch(off, self.tex.texel_bytes as usize);
+    fn touch_all(&self, taps: &lanes_avx2::TapOffsets) {
+        for (offset, present) in taps.offset.iter().zip(&taps.present) {
+            for k in 0..LANES {
+                if present[k] != 0 {
+                    self.touch.touch(offset[k] as usize, self.tex.texel_bytes as usize);
                 }
             }
         }

@@ -300,3 +300,39 @@ pub(super) fn gather_u8(
     }
     Some(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A tap whose 32-bit word would run past the texel array is left to the portable gather; one
+    /// that fits is read, and decodes as the scalar texel decode does.
+    #[test]
+    fn gathers_stop_short_of_the_array_end() {
+        if !is_x86_feature_detected!("avx2") {
+            return; // nothing to run; the portable path is tested on its own
+        }
+        let texels: Vec<u8> = (0..64u8).map(|i| i.wrapping_mul(37)).collect();
+        let mut taps = TapOffsets { offset: [[0; LANES]; 4], present: [[0; LANES]; 4] };
+        for k in 0..LANES {
+            taps.offset[0][k] = (k * 7) as i32;
+            taps.present[0][k] = -1;
+        }
+        taps.offset[0][3] = 60; // the last whole word
+                                // SAFETY (all calls): the CPU has AVX2 (checked above).
+        let got = unsafe { gather_u8(&texels, 3, true, &taps) }.expect("every word inside the array");
+        for k in 0..LANES {
+            let at = taps.offset[0][k] as usize;
+            let want = [0, 1, 2].map(|c| SRGB_TO_LINEAR[texels[at + c] as usize]);
+            assert_eq!(
+                [got[0][0][k], got[0][1][k], got[0][2][k], got[0][3][k]],
+                [want[0], want[1], want[2], 1.0]
+            );
+        }
+        assert_eq!(got[1], [[0.0; LANES]; 4], "absent taps are zero");
+        taps.offset[0][5] = 61; // a 3-byte texel at the end: its word would read one byte past
+        assert!(unsafe { gather_u8(&texels, 3, true, &taps) }.is_none());
+        taps.present[0][5] = 0; // ... unless that lane does not read it
+        assert!(unsafe { gather_u8(&texels, 3, true, &taps) }.is_some());
+    }
+}

@@ -169,6 +169,38 @@ fn lanes_equal_scalar_lookups_on(path: LanePath, tile_log2: Option<u32>) {
     assert!(lanes_compared > 5000, "{lanes_compared}");
 }
 
+/// The coarsest level of an 8-bit texture is the last texel of the texel array: the AVX2 path's
+/// 32-bit word reads would run past it for textures of fewer than four channels, so it hands such
+/// lookups to the portable gather, with the same results.
+#[test]
+fn lookups_at_the_end_of_the_texel_array_equal_scalar_lookups() {
+    let mut rng = Rng(5);
+    for channels in 1..=4u32 {
+        let bytes: Vec<u8> = (0..16 * 8 * channels).map(|_| rng.next() as u8).collect();
+        let image = SourceImage { width: 16, height: 8, channels, samples: Samples::U8(bytes) };
+        let set = set_of(&[(image, ColorSpace::Auto)]);
+        let view = set.view().unwrap();
+        let tex = view.texture(0).unwrap();
+        for path in paths() {
+            for round in 0..16 {
+                let mut q = LookupLanes { filter: Filter::Moonray, ..Default::default() };
+                for k in 0..8 {
+                    q.uv[0][k] = rng.unit();
+                    q.uv[1][k] = rng.unit();
+                    // Footprints of 4 to 64 texels: the coarsest levels, the 1×1 one among them.
+                    q.duv_dx[0][k] = (2.0 + 2.0 * rng.unit()).exp2() / 16.0 * (round % 4) as f32;
+                }
+                let got = sample_lanes_on(&tex, &q, 8, &crate::NoTouch, path);
+                for k in 0..8 {
+                    let want = sample_with(&tex, &q.lane(k), &crate::NoTouch);
+                    let got: [f32; 4] = std::array::from_fn(|c| got[c][k]);
+                    assert_eq!(got.map(bits), want.map(bits), "{path:?}, {channels} channels, lane {k}");
+                }
+            }
+        }
+    }
+}
+
 /// `scripts/test-fallback.sh` runs these tests under qemu on CPU models without AVX2 and sets
 /// `RENDER_EMULATED_CPU`: there the lane filter must pick the portable path (and the tests above
 /// then ran it alone); natively it picks AVX2 exactly when the CPU has it.
