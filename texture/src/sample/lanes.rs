@@ -5,10 +5,49 @@
 //! every branch of the scalar code turned into a per-lane select. The MoonRay filter (the default) runs
 //! as lane loops — footprint and mip level, the level-0 bilinear coordinates and weights, the tap
 //! addresses (wrapped integer coordinates), the blend — around one gather that reads and decodes the
-//! texels in use (addresses differ per lane, so the reads are scalar). The other filters loop the scalar lookup over the lanes: their
-//! tap counts vary per lane (anisotropic, EWA) or they are not the default.
+//! texels in use. The other filters loop the scalar lookup over the lanes: their tap counts vary per
+//! lane (anisotropic, EWA) or they are not the default.
 //!
 //! Lanes at or past `count` are not read (no texel touched) and come back zero.
+//!
+//! # Two code paths, chosen at run time
+//! [`LanePath::detect`] picks, per call, from `is_x86_feature_detected!` (a cached flag):
+//! - **AVX2**: the lane filter compiled for AVX2; for power-of-two textures in a texel array under
+//!   2 GiB (the bench scenes' and most assets') the tap addresses are AVX2 intrinsics and 8-bit texels
+//!   are read by hardware gathers (`super::lanes_avx2`); other textures run the portable lane loops
+//!   in this AVX2 build.
+//! - **Portable**: the same lane loops for the baseline target (SSE2), texels read lane by lane.
+//!
+//! `tests::lanes` compares both paths with the scalar lookup on every filter, wrap, format, channel
+//! count, power-of-two and other size and tile size; `scripts/test-fallback.sh` runs the crate's
+//! tests under `qemu-x86_64 -cpu Nehalem`/`SandyBridge`, where the dispatch test asserts the portable
+//! path was picked.
+//!
+//! # Where the instructions went, and what cut them
+//! Callgrind, wavefront render, 120×80, 8 spp, 1 thread, shading-heavy (512² sRGB texture,
+//! power of two, MoonRay filter; 11,443 calls of eight lanes): `moonray_lanes` took 52.8 M
+//! instructions inclusive (≈ 4,600 a call), `levels` 10.3 M of them. Per tap per lane the old loop
+//! looked up a two-entry layout cache, matched the wrap mode twice, floored twice through branches,
+//! tested ranges and multiplied out the tile address (`float.rs` 7.2 M, `layout.rs` 4.4 M,
+//! `sample.rs` 16.2 M), then decoded each texel through a `match` on the channel count.
+//! - The addressing as branch-free lane loops (`super::lane_address`: wrap mode matched once per call,
+//!   power-of-two remainders as masks, every lane's level geometry computed, no cache) compiled
+//!   for AVX2: 46.5 M. LLVM vectorized little of it (the `floor`s stayed scalar: `float.rs` 8.3 M).
+//! - The addressing in AVX2 intrinsics (`vroundps` floors, variable shifts for the level sizes, one
+//!   gather of the level bases) and the 8-bit texel reads as `vpgatherdd` plus one `vgatherdps` from
+//!   the sRGB table per colour channel: 20.3 M (addresses 4.3 M, texel gather 2.6 M, `levels` with
+//!   its eight libm `log2f` calls ≈ 5.4 M, the blend and the rest ≈ 8 M); without the offset copy on the
+//!   AVX2 path 19.8 M (−62 %). Whole wavefront render: 636.8 M → 603.7 M (−5.2 %); tractor 365.5 M →
+//!   353.7 M (−3.2 %, `moonray_lanes` 20.4 M → 8.7 M); simple (untextured) 135.6 M either way. Images
+//!   byte-identical to before on all three. Callgrind counts a gather as one instruction; the
+//!   side-by-side timings are in the final report of this change and `render --stats`.
+//!
+//! Left as they are: `log2` stays libm's, one lane at a time — the level's fraction is a blend weight,
+//! so a vector log2 would have to reproduce glibc's rounding bit for bit (its `log2f` is not
+//! correctly rounded, and glibc picks one of two builds of it by CPU). The sort key's mip level
+//! (`Shading::sort_key`) is the rounded level read off the exponent, not the fraction the blend
+//! needs, so it cannot stand in for `levels`; and the bench scenes' programs make one texture lookup
+//! per group, so there is no second lookup to share a level computation with.
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
