@@ -36,11 +36,16 @@
 //! - The addressing in AVX2 intrinsics (`vroundps` floors, variable shifts for the level sizes, one
 //!   gather of the level bases) and the 8-bit texel reads as `vpgatherdd` plus one `vgatherdps` from
 //!   the sRGB table per colour channel: 20.3 M (addresses 4.3 M, texel gather 2.6 M, `levels` with
-//!   its eight libm `log2f` calls ≈ 5.4 M, the blend and the rest ≈ 8 M); without the offset copy on the
-//!   AVX2 path 19.8 M (−62 %). Whole wavefront render: 636.8 M → 603.7 M (−5.2 %); tractor 365.5 M →
-//!   353.7 M (−3.2 %, `moonray_lanes` 20.4 M → 8.7 M); simple (untextured) 135.6 M either way. Images
-//!   byte-identical to before on all three. Callgrind counts a gather as one instruction; the
-//!   side-by-side timings are in the final report of this change and `render --stats`.
+//!   its eight libm `log2f` calls ≈ 5.4 M, the blend and the rest ≈ 8 M); without the offset copy on
+//!   the AVX2 path 19.8 M; with the footprint lengths of `levels` in intrinsics (LLVM had left the
+//!   sixteen square roots scalar) 18.8 M (−64 %). Whole wavefront render: 636.8 M → 602.7 M
+//!   (−5.4 %); tractor 365.5 M → 353.3 M (−3.4 %, `moonray_lanes` 20.4 M → 8.3 M); simple
+//!   (untextured) 135.6 M either way. Images byte-identical to before on all three. Callgrind
+//!   counts a gather as one instruction, so time it too: `bench integrators` (320×213, 16 spp,
+//!   2 threads, contended: load 3–5, three runs each, before and after alternating), texturing phase
+//!   of the wavefront on shading-heavy 0.149/0.118/0.120 CPU s before against 0.084/0.082/0.088 s
+//!   after (the 19.8 M build), texturing speed-up over the scalar integrator 1.14/1.76/1.53× against
+//!   1.82/2.23/1.97×; whole-render speed-ups moved within their noise (1.28–1.42× against 1.37–1.40×).
 //!
 //! Left as they are: `log2` stays libm's, one lane at a time — the level's fraction is a blend weight,
 //! so a vector log2 would have to reproduce glibc's rounding bit for bit (its `log2f` is not
@@ -171,18 +176,20 @@ struct LevelLanes {
     t: Lanes,
 }
 
-/// `mip_level` for eight footprints; the `log2` calls are libm, one lane at a time.
+/// `mip_level` for eight footprints; the `log2` calls are libm, one lane at a time. `AVX2`: the
+/// footprint lengths in intrinsics (LLVM left them scalar, 270 instructions a call).
 #[inline(always)]
-fn levels(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
+fn levels<const AVX2: bool>(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
     let (w, h) = (width as f32, height as f32);
-    let mut size = [0.0f32; LANES];
-    for k in 0..LANES {
-        let (x, y) = (q.duv_dx[0][k] * w, q.duv_dx[1][k] * h);
-        let ax = (x * x + y * y).sqrt();
-        let (x, y) = (q.duv_dy[0][k] * w, q.duv_dy[1][k] * h);
-        let ay = (x * x + y * y).sqrt();
-        size[k] = ax.max(ay);
-    }
+    #[cfg(target_arch = "x86_64")]
+    let size = if AVX2 {
+        // SAFETY: `AVX2` is true only in `moonray_lanes_avx2`, which runs on CPUs with AVX2.
+        unsafe { lanes_avx2::footprint_sizes(w, h, &q.duv_dx, &q.duv_dy) }
+    } else {
+        footprint_sizes(w, h, q)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let size = footprint_sizes(w, h, q);
     let level = size.map(f32::log2);
     let mut out = LevelLanes::default();
     for k in 0..LANES {
@@ -195,6 +202,20 @@ fn levels(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
         out.t[k] = clamped - l0;
     }
     out
+}
+
+/// The longer footprint axis per lane in level-0 texels, as `mip_level` measures it.
+#[inline(always)]
+fn footprint_sizes(w: f32, h: f32, q: &LookupLanes) -> Lanes {
+    let mut size = [0.0f32; LANES];
+    for k in 0..LANES {
+        let (x, y) = (q.duv_dx[0][k] * w, q.duv_dx[1][k] * h);
+        let ax = (x * x + y * y).sqrt();
+        let (x, y) = (q.duv_dy[0][k] * w, q.duv_dy[1][k] * h);
+        let ay = (x * x + y * y).sqrt();
+        size[k] = ax.max(ay);
+    }
+    size
 }
 
 impl<D: Decode, T: Touch> Sampler<'_, D, T> {
@@ -230,7 +251,7 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
     #[inline(always)]
     fn moonray_lanes_in<const AVX2: bool>(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
         let rec = self.tex.record;
-        let lv = levels(rec.width, rec.height, self.last_level(), q);
+        let lv = levels::<AVX2>(rec.width, rec.height, self.last_level(), q);
         let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
         #[cfg(target_arch = "x86_64")]
         if AVX2 && self.avx2_addressing() {

@@ -69,6 +69,25 @@ fn store_f(v: __m256, out: &mut Lanes) {
     unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) }
 }
 
+/// `footprint_sizes` of the portable lanes: per lane, the larger of the lengths of `duv_dx` and
+/// `duv_dy` in level-0 texels, with `f32::max`'s NaN rule (a NaN length yields the other one).
+#[target_feature(enable = "avx2")]
+pub(super) fn footprint_sizes(w: f32, h: f32, duv_dx: &[Lanes; 2], duv_dy: &[Lanes; 2]) -> Lanes {
+    let (w, h) = (_mm256_set1_ps(w), _mm256_set1_ps(h));
+    let length = |d: &[Lanes; 2]| {
+        let (x, y) = (_mm256_mul_ps(load_f(&d[0]), w), _mm256_mul_ps(load_f(&d[1]), h));
+        _mm256_sqrt_ps(_mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)))
+    };
+    let (ax, ay) = (length(duv_dx), length(duv_dy));
+    // `vmaxps` returns its second operand when either is NaN: that is `ay` for a NaN `ax`; a NaN
+    // `ay` must give `ax`. (Lengths are never -0, so the order of equal zeros does not matter.)
+    let max = _mm256_max_ps(ax, ay);
+    let size = _mm256_blendv_ps(max, ax, _mm256_cmp_ps::<_CMP_UNORD_Q>(ay, ay));
+    let mut out = [0.0; LANES];
+    store_f(size, &mut out);
+    out
+}
+
 /// `floor(x) as i32` per lane with Rust's saturating `as`: NaN → 0, too large → `i32::MAX`, too
 /// small → `i32::MIN` (what `vcvttps2dq` returns for every out-of-range input).
 #[inline]
