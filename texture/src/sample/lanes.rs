@@ -107,7 +107,8 @@ impl LookupLanes {
 pub(crate) enum LanePath {
     /// Lane loops as the baseline target compiles them (SSE2), texels read one lane at a time.
     Portable,
-    /// The same lane loops compiled for AVX2, 8-bit texels read by hardware gathers.
+    /// The same lane loops compiled for AVX2; for power-of-two textures the addresses and the 8-bit
+    /// texel reads in intrinsics (hardware gathers).
     Avx2,
 }
 
@@ -288,9 +289,9 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         blend(&lv, &decoded, &fx, &fy, count)
     }
 
-    #[cfg(target_arch = "x86_64")]
     /// Whether [`lanes_avx2::addresses`] applies: power-of-two level-0 sizes (so every level's wraps
     /// are masks) and a texel array under 2 GiB (32-bit offsets).
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn avx2_addressing(&self) -> bool {
         let rec = self.tex.record;
