@@ -47,7 +47,6 @@ use crate::record::{TextureRecord, MAX_DIMENSION};
 use crate::srgb::SRGB_TO_LINEAR;
 use crate::stats::{NoTouch, Touch};
 
-mod lane_address;
 mod lanes;
 #[cfg(target_arch = "x86_64")]
 mod lanes_avx2;
@@ -425,6 +424,15 @@ impl<'a, D: Decode, T: Touch> Sampler<'a, D, T> {
         let n = lv.texel_bytes as usize;
         self.touch.touch(off, n);
         D::texel(&self.tex.texels[off..off + n], self.tex.record.channels)
+    }
+
+    /// Byte offset of the texel containing `uv` on `lv` (`NO_TEXEL` on a black border).
+    #[inline(always)]
+    fn nearest_address(&self, lv: &LevelLayout, uv: [f32; 2]) -> usize {
+        // `as i32` saturates huge or NaN coordinates (NaN → 0) instead of failing; wrap keeps them in range.
+        let x = floor(uv[0] * lv.width as f32) as i32;
+        let y = floor(uv[1] * lv.height as f32) as i32;
+        self.address(lv, x, y)
     }
 
     /// Texel containing `uv` on `level`.

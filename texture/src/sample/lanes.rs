@@ -16,7 +16,8 @@
 //!   2 GiB (the bench scenes' and most assets') the tap addresses are AVX2 intrinsics and 8-bit texels
 //!   are read by hardware gathers (`super::lanes_avx2`); other textures run the portable lane loops
 //!   in this AVX2 build.
-//! - **Portable**: the same lane loops for the baseline target (SSE2), texels read lane by lane.
+//! - **Portable**: the same lane filter for the baseline target (SSE2): taps addressed lane by lane
+//!   through the scalar lookup's addressing, texels read lane by lane.
 //!
 //! `tests::lanes` compares both paths with the scalar lookup on every filter, wrap, format, channel
 //! count, power-of-two and other size and tile size; `scripts/test-fallback.sh` runs the crate's
@@ -30,9 +31,13 @@
 //! looked up a two-entry layout cache, matched the wrap mode twice, floored twice through branches,
 //! tested ranges and multiplied out the tile address (`float.rs` 7.2 M, `layout.rs` 4.4 M,
 //! `sample.rs` 16.2 M), then decoded each texel through a `match` on the channel count.
-//! - The addressing as branch-free lane loops (`super::lane_address`: wrap mode matched once per call,
-//!   power-of-two remainders as masks, every lane's level geometry computed, no cache) compiled
-//!   for AVX2: 46.5 M. LLVM vectorized little of it (the `floor`s stayed scalar: `float.rs` 8.3 M).
+//! - The addressing as branch-free lane loops (wrap mode matched once per call, power-of-two
+//!   remainders as masks, every lane's level geometry computed, no cache) compiled for AVX2: 46.5 M.
+//!   LLVM vectorized little of it (the `floor`s stayed scalar: `float.rs` 8.3 M), and on the
+//!   baseline target the same loops took 8 % more instructions than the per-lane addressing (a
+//!   probe of 20,000 groups, 512² RGBA sRGB, mostly minifying: 105.0 M → 113.7 M), so they were
+//!   dropped for the intrinsics below. The same probe after this change: portable 104.4 M, AVX2
+//!   35.1 M (−67 %).
 //! - The addressing in AVX2 intrinsics (`vroundps` floors, variable shifts for the level sizes, one
 //!   gather of the level bases) and the 8-bit texel reads as `vpgatherdd` plus one `vgatherdps` from
 //!   the sRGB table per colour channel: 20.3 M (addresses 4.3 M, texel gather 2.6 M, `levels` with
@@ -57,12 +62,12 @@
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
 
-use super::lane_address::{offsets, wrap_lanes, LayoutLanes};
 #[cfg(target_arch = "x86_64")]
 use super::lanes_avx2;
 use super::{sample_with, Decode, Lookup, Sampler, Srgb8, TextureView, Unorm8, F16, NO_TEXEL};
 use crate::float::floor;
 use crate::format::{Filter, TexelFormat, Wrap};
+use crate::layout::LevelLayout;
 use crate::stats::Touch;
 
 /// Lookups per call.
@@ -247,8 +252,8 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
     /// that level's weight is not 0), taps 2 and 3 the upper bilinear row (magnifying only) — then
     /// one gather that reads and decodes the taps in use, then the blend. Under `AVX2` the addresses
     /// and the 8-bit texel reads are intrinsics ([`lanes_avx2`]) where they apply; elsewhere
-    /// the lane loops of [`super::lane_address`] and [`Decode::gather`] (per lane; half floats in one
-    /// F16C conversion).
+    /// the per-lane addressing of [`Self::addresses`] and [`Decode::gather`] (per lane; half floats in
+    /// one F16C conversion).
     #[inline(always)]
     fn moonray_lanes_in<const AVX2: bool>(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
         let rec = self.tex.record;
@@ -314,7 +319,12 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
     }
 
     /// The taps' byte offsets (`NO_TEXEL` where a lane does not read the tap, or reads a black border)
-    /// and the level-0 bilinear weights, in lane loops.
+    /// and the level-0 bilinear weights, lane by lane: four taps per magnifying lane, one or two per
+    /// minifying lane, each through the scalar lookup's addressing. Lane loops that computed every
+    /// tap in every lane without branches (wrap mode matched once per call, each lane's level
+    /// geometry, remainders as masks) took 8 % more instructions here on the baseline target and
+    /// 12 % fewer compiled for AVX2 (LLVM vectorized little of them); the AVX2 path has intrinsics
+    /// for the common case instead, so they were dropped.
     #[inline(always)]
     fn addresses(
         &self,
@@ -323,69 +333,39 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         count: usize,
         (fx, fy): (&mut Lanes, &mut Lanes),
     ) -> [[usize; LANES]; 4] {
-        let rec = self.tex.record;
-        let active: [bool; LANES] = std::array::from_fn(|k| k < count);
-        // Level-0 bilinear coordinates and weights (magnifying lanes) and the two levels' nearest
-        // texels (minifying lanes), both computed in every lane and selected.
-        let base = LayoutLanes::new(rec, &[0; LANES]);
-        let mut near_level = [0u32; LANES];
-        let mut far_level = [0u32; LANES];
-        for k in 0..LANES {
-            near_level[k] = if lv.magnify[k] { 0 } else { lv.l0[k] };
-            far_level[k] = if lv.magnify[k] { 0 } else { lv.l1[k] };
-        }
-        let near = LayoutLanes::new(rec, &near_level);
-        let far = LayoutLanes::new(rec, &far_level);
-        let mut x = [[0i32; LANES]; 4];
-        let mut y = [[0i32; LANES]; 4];
-        let mut valid = [[false; LANES]; 4];
-        for k in 0..LANES {
-            let (u, v) = (q.uv[0][k], q.uv[1][k]);
-            // Bilinear on level 0, as `Sampler::bilinear`.
-            let bx = u * base.width[k] as f32 - 0.5;
-            let by = v * base.height[k] as f32 - 0.5;
-            let (bx0, by0) = (floor(bx), floor(by));
-            fx[k] = bx - bx0;
-            fy[k] = by - by0;
-            let (bx0, by0) = (bx0 as i32, by0 as i32);
-            let (bx1, by1) = (bx0.saturating_add(1), by0.saturating_add(1));
-            // Nearest on each level, as `Sampler::nearest`.
-            let nx = floor(u * near.width[k] as f32) as i32;
-            let ny = floor(v * near.height[k] as f32) as i32;
-            let nfx = floor(u * far.width[k] as f32) as i32;
-            let nfy = floor(v * far.height[k] as f32) as i32;
-            let magnify = lv.magnify[k];
-            x[0][k] = if magnify { bx0 } else { nx };
-            y[0][k] = if magnify { by0 } else { ny };
-            x[1][k] = if magnify { bx1 } else { nfx };
-            y[1][k] = if magnify { by0 } else { nfy };
-            (x[2][k], y[2][k]) = (bx0, by1);
-            (x[3][k], y[3][k]) = (bx1, by1);
-            valid[0][k] = active[k];
-            valid[1][k] = active[k] && (magnify || lv.t[k] != 0.0);
-            valid[2][k] = active[k] && magnify;
-            valid[3][k] = valid[2][k];
-        }
-        // Level sizes are powers of two when level 0's are (`max(n >> l, 1)`).
-        let pow2 = rec.width.is_power_of_two() && rec.height.is_power_of_two();
-        let mut at = [[NO_TEXEL; LANES]; 4];
-        for tap in 0..4 {
-            if valid[tap] == [false; LANES] {
-                continue; // unused by every lane: taps 2 and 3 when no lane magnifies
+        // Level-0 bilinear coordinates and weights, used by magnifying lanes only: a group of
+        // minifying lanes (most groups past the first bounce) skips them, and its blend then selects
+        // the level blend over a bilinear made of zeros.
+        let base = self.layout(0);
+        let (w0, h0) = (base.width as f32, base.height as f32);
+        let (mut x0, mut y0) = ([0.0f32; LANES], [0.0f32; LANES]);
+        if lv.magnify[..count].contains(&true) {
+            for k in 0..LANES {
+                let x = q.uv[0][k] * w0 - 0.5;
+                let y = q.uv[1][k] * h0 - 0.5;
+                x0[k] = floor(x);
+                y0[k] = floor(y);
+                fx[k] = x - x0[k];
+                fy[k] = y - y0[k];
             }
-            let layout = [&near, &far, &base, &base][tap];
-            let (xs, ys) = if pow2 {
-                (
-                    wrap_lanes::<true>(&x[tap], &layout.width, self.wrap_s, &mut valid[tap]),
-                    wrap_lanes::<true>(&y[tap], &layout.height, self.wrap_t, &mut valid[tap]),
-                )
+        }
+        let mut at = [[NO_TEXEL; LANES]; 4];
+        let mut layouts = LayoutCache::default();
+        for k in 0..count {
+            if lv.magnify[k] {
+                let (x0, y0) = (x0[k] as i32, y0[k] as i32);
+                let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
+                at[0][k] = self.address(&base, x0, y0);
+                at[1][k] = self.address(&base, x1, y0);
+                at[2][k] = self.address(&base, x0, y1);
+                at[3][k] = self.address(&base, x1, y1);
             } else {
-                (
-                    wrap_lanes::<false>(&x[tap], &layout.width, self.wrap_s, &mut valid[tap]),
-                    wrap_lanes::<false>(&y[tap], &layout.height, self.wrap_t, &mut valid[tap]),
-                )
-            };
-            at[tap] = offsets(layout, rec.tile_log2, self.tex.texel_bytes, &xs, &ys, &valid[tap]);
+                let uv = [q.uv[0][k], q.uv[1][k]];
+                at[0][k] = self.nearest_address(&layouts.get(self, lv.l0[k]), uv);
+                if lv.t[k] != 0.0 {
+                    at[1][k] = self.nearest_address(&layouts.get(self, lv.l1[k]), uv);
+                }
+            }
         }
         at
     }
@@ -410,4 +390,26 @@ fn blend(lv: &LevelLanes, taps: &[[Lanes; 4]; 4], fx: &Lanes, fy: &Lanes, count:
         }
     }
     out
+}
+
+/// The layouts of the two levels most recently addressed: the lanes of a group mostly share one
+/// level pair, so each is built once per call rather than once per lane.
+#[derive(Default)]
+struct LayoutCache {
+    entries: [Option<(u32, LevelLayout)>; 2],
+}
+
+impl LayoutCache {
+    #[inline(always)]
+    fn get<D: Decode, T: Touch>(&mut self, sampler: &Sampler<'_, D, T>, level: u32) -> LevelLayout {
+        for (cached, layout) in self.entries.iter().flatten() {
+            if *cached == level {
+                return *layout;
+            }
+        }
+        let layout = sampler.layout(level);
+        self.entries[1] = self.entries[0];
+        self.entries[0] = Some((level, layout));
+        layout
+    }
 }

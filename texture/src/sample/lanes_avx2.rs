@@ -1,6 +1,6 @@
 //! The MoonRay lane filter's addressing and 8-bit texel reads in AVX2 intrinsics, bit-identical to
-//! the portable lane loops ([`super::lane_address`], [`super::Decode::gather`]) and so to the scalar
-//! lookup.
+//! the portable lane filter's per-lane addressing (`Sampler::address`, the scalar lookup's) and
+//! [`super::Decode::gather`], and so to the scalar lookup.
 //!
 //! - [`addresses`]: every tap's byte offset for eight lanes in vector registers — level geometry by
 //!   variable shifts, `floor` by `vroundps` (the same bits as [`crate::float::floor`]; a NaN comes back
