@@ -35,7 +35,7 @@
 //! show in these figures.
 //!
 //! Later, the lane filter's addressing went branch-free and, on AVX2 CPUs, to intrinsics with
-//! hardware texel gathers: `moonray_lanes` 52.8 M → 18.8 M on the same scene (figures and the
+//! hardware texel gathers: `moonray_lanes` 52.8 M → 18.7 M on the same scene (figures and the
 //! portable path in the docs of `sample/lanes.rs`).
 
 use crate::error::Error;

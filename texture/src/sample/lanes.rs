@@ -43,8 +43,8 @@
 //!   the sRGB table per colour channel: 20.3 M (addresses 4.3 M, texel gather 2.6 M, `levels` with
 //!   its eight libm `log2f` calls ≈ 5.4 M, the blend and the rest ≈ 8 M); without the offset copy on
 //!   the AVX2 path 19.8 M; with the footprint lengths of `levels` in intrinsics (LLVM had left the
-//!   sixteen square roots scalar) 18.8 M (−64 %). Whole wavefront render: 636.8 M → 602.7 M
-//!   (−5.4 %); tractor 365.5 M → 353.3 M (−3.4 %, `moonray_lanes` 20.4 M → 8.3 M); simple
+//!   sixteen square roots scalar) 18.7 M (−65 %). Whole wavefront render: 636.8 M → 602.6 M
+//!   (−5.4 %); tractor 365.5 M → 353.2 M (−3.4 %, `moonray_lanes` 20.4 M → 8.2 M); simple
 //!   (untextured) 135.6 M either way. Images byte-identical to before on all three. Callgrind
 //!   counts a gather as one instruction, so time it too: `bench integrators` (320×213, 16 spp,
 //!   2 threads, contended: load 3–5, three runs each, before and after alternating), texturing phase
