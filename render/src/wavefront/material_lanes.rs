@@ -10,6 +10,11 @@
 //! footprints to [`texture::sample_lanes_with`] (one texture per op, so the format is resolved once),
 //! then applies scale and bias in lanes — a UDIM op picks a tile per lane, so it looks each lane up
 //! alone; `OUTPUT` writes the swizzled register into each lane's inputs.
+//!
+//! Register traffic (callgrind, shading-heavy 120×80, 8 spp, 1 thread: 11,443 groups, one texture op
+//! each, ≈ 1,260 instructions a group outside the lookup): a second mask marking the registers that
+//! hold derivatives, so texture, constant and primvar ops would store 128 bytes instead of 256, was
+//! tried and left out — the render went from 603.70 M to 603.78 M instructions.
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]

@@ -5,14 +5,65 @@
 //! every branch of the scalar code turned into a per-lane select. The MoonRay filter (the default) runs
 //! as lane loops — footprint and mip level, the level-0 bilinear coordinates and weights, the tap
 //! addresses (wrapped integer coordinates), the blend — around one gather that reads and decodes the
-//! texels in use (addresses differ per lane, so the reads are scalar). The other filters loop the scalar lookup over the lanes: their
-//! tap counts vary per lane (anisotropic, EWA) or they are not the default.
+//! texels in use. The other filters loop the scalar lookup over the lanes: their tap counts vary per
+//! lane (anisotropic, EWA) or they are not the default.
 //!
 //! Lanes at or past `count` are not read (no texel touched) and come back zero.
+//!
+//! # Two code paths, chosen at run time
+//! [`LanePath::detect`] picks, per call, from `is_x86_feature_detected!` (a cached flag):
+//! - **AVX2**: the lane filter compiled for AVX2; for power-of-two textures in a texel array under
+//!   2 GiB (the bench scenes' and most assets') the tap addresses are AVX2 intrinsics and 8-bit texels
+//!   are read by hardware gathers (`super::lanes_avx2`); other textures run the portable lane loops
+//!   in this AVX2 build.
+//! - **Portable**: the same lane filter for the baseline target (SSE2): taps addressed lane by lane
+//!   through the scalar lookup's addressing, texels read lane by lane.
+//!
+//! `tests::lanes` compares both paths with the scalar lookup on every filter, wrap, format, channel
+//! count, power-of-two and other size and tile size; `scripts/test-fallback.sh` runs the crate's
+//! tests under `qemu-x86_64 -cpu Nehalem`/`SandyBridge`, where the dispatch test asserts the portable
+//! path was picked.
+//!
+//! # Where the instructions went, and what cut them
+//! Callgrind, wavefront render, 120×80, 8 spp, 1 thread, shading-heavy (512² sRGB texture,
+//! power of two, MoonRay filter; 11,443 calls of eight lanes): `moonray_lanes` took 52.8 M
+//! instructions inclusive (≈ 4,600 a call), `levels` 10.3 M of them. Per tap per lane the old loop
+//! looked up a two-entry layout cache, matched the wrap mode twice, floored twice through branches,
+//! tested ranges and multiplied out the tile address (`float.rs` 7.2 M, `layout.rs` 4.4 M,
+//! `sample.rs` 16.2 M), then decoded each texel through a `match` on the channel count.
+//! - The addressing as branch-free lane loops (wrap mode matched once per call, power-of-two
+//!   remainders as masks, every lane's level geometry computed, no cache) compiled for AVX2: 46.5 M.
+//!   LLVM vectorized little of it (the `floor`s stayed scalar: `float.rs` 8.3 M), and on the
+//!   baseline target the same loops took 8 % more instructions than the per-lane addressing (a
+//!   probe of 20,000 groups, 512² RGBA sRGB, mostly minifying: 105.0 M → 113.7 M), so they were
+//!   dropped for the intrinsics below. The same probe after this change: portable 104.4 M, AVX2
+//!   35.1 M (−67 %).
+//! - The addressing in AVX2 intrinsics (`vroundps` floors, variable shifts for the level sizes, one
+//!   gather of the level bases) and the 8-bit texel reads as `vpgatherdd` plus one `vgatherdps` from
+//!   the sRGB table per colour channel: 20.3 M (addresses 4.3 M, texel gather 2.6 M, `levels` with
+//!   its eight libm `log2f` calls ≈ 5.4 M, the blend and the rest ≈ 8 M); without the offset copy on
+//!   the AVX2 path 19.8 M; with the footprint lengths of `levels` in intrinsics (LLVM had left the
+//!   sixteen square roots scalar) 18.7 M (−65 %). Whole wavefront render: 636.8 M → 602.6 M
+//!   (−5.4 %); tractor 365.5 M → 353.2 M (−3.4 %, `moonray_lanes` 20.4 M → 8.2 M); simple
+//!   (untextured) 135.6 M either way. Images byte-identical to before on all three. Callgrind
+//!   counts a gather as one instruction, so time it too: `bench integrators` (320×213, 16 spp,
+//!   2 threads, contended: load 3–5, three runs each, before and after alternating), texturing phase
+//!   of the wavefront on shading-heavy 0.149/0.118/0.120 CPU s before against 0.084/0.082/0.088 s
+//!   after (the 19.8 M build), texturing speed-up over the scalar integrator 1.14/1.76/1.53× against
+//!   1.82/2.23/1.97×; whole-render speed-ups moved within their noise (1.28–1.42× against 1.37–1.40×).
+//!
+//! Left as they are: `log2` stays libm's, one lane at a time — the level's fraction is a blend weight,
+//! so a vector log2 would have to reproduce glibc's rounding bit for bit (its `log2f` is not
+//! correctly rounded, and glibc picks one of two builds of it by CPU). The sort key's mip level
+//! (`Shading::sort_key`) is the rounded level read off the exponent, not the fraction the blend
+//! needs, so it cannot stand in for `levels`; and the bench scenes' programs make one texture lookup
+//! per group, so there is no second lookup to share a level computation with.
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
 
+#[cfg(target_arch = "x86_64")]
+use super::lanes_avx2;
 use super::{sample_with, Decode, Lookup, Sampler, Srgb8, TextureView, Unorm8, F16, NO_TEXEL};
 use crate::float::floor;
 use crate::format::{Filter, TexelFormat, Wrap};
@@ -56,6 +107,28 @@ impl LookupLanes {
     }
 }
 
+/// Which code the lane filter runs: chosen at run time from the CPU, so one binary serves every x86-64.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum LanePath {
+    /// Lane loops as the baseline target compiles them (SSE2), texels read one lane at a time.
+    Portable,
+    /// The same lane loops compiled for AVX2; for power-of-two textures the addresses and the 8-bit
+    /// texel reads in intrinsics (hardware gathers).
+    Avx2,
+}
+
+impl LanePath {
+    /// The best path this CPU supports.
+    #[inline(always)]
+    pub(crate) fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if is_x86_feature_detected!("avx2") {
+            return LanePath::Avx2;
+        }
+        LanePath::Portable
+    }
+}
+
 /// Filtered linear RGBA (`[channel][lane]`) of the first `count` lanes of `q`, reporting texel reads
 /// to `touch`; lane `k` equals `sample_with(tex, &q.lane(k), touch)` exactly.
 pub fn sample_lanes_with<T: Touch>(
@@ -63,6 +136,18 @@ pub fn sample_lanes_with<T: Touch>(
     q: &LookupLanes,
     count: usize,
     touch: &T,
+) -> [Lanes; 4] {
+    sample_lanes_on(tex, q, count, touch, LanePath::detect())
+}
+
+/// [`sample_lanes_with`] on the code `path` names (tests run both; a CPU without AVX2 runs the
+/// portable path whatever `path` says).
+pub(crate) fn sample_lanes_on<T: Touch>(
+    tex: &TextureView,
+    q: &LookupLanes,
+    count: usize,
+    touch: &T,
+    path: LanePath,
 ) -> [Lanes; 4] {
     let count = count.min(LANES);
     if q.filter != Filter::Moonray {
@@ -76,9 +161,11 @@ pub fn sample_lanes_with<T: Touch>(
         return out;
     }
     match tex.format {
-        TexelFormat::Srgb8 => Sampler::<Srgb8, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count),
-        TexelFormat::Unorm8 => Sampler::<Unorm8, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count),
-        TexelFormat::F16 => Sampler::<F16, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count),
+        TexelFormat::Srgb8 => Sampler::<Srgb8, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count, path),
+        TexelFormat::Unorm8 => {
+            Sampler::<Unorm8, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count, path)
+        }
+        TexelFormat::F16 => Sampler::<F16, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count, path),
     }
 }
 
@@ -95,18 +182,20 @@ struct LevelLanes {
     t: Lanes,
 }
 
-/// `mip_level` for eight footprints; the `log2` calls are libm, one lane at a time.
-#[inline]
-fn levels(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
+/// `mip_level` for eight footprints; the `log2` calls are libm, one lane at a time. `AVX2`: the
+/// footprint lengths in intrinsics (LLVM left them scalar, 270 instructions a call).
+#[inline(always)]
+fn levels<const AVX2: bool>(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
     let (w, h) = (width as f32, height as f32);
-    let mut size = [0.0f32; LANES];
-    for k in 0..LANES {
-        let (x, y) = (q.duv_dx[0][k] * w, q.duv_dx[1][k] * h);
-        let ax = (x * x + y * y).sqrt();
-        let (x, y) = (q.duv_dy[0][k] * w, q.duv_dy[1][k] * h);
-        let ay = (x * x + y * y).sqrt();
-        size[k] = ax.max(ay);
-    }
+    #[cfg(target_arch = "x86_64")]
+    let size = if AVX2 {
+        // SAFETY: `AVX2` is true only in `moonray_lanes_avx2`, which runs on CPUs with AVX2.
+        unsafe { lanes_avx2::footprint_sizes(w, h, &q.duv_dx, &q.duv_dy) }
+    } else {
+        footprint_sizes(w, h, q)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let size = footprint_sizes(w, h, q);
     let level = size.map(f32::log2);
     let mut out = LevelLanes::default();
     for k in 0..LANES {
@@ -121,23 +210,135 @@ fn levels(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
     out
 }
 
+/// The longer footprint axis per lane in level-0 texels, as `mip_level` measures it.
+#[inline(always)]
+fn footprint_sizes(w: f32, h: f32, q: &LookupLanes) -> Lanes {
+    let mut size = [0.0f32; LANES];
+    for k in 0..LANES {
+        let (x, y) = (q.duv_dx[0][k] * w, q.duv_dx[1][k] * h);
+        let ax = (x * x + y * y).sqrt();
+        let (x, y) = (q.duv_dy[0][k] * w, q.duv_dy[1][k] * h);
+        let ay = (x * x + y * y).sqrt();
+        size[k] = ax.max(ay);
+    }
+    size
+}
+
 impl<D: Decode, T: Touch> Sampler<'_, D, T> {
     /// [`Filter::Moonray`] for the first `count` lanes of `q` (the lookups' own wraps, not the
-    /// sampler's first lane's, are the same for all lanes by construction of [`LookupLanes`]).
-    ///
-    /// Addresses first, texels second: the lane loop finds each tap's byte offset (level layouts built
-    /// once per level, not per lane), then [`Decode::gather`] reads and decodes exactly the taps in use,
-    /// all at once (one F16C conversion for half-float textures).
-    fn moonray_lanes(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
+    /// sampler's first lane's, are the same for all lanes by construction of [`LookupLanes`]), on
+    /// the code `path` names (the portable path when the CPU lacks what `path` needs).
+    fn moonray_lanes(&self, q: &LookupLanes, count: usize, path: LanePath) -> [Lanes; 4] {
+        #[cfg(target_arch = "x86_64")]
+        if path == LanePath::Avx2 && LanePath::detect() == LanePath::Avx2 {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            return unsafe { self.moonray_lanes_avx2(q, count) };
+        }
+        let _ = path;
+        self.moonray_lanes_in::<false>(q, count)
+    }
+
+    /// [`Self::moonray_lanes_in`] compiled for AVX2: the lane loops become 8-wide vector code and the
+    /// 8-bit texel reads become hardware gathers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn moonray_lanes_avx2(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
+        self.moonray_lanes_in::<true>(q, count)
+    }
+
+    /// The MoonRay filter in lanes. Levels first (libm `log2` per lane, as the scalar lookup), then
+    /// every tap's address for all lanes at once — tap 0 the level-0 bilinear corner (magnifying) or
+    /// the nearer level's texel, tap 1 its right neighbour or the coarser level's texel (only where
+    /// that level's weight is not 0), taps 2 and 3 the upper bilinear row (magnifying only) — then
+    /// one gather that reads and decodes the taps in use, then the blend. Under `AVX2` the addresses
+    /// and the 8-bit texel reads are intrinsics ([`lanes_avx2`]) where they apply; elsewhere
+    /// the per-lane addressing of [`Self::addresses`] and [`Decode::gather`] (per lane; half floats in
+    /// one F16C conversion).
+    #[inline(always)]
+    fn moonray_lanes_in<const AVX2: bool>(&self, q: &LookupLanes, count: usize) -> [Lanes; 4] {
         let rec = self.tex.record;
-        let lv = levels(rec.width, rec.height, self.last_level(), q);
+        let lv = levels::<AVX2>(rec.width, rec.height, self.last_level(), q);
+        let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 && self.avx2_addressing() {
+            let choice = lanes_avx2::LevelChoice { magnify: &lv.magnify, l0: &lv.l0, l1: &lv.l1, t: &lv.t };
+            let (s, t) = (self.wrap_s, self.wrap_t);
+            let texel_bytes = self.tex.texel_bytes;
+            // SAFETY (both calls): `AVX2` is true only in `moonray_lanes_avx2`, which runs on CPUs with
+            // AVX2; `avx2_addressing` checked the sizes `addresses` requires.
+            let taps = unsafe {
+                lanes_avx2::addresses(rec, texel_bytes, s, t, &q.uv, &choice, count, (&mut fx, &mut fy))
+            };
+            let decoded = match D::U8_SRGB {
+                Some(srgb) => unsafe { lanes_avx2::gather_u8(self.tex.texels, rec.channels, srgb, &taps) },
+                None => None,
+            };
+            let decoded = match decoded {
+                Some(decoded) => {
+                    self.touch_all(&taps);
+                    decoded
+                }
+                None => {
+                    let at: [[usize; LANES]; 4] = std::array::from_fn(|tap| {
+                        let (offset, present) = (&taps.offset[tap], &taps.present[tap]);
+                        std::array::from_fn(|k| if present[k] != 0 { offset[k] as usize } else { NO_TEXEL })
+                    });
+                    D::gather(self.tex.texels, rec.channels, texel_bytes as usize, &at, count, self.touch)
+                }
+            };
+            return blend(&lv, &decoded, &fx, &fy, count);
+        }
+        let at = self.addresses(&lv, q, count, (&mut fx, &mut fy));
+        let texel_bytes = self.tex.texel_bytes as usize;
+        let decoded = D::gather(self.tex.texels, rec.channels, texel_bytes, &at, count, self.touch);
+        blend(&lv, &decoded, &fx, &fy, count)
+    }
+
+    /// Whether [`lanes_avx2::addresses`] applies: power-of-two level-0 sizes (so every level's wraps
+    /// are masks) and a texel array under 2 GiB (32-bit offsets).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn avx2_addressing(&self) -> bool {
+        let rec = self.tex.record;
+        rec.width.is_power_of_two()
+            && rec.height.is_power_of_two()
+            && self.tex.texels.len() <= i32::MAX as usize
+    }
+
+    /// Reports every tap the lanes read to the touch sink (nothing to do for [`crate::NoTouch`]).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn touch_all(&self, taps: &lanes_avx2::TapOffsets) {
+        for (offset, present) in taps.offset.iter().zip(&taps.present) {
+            for k in 0..LANES {
+                if present[k] != 0 {
+                    self.touch.touch(offset[k] as usize, self.tex.texel_bytes as usize);
+                }
+            }
+        }
+    }
+
+    /// The taps' byte offsets (`NO_TEXEL` where a lane does not read the tap, or reads a black border)
+    /// and the level-0 bilinear weights, lane by lane: four taps per magnifying lane, one or two per
+    /// minifying lane, each through the scalar lookup's addressing. Lane loops that computed every
+    /// tap in every lane without branches (wrap mode matched once per call, each lane's level
+    /// geometry, remainders as masks) took 8 % more instructions here on the baseline target and
+    /// 12 % fewer compiled for AVX2 (LLVM vectorized little of them); the AVX2 path has intrinsics
+    /// for the common case instead, so they were dropped.
+    #[inline(always)]
+    fn addresses(
+        &self,
+        lv: &LevelLanes,
+        q: &LookupLanes,
+        count: usize,
+        (fx, fy): (&mut Lanes, &mut Lanes),
+    ) -> [[usize; LANES]; 4] {
         // Level-0 bilinear coordinates and weights, used by magnifying lanes only: a group of
         // minifying lanes (most groups past the first bounce) skips them, and its blend then selects
         // the level blend over a bilinear made of zeros.
         let base = self.layout(0);
         let (w0, h0) = (base.width as f32, base.height as f32);
         let (mut x0, mut y0) = ([0.0f32; LANES], [0.0f32; LANES]);
-        let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
         if lv.magnify[..count].contains(&true) {
             for k in 0..LANES {
                 let x = q.uv[0][k] * w0 - 0.5;
@@ -148,7 +349,6 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
                 fy[k] = y - y0[k];
             }
         }
-        // Addresses: four taps per magnifying lane, one or two per minifying lane.
         let mut at = [[NO_TEXEL; LANES]; 4];
         let mut layouts = LayoutCache::default();
         for k in 0..count {
@@ -167,27 +367,29 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
                 }
             }
         }
-        let texel_bytes = self.tex.texel_bytes as usize;
-        let taps = D::gather(self.tex.texels, rec.channels, texel_bytes, &at, count, self.touch);
-        // Blend: bilinear (magnifying) or the two levels (minifying), selected per lane.
-        let mut out = [[0.0f32; LANES]; 4];
-        for c in 0..4 {
-            let [t00, t10, t01, t11] = [taps[0][c], taps[1][c], taps[2][c], taps[3][c]];
-            for k in 0..LANES {
-                let bottom = t00[k] + (t10[k] - t00[k]) * fx[k];
-                let top = t01[k] + (t11[k] - t01[k]) * fx[k];
-                let bilinear = bottom + (top - bottom) * fy[k];
-                let t = lv.t[k];
-                let levels = if t == 0.0 { t00[k] } else { t00[k] + (t10[k] - t00[k]) * t };
-                out[c][k] = if lv.magnify[k] { bilinear } else { levels };
-            }
-        }
-        // Lanes past `count` read nothing; keep them zero whatever the blend made of the zero taps.
-        for channel in &mut out {
-            channel[count..].fill(0.0);
-        }
-        out
+        at
     }
+}
+
+/// The MoonRay blend of the decoded taps `[tap][channel][lane]`: bilinear (magnifying) or the two
+/// levels (minifying), selected per lane; lanes at or past `count` are zero.
+#[inline(always)]
+fn blend(lv: &LevelLanes, taps: &[[Lanes; 4]; 4], fx: &Lanes, fy: &Lanes, count: usize) -> [Lanes; 4] {
+    let mut out = [[0.0f32; LANES]; 4];
+    for c in 0..4 {
+        let [t00, t10, t01, t11] = [taps[0][c], taps[1][c], taps[2][c], taps[3][c]];
+        for k in 0..LANES {
+            let bottom = t00[k] + (t10[k] - t00[k]) * fx[k];
+            let top = t01[k] + (t11[k] - t01[k]) * fx[k];
+            let bilinear = bottom + (top - bottom) * fy[k];
+            let t = lv.t[k];
+            let levels = if t == 0.0 { t00[k] } else { t00[k] + (t10[k] - t00[k]) * t };
+            let value = if lv.magnify[k] { bilinear } else { levels };
+            // Lanes past `count` read nothing; keep them zero whatever the blend made of the zero taps.
+            out[c][k] = if k < count { value } else { 0.0 };
+        }
+    }
+    out
 }
 
 /// The layouts of the two levels most recently addressed: the lanes of a group mostly share one

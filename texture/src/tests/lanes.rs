@@ -1,11 +1,11 @@
 //! The lane entry point equals the scalar lookup bit for bit, lane by lane, for every filter, wrap and
 //! texel format, on random coordinates and footprints (magnifying, minifying, beyond the coarsest
-//! level, zero, NaN and infinite), and reads the same texels.
+//! level, zero, NaN and infinite), and reads the same texels — on both code paths of the lane filter
+//! (portable and AVX2; the AVX2 one where the CPU has it), on power-of-two and other sizes.
 
 use super::set_of;
-use crate::{
-    sample_lanes_with, sample_with, ColorSpace, Filter, LookupLanes, Samples, SourceImage, Touch, Wrap,
-};
+use crate::sample::{sample_lanes_on, LanePath};
+use crate::{sample_with, ColorSpace, Filter, LookupLanes, Samples, SourceImage, Touch, Wrap};
 use std::cell::RefCell;
 
 /// Every texel read, in order.
@@ -55,7 +55,7 @@ impl Rng {
 
 pub(super) fn images(rng: &mut Rng) -> Vec<(SourceImage, ColorSpace)> {
     let mut out = Vec::new();
-    for (w, h) in [(37, 21), (64, 64), (1, 5), (130, 9)] {
+    for (w, h) in [(37, 21), (64, 64), (1, 5), (130, 9), (32, 8)] {
         for channels in 1..=4u32 {
             let n = (w * h * channels) as usize;
             let bytes: Vec<u8> = (0..n).map(|_| rng.next() as u8).collect();
@@ -87,10 +87,39 @@ pub(super) fn bits(v: f32) -> u32 {
     }
 }
 
+/// The paths this CPU can run: the portable one always, AVX2 where the CPU has it.
+fn paths() -> Vec<LanePath> {
+    let mut paths = vec![LanePath::Portable];
+    if LanePath::detect() == LanePath::Avx2 {
+        paths.push(LanePath::Avx2);
+    }
+    paths
+}
+
 #[test]
 fn lanes_equal_scalar_lookups() {
+    for path in paths() {
+        // The default 64-texel tiles (most levels one tile), and 4-texel tiles (many tiles per level).
+        for tile_log2 in [None, Some(2)] {
+            lanes_equal_scalar_lookups_on(path, tile_log2);
+        }
+    }
+}
+
+fn lanes_equal_scalar_lookups_on(path: LanePath, tile_log2: Option<u32>) {
     let mut rng = Rng(7);
-    let set = set_of(&images(&mut rng));
+    let images = images(&mut rng);
+    let set = match tile_log2 {
+        None => set_of(&images),
+        Some(tile_log2) => {
+            let mut b = crate::TextureSetBuilder::new();
+            for (img, color_space) in &images {
+                let options = crate::BakeOptions { color_space: *color_space, tile_log2 };
+                b.add_baked(crate::bake(img, &options).unwrap());
+            }
+            b.finish()
+        }
+    };
     let view = set.view().unwrap();
     let wraps = [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp, Wrap::Black];
     let mut lanes_compared = 0;
@@ -113,7 +142,7 @@ fn lanes_equal_scalar_lookups() {
                 }
                 let count = if round == 5 { 3 } else { 8 };
                 let (lane_touch, scalar_touch) = (Reads::default(), Reads::default());
-                let got = sample_lanes_with(&tex, &q, count, &lane_touch);
+                let got = sample_lanes_on(&tex, &q, count, &lane_touch, path);
                 for k in 0..8 {
                     let got: [f32; 4] = std::array::from_fn(|c| got[c][k]);
                     if k >= count {
@@ -124,7 +153,7 @@ fn lanes_equal_scalar_lookups() {
                     assert_eq!(
                         got.map(bits),
                         want.map(bits),
-                        "texture {index}, {filter:?}, lane {k}: {:?}",
+                        "{path:?}: texture {index}, {filter:?}, lane {k}: {:?}",
                         q.lane(k)
                     );
                     lanes_compared += 1;
@@ -133,9 +162,58 @@ fn lanes_equal_scalar_lookups() {
                 let (mut a, mut b) = (lane_touch.0.into_inner(), scalar_touch.0.into_inner());
                 a.sort_unstable();
                 b.sort_unstable();
-                assert_eq!(a, b, "texture {index}, {filter:?}: texels read");
+                assert_eq!(a, b, "{path:?}: texture {index}, {filter:?}: texels read");
             }
         }
     }
     assert!(lanes_compared > 5000, "{lanes_compared}");
+}
+
+/// The coarsest level of an 8-bit texture is the last texel of the texel array: the AVX2 path's
+/// 32-bit word reads would run past it for textures of fewer than four channels, so it hands such
+/// lookups to the portable gather, with the same results.
+#[test]
+fn lookups_at_the_end_of_the_texel_array_equal_scalar_lookups() {
+    let mut rng = Rng(5);
+    for channels in 1..=4u32 {
+        let bytes: Vec<u8> = (0..16 * 8 * channels).map(|_| rng.next() as u8).collect();
+        let image = SourceImage { width: 16, height: 8, channels, samples: Samples::U8(bytes) };
+        let set = set_of(&[(image, ColorSpace::Auto)]);
+        let view = set.view().unwrap();
+        let tex = view.texture(0).unwrap();
+        for path in paths() {
+            for round in 0..16 {
+                let mut q = LookupLanes { filter: Filter::Moonray, ..Default::default() };
+                for k in 0..8 {
+                    q.uv[0][k] = rng.unit();
+                    q.uv[1][k] = rng.unit();
+                    // Footprints of 4 to 64 texels: the coarsest levels, the 1×1 one among them.
+                    q.duv_dx[0][k] = (2.0 + 2.0 * rng.unit()).exp2() / 16.0 * (round % 4) as f32;
+                }
+                let got = sample_lanes_on(&tex, &q, 8, &crate::NoTouch, path);
+                for k in 0..8 {
+                    let want = sample_with(&tex, &q.lane(k), &crate::NoTouch);
+                    let got: [f32; 4] = std::array::from_fn(|c| got[c][k]);
+                    assert_eq!(got.map(bits), want.map(bits), "{path:?}, {channels} channels, lane {k}");
+                }
+            }
+        }
+    }
+}
+
+/// `scripts/test-fallback.sh` runs these tests under qemu on CPU models without AVX2 and sets
+/// `RENDER_EMULATED_CPU`: there the lane filter must pick the portable path (and the tests above
+/// then ran it alone); natively it picks AVX2 exactly when the CPU has it.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn dispatch_picks_the_path_the_cpu_supports() {
+    let avx2 = is_x86_feature_detected!("avx2");
+    let path = LanePath::detect();
+    eprintln!("texture lane filter: avx2 {avx2}, path {path:?}");
+    assert_eq!(path == LanePath::Avx2, avx2);
+    match std::env::var("RENDER_EMULATED_CPU").as_deref() {
+        Err(_) => {}
+        Ok("no-avx" | "avx-no-avx2") => assert_eq!(path, LanePath::Portable),
+        Ok(other) => panic!("RENDER_EMULATED_CPU={other:?}: expected \"no-avx\" or \"avx-no-avx2\""),
+    }
 }
