@@ -697,7 +697,7 @@ impl<'a> Scene<'a> {
 }
 
 #[cfg(test)]
-mod surface_tests {
+pub(crate) mod surface_tests {
     use super::*;
     use crate::accel::Hit;
     use crate::testscene::{self, Rng};
@@ -779,7 +779,7 @@ mod surface_tests {
 
     /// Every field of a triangle surface as bits (floats compared by their bit patterns, so a
     /// difference in the last place or the sign of a zero fails).
-    fn bits(s: &Surface) -> Vec<u32> {
+    pub(crate) fn bits(s: &Surface) -> Vec<u32> {
         let point = s.uv.point.expect("triangle surfaces record their point");
         let mut out: Vec<u32> = [s.p, s.ng, s.ns, s.dpdu, s.dpdv]
             .iter()
@@ -794,7 +794,7 @@ mod surface_tests {
         out
     }
 
-    fn random_unit(rng: &mut Rng) -> Vec3 {
+    pub(crate) fn random_unit(rng: &mut Rng) -> Vec3 {
         loop {
             let v = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
             if let Some(u) = v.try_normalize() {

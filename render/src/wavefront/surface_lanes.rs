@@ -486,34 +486,9 @@ fn texture_coordinates(g: &Gathered, out: &mut Columns) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::integrator::surface_tests::{bits, random_unit};
     use crate::testscene::{self, Rng};
     use glam::{Mat4, Vec2};
-
-    /// Every field of a triangle surface as bits (a difference in the last place or in the sign
-    /// of a zero fails).
-    fn bits(s: &Surface) -> Vec<u32> {
-        let point = s.uv.point.expect("triangle surfaces record their point");
-        let mut out: Vec<u32> = [s.p, s.ng, s.ns, s.dpdu, s.dpdv]
-            .iter()
-            .flat_map(|v| v.to_array())
-            .chain(s.uv.uv)
-            .chain(s.uv.duv_dx)
-            .chain(s.uv.duv_dy)
-            .chain([point.b1, point.b2])
-            .map(f32::to_bits)
-            .collect();
-        out.extend([s.material, s.triangle, point.triangle, s.uv.has_uv as u32, s.curve.is_some() as u32]);
-        out
-    }
-
-    fn random_unit(rng: &mut Rng) -> Vec3 {
-        loop {
-            let v = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
-            if let Some(u) = v.try_normalize() {
-                return u;
-            }
-        }
-    }
 
     /// A scene with every case the kernel selects between: instanced spheres (non-uniform and
     /// mirroring scales; normals through the instance's inverse transpose), a world-space sphere
