@@ -11,7 +11,7 @@
 use super::key_lanes::{self, KeyInputs, KeyPlan};
 use super::lanes::LANES;
 use super::surface_lanes;
-use super::{emission_lanes, sort, Context, Worker};
+use super::{emission_lanes, prefetch, sort, Context, Worker};
 use crate::accel::Hit;
 use crate::curves::CurveHit;
 use crate::scene::Scene;
@@ -40,8 +40,13 @@ pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene = ctx.scene;
     w.shade.clear();
     let rays = std::mem::take(&mut w.rays);
-    for batch in rays.chunks(BATCH) {
-        for &i in batch {
+    for (b, batch) in rays.chunks(BATCH).enumerate() {
+        for (j, &i) in batch.iter().enumerate() {
+            // The state and hit slot of the ray after next: one traversal hides their misses.
+            if let Some(&next) = rays.get(b * BATCH + j + RAY_LOOKAHEAD) {
+                prefetch::entry(&w.states, next as usize);
+                prefetch::entry(&w.hits, next as usize);
+            }
             let st = &w.states[i as usize];
             let hit = scene.accel.closest_hit(st.origin, st.dir, f32::INFINITY);
             let curve = scene.curves.closest_hit(st.origin, st.dir, hit.map_or(f32::INFINITY, |h| h.t));
@@ -60,6 +65,9 @@ pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     }
     w.rays = rays;
 }
+
+/// Queue positions ahead of the ray being traversed whose state and hit slot are prefetched.
+const RAY_LOOKAHEAD: usize = 2;
 
 /// A ray that met nothing: the only hit with an infinite `t` (a triangle or curve hit lies below
 /// the ray's infinite `tmax`).
