@@ -30,6 +30,10 @@ const BATCH: usize = emission_lanes::MAX_RAYS;
 /// one pass over the whole queue for each read the path states twice, ~5 % slower on the
 /// shading-heavy scene).
 ///
+/// Each ray's state and hit slot are prefetched [`RAY_LOOKAHEAD`] rays ahead ([`super::prefetch`]):
+/// the first read of the state was half of this function's own `perf` samples (shading-heavy,
+/// 1 thread; its share 3.15 → 1.5 % of the render's; figures in [`super::shade`]'s docs).
+///
 /// Lost (kept out): ordering the queue before traversal by direction octant, then Morton code of
 /// the origin (a sort of `key << 32 | index` in the radix scratch): the same image, the BVH queries
 /// 2 % fewer instructions and 8 % fewer D1 misses (closest hits, shading-heavy: 431 k against

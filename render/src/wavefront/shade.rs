@@ -111,6 +111,30 @@
 //! −2.1 / +0.1 / +0.4 %; the BVH traversal missed L1 slightly *more* (closest-hit blocks 224 k →
 //! 232 k on shading-heavy): bounce rays of neighbouring pixels are not coherent enough to share
 //! nodes.
+//!
+//! # Memory stalls: prefetch by queue order, and the first-hit store
+//! `perf` (1 thread, 320×213, 16 spp, contended; % of the wavefront's samples) put this stage's own
+//! samples (`shade::shade`, [`prepare`] inlined) at 4.9 % on shading-heavy and 7.5 % on the
+//! tractor, on two kinds of line. (1) The first reads of `w.hits[i]` / `w.states[i]` by sorted
+//! index: cache misses. [`Lookahead`] now prefetches ([`super::prefetch`]) the path states, hits
+//! and surface slots 24 queue positions ahead and the kept surfaces and (at a first bounce) the
+//! first-hit records 16 ahead; the same is done one traversal ahead in `intersect::closest` and
+//! `occlusion::any_hit` (inlined into `wavefront::render`, where its read of the shadow ray and the
+//! radiance update were most of that function's 2.8 %). (2) On the tractor, 20–30 % of the stage's
+//! samples sat on the store of the first-hit record: the `Option<FirstHit>` was built on the stack
+//! with 4- and 8-byte stores and copied out with 16-byte loads, which store forwarding cannot
+//! serve; it is now written field by field. After: `shade::shade` 2.7 % (shading-heavy), 6.1 %
+//! (tractor); `intersect::closest` 3.15 → 1.5 % and `wavefront::render` 2.84 → 0.87 % (+
+//! `occlusion::any_hit` out of line, 0.45 %) on shading-heavy. Images unchanged (EXR bytes equal on
+//! all three bench blobs). Cachegrind does not model prefetches, so it sees only their cost: +1.7 /
+//! +2.6 / +1.9 % instructions (shading-heavy / tractor / simple, 120×80, 8 spp: 543.7 M → 552.9 M,
+//! 334.5 M → 343.2 M, 132.5 M → 135.0 M) and D1 misses +3.3 / +1.5 / +0.4 % (the look-ahead's own
+//! loads of the surface slots and bounce counts). Timed (`perf stat` task-clock, 1 thread, 320×213,
+//! 16 spp, contended, alternating runs; ms): all prefetches on / all off in one build, 6 runs each,
+//! shading-heavy median 918 / 961 (−4.5 %, min 910 / 923), tractor 468 / 467, simple 179 / 182;
+//! each of the three sites alone came out between the two on shading-heavy. Before / after builds,
+//! 8 runs: shading-heavy median 890 / 864 (min 843 / 826), tractor 465 / 468, simple 167 / 169. A
+//! search over the distances (8/16 to 32/64) drowned in the machine's noise.
 
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
