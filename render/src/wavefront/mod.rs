@@ -202,6 +202,7 @@ pub mod light_lanes;
 pub mod material_lanes;
 mod occlusion;
 pub mod packet;
+mod prefetch;
 pub mod queue;
 pub mod queues;
 pub mod roulette;

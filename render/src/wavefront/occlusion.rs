@@ -2,7 +2,7 @@
 //! every unoccluded light sample to its path. One ray at a time: any-hit packets
 //! ([`super::packet::any_packet`]) lost here (see [`super::packet`]).
 
-use super::{Context, Worker};
+use super::{prefetch, Context, Worker};
 use crate::integrator::RayCounts;
 use texture::Touch;
 
@@ -12,7 +12,14 @@ use texture::Touch;
 pub(super) fn any_hit<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, _rays: &mut RayCounts) {
     let filter = ctx.settings.filter;
     let scene = ctx.scene;
-    for &i in w.occlusion.as_slice() {
+    let queue = w.occlusion.as_slice();
+    for (j, &i) in queue.iter().enumerate() {
+        // The shadow ray and radiance of the ray after next, read by shading order (random in the
+        // pool): one any-hit query hides their misses ([`super::prefetch`]).
+        if let Some(&next) = queue.get(j + 2) {
+            prefetch::entry(&w.shadow, next as usize);
+            prefetch::field(&w.states[next as usize].radiance);
+        }
         let r = &w.shadow[i as usize];
         if scene.shadow_transmits(r.origin, r.dir, r.tmax, r.seed, filter, ctx.touch)
             && !scene.curves.any_hit(r.origin, r.dir, r.tmax)

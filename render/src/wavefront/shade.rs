@@ -111,6 +111,30 @@
 //! −2.1 / +0.1 / +0.4 %; the BVH traversal missed L1 slightly *more* (closest-hit blocks 224 k →
 //! 232 k on shading-heavy): bounce rays of neighbouring pixels are not coherent enough to share
 //! nodes.
+//!
+//! # Memory stalls: prefetch by queue order, and the first-hit store
+//! `perf` (1 thread, 320×213, 16 spp, contended; % of the wavefront's samples) put this stage's own
+//! samples (`shade::shade`, [`prepare`] inlined) at 4.9 % on shading-heavy and 7.5 % on the
+//! tractor, on two kinds of line. (1) The first reads of `w.hits[i]` / `w.states[i]` by sorted
+//! index: cache misses. [`Lookahead`] now prefetches ([`super::prefetch`]) the path states, hits
+//! and surface slots 24 queue positions ahead and the kept surfaces and (at a first bounce) the
+//! first-hit records 16 ahead; the same is done one traversal ahead in `intersect::closest` and
+//! `occlusion::any_hit` (inlined into `wavefront::render`, where its read of the shadow ray and the
+//! radiance update were most of that function's 2.8 %). (2) On the tractor, 20–30 % of the stage's
+//! samples sat on the store of the first-hit record: the `Option<FirstHit>` was built on the stack
+//! with 4- and 8-byte stores and copied out with 16-byte loads, which store forwarding cannot
+//! serve; it is now written field by field. After: `shade::shade` 2.7 % (shading-heavy), 6.1 %
+//! (tractor); `intersect::closest` 3.15 → 1.5 % and `wavefront::render` 2.84 → 0.87 % (+
+//! `occlusion::any_hit` out of line, 0.45 %) on shading-heavy. Images unchanged (EXR bytes equal on
+//! all three bench blobs). Cachegrind does not model prefetches, so it sees only their cost: +1.7 /
+//! +2.6 / +1.9 % instructions (shading-heavy / tractor / simple, 120×80, 8 spp: 543.7 M → 552.9 M,
+//! 334.5 M → 343.2 M, 132.5 M → 135.0 M) and D1 misses +3.3 / +1.5 / +0.4 % (the look-ahead's own
+//! loads of the surface slots and bounce counts). Timed (`perf stat` task-clock, 1 thread, 320×213,
+//! 16 spp, contended, alternating runs; ms): all prefetches on / all off in one build, 6 runs each,
+//! shading-heavy median 918 / 961 (−4.5 %, min 910 / 923), tractor 468 / 467, simple 179 / 182;
+//! each of the three sites alone came out between the two on shading-heavy. Before / after builds,
+//! 8 runs: shading-heavy median 890 / 864 (min 843 / 826), tractor 465 / 468, simple 167 / 169. A
+//! search over the distances (8/16 to 32/64) drowned in the machine's noise.
 
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
@@ -119,7 +143,7 @@ use super::material_lanes;
 use super::roulette::{self, RouletteLanes, RouletteOut};
 use super::sampler_lanes::{self, KeyLanes, DIMS};
 use super::surface_lanes;
-use super::{sort, Context, ShadowRay, Worker};
+use super::{prefetch, sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::Bsdf;
 use crate::integrator::{shadow_tmax, FirstHit, RayCounts, Surface, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
@@ -201,8 +225,10 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     };
     let mut fibres = super::shade_curves::CurveGroup::default();
     let n = w.shade.len();
+    let mut ahead = Lookahead::default();
     let mut start = 0;
     while start < n {
+        ahead.advance(w, &kept, start, ctx.textured);
         let end = run_end(&w.shade, start, &w.materials, |i| super::intersect::is_curve(&w.hits[i]));
         let first = sort::index(w.shade[start]);
         if super::intersect::is_curve(&w.hits[first as usize]) {
@@ -218,6 +244,53 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
     }
     w.surfaces = kept;
     rays.shadow += (w.occlusion.len() - shadow_rays_before) as u64;
+}
+
+/// Software prefetch of what shading reads by sorted index, in two steps ([`super::prefetch`]): the
+/// path states, hits and surface slots [`FAR`] queue positions ahead, then, [`NEAR`] positions
+/// ahead (those states now in cache), each path's kept surface and, at its first bounce, its
+/// first-hit record. Without it the first reads of `w.hits[i]` / `w.states[i]` in [`run_end`] and
+/// [`prepare`] were the stage's hottest lines (misses: a wave holds 4096 paths).
+#[derive(Default)]
+struct Lookahead {
+    /// Queue positions below these were prefetched by the far and the near step.
+    far: usize,
+    near: usize,
+}
+
+/// Queue positions ahead of the run being shaded: about one run (eight hits, a few thousand
+/// instructions) for the near step, one more for the far one.
+const NEAR: usize = 2 * LANES;
+const FAR: usize = NEAR + LANES;
+
+impl Lookahead {
+    fn advance(&mut self, w: &Worker, kept: &[Surface], start: usize, textured: bool) {
+        let queue = &w.shade;
+        let far_end = (start + FAR).min(queue.len());
+        for &e in &queue[self.far.min(far_end)..far_end] {
+            let i = sort::index(e) as usize;
+            prefetch::entry(&w.states, i);
+            prefetch::entry(&w.hits, i);
+            if textured {
+                prefetch::entry(&w.surface_slot, i);
+            }
+        }
+        self.far = self.far.max(far_end);
+        let near_end = (start + NEAR).min(queue.len());
+        for &e in &queue[self.near.min(near_end)..near_end] {
+            let i = sort::index(e) as usize;
+            if textured {
+                let slot = w.surface_slot[i];
+                if slot != NO_SURFACE {
+                    prefetch::entry(kept, slot as usize);
+                }
+            }
+            if w.states[i].bounces == 0 {
+                prefetch::entry(&w.first_hits, i);
+            }
+        }
+        self.near = self.near.max(near_end);
+    }
 }
 
 /// The end of the run starting at queue position `start`: a curve or point hit alone (`curve(i)`
@@ -394,7 +467,13 @@ fn prepare<T: Touch>(
     // sorted index.)
     let is_first = st.bounces == 0 && first.is_none();
     if is_first {
-        *first = Some(FirstHit { albedo: Vec3::ZERO, normal: ns, depth: st.travelled + hit.t });
+        // Field by field: assigned whole, the `Option` was assembled on the stack by 4- and 8-byte
+        // stores and copied out with 16-byte loads, which cannot be forwarded from those stores
+        // (a store-forwarding stall: this line was ~20-30 % of the stage's own samples on the
+        // tractor, perf, 1 thread).
+        let record = first.insert(FirstHit::default());
+        record.normal = ns;
+        record.depth = st.travelled + hit.t;
     }
     let le = inputs.emissive_color.max(Vec3::ZERO);
     if le != Vec3::ZERO {

@@ -1,0 +1,68 @@
+//! Software prefetch of side-table entries read by queue order: the stages walk their queue in
+//! sorted (shade) or shading (intersect, occlusion) order, so each path's state, hit and shadow ray
+//! is a random access into a 4096-entry table (`RayState` alone is 368 KiB), a miss the hardware
+//! prefetchers cannot predict. The queue tells us which entries come next, so a stage asks for them
+//! a few queue positions ahead and the loads of the entry it works on find them in cache.
+//!
+//! Written by hand: `core::intrinsics::prefetch_read_data` is unstable and the prefetch crates on
+//! crates.io wrap the same one x86 instruction; on other targets this is a no-op.
+
+/// Asks for the cache lines of `table[index]` (all of them: a 92-byte `RayState` spans two or
+/// three). An index past the table prefetches nothing.
+#[inline(always)]
+pub(super) fn entry<T>(table: &[T], index: usize) {
+    if let Some(item) = table.get(index) {
+        bytes(std::ptr::from_ref(item).cast(), size_of::<T>());
+    }
+}
+
+/// Asks for the cache line holding `field` (one field of an entry the loop will read or update).
+#[inline(always)]
+pub(super) fn field<T>(field: &T) {
+    line(std::ptr::from_ref(field).cast());
+}
+
+/// Every cache line of the `len` bytes at `start`.
+#[inline(always)]
+fn bytes(start: *const u8, len: usize) {
+    let mut offset = 0;
+    while offset < len {
+        line(start.wrapping_add(offset));
+        offset += 64;
+    }
+    // The last byte's line, which the 64-byte steps miss when `start` is not line-aligned.
+    line(start.wrapping_add(len.saturating_sub(1)));
+}
+
+#[inline(always)]
+fn line(at: *const u8) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: `prefetcht0` is a hint: it reads no architectural state and never faults, even for
+    // an address that is not mapped; SSE is part of the x86_64 baseline.
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>(at.cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = at;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prefetching_any_index_leaves_the_table_alone_and_never_faults() {
+        // A hint has no observable effect: the table is unchanged and an index past its end (the
+        // look-ahead at a queue's end) is ignored rather than read.
+        let table: Vec<super::super::RayState> =
+            (0..5).map(|i| super::super::RayState { pixel: i, ..Default::default() }).collect();
+        for i in 0..10 {
+            entry(&table, i);
+        }
+        field(&table[4].radiance);
+        let empty: [u64; 0] = [];
+        entry(&empty, 0);
+        assert_eq!(table.iter().map(|s| s.pixel).collect::<Vec<_>>(), [0, 1, 2, 3, 4]);
+    }
+}
