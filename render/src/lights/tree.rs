@@ -84,6 +84,7 @@
 //! 1.12–1.34, scalar 1.67–1.98 → 1.68–1.86, speed-up 1.34–1.40× → 1.25–1.51×: within the noise.
 
 mod build;
+mod lanes;
 mod node;
 
 use crate::lights::{Light, Shape};

@@ -73,7 +73,6 @@ use super::bsdf_lanes::{Lanes, Lanes3, V};
 use super::lanes::{saturating_i32, LANES};
 use crate::lights::tree::LightSelector;
 use crate::lights::{Lights, Shape};
-use glam::Vec3;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
 /// A dome light.
@@ -361,12 +360,8 @@ fn gather(table: &LightTable, inp: &LightInputs, g: &mut Gathered) {
         }
         g.sel = [table.uniform_pmf; LANES];
     } else {
-        // The tree's descent is a loop of data-dependent depth per lane: scalar, as `Lights::sample`.
-        for k in 0..LANES {
-            let p = Vec3::new(inp.p[0][k], inp.p[1][k], inp.p[2][k]);
-            let (light, pmf) = table.selector.select(p, inp.u_select[k]);
-            (index[k], g.sel[k]) = (light as u32, pmf);
-        }
+        // The tree's descents of the lanes, interleaved (each lane as `Lights::sample`'s).
+        table.selector.select_lanes(&inp.p, &inp.u_select, &mut index, &mut g.sel);
     }
     let axes = table.kinds & (bit(KIND_RECT) | bit(KIND_DISK)) != 0;
     if count <= BLEND_GATHER_MAX {
@@ -622,7 +617,7 @@ fn every_kind<const PATCHES: bool>(
 /// lights, and emissive triangles of three powers.
 pub(super) fn every_light_kind() -> ingest::Scene {
     use crate::testscene::{self, card, sphere};
-    use glam::Mat4;
+    use glam::{Mat4, Vec3};
     use ingest::{Light as SceneLight, LightKind, Material, Scene};
     let at = |x: f32, y: f32, z: f32| Mat4::from_translation(Vec3::new(x, y, z));
     let light = |name: &str, kind: LightKind, radiance: f32, m: Mat4| SceneLight {
@@ -673,6 +668,7 @@ mod tests {
     use super::*;
     use crate::sampler::hash_u32;
     use crate::testscene;
+    use glam::Vec3;
 
     struct Rng(u32);
     impl Rng {
