@@ -14,8 +14,9 @@
 //! and 0.134, no better than uniform selection (0.298, 0.136): the sun then gets 1/50 of the
 //! samples. [`LightSelector::select`] turns one uniform number into a light and its
 //! probability at a shading point; [`LightSelector::pmf`] gives the probability any light would
-//! have had there. The scalar integrator, the wavefront's lane kernel (which runs the scalar descent
-//! per lane) and the MIS weights of emission found by BSDF rays all go through these two functions.
+//! have had there. The scalar integrator and the MIS weights of emission found by BSDF rays go
+//! through these two functions; the wavefront's lane kernel calls [`LightSelector::select_lanes`]
+//! (`tree/lanes.rs`: eight lanes' descents interleaved, each lane's result `select`'s bit for bit).
 //!
 //! Importance uses the shading point only, not its normal. A BSDF ray that meets a light needs the
 //! probability that light sampling at the previous vertex would have chosen that light; both

@@ -11,9 +11,9 @@
 //! The table also knows which kinds the scene has ([`LightTable::new`] keeps a kind mask), and
 //! each group knows which kinds its lanes picked. The kernel runs in four steps over the lanes:
 //! 1. selection, gathering each lane's record into AoSoA columns: the uniform pick 8-wide when every
-//!    light is at infinity (the table is then `uniform`), else the scalar
-//!    [`crate::lights::tree::LightSelector::select`] per lane (the light tree's descent: a loop of
-//!    data-dependent depth over 8-wide nodes, with each lane's probability kept for step 4's
+//!    light is at infinity (the table is then `uniform`), else
+//!    [`crate::lights::tree::LightSelector::select_lanes`] (the eight lanes' light-tree descents
+//!    interleaved level by level, each lane `select`'s result, its probability kept for step 4's
 //!    pdfs); then only
 //!    the columns the scene's kinds read (a rect's or disk's axes and normal only when the scene has
 //!    one), and for up to `BLEND_GATHER_MAX` lights by blending each light's record into the lanes
@@ -62,7 +62,10 @@
 //! collecting the descending lanes of several groups before descending, or hardware gathers.
 //! Done instead: the tree is 8-wide, its nodes' child bounds in columns, so each lane's scalar
 //! descent is about two nodes of one 8-lane importance pass each (see [`crate::lights::tree`]):
-//! this kernel 50.82 → 26.09 M (the descent itself 11.7 M), the render 636.8 → 611.2 M.
+//! this kernel 50.82 → 26.09 M (the descent itself 11.7 M), the render 636.8 → 611.2 M. Then the
+//! group's descents interleaved (`select_lanes`, see `lights/tree/lanes.rs`): more instructions
+//! (selection 14.92 → 18.67 M) but about a quarter less time; perf share of the selection and this
+//! kernel on shading-heavy, one thread, 7.9–8.3 → 5.3–6.1 % (contended).
 //!
 //! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
