@@ -14,8 +14,9 @@
 //! and 0.134, no better than uniform selection (0.298, 0.136): the sun then gets 1/50 of the
 //! samples. [`LightSelector::select`] turns one uniform number into a light and its
 //! probability at a shading point; [`LightSelector::pmf`] gives the probability any light would
-//! have had there. The scalar integrator, the wavefront's lane kernel (which runs the scalar descent
-//! per lane) and the MIS weights of emission found by BSDF rays all go through these two functions.
+//! have had there. The scalar integrator and the MIS weights of emission found by BSDF rays go
+//! through these two functions; the wavefront's lane kernel calls [`LightSelector::select_lanes`]
+//! (`tree/lanes.rs`: eight lanes' descents interleaved, each lane's result `select`'s bit for bit).
 //!
 //! Importance uses the shading point only, not its normal. A BSDF ray that meets a light needs the
 //! probability that light sampling at the previous vertex would have chosen that light; both
@@ -84,6 +85,7 @@
 //! 1.12–1.34, scalar 1.67–1.98 → 1.68–1.86, speed-up 1.34–1.40× → 1.25–1.51×: within the noise.
 
 mod build;
+mod lanes;
 mod node;
 
 use crate::lights::{Light, Shape};

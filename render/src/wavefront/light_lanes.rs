@@ -11,9 +11,9 @@
 //! The table also knows which kinds the scene has ([`LightTable::new`] keeps a kind mask), and
 //! each group knows which kinds its lanes picked. The kernel runs in four steps over the lanes:
 //! 1. selection, gathering each lane's record into AoSoA columns: the uniform pick 8-wide when every
-//!    light is at infinity (the table is then `uniform`), else the scalar
-//!    [`crate::lights::tree::LightSelector::select`] per lane (the light tree's descent: a loop of
-//!    data-dependent depth over 8-wide nodes, with each lane's probability kept for step 4's
+//!    light is at infinity (the table is then `uniform`), else
+//!    [`crate::lights::tree::LightSelector::select_lanes`] (the eight lanes' light-tree descents
+//!    interleaved level by level, each lane `select`'s result, its probability kept for step 4's
 //!    pdfs); then only
 //!    the columns the scene's kinds read (a rect's or disk's axes and normal only when the scene has
 //!    one), and for up to `BLEND_GATHER_MAX` lights by blending each light's record into the lanes
@@ -62,7 +62,10 @@
 //! collecting the descending lanes of several groups before descending, or hardware gathers.
 //! Done instead: the tree is 8-wide, its nodes' child bounds in columns, so each lane's scalar
 //! descent is about two nodes of one 8-lane importance pass each (see [`crate::lights::tree`]):
-//! this kernel 50.82 → 26.09 M (the descent itself 11.7 M), the render 636.8 → 611.2 M.
+//! this kernel 50.82 → 26.09 M (the descent itself 11.7 M), the render 636.8 → 611.2 M. Then the
+//! group's descents interleaved (`select_lanes`, see `lights/tree/lanes.rs`): more instructions
+//! (selection 14.92 → 18.67 M) but about a quarter less time; perf share of the selection and this
+//! kernel on shading-heavy, one thread, 7.9–8.3 → 5.3–6.1 % (contended).
 //!
 //! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
@@ -73,7 +76,6 @@ use super::bsdf_lanes::{Lanes, Lanes3, V};
 use super::lanes::{saturating_i32, LANES};
 use crate::lights::tree::LightSelector;
 use crate::lights::{Lights, Shape};
-use glam::Vec3;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
 /// A dome light.
@@ -361,12 +363,8 @@ fn gather(table: &LightTable, inp: &LightInputs, g: &mut Gathered) {
         }
         g.sel = [table.uniform_pmf; LANES];
     } else {
-        // The tree's descent is a loop of data-dependent depth per lane: scalar, as `Lights::sample`.
-        for k in 0..LANES {
-            let p = Vec3::new(inp.p[0][k], inp.p[1][k], inp.p[2][k]);
-            let (light, pmf) = table.selector.select(p, inp.u_select[k]);
-            (index[k], g.sel[k]) = (light as u32, pmf);
-        }
+        // The tree's descents of the lanes, interleaved (each lane as `Lights::sample`'s).
+        table.selector.select_lanes(&inp.p, &inp.u_select, &mut index, &mut g.sel);
     }
     let axes = table.kinds & (bit(KIND_RECT) | bit(KIND_DISK)) != 0;
     if count <= BLEND_GATHER_MAX {
@@ -622,7 +620,7 @@ fn every_kind<const PATCHES: bool>(
 /// lights, and emissive triangles of three powers.
 pub(super) fn every_light_kind() -> ingest::Scene {
     use crate::testscene::{self, card, sphere};
-    use glam::Mat4;
+    use glam::{Mat4, Vec3};
     use ingest::{Light as SceneLight, LightKind, Material, Scene};
     let at = |x: f32, y: f32, z: f32| Mat4::from_translation(Vec3::new(x, y, z));
     let light = |name: &str, kind: LightKind, radiance: f32, m: Mat4| SceneLight {
@@ -673,6 +671,7 @@ mod tests {
     use super::*;
     use crate::sampler::hash_u32;
     use crate::testscene;
+    use glam::Vec3;
 
     struct Rng(u32);
     impl Rng {

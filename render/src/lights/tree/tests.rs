@@ -392,3 +392,54 @@ fn choice_takes_the_first_child_above_the_target_and_never_one_of_weight_zero() 
         );
     }
 }
+
+/// The interleaved descents of eight lanes equal the scalar `select` lane by lane, bit for bit, for
+/// 1 to 300 lights, with and without lights at infinity (lanes of the tree and of the uniform first
+/// choice mixed), at random points (some on point lights: the uniform fallback) and random `u`.
+#[test]
+fn eight_interleaved_descents_equal_scalar_selection_bit_for_bit() {
+    let mut rng = Rng(23);
+    let mut descents = 0;
+    for (case, count) in [1usize, 2, 3, 5, 8, 9, 17, 64, 65, 150, 300].into_iter().enumerate() {
+        for infinite in [false, true] {
+            let records = random_lights(count, infinite, &mut rng);
+            let centres: Vec<Vec3> =
+                records.iter().map(|r| Vec3::from(r.world_from_light.map(|row| row[3]))).collect();
+            let bytes = lights_only(records);
+            let view = blob::SceneView::parse(&bytes).expect("valid blob");
+            let lights = Lights::new(&view);
+            let selector = lights.selector();
+            for round in 0..400 {
+                let (mut p, mut u) = ([[0.0f32; 8]; 3], [0.0f32; 8]);
+                for k in 0..8 {
+                    let q = match (round + k) % 11 {
+                        // On a light's centre (a point light's: an infinite importance).
+                        0 => centres[(rng.next_f32() * centres.len() as f32) as usize % centres.len()],
+                        1 => random_point(&mut rng, 60.0),
+                        _ => random_point(&mut rng, 6.0),
+                    };
+                    (p[0][k], p[1][k], p[2][k]) = (q.x, q.y, q.z);
+                    u[k] = match (round * 8 + k + case) % 97 {
+                        0 => 0.0,
+                        1 => ONE_MINUS_EPSILON,
+                        _ => rng.next_f32(),
+                    };
+                }
+                let (mut light, mut pmf) = ([u32::MAX; 8], [f32::NAN; 8]);
+                selector.select_lanes(&p, &u, &mut light, &mut pmf);
+                for k in 0..8 {
+                    let q = Vec3::new(p[0][k], p[1][k], p[2][k]);
+                    let (want, want_pmf) = selector.select(q, u[k]);
+                    assert_eq!(
+                        (light[k] as usize, pmf[k].to_bits()),
+                        (want, want_pmf.to_bits()),
+                        "{count} lights (infinite: {infinite}), lane {k} at {q} with u {}",
+                        u[k]
+                    );
+                    descents += (want_pmf < selector.infinite_pmf()) as u32;
+                }
+            }
+        }
+    }
+    assert!(descents > 20_000, "only {descents} lanes went down the tree");
+}
