@@ -69,10 +69,9 @@ const RAY_GROUPS: usize = MAX_RAYS / LANES;
 pub struct RayLanes {
     /// Origins.
     pub o: Lanes3,
-    /// Unit directions.
+    /// Unit directions (the kernels take `1 / d` for the box tests in lanes, eight divisions in
+    /// one instruction, rather than three scalar divisions per ray here).
     pub d: Lanes3,
-    /// `1 / d` per component, as [`glam::Vec3::recip`] computes it (for the box test).
-    pub inv_d: Lanes3,
     /// The distance each ray's emission is gathered up to (its hit; infinite when it escaped).
     pub tmax: Lanes,
 }
@@ -193,11 +192,9 @@ impl AreaLightLanes {
     #[inline]
     pub fn set_ray(&mut self, j: usize, o: Vec3, d: Vec3, tmax: f32, prev: Option<(Vec3, f32)>) {
         let (group, k) = (&mut self.rays[j / LANES], j % LANES);
-        let inv_d = d.recip();
         for a in 0..3 {
             group.o[a][k] = o[a];
             group.d[a][k] = d[a];
-            group.inv_d[a][k] = inv_d[a];
         }
         group.tmax[k] = tmax;
         self.prev[j] = prev;
@@ -277,8 +274,9 @@ fn hit_rays(
     }
     for (r, ray) in rays.iter().enumerate() {
         let live = (1u32 << (n - r * LANES).min(LANES)) - 1;
+        let inv_d = recip(&ray.d);
         for (g, (group, b)) in shapes.chunks(area_groups::GROUP).zip(boxes).enumerate() {
-            let meets = area_groups::ray_meets_lanes(b, &ray.o, &ray.inv_d, &ray.tmax) & live;
+            let meets = area_groups::ray_meets_lanes(b, &ray.o, &inv_d, &ray.tmax) & live;
             if meets == 0 {
                 continue;
             }
@@ -320,6 +318,13 @@ fn hit_rays(
             }
         }
     }
+}
+
+/// `1 / d` per lane, as [`glam::Vec3::recip`] computes it (the same bits as the scalar
+/// `area_emission`'s inverse direction).
+#[inline(always)]
+fn recip(d: &Lanes3) -> Lanes3 {
+    d.map(|c| c.map(|x| 1.0 / x))
 }
 
 /// `ray_sphere`'s first part on eight rays (`b = oc·d`, `c = |oc|² − r²`, the discriminant
@@ -491,9 +496,8 @@ mod tests {
                 }
                 let tmax = [f32::INFINITY, 5.0 * u(), 0.0, f32::NAN, 2.0][(case / 2 + j) % 5];
                 let (group, k) = (&mut rays[j / LANES], j % LANES);
-                let inv_d = d.recip();
                 for a in 0..3 {
-                    (group.o[a][k], group.d[a][k], group.inv_d[a][k]) = (o[a], d[a], inv_d[a]);
+                    (group.o[a][k], group.d[a][k]) = (o[a], d[a]);
                 }
                 group.tmax[k] = tmax;
             }
@@ -517,7 +521,8 @@ mod tests {
                     let bits = unsafe { avx::box_bits(b, ray) };
                     for k in 0..LANES {
                         let at = |c: &Lanes3| [c[0][k], c[1][k], c[2][k]];
-                        let scalar = area_groups::ray_meets(b, at(&ray.o), at(&ray.inv_d), ray.tmax[k]);
+                        let inv_d = Vec3::from(at(&ray.d)).recip().to_array();
+                        let scalar = area_groups::ray_meets(b, at(&ray.o), inv_d, ray.tmax[k]);
                         assert_eq!(bits >> k & 1 == 1, scalar, "case {case}, ray {}", r * LANES + k);
                         met += scalar as u32;
                     }

@@ -44,7 +44,8 @@ fn rays_of(ray: &RayLanes) -> Rays {
     Rays {
         o: ray.o.each_ref().map(|c| load(c)),
         d: ray.d.each_ref().map(|c| load(c)),
-        inv_d: ray.inv_d.each_ref().map(|c| load(c)),
+        // `1 / d` as `Vec3::recip` divides.
+        inv_d: ray.d.each_ref().map(|c| _mm256_div_ps(_mm256_set1_ps(1.0), load(c))),
         tmax: load(&ray.tmax),
     }
 }
