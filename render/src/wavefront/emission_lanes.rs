@@ -150,6 +150,9 @@ pub struct AreaLightLanes {
     shapes: Vec<LightShape>,
     /// The box of each run of [`area_groups::GROUP`] lights ([`Lights::area_boxes`]).
     boxes: Vec<GroupBox>,
+    /// The sphere-only groups' spheres for the AVX kernel.
+    #[cfg(target_arch = "x86_64")]
+    spheres: avx::SphereGroups,
     /// The current batch: its rays transposed, and each ray's previous vertex for MIS.
     rays: Box<[RayLanes; RAY_GROUPS]>,
     prev: Box<[Option<(Vec3, f32)>; MAX_RAYS]>,
@@ -172,6 +175,8 @@ impl AreaLightLanes {
         debug_assert_eq!(boxes.len(), all.len().div_ceil(area_groups::GROUP), "one box per group of eight");
         AreaLightLanes {
             lights: all,
+            #[cfg(target_arch = "x86_64")]
+            spheres: avx::SphereGroups::new(&shapes),
             shapes,
             boxes,
             rays: Box::default(),
@@ -214,7 +219,17 @@ impl AreaLightLanes {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx") {
             // SAFETY: the CPU has AVX (checked just above; std caches the answer).
-            unsafe { avx::hit_rays(&self.shapes, &self.boxes, rays, n, &mut self.rejects, &mut self.hits) };
+            unsafe {
+                avx::hit_rays(
+                    &self.shapes,
+                    &self.boxes,
+                    &self.spheres,
+                    rays,
+                    n,
+                    &mut self.rejects,
+                    &mut self.hits,
+                )
+            };
         } else {
             hit_rays(&self.shapes, &self.boxes, rays, n, &mut self.rejects, &mut self.hits);
         }
@@ -472,13 +487,25 @@ mod tests {
         if !std::arch::is_x86_feature_detected!("avx") {
             return;
         }
+        // Mixed shapes, then spheres only (the kernel's sphere-group path, last group partial).
+        for only_spheres in [false, true] {
+            avx_equals_portable(only_spheres);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    fn avx_equals_portable(only_spheres: bool) {
         let mut rng = crate::testscene::Rng(41);
         let mut u = || rng.next_f32();
-        let records = crate::testscene::area_light_records(29, 2.0, (0.1, 0.5), (0.2, 1.0), &mut u);
+        let mut records = crate::testscene::area_light_records(29, 2.0, (0.1, 0.5), (0.2, 1.0), &mut u);
+        if only_spheres {
+            records.iter_mut().for_each(|r| r.kind = blob::light_kind::SPHERE);
+        }
         let bytes = crate::testscene::lights_only(records);
         let view = blob::SceneView::parse(&bytes).expect("valid blob");
         let lights = Lights::new(&view);
         let lanes = AreaLightLanes::new(&lights);
+        assert_eq!(lanes.spheres.group(0).is_some(), only_spheres);
         let (mut rays, mut s) = (Box::new([RayLanes::default(); RAY_GROUPS]), RejectLanes::default());
         let (mut portable, mut vector) = (Vec::new(), Vec::new());
         let (mut found, mut met) = (0, 0);
@@ -507,7 +534,9 @@ mod tests {
             vector.clear();
             hit_rays(&lanes.shapes, &lanes.boxes, groups, n, &mut s, &mut portable);
             // SAFETY: AVX was detected above.
-            unsafe { avx::hit_rays(&lanes.shapes, &lanes.boxes, groups, n, &mut s, &mut vector) };
+            unsafe {
+                avx::hit_rays(&lanes.shapes, &lanes.boxes, &lanes.spheres, groups, n, &mut s, &mut vector)
+            };
             let key = |h: &RayHit| (h.ray, h.light, h.t.to_bits());
             assert_eq!(
                 portable.iter().map(key).collect::<Vec<_>>(),
@@ -529,7 +558,7 @@ mod tests {
                 }
             }
         }
-        assert!(found > 1000, "only {found} hits");
+        assert!(found > 1000, "only {found} hits (spheres only: {only_spheres})");
         assert!(met > 20_000, "only {met} box hits");
     }
 

@@ -80,6 +80,77 @@ fn box_mask(b: &GroupBox, r: &Rays) -> u32 {
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
 }
 
+/// The sphere lights of the groups made of nothing else, as `[centre, r²]` (the kernel broadcasts
+/// them straight from memory and skips the per-light `match`: 41 → 32 instructions per sphere and
+/// ray group).
+#[derive(Clone, Debug, Default)]
+pub(super) struct SphereGroups {
+    /// Per light of [`Lights::area_lights`](crate::lights::Lights::area_lights): `[cx, cy, cz, r²]`
+    /// (zeros for a planar light).
+    spheres: Vec<[f32; 4]>,
+    /// Per group: whether all its lights are spheres.
+    only_spheres: Vec<bool>,
+}
+
+impl SphereGroups {
+    pub(super) fn new(shapes: &[LightShape]) -> Self {
+        let spheres = shapes
+            .iter()
+            .map(|shape| match *shape {
+                LightShape::Sphere { center, radius2 } => [center[0], center[1], center[2], radius2],
+                LightShape::Planar { .. } => [0.0; 4],
+            })
+            .collect();
+        let only_spheres = shapes
+            .chunks(area_groups::GROUP)
+            .map(|group| group.iter().all(|shape| matches!(shape, LightShape::Sphere { .. })))
+            .collect();
+        SphereGroups { spheres, only_spheres }
+    }
+
+    /// Group `g`'s spheres when it holds nothing else.
+    #[inline]
+    pub(super) fn group(&self, g: usize) -> Option<&[[f32; 4]]> {
+        let first = g * area_groups::GROUP;
+        self.only_spheres[g]
+            .then(|| &self.spheres[first..(first + area_groups::GROUP).min(self.spheres.len())])
+    }
+}
+
+/// `ray_sphere` of the rays `meets` (ray group `r`) with sphere light `light` (`[centre, r²]`):
+/// the discriminant's sign in lanes, then the roots of the rays that pass, one at a time.
+#[inline]
+#[target_feature(enable = "avx")]
+fn sphere_test(
+    v: &Rays,
+    sphere: &[f32; 4],
+    meets: u32,
+    ray: &RayLanes,
+    (r, light): (usize, u32),
+    s: &mut RejectLanes,
+    hits: &mut Vec<RayHit>,
+) {
+    let oc = [0, 1, 2].map(|a| _mm256_sub_ps(v.o[a], _mm256_broadcast_ss(&sphere[a])));
+    let bq = dot(oc, v.d);
+    let c = _mm256_sub_ps(dot(oc, oc), _mm256_broadcast_ss(&sphere[3]));
+    let disc = _mm256_sub_ps(_mm256_mul_ps(bq, bq), c);
+    // `!(disc < 0)`, NaN included: where `ray_sphere` goes on.
+    let mut pass = meets & _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, _mm256_setzero_ps())) as u32;
+    if pass == 0 {
+        return;
+    }
+    store(&mut s.b, bq);
+    store(&mut s.c, c);
+    store(&mut s.disc, disc);
+    while pass != 0 {
+        let k = pass.trailing_zeros() as usize;
+        pass &= pass - 1;
+        if let Some(t) = sphere_roots(s.b[k], s.c[k], s.disc[k]).filter(|&t| t < ray.tmax[k]) {
+            hits.push(RayHit { ray: (r * LANES + k) as u32, light, t });
+        }
+    }
+}
+
 /// [`super::hit_rays`] on AVX: the same hits in the same order.
 ///
 /// # Safety
@@ -88,6 +159,7 @@ fn box_mask(b: &GroupBox, r: &Rays) -> u32 {
 pub(super) unsafe fn hit_rays(
     shapes: &[LightShape],
     boxes: &[GroupBox],
+    spheres: &SphereGroups,
     rays: &[RayLanes],
     n: usize,
     s: &mut RejectLanes,
@@ -102,32 +174,19 @@ pub(super) unsafe fn hit_rays(
             if meets == 0 {
                 continue;
             }
+            let first = g * area_groups::GROUP;
+            if let Some(group) = spheres.group(g) {
+                for (l, sphere) in group.iter().enumerate() {
+                    sphere_test(&v, sphere, meets, ray, (r, (first + l) as u32), s, hits);
+                }
+                continue;
+            }
             for (l, shape) in group.iter().enumerate() {
-                let light = (g * area_groups::GROUP + l) as u32;
+                let light = (first + l) as u32;
                 match *shape {
                     LightShape::Sphere { center, radius2 } => {
-                        let oc = [0, 1, 2].map(|a| _mm256_sub_ps(v.o[a], _mm256_set1_ps(center[a])));
-                        let bq = dot(oc, v.d);
-                        let c = _mm256_sub_ps(dot(oc, oc), _mm256_set1_ps(radius2));
-                        let disc = _mm256_sub_ps(_mm256_mul_ps(bq, bq), c);
-                        // `!(disc < 0)`, NaN included: where `ray_sphere` goes on.
-                        let mut pass =
-                            meets & _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, zero)) as u32;
-                        if pass == 0 {
-                            continue;
-                        }
-                        store(&mut s.b, bq);
-                        store(&mut s.c, c);
-                        store(&mut s.disc, disc);
-                        while pass != 0 {
-                            let k = pass.trailing_zeros() as usize;
-                            pass &= pass - 1;
-                            if let Some(t) =
-                                sphere_roots(s.b[k], s.c[k], s.disc[k]).filter(|&t| t < ray.tmax[k])
-                            {
-                                hits.push(RayHit { ray: (r * LANES + k) as u32, light, t });
-                            }
-                        }
+                        let sphere = [center[0], center[1], center[2], radius2];
+                        sphere_test(&v, &sphere, meets, ray, (r, light), s, hits);
                     }
                     LightShape::Planar { center, normal, ex, ex_len2, ey, ey_len2, disk } => {
                         let nv = normal.map(|x| _mm256_set1_ps(x));
