@@ -153,9 +153,8 @@ pub struct AreaLightLanes {
     /// The sphere-only groups' spheres for the AVX kernel.
     #[cfg(target_arch = "x86_64")]
     spheres: avx::SphereGroups,
-    /// The current batch: its rays transposed, and each ray's previous vertex for MIS.
+    /// The current batch: its rays transposed.
     rays: Box<[RayLanes; RAY_GROUPS]>,
-    prev: Box<[Option<(Vec3, f32)>; MAX_RAYS]>,
     /// Hits of the batch, ray group by ray group, each ray's in light order.
     hits: Vec<RayHit>,
     /// The kernel's scratch.
@@ -180,7 +179,6 @@ impl AreaLightLanes {
             shapes,
             boxes,
             rays: Box::default(),
-            prev: Box::new([None; MAX_RAYS]),
             hits: Vec::with_capacity(MAX_RAYS * LANES),
             rejects: Box::default(),
             sums: Box::new([Vec3::ZERO; MAX_RAYS]),
@@ -193,21 +191,27 @@ impl AreaLightLanes {
     }
 
     /// Sets ray `j` (< [`MAX_RAYS`]) of the batch: origin `o`, unit direction `d`, gathering up to
-    /// `tmax`, MIS against light sampling from `prev` as in [`Lights::area_emission`].
+    /// `tmax`.
     #[inline]
-    pub fn set_ray(&mut self, j: usize, o: Vec3, d: Vec3, tmax: f32, prev: Option<(Vec3, f32)>) {
+    pub fn set_ray(&mut self, j: usize, o: Vec3, d: Vec3, tmax: f32) {
         let (group, k) = (&mut self.rays[j / LANES], j % LANES);
         for a in 0..3 {
             group.o[a][k] = o[a];
             group.d[a][k] = d[a];
         }
         group.tmax[k] = tmax;
-        self.prev[j] = prev;
     }
 
     /// [`Lights::area_emission`] of rays `0..n` of the batch (set by [`AreaLightLanes::set_ray`]),
-    /// by ray; `lights` must be the lights this was built from.
-    pub fn emission(&mut self, lights: &Lights, n: usize) -> &[Vec3] {
+    /// by ray, MIS-weighted against light sampling from `prev(j)` for ray `j`; `lights` must be the
+    /// lights this was built from. `prev` is asked only for the rays that hit a light (a few in a
+    /// hundred on the bench scene), so the caller's path states are not read for the others.
+    pub fn emission(
+        &mut self,
+        lights: &Lights,
+        n: usize,
+        prev: impl Fn(usize) -> Option<(Vec3, f32)>,
+    ) -> &[Vec3] {
         assert!(n <= MAX_RAYS, "a batch holds at most {MAX_RAYS} rays");
         let sums = &mut self.sums[..n];
         sums.fill(Vec3::ZERO);
@@ -240,7 +244,7 @@ impl AreaLightLanes {
             let (group, k) = (&self.rays[j / LANES], j % LANES);
             let o = Vec3::new(group.o[0][k], group.o[1][k], group.o[2][k]);
             let d = Vec3::new(group.d[0][k], group.d[1][k], group.d[2][k]);
-            sums[j] += lights.area_term(h.light as usize, o, d, h.t, self.prev[j]);
+            sums[j] += lights.area_term(h.light as usize, o, d, h.t, prev(j));
         }
         sums
     }
@@ -426,6 +430,7 @@ mod tests {
             let n = batch % MAX_RAYS + 1;
             batch += 1;
             let mut expected = Vec::with_capacity(n);
+            let mut prevs = Vec::with_capacity(n);
             for j in 0..n {
                 let i = rays + j;
                 let light = &area[i % area.len()];
@@ -462,12 +467,13 @@ mod tests {
                 let d = (aim - o).normalize_or(Vec3::Z);
                 let tmax = if i % 3 == 1 { f32::INFINITY } else { 5.0 * u() };
                 let prev = (i % 2 == 0).then(|| (o - d * u(), 4.0 * u()));
-                lanes.set_ray(j, o, d, tmax, prev);
+                lanes.set_ray(j, o, d, tmax);
                 let e = lights.area_emission(o, d, tmax, prev);
                 met += (e != Vec3::ZERO) as u32;
                 expected.push((e, o, d, tmax));
+                prevs.push(prev);
             }
-            let got = lanes.emission(&lights, n);
+            let got = lanes.emission(&lights, n, |j| prevs[j]);
             for (j, (&g, &(e, o, d, tmax))) in got.iter().zip(&expected).enumerate() {
                 assert_eq!(bits(g), bits(e), "batch of {n}, ray {j}: o {o} d {d} tmax {tmax}");
             }
@@ -570,7 +576,7 @@ mod tests {
         let lights = Lights::new(&view);
         let mut lanes = AreaLightLanes::new(&lights);
         assert!(lanes.is_empty());
-        lanes.set_ray(0, Vec3::ZERO, Vec3::X, f32::INFINITY, None);
-        assert_eq!(lanes.emission(&lights, 1), &[Vec3::ZERO]);
+        lanes.set_ray(0, Vec3::ZERO, Vec3::X, f32::INFINITY);
+        assert_eq!(lanes.emission(&lights, 1, |_| None), &[Vec3::ZERO]);
     }
 }
