@@ -4,8 +4,9 @@
 //! Every camera and BSDF ray tests the rect, disk and sphere lights analytically (those of the groups
 //! of eight lights whose box it meets, [`crate::area_groups`]). The intersect stage hands over each
 //! batch of up to [`MAX_RAYS`] rays it has just intersected; they are transposed into groups of eight
-//! ([`RayLanes`]: origin, direction, inverse direction, `tmax` = the hit distance) and the kernel
-//! walks the lights in [`Lights::area_lights`] order for each ray group:
+//! ([`RayLanes`]: origin, direction, `tmax` = the hit distance) and the kernel walks the lights in
+//! [`Lights::area_lights`] order for each ray group (on AVX CPUs in intrinsics, `avx`, else the
+//! portable lane loops of [`hit_rays`]; both find the same hits, a test checks it):
 //! 1. per group of eight lights, the box test of the eight rays ([`area_groups::ray_meets_lanes`]);
 //!    when no ray meets the box its eight lights are skipped;
 //! 2. per light, the cheap reject on eight rays with the scalar test's own IEEE operations: for a
@@ -49,6 +50,36 @@
 //! Tried and lost: the rejects inlined into the ray loop (LLVM left most lanes scalar: 70.0 M for
 //! the kernel), and the mask as bytes of a `u64` (`vpacksswb` in the box test, but shuffles and
 //! scalar compares in the others).
+//!
+//! # Measured, second round (main at 3db8d2d; same callgrind settings; images unchanged bit for bit)
+//! Where the instructions were: the out-of-line sphere reject cost 57 instructions per light and
+//! ray group (406 k calls), 17 of them building the lane mask with a shift and an `or` per lane,
+//! the rest reloading the rays and storing three result columns; the box tests and the per-light
+//! `match` another 26 M; and the stage's per-ray set-up three scalar divisions (`1/d`) and a copy
+//! of the MIS vertex, which only 2,449 of the 156 k rays (those that hit a light) need. Now:
+//! the kernel in AVX intrinsics with the eight rays in registers and one `vmovmskps` per test
+//! (`avx`), `1/d` in lanes inside the kernels, sphere-only groups tested from a flat
+//! `[centre, r²]` table without the `match`, and the previous vertex read only for hits.
+//!
+//! | shading-heavy, instructions | before | after |
+//! |---|---|---|
+//! | area-light kernel (`hit_rays` → `avx::hit_rays`) | 49.3 M | 26.4 M |
+//! | `AreaLightLanes::emission` (with the hits' MIS terms) | 50.3 M | 27.4 M |
+//! | the intersect stage's emission pass (`intersect::emission`) | 72.6 M | 45.7 M |
+//! | whole process | 542.7 M | 515.7 M (−5.0 %) |
+//!
+//! Step by step (whole process): AVX kernel 524.2 M, `1/d` in lanes 522.6 M, sphere groups
+//! 518.2 M, previous vertex for hits only 515.7 M. Tractor and simple (no area light) unchanged:
+//! 333.55 / 132.08 M. perf, 320×213, 16 spp, 1 thread (contended, load ~5 on 2 cores), share of
+//! the wavefront's samples: emission 7.8 % before (sphere reject 2.7, ray loop 2.1, the pass 2.5,
+//! dome and sun 0.3, the rest 0.2) and 5.9 % after (AVX kernel 2.5, the pass 2.7, dome and sun
+//! 0.3, the rest 0.4); task-clock over 12 alternating runs was within the noise (±15 %).
+//! What is left in the pass is memory-bound: its samples sit on the first reads of each ray's
+//! path state (`w.states[i]` by queue index).
+//!
+//! Tried and lost: a second level of boxes (a box per half group, tested for the met groups
+//! before their lights): 30.8 → 32.3 M for the kernel, the bench scene's lights being spread so
+//! that a met group's halves are mostly met too.
 
 #[cfg(target_arch = "x86_64")]
 mod avx;
@@ -267,11 +298,12 @@ pub struct RejectLanes {
 }
 
 /// The hits of rays `0..n` (in groups of eight, `rays`) with the lights `shapes` (boxed eight by
-/// eight by `boxes`), appended to `hits` ray group by ray group, in light order within each; one
-/// dispatch per batch.
+/// eight by `boxes`), appended to `hits` ray group by ray group, in light order within each: the
+/// portable kernel, for CPUs without AVX (those with it run `avx::hit_rays`, so this one has no
+/// AVX2 clone any more) and as the reference the AVX kernel is tested against.
 ///
-/// The two cheap rejects are nested `inherit_target` functions kept out of line, as the BVH kernels
-/// are ([`crate::accel`]), and write their lane values into `s`: inlined into this loop, or with
+/// The two cheap rejects are nested functions kept out of line, as the BVH kernels are
+/// ([`crate::accel`]), and write their lane values into `s`: inlined into this loop, or with
 /// their values kept in registers, LLVM's SLP vectorizer left most of their lanes scalar
 /// (callgrind, shading-heavy at 120×80, 8 spp: ~220 instructions per sphere and group of eight
 /// rays inlined, ~60 out of line).
