@@ -4,8 +4,9 @@
 //! Every camera and BSDF ray tests the rect, disk and sphere lights analytically (those of the groups
 //! of eight lights whose box it meets, [`crate::area_groups`]). The intersect stage hands over each
 //! batch of up to [`MAX_RAYS`] rays it has just intersected; they are transposed into groups of eight
-//! ([`RayLanes`]: origin, direction, inverse direction, `tmax` = the hit distance) and the kernel
-//! walks the lights in [`Lights::area_lights`] order for each ray group:
+//! ([`RayLanes`]: origin, direction, `tmax` = the hit distance) and the kernel walks the lights in
+//! [`Lights::area_lights`] order for each ray group (on AVX CPUs in intrinsics, `avx`, else the
+//! portable lane loops of [`hit_rays`]; both find the same hits, a test checks it):
 //! 1. per group of eight lights, the box test of the eight rays ([`area_groups::ray_meets_lanes`]);
 //!    when no ray meets the box its eight lights are skipped;
 //! 2. per light, the cheap reject on eight rays with the scalar test's own IEEE operations: for a
@@ -49,6 +50,43 @@
 //! Tried and lost: the rejects inlined into the ray loop (LLVM left most lanes scalar: 70.0 M for
 //! the kernel), and the mask as bytes of a `u64` (`vpacksswb` in the box test, but shuffles and
 //! scalar compares in the others).
+//!
+//! # Measured, second round (main at 3db8d2d; same callgrind settings; images unchanged bit for bit)
+//! Where the instructions were: the out-of-line sphere reject cost 57 instructions per light and
+//! ray group (406 k calls), 17 of them building the lane mask with a shift and an `or` per lane,
+//! the rest reloading the rays and storing three result columns; the box tests and the per-light
+//! `match` another 26 M; and the stage's per-ray set-up three scalar divisions (`1/d`) and a copy
+//! of the MIS vertex, which only 2,449 of the 156 k rays (those that hit a light) need. Now:
+//! the kernel in AVX intrinsics with the eight rays in registers and one `vmovmskps` per test
+//! (`avx`), `1/d` in lanes inside the kernels, sphere-only groups tested from a flat
+//! `[centre, r²]` table without the `match`, and the previous vertex read only for hits.
+//!
+//! | shading-heavy, instructions | before | after |
+//! |---|---|---|
+//! | area-light kernel (`hit_rays` → `avx::hit_rays`) | 49.3 M | 26.4 M |
+//! | `AreaLightLanes::emission` (with the hits' MIS terms) | 50.3 M | 27.4 M |
+//! | the intersect stage's emission pass (`intersect::emission`) | 72.6 M | 45.7 M |
+//! | whole process | 542.7 M | 515.7 M (−5.0 %) |
+//!
+//! Step by step (whole process): AVX kernel 524.2 M, `1/d` in lanes 522.6 M, sphere groups
+//! 518.2 M, previous vertex for hits only 515.7 M. Tractor and simple (no area light) unchanged:
+//! 333.55 / 132.08 M. perf, 320×213, 16 spp, 1 thread (contended, load ~5 on 2 cores), share of
+//! the wavefront's samples: emission 7.8 % before (sphere reject 2.7, ray loop 2.1, the pass 2.5,
+//! dome and sun 0.3, the rest 0.2) and 5.9 % after (AVX kernel 2.5, the pass 2.7, dome and sun
+//! 0.3, the rest 0.4); task-clock over 12 alternating runs was within the noise (±15 %).
+//! `bench integrators` (320×213, 16 spp, 2 threads, contended, two alternating runs each),
+//! shading-heavy wavefront CPU s 1.021 / 0.891 before, 0.945 / 0.924 after; its shading phase
+//! 19.1 / 19.2 % of the wavefront's time before, 16.6 / 15.7 % after; max |Δ| against the scalar
+//! image 0 in every run.
+//! What is left in the pass is memory-bound: its samples sit on the first reads of each ray's
+//! path state (`w.states[i]` by queue index).
+//!
+//! Tried and lost: a second level of boxes (a box per half group, tested for the met groups
+//! before their lights): 30.8 → 32.3 M for the kernel, the bench scene's lights being spread so
+//! that a met group's halves are mostly met too.
+
+#[cfg(target_arch = "x86_64")]
+mod avx;
 
 use super::bsdf_lanes::{Lanes, Lanes3};
 use super::lanes::LANES;
@@ -66,10 +104,9 @@ const RAY_GROUPS: usize = MAX_RAYS / LANES;
 pub struct RayLanes {
     /// Origins.
     pub o: Lanes3,
-    /// Unit directions.
+    /// Unit directions (the kernels take `1 / d` for the box tests in lanes, eight divisions in
+    /// one instruction, rather than three scalar divisions per ray here).
     pub d: Lanes3,
-    /// `1 / d` per component, as [`glam::Vec3::recip`] computes it (for the box test).
-    pub inv_d: Lanes3,
     /// The distance each ray's emission is gathered up to (its hit; infinite when it escaped).
     pub tmax: Lanes,
 }
@@ -148,9 +185,11 @@ pub struct AreaLightLanes {
     shapes: Vec<LightShape>,
     /// The box of each run of [`area_groups::GROUP`] lights ([`Lights::area_boxes`]).
     boxes: Vec<GroupBox>,
-    /// The current batch: its rays transposed, and each ray's previous vertex for MIS.
+    /// The sphere-only groups' spheres for the AVX kernel.
+    #[cfg(target_arch = "x86_64")]
+    spheres: avx::SphereGroups,
+    /// The current batch: its rays transposed.
     rays: Box<[RayLanes; RAY_GROUPS]>,
-    prev: Box<[Option<(Vec3, f32)>; MAX_RAYS]>,
     /// Hits of the batch, ray group by ray group, each ray's in light order.
     hits: Vec<RayHit>,
     /// The kernel's scratch.
@@ -170,10 +209,11 @@ impl AreaLightLanes {
         debug_assert_eq!(boxes.len(), all.len().div_ceil(area_groups::GROUP), "one box per group of eight");
         AreaLightLanes {
             lights: all,
+            #[cfg(target_arch = "x86_64")]
+            spheres: avx::SphereGroups::new(&shapes),
             shapes,
             boxes,
             rays: Box::default(),
-            prev: Box::new([None; MAX_RAYS]),
             hits: Vec::with_capacity(MAX_RAYS * LANES),
             rejects: Box::default(),
             sums: Box::new([Vec3::ZERO; MAX_RAYS]),
@@ -186,23 +226,27 @@ impl AreaLightLanes {
     }
 
     /// Sets ray `j` (< [`MAX_RAYS`]) of the batch: origin `o`, unit direction `d`, gathering up to
-    /// `tmax`, MIS against light sampling from `prev` as in [`Lights::area_emission`].
+    /// `tmax`.
     #[inline]
-    pub fn set_ray(&mut self, j: usize, o: Vec3, d: Vec3, tmax: f32, prev: Option<(Vec3, f32)>) {
+    pub fn set_ray(&mut self, j: usize, o: Vec3, d: Vec3, tmax: f32) {
         let (group, k) = (&mut self.rays[j / LANES], j % LANES);
-        let inv_d = d.recip();
         for a in 0..3 {
             group.o[a][k] = o[a];
             group.d[a][k] = d[a];
-            group.inv_d[a][k] = inv_d[a];
         }
         group.tmax[k] = tmax;
-        self.prev[j] = prev;
     }
 
     /// [`Lights::area_emission`] of rays `0..n` of the batch (set by [`AreaLightLanes::set_ray`]),
-    /// by ray; `lights` must be the lights this was built from.
-    pub fn emission(&mut self, lights: &Lights, n: usize) -> &[Vec3] {
+    /// by ray, MIS-weighted against light sampling from `prev(j)` for ray `j`; `lights` must be the
+    /// lights this was built from. `prev` is asked only for the rays that hit a light (a few in a
+    /// hundred on the bench scene), so the caller's path states are not read for the others.
+    pub fn emission(
+        &mut self,
+        lights: &Lights,
+        n: usize,
+        prev: impl Fn(usize) -> Option<(Vec3, f32)>,
+    ) -> &[Vec3] {
         assert!(n <= MAX_RAYS, "a batch holds at most {MAX_RAYS} rays");
         let sums = &mut self.sums[..n];
         sums.fill(Vec3::ZERO);
@@ -211,13 +255,31 @@ impl AreaLightLanes {
         }
         self.hits.clear();
         let rays = &self.rays[..n.div_ceil(LANES)];
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above; std caches the answer).
+            unsafe {
+                avx::hit_rays(
+                    &self.shapes,
+                    &self.boxes,
+                    &self.spheres,
+                    rays,
+                    n,
+                    &mut self.rejects,
+                    &mut self.hits,
+                )
+            };
+        } else {
+            hit_rays(&self.shapes, &self.boxes, rays, n, &mut self.rejects, &mut self.hits);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
         hit_rays(&self.shapes, &self.boxes, rays, n, &mut self.rejects, &mut self.hits);
         for h in &self.hits {
             let j = h.ray as usize;
             let (group, k) = (&self.rays[j / LANES], j % LANES);
             let o = Vec3::new(group.o[0][k], group.o[1][k], group.o[2][k]);
             let d = Vec3::new(group.d[0][k], group.d[1][k], group.d[2][k]);
-            sums[j] += lights.area_term(h.light as usize, o, d, h.t, self.prev[j]);
+            sums[j] += lights.area_term(h.light as usize, o, d, h.t, prev(j));
         }
         sums
     }
@@ -240,15 +302,15 @@ pub struct RejectLanes {
 }
 
 /// The hits of rays `0..n` (in groups of eight, `rays`) with the lights `shapes` (boxed eight by
-/// eight by `boxes`), appended to `hits` ray group by ray group, in light order within each; one
-/// dispatch per batch.
+/// eight by `boxes`), appended to `hits` ray group by ray group, in light order within each: the
+/// portable kernel, for CPUs without AVX (those with it run `avx::hit_rays`, so this one has no
+/// AVX2 clone any more) and as the reference the AVX kernel is tested against.
 ///
-/// The two cheap rejects are nested `inherit_target` functions kept out of line, as the BVH kernels
-/// are ([`crate::accel`]), and write their lane values into `s`: inlined into this loop, or with
+/// The two cheap rejects are nested functions kept out of line, as the BVH kernels are
+/// ([`crate::accel`]), and write their lane values into `s`: inlined into this loop, or with
 /// their values kept in registers, LLVM's SLP vectorizer left most of their lanes scalar
 /// (callgrind, shading-heavy at 120×80, 8 spp: ~220 instructions per sphere and group of eight
 /// rays inlined, ~60 out of line).
-#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn hit_rays(
     shapes: &[LightShape],
     boxes: &[GroupBox],
@@ -257,20 +319,19 @@ fn hit_rays(
     s: &mut RejectLanes,
     hits: &mut Vec<RayHit>,
 ) {
-    #[multiversion::inherit_target]
     #[inline(never)]
     fn sphere(ray: &RayLanes, center: [f32; 3], radius2: f32, s: &mut RejectLanes) -> u32 {
         sphere_rejects(ray, center, radius2, s)
     }
-    #[multiversion::inherit_target]
     #[inline(never)]
     fn plane(ray: &RayLanes, center: [f32; 3], normal: [f32; 3], s: &mut RejectLanes) -> u32 {
         plane_rejects(ray, center, normal, s)
     }
     for (r, ray) in rays.iter().enumerate() {
         let live = (1u32 << (n - r * LANES).min(LANES)) - 1;
+        let inv_d = recip(&ray.d);
         for (g, (group, b)) in shapes.chunks(area_groups::GROUP).zip(boxes).enumerate() {
-            let meets = area_groups::ray_meets_lanes(b, &ray.o, &ray.inv_d, &ray.tmax) & live;
+            let meets = area_groups::ray_meets_lanes(b, &ray.o, &inv_d, &ray.tmax) & live;
             if meets == 0 {
                 continue;
             }
@@ -312,6 +373,13 @@ fn hit_rays(
             }
         }
     }
+}
+
+/// `1 / d` per lane, as [`glam::Vec3::recip`] computes it (the same bits as the scalar
+/// `area_emission`'s inverse direction).
+#[inline(always)]
+fn recip(d: &Lanes3) -> Lanes3 {
+    d.map(|c| c.map(|x| 1.0 / x))
 }
 
 /// `ray_sphere`'s first part on eight rays (`b = oc·d`, `c = |oc|² − r²`, the discriminant
@@ -398,6 +466,7 @@ mod tests {
             let n = batch % MAX_RAYS + 1;
             batch += 1;
             let mut expected = Vec::with_capacity(n);
+            let mut prevs = Vec::with_capacity(n);
             for j in 0..n {
                 let i = rays + j;
                 let light = &area[i % area.len()];
@@ -434,12 +503,13 @@ mod tests {
                 let d = (aim - o).normalize_or(Vec3::Z);
                 let tmax = if i % 3 == 1 { f32::INFINITY } else { 5.0 * u() };
                 let prev = (i % 2 == 0).then(|| (o - d * u(), 4.0 * u()));
-                lanes.set_ray(j, o, d, tmax, prev);
+                lanes.set_ray(j, o, d, tmax);
                 let e = lights.area_emission(o, d, tmax, prev);
                 met += (e != Vec3::ZERO) as u32;
                 expected.push((e, o, d, tmax));
+                prevs.push(prev);
             }
-            let got = lanes.emission(&lights, n);
+            let got = lanes.emission(&lights, n, |j| prevs[j]);
             for (j, (&g, &(e, o, d, tmax))) in got.iter().zip(&expected).enumerate() {
                 assert_eq!(bits(g), bits(e), "batch of {n}, ray {j}: o {o} d {d} tmax {tmax}");
             }
@@ -447,6 +517,91 @@ mod tests {
         }
         assert!(met > 8000, "only {met} of {rays} rays met a light");
         assert!(inside > 1000, "only {inside} rays from inside spheres");
+    }
+
+    /// The AVX kernel finds the same hits, in the same order and with the same bits of `t`, as the
+    /// portable one, and its box test gives [`area_groups::ray_meets`]'s bits, on random and
+    /// degenerate rays (axis-parallel, zero directions, origins on box planes, `tmax` 0, ∞, NaN)
+    /// over spheres, rects and disks.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx_kernel_equals_the_portable_one() {
+        if !std::arch::is_x86_feature_detected!("avx") {
+            return;
+        }
+        // Mixed shapes, then spheres only (the kernel's sphere-group path, last group partial).
+        for only_spheres in [false, true] {
+            avx_equals_portable(only_spheres);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    fn avx_equals_portable(only_spheres: bool) {
+        let mut rng = crate::testscene::Rng(41);
+        let mut u = || rng.next_f32();
+        let mut records = crate::testscene::area_light_records(29, 2.0, (0.1, 0.5), (0.2, 1.0), &mut u);
+        if only_spheres {
+            records.iter_mut().for_each(|r| r.kind = blob::light_kind::SPHERE);
+        }
+        let bytes = crate::testscene::lights_only(records);
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        let lights = Lights::new(&view);
+        let lanes = AreaLightLanes::new(&lights);
+        assert_eq!(lanes.spheres.group(0).is_some(), only_spheres);
+        let (mut rays, mut s) = (Box::new([RayLanes::default(); RAY_GROUPS]), RejectLanes::default());
+        let (mut portable, mut vector) = (Vec::new(), Vec::new());
+        let (mut found, mut met) = (0, 0);
+        for case in 0..600 {
+            for j in 0..MAX_RAYS {
+                let mut o = Vec3::new(u(), u(), u()) * 6.0 - 3.0;
+                let b = &lanes.boxes[j % lanes.boxes.len()];
+                let mut d = (Vec3::new(u(), u(), u()) * 4.0 - 2.0 - o).normalize_or(Vec3::X);
+                match (case + j) % 9 {
+                    0 => d = Vec3::new(d.x, 0.0, 0.0).normalize_or(Vec3::X),
+                    1 => o.y = b.lo[1],
+                    2 => (o.z, d) = (b.hi[2], Vec3::new(d.x, d.y, 0.0).normalize_or(Vec3::Y)),
+                    3 => d = Vec3::ZERO,
+                    _ => {}
+                }
+                let tmax = [f32::INFINITY, 5.0 * u(), 0.0, f32::NAN, 2.0][(case / 2 + j) % 5];
+                let (group, k) = (&mut rays[j / LANES], j % LANES);
+                for a in 0..3 {
+                    (group.o[a][k], group.d[a][k]) = (o[a], d[a]);
+                }
+                group.tmax[k] = tmax;
+            }
+            let n = case % MAX_RAYS + 1;
+            let groups = &rays[..n.div_ceil(LANES)];
+            portable.clear();
+            vector.clear();
+            hit_rays(&lanes.shapes, &lanes.boxes, groups, n, &mut s, &mut portable);
+            // SAFETY: AVX was detected above.
+            unsafe {
+                avx::hit_rays(&lanes.shapes, &lanes.boxes, &lanes.spheres, groups, n, &mut s, &mut vector)
+            };
+            let key = |h: &RayHit| (h.ray, h.light, h.t.to_bits());
+            assert_eq!(
+                portable.iter().map(key).collect::<Vec<_>>(),
+                vector.iter().map(key).collect::<Vec<_>>(),
+                "case {case}"
+            );
+            found += portable.len();
+            for (r, ray) in groups.iter().enumerate() {
+                for b in &lanes.boxes {
+                    // SAFETY: AVX was detected above.
+                    let bits = unsafe { avx::box_bits(b, ray) };
+                    for k in 0..LANES {
+                        let at = |c: &Lanes3| [c[0][k], c[1][k], c[2][k]];
+                        let inv_d = Vec3::from(at(&ray.d)).recip().to_array();
+                        let scalar = area_groups::ray_meets(b, at(&ray.o), inv_d, ray.tmax[k]);
+                        assert_eq!(bits >> k & 1 == 1, scalar, "case {case}, ray {}", r * LANES + k);
+                        met += scalar as u32;
+                    }
+                }
+            }
+        }
+        assert!(found > 1000, "only {found} hits (spheres only: {only_spheres})");
+        assert!(met > 20_000, "only {met} box hits");
     }
 
     /// With no area light every ray picks up nothing (and the kernel is not run).
@@ -457,7 +612,7 @@ mod tests {
         let lights = Lights::new(&view);
         let mut lanes = AreaLightLanes::new(&lights);
         assert!(lanes.is_empty());
-        lanes.set_ray(0, Vec3::ZERO, Vec3::X, f32::INFINITY, None);
-        assert_eq!(lanes.emission(&lights, 1), &[Vec3::ZERO]);
+        lanes.set_ray(0, Vec3::ZERO, Vec3::X, f32::INFINITY);
+        assert_eq!(lanes.emission(&lights, 1, |_| None), &[Vec3::ZERO]);
     }
 }

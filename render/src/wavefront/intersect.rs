@@ -84,10 +84,11 @@ fn emission(scene: &Scene, w: &mut Worker, batch: &[u32]) {
     if !area.is_empty() {
         for (j, &i) in batch.iter().enumerate() {
             let st = &w.states[i as usize];
-            area.set_ray(j, st.origin, st.dir, w.hits[i as usize].t, st.prev());
+            area.set_ray(j, st.origin, st.dir, w.hits[i as usize].t);
         }
     }
-    let area = area.emission(&scene.lights, batch.len());
+    let states = &w.states;
+    let area = area.emission(&scene.lights, batch.len(), |j| states[batch[j] as usize].prev());
     let mut escaped = false;
     for (&i, &area) in batch.iter().zip(area) {
         let st = &mut w.states[i as usize];
