@@ -51,8 +51,8 @@ pub struct Args {
     pub curve_shape: Option<crate::curves::CurveShape>,
     /// Integrator: wavefront (breadth first, batched, 8-lane kernels; the default: it is faster on
     /// every bench scene), scalar (depth first, the reference) or wavefront-queues (the wavefront under
-    /// MoonRay-style queues flushed when full; slower here, kept for `bench integrators`); same image
-    /// bit for bit.
+    /// MoonRay-style queues flushed when full; slower on two of the three bench scenes, kept for
+    /// `bench integrators`); same image bit for bit.
     #[arg(long, default_value = "wavefront")]
     pub integrator: crate::film::Integrator,
 }
