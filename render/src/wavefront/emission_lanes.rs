@@ -111,6 +111,14 @@ pub struct RayLanes {
     pub tmax: Lanes,
 }
 
+impl RayLanes {
+    /// Lane `k`'s origin and direction, for the scalar tail of a test.
+    #[inline(always)]
+    pub fn ray(&self, k: usize) -> ([f32; 3], [f32; 3]) {
+        ([self.o[0][k], self.o[1][k], self.o[2][k]], [self.d[0][k], self.d[1][k], self.d[2][k]])
+    }
+}
+
 /// One area light as the kernel tests it, with the per-light constants of the scalar test
 /// precomputed by the scalar code's own operations (`r²`, `|ex|²`, `|ey|²`: the same bits).
 #[derive(Clone, Copy, Debug)]
@@ -356,10 +364,7 @@ fn hit_rays(
                         while pass != 0 {
                             let k = pass.trailing_zeros() as usize;
                             pass &= pass - 1;
-                            let (o, d) = (
-                                [ray.o[0][k], ray.o[1][k], ray.o[2][k]],
-                                [ray.d[0][k], ray.d[1][k], ray.d[2][k]],
-                            );
+                            let (o, d) = ray.ray(k);
                             let t = s.t[k];
                             // The scalar test's early returns, exactly (the lane mask is wider).
                             #[allow(clippy::neg_cmp_op_on_partial_ord)]

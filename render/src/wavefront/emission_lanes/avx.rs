@@ -209,10 +209,7 @@ pub(super) unsafe fn hit_rays(
                         while pass != 0 {
                             let k = pass.trailing_zeros() as usize;
                             pass &= pass - 1;
-                            let (o, d) = (
-                                [ray.o[0][k], ray.o[1][k], ray.o[2][k]],
-                                [ray.d[0][k], ray.d[1][k], ray.d[2][k]],
-                            );
+                            let (o, d) = ray.ray(k);
                             let t = s.t[k];
                             if planar_inside(o, d, t, center, (ex, ex_len2), (ey, ey_len2), disk) {
                                 hits.push(RayHit { ray: (r * LANES + k) as u32, light, t });
