@@ -64,6 +64,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::lanes_avx2;
+use super::log2::log2;
 use super::{sample_with, Decode, Lookup, Sampler, Srgb8, TextureView, Unorm8, F16, NO_TEXEL};
 use crate::float::floor;
 use crate::format::{Filter, TexelFormat, Wrap};
@@ -169,42 +170,40 @@ pub(crate) fn sample_lanes_on<T: Touch>(
     }
 }
 
-/// The per-lane levels of [`Sampler::moonray_lanes`]: `mip_level` and `level_pair`, in lanes.
+/// The per-lane levels of [`Sampler::moonray_lanes`]: `mip_level` and `level_pair`, in lanes. Masks
+/// and levels are `i32` so that the AVX2 path loads them as vectors as they are. Where a lane
+/// magnifies, its `l0`, `l1` and `t` are not read.
 #[derive(Default)]
-struct LevelLanes {
-    /// Magnifying (level ≤ 0 or NaN): bilinear on level 0.
-    magnify: [bool; LANES],
+pub(super) struct LevelLanes {
+    /// `-1` where the lane magnifies (level ≤ 0 or NaN: bilinear on level 0), else `0`.
+    pub(super) magnify: [i32; LANES],
     /// Nearer level.
-    l0: [u32; LANES],
+    pub(super) l0: [i32; LANES],
     /// Coarser level.
-    l1: [u32; LANES],
+    pub(super) l1: [i32; LANES],
     /// Weight of the coarser level.
-    t: Lanes,
+    pub(super) t: Lanes,
 }
 
-/// `mip_level` for eight footprints; the `log2` calls are libm, one lane at a time. `AVX2`: the
-/// footprint lengths in intrinsics (LLVM left them scalar, 270 instructions a call).
+/// `mip_level` and `level_pair` for eight footprints. `AVX2`: all of it in intrinsics, the `log2`
+/// included ([`lanes_avx2::levels`]); otherwise lane loops around the scalar [`log2`].
 #[inline(always)]
 fn levels<const AVX2: bool>(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
     let (w, h) = (width as f32, height as f32);
     #[cfg(target_arch = "x86_64")]
-    let size = if AVX2 {
+    if AVX2 {
         // SAFETY: `AVX2` is true only in `moonray_lanes_avx2`, which runs on CPUs with AVX2.
-        unsafe { lanes_avx2::footprint_sizes(w, h, &q.duv_dx, &q.duv_dy) }
-    } else {
-        footprint_sizes(w, h, q)
-    };
-    #[cfg(not(target_arch = "x86_64"))]
-    let size = footprint_sizes(w, h, q);
-    let level = size.map(f32::log2);
+        return unsafe { lanes_avx2::levels(w, h, last, &q.duv_dx, &q.duv_dy) };
+    }
+    let level = footprint_sizes(w, h, q).map(log2);
     let mut out = LevelLanes::default();
     for k in 0..LANES {
         let level = level[k];
-        out.magnify[k] = level.is_nan() || level <= 0.0;
+        out.magnify[k] = -((level.is_nan() || level <= 0.0) as i32);
         let clamped = level.min(last as f32);
         let l0 = floor(clamped);
-        out.l0[k] = l0 as u32;
-        out.l1[k] = (out.l0[k] + 1).min(last);
+        out.l0[k] = l0 as u32 as i32;
+        out.l1[k] = (l0 as u32 + 1).min(last) as i32;
         out.t[k] = clamped - l0;
     }
     out
@@ -261,13 +260,12 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
         #[cfg(target_arch = "x86_64")]
         if AVX2 && self.avx2_addressing() {
-            let choice = lanes_avx2::LevelChoice { magnify: &lv.magnify, l0: &lv.l0, l1: &lv.l1, t: &lv.t };
             let (s, t) = (self.wrap_s, self.wrap_t);
             let texel_bytes = self.tex.texel_bytes;
             // SAFETY (both calls): `AVX2` is true only in `moonray_lanes_avx2`, which runs on CPUs with
             // AVX2; `avx2_addressing` checked the sizes `addresses` requires.
             let taps = unsafe {
-                lanes_avx2::addresses(rec, texel_bytes, s, t, &q.uv, &choice, count, (&mut fx, &mut fy))
+                lanes_avx2::addresses(rec, texel_bytes, s, t, &q.uv, &lv, count, (&mut fx, &mut fy))
             };
             let decoded = match D::U8_SRGB {
                 Some(srgb) => unsafe { lanes_avx2::gather_u8(self.tex.texels, rec.channels, srgb, &taps) },
@@ -339,7 +337,7 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         let base = self.layout(0);
         let (w0, h0) = (base.width as f32, base.height as f32);
         let (mut x0, mut y0) = ([0.0f32; LANES], [0.0f32; LANES]);
-        if lv.magnify[..count].contains(&true) {
+        if lv.magnify[..count].iter().any(|&m| m != 0) {
             for k in 0..LANES {
                 let x = q.uv[0][k] * w0 - 0.5;
                 let y = q.uv[1][k] * h0 - 0.5;
@@ -352,7 +350,7 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         let mut at = [[NO_TEXEL; LANES]; 4];
         let mut layouts = LayoutCache::default();
         for k in 0..count {
-            if lv.magnify[k] {
+            if lv.magnify[k] != 0 {
                 let (x0, y0) = (x0[k] as i32, y0[k] as i32);
                 let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
                 at[0][k] = self.address(&base, x0, y0);
@@ -361,9 +359,9 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
                 at[3][k] = self.address(&base, x1, y1);
             } else {
                 let uv = [q.uv[0][k], q.uv[1][k]];
-                at[0][k] = self.nearest_address(&layouts.get(self, lv.l0[k]), uv);
+                at[0][k] = self.nearest_address(&layouts.get(self, lv.l0[k] as u32), uv);
                 if lv.t[k] != 0.0 {
-                    at[1][k] = self.nearest_address(&layouts.get(self, lv.l1[k]), uv);
+                    at[1][k] = self.nearest_address(&layouts.get(self, lv.l1[k] as u32), uv);
                 }
             }
         }
@@ -384,7 +382,7 @@ fn blend(lv: &LevelLanes, taps: &[[Lanes; 4]; 4], fx: &Lanes, fy: &Lanes, count:
             let bilinear = bottom + (top - bottom) * fy[k];
             let t = lv.t[k];
             let levels = if t == 0.0 { t00[k] } else { t00[k] + (t10[k] - t00[k]) * t };
-            let value = if lv.magnify[k] { bilinear } else { levels };
+            let value = if lv.magnify[k] != 0 { bilinear } else { levels };
             // Lanes past `count` read nothing; keep them zero whatever the blend made of the zero taps.
             out[c][k] = if k < count { value } else { 0.0 };
         }

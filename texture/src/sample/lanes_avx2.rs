@@ -18,7 +18,8 @@
 // Tap loops index several tables by the same tap number.
 #![allow(clippy::needless_range_loop)]
 
-use super::lanes::{Lanes, LANES};
+use super::lanes::{Lanes, LevelLanes, LANES};
+use super::log2::{SERIES, SQRT_HALF_BITS, TWO_POW_23};
 use crate::format::Wrap;
 use crate::record::TextureRecord;
 use crate::srgb::SRGB_TO_LINEAR;
@@ -30,18 +31,6 @@ pub(super) struct TapOffsets {
     pub(super) offset: [[i32; LANES]; 4],
     /// `-1` where the lane reads the tap, `0` where not.
     pub(super) present: [[i32; LANES]; 4],
-}
-
-/// What the portable lane loops in `moonray_lanes_in` take as input: the per-lane level choice.
-pub(super) struct LevelChoice<'a> {
-    /// Magnifying lanes (bilinear on level 0).
-    pub(super) magnify: &'a [bool; LANES],
-    /// Nearer level.
-    pub(super) l0: &'a [u32; LANES],
-    /// Coarser level.
-    pub(super) l1: &'a [u32; LANES],
-    /// Weight of the coarser level.
-    pub(super) t: &'a Lanes,
 }
 
 /// Loads eight lanes.
@@ -69,10 +58,32 @@ fn store_f(v: __m256, out: &mut Lanes) {
     unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) }
 }
 
-/// `footprint_sizes` of the portable lanes: per lane, the larger of the lengths of `duv_dx` and
-/// `duv_dy` in level-0 texels, with `f32::max`'s NaN rule (a NaN length yields the other one).
+/// `levels` of the portable lanes (`mip_level` and `level_pair` per lane) in registers: the
+/// footprint lengths, [`log2`], the level pair and its weight. Lanes that magnify get levels 0 and
+/// weight 0 (the portable loops leave other values there; no one reads them).
 #[target_feature(enable = "avx2")]
-pub(super) fn footprint_sizes(w: f32, h: f32, duv_dx: &[Lanes; 2], duv_dy: &[Lanes; 2]) -> Lanes {
+pub(super) fn levels(w: f32, h: f32, last: u32, duv_dx: &[Lanes; 2], duv_dy: &[Lanes; 2]) -> LevelLanes {
+    let level = log2(footprint_sizes(w, h, duv_dx, duv_dy));
+    let magnify = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_NGT_UQ>(level, _mm256_setzero_ps()));
+    // `f32::min` and `vminps` agree where the level is a number, as it is in every lane that reads it.
+    let clamped = _mm256_min_ps(level, _mm256_set1_ps(last as f32));
+    let l0f = _mm256_floor_ps(clamped);
+    let l0 = _mm256_cvttps_epi32(l0f);
+    let l1 = _mm256_min_epi32(_mm256_add_epi32(l0, _mm256_set1_epi32(1)), _mm256_set1_epi32(last as i32));
+    let mut out = LevelLanes::default();
+    store_i(magnify, &mut out.magnify);
+    store_i(_mm256_andnot_si256(magnify, l0), &mut out.l0);
+    store_i(_mm256_andnot_si256(magnify, l1), &mut out.l1);
+    let t = _mm256_sub_ps(clamped, l0f);
+    store_f(_mm256_andnot_ps(_mm256_castsi256_ps(magnify), t), &mut out.t);
+    out
+}
+
+/// The portable lanes' `footprint_sizes`: per lane, the larger of the lengths of `duv_dx` and
+/// `duv_dy` in level-0 texels, with `f32::max`'s NaN rule (a NaN length yields the other one).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn footprint_sizes(w: f32, h: f32, duv_dx: &[Lanes; 2], duv_dy: &[Lanes; 2]) -> __m256 {
     let (w, h) = (_mm256_set1_ps(w), _mm256_set1_ps(h));
     let length = |d: &[Lanes; 2]| {
         let (x, y) = (_mm256_mul_ps(load_f(&d[0]), w), _mm256_mul_ps(load_f(&d[1]), h));
@@ -82,10 +93,43 @@ pub(super) fn footprint_sizes(w: f32, h: f32, duv_dx: &[Lanes; 2], duv_dy: &[Lan
     // `vmaxps` returns its second operand when either is NaN: that is `ay` for a NaN `ax`; a NaN
     // `ay` must give `ax`. (Lengths are never -0, so the order of equal zeros does not matter.)
     let max = _mm256_max_ps(ax, ay);
-    let size = _mm256_blendv_ps(max, ax, _mm256_cmp_ps::<_CMP_UNORD_Q>(ay, ay));
-    let mut out = [0.0; LANES];
-    store_f(size, &mut out);
-    out
+    _mm256_blendv_ps(max, ax, _mm256_cmp_ps::<_CMP_UNORD_Q>(ay, ay))
+}
+
+/// `super::log2::log2` per lane: the same IEEE operations in the same order (the `f64` series on
+/// two halves of four lanes), the special inputs blended in last.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) fn log2(x: __m256) -> __m256 {
+    let zero = _mm256_setzero_ps();
+    let subnormal = _mm256_cmp_ps::<_CMP_LT_OQ>(x, _mm256_set1_ps(f32::MIN_POSITIVE));
+    let normal = _mm256_blendv_ps(x, _mm256_mul_ps(x, _mm256_set1_ps(TWO_POW_23)), subnormal);
+    let scaled = _mm256_and_si256(_mm256_castps_si256(subnormal), _mm256_set1_epi32(23));
+    let bits = _mm256_castps_si256(normal);
+    let e = _mm256_srai_epi32::<23>(_mm256_sub_epi32(bits, _mm256_set1_epi32(SQRT_HALF_BITS as i32)));
+    let m = _mm256_castsi256_ps(_mm256_sub_epi32(bits, _mm256_slli_epi32::<23>(e)));
+    let e = _mm256_sub_epi32(e, scaled);
+    let series = |m: __m128, e: __m128i| {
+        let one = _mm256_set1_pd(1.0);
+        let m = _mm256_cvtps_pd(m);
+        let s = _mm256_div_pd(_mm256_sub_pd(m, one), _mm256_add_pd(m, one));
+        let s2 = _mm256_mul_pd(s, s);
+        let mut p = _mm256_set1_pd(SERIES[8]);
+        for k in (0..8).rev() {
+            p = _mm256_add_pd(_mm256_mul_pd(p, s2), _mm256_set1_pd(SERIES[k]));
+        }
+        _mm256_cvtpd_ps(_mm256_add_pd(_mm256_cvtepi32_pd(e), _mm256_mul_pd(s, p)))
+    };
+    let low = series(_mm256_castps256_ps128(m), _mm256_castsi256_si128(e));
+    let high = series(_mm256_extractf128_ps::<1>(m), _mm256_extracti128_si256::<1>(e));
+    let r = _mm256_set_m128(high, low);
+    let r = _mm256_blendv_ps(r, _mm256_set1_ps(f32::NAN), _mm256_cmp_ps::<_CMP_NGT_UQ>(x, zero));
+    let r = _mm256_blendv_ps(r, _mm256_set1_ps(f32::NEG_INFINITY), _mm256_cmp_ps::<_CMP_EQ_OQ>(x, zero));
+    _mm256_blendv_ps(
+        r,
+        _mm256_set1_ps(f32::INFINITY),
+        _mm256_cmp_ps::<_CMP_EQ_OQ>(x, _mm256_set1_ps(f32::INFINITY)),
+    )
 }
 
 /// `floor(x) as i32` per lane with Rust's saturating `as`: NaN → 0, too large → `i32::MAX`, too
@@ -201,14 +245,14 @@ pub(super) fn addresses(
     wrap_s: Wrap,
     wrap_t: Wrap,
     uv: &[Lanes; 2],
-    levels: &LevelChoice,
+    levels: &LevelLanes,
     count: usize,
     (fx, fy): (&mut Lanes, &mut Lanes),
 ) -> TapOffsets {
     let lane_index = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     let active = _mm256_cmpgt_epi32(_mm256_set1_epi32(count as i32), lane_index);
-    let magnify = load_i(&levels.magnify.map(|m| -(m as i32)));
-    let weighted = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_NEQ_UQ>(load_f(levels.t), _mm256_setzero_ps()));
+    let magnify = load_i(&levels.magnify);
+    let weighted = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_NEQ_UQ>(load_f(&levels.t), _mm256_setzero_ps()));
     let (u, v) = (load_f(&uv[0]), load_f(&uv[1]));
 
     // Level 0, bilinear (`Sampler::bilinear`).
@@ -228,8 +272,8 @@ pub(super) fn addresses(
             floor_to_i32(_mm256_mul_ps(v, _mm256_cvtepi32_ps(lv.height))),
         )
     };
-    let near = Level::new(rec, _mm256_andnot_si256(magnify, load_i(&levels.l0.map(|l| l as i32))));
-    let far = Level::new(rec, _mm256_andnot_si256(magnify, load_i(&levels.l1.map(|l| l as i32))));
+    let near = Level::new(rec, _mm256_andnot_si256(magnify, load_i(&levels.l0)));
+    let far = Level::new(rec, _mm256_andnot_si256(magnify, load_i(&levels.l1)));
     let (nx, ny) = nearest(&near);
     let (fx_, fy_) = nearest(&far);
 
@@ -323,6 +367,47 @@ pub(super) fn gather_u8(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lane `log2` equals the scalar one bit for bit: random bit patterns of every exponent and
+    /// sign, and the special inputs.
+    #[test]
+    fn log2_lanes_equal_scalar() {
+        if !is_x86_feature_detected!("avx2") {
+            return; // the portable path calls the scalar `log2` itself
+        }
+        let specials = [
+            0.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::MAX,
+            1.0,
+            -1.0,
+            std::f32::consts::FRAC_1_SQRT_2,
+            std::f32::consts::SQRT_2,
+            5.0,
+            f32::from_bits(0x007f_ffff),
+        ];
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut random = || {
+            state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            f32::from_bits((state >> 32) as u32)
+        };
+        let inputs: Vec<f32> = specials.into_iter().chain((0..400_000).map(|_| random())).collect();
+        for chunk in inputs.chunks_exact(LANES) {
+            let x: Lanes = chunk.try_into().expect("eight lanes");
+            let mut got = [0.0; LANES];
+            // SAFETY: the CPU has AVX2 (checked above).
+            unsafe { store_f(log2(load_f(&x)), &mut got) };
+            for k in 0..LANES {
+                let want = super::super::log2::log2(x[k]);
+                assert_eq!(got[k].to_bits(), want.to_bits(), "log2({:e}) bits {:#x}", x[k], x[k].to_bits());
+            }
+        }
+    }
 
     /// A tap whose 32-bit word would run past the texel array is left to the portable gather; one
     /// that fits is read, and decodes as the scalar texel decode does.
