@@ -267,23 +267,23 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
             let taps = unsafe {
                 lanes_avx2::addresses(rec, texel_bytes, s, t, &q.uv, &lv, count, (&mut fx, &mut fy))
             };
-            let decoded = match D::U8_SRGB {
-                Some(srgb) => unsafe { lanes_avx2::gather_u8(self.tex.texels, rec.channels, srgb, &taps) },
-                None => None,
-            };
-            let decoded = match decoded {
-                Some(decoded) => {
+            if let Some(srgb) = D::U8_SRGB {
+                let mut out = [[0.0f32; LANES]; 4];
+                let weights = (&fx, &fy);
+                let (texels, channels) = (self.tex.texels, rec.channels);
+                if unsafe {
+                    lanes_avx2::gather_blend_u8(texels, channels, srgb, &taps, &lv, weights, count, &mut out)
+                } {
                     self.touch_all(&taps);
-                    decoded
+                    return out;
                 }
-                None => {
-                    let at: [[usize; LANES]; 4] = std::array::from_fn(|tap| {
-                        let (offset, present) = (&taps.offset[tap], &taps.present[tap]);
-                        std::array::from_fn(|k| if present[k] != 0 { offset[k] as usize } else { NO_TEXEL })
-                    });
-                    D::gather(self.tex.texels, rec.channels, texel_bytes as usize, &at, count, self.touch)
-                }
-            };
+            }
+            let at: [[usize; LANES]; 4] = std::array::from_fn(|tap| {
+                let (offset, present) = (&taps.offset[tap], &taps.present[tap]);
+                std::array::from_fn(|k| if present[k] != 0 { offset[k] as usize } else { NO_TEXEL })
+            });
+            let decoded =
+                D::gather(self.tex.texels, rec.channels, texel_bytes as usize, &at, count, self.touch);
             return blend(&lv, &decoded, &fx, &fy, count);
         }
         let at = self.addresses(&lv, q, count, (&mut fx, &mut fy));

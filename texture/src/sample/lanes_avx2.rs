@@ -7,9 +7,12 @@
 //!   quietened, and only feeds `as i32`, which makes it 0 either way, and the bilinear weight, where
 //!   `x - floor(x)` returns `x`'s NaN either way), `as i32` by `vcvttps2dq` plus its saturation fix-ups,
 //!   the wrap mode resolved once per call, the level bases by one gather from the record.
-//! - [`gather_u8`]: one `vpgatherdd` reads a tap's eight texels (a 32-bit word at each lane's offset);
-//!   sRGB colour channels decode through one `vgatherdps` from [`SRGB_TO_LINEAR`] each, unorm
-//!   channels and alpha as `code as f32 * (1/255)` — the scalar decode's table entries and products.
+//! - [`levels`]: footprint lengths, `log2` (ours, [`log2`]: the scalar lookup's, in `f64` lanes)
+//!   and the level pair.
+//! - [`gather_blend_u8`]: one `vpgatherdd` reads a tap's eight texels (a 32-bit word at each lane's
+//!   offset); sRGB colour channels decode through one `vgatherdps` from [`SRGB_TO_LINEAR`] each,
+//!   unorm channels and alpha as `code as f32 * (1/255)` — the scalar decode's table entries and
+//!   products — and the blend follows in the same registers.
 //!
 //! Only reached from the AVX2 instantiation of the lane filter, after `is_x86_feature_detected!`,
 //! and only for textures whose level-0 sizes are powers of two (so wraps are masks; other sizes divide)
@@ -304,23 +307,31 @@ pub(super) fn addresses(
     out
 }
 
-/// The texels at `taps` decoded to linear RGBA `[tap][channel][lane]` as `Decode::gather` of `Srgb8`
-/// (`srgb`) or `Unorm8` returns them (absent taps zero); `None` when a present tap lies within 4
+/// The texels at `taps` decoded as `Decode::gather` of `Srgb8` (`srgb`) or `Unorm8` decodes them
+/// (absent taps zero in every channel), blended as the portable lanes' `blend` blends them
+/// (bilinear where `levels` magnifies, else the two levels by their weight; lanes at or past
+/// `count` zero), into `out`. Returns `false`, writing nothing, when a present tap lies within 4
 /// bytes of the array's end (the word read would run past it), for the portable gather to take.
+///
+/// One pass from the gathered words to the filtered colour: the decoded taps stay in registers
+/// instead of going through a `[tap][channel][lane]` array (512 bytes copied out and read back).
 #[target_feature(enable = "avx2")]
-pub(super) fn gather_u8(
+#[allow(clippy::too_many_arguments)]
+pub(super) fn gather_blend_u8(
     texels: &[u8],
     channels: u32,
     srgb: bool,
     taps: &TapOffsets,
-) -> Option<[[Lanes; 4]; 4]> {
-    let limit = _mm256_set1_epi32(texels.len().checked_sub(4)?.min(i32::MAX as usize) as i32);
-    let mut out = [[[0.0f32; LANES]; 4]; 4];
+    levels: &LevelLanes,
+    (fx, fy): (&Lanes, &Lanes),
+    count: usize,
+    out: &mut [Lanes; 4],
+) -> bool {
+    let Some(limit) = texels.len().checked_sub(4) else { return false };
+    let limit = _mm256_set1_epi32(limit.min(i32::MAX as usize) as i32);
     let bytes = texels.as_ptr() as *const i32;
-    let table = SRGB_TO_LINEAR.as_ptr();
-    let low_byte = _mm256_set1_epi32(0xff);
-    let one = _mm256_set1_ps(1.0);
-    let inv_255 = _mm256_set1_ps(1.0 / 255.0);
+    let mut words = [_mm256_setzero_si256(); 4];
+    let mut masks = [_mm256_setzero_si256(); 4];
     for tap in 0..4 {
         let mask = load_i(&taps.present[tap]);
         if _mm256_testz_si256(mask, mask) != 0 {
@@ -328,40 +339,62 @@ pub(super) fn gather_u8(
         }
         let offset = load_i(&taps.offset[tap]);
         if _mm256_testz_si256(_mm256_cmpgt_epi32(offset, limit), mask) == 0 {
-            return None;
+            return false;
         }
         // SAFETY: the masked gather reads only the lanes whose mask is set, each at an offset that
         // leaves 4 bytes inside `texels` (checked above); masked lanes keep the zero source.
-        let words = unsafe { _mm256_mask_i32gather_epi32::<1>(_mm256_setzero_si256(), bytes, offset, mask) };
-        let code = |c: i32| _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_set1_epi32(8 * c)), low_byte);
-        let unorm = |c: i32| _mm256_mul_ps(_mm256_cvtepi32_ps(code(c)), inv_255);
-        let colour = |c: i32| {
+        words[tap] = unsafe { _mm256_mask_i32gather_epi32::<1>(_mm256_setzero_si256(), bytes, offset, mask) };
+        masks[tap] = mask;
+    }
+    let table = SRGB_TO_LINEAR.as_ptr();
+    let low_byte = _mm256_set1_epi32(0xff);
+    let one = _mm256_set1_ps(1.0);
+    let inv_255 = _mm256_set1_ps(1.0 / 255.0);
+    let code = |words: __m256i, c: i32| {
+        _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_set1_epi32(8 * c)), low_byte)
+    };
+    let unorm = |words: __m256i, c: i32| _mm256_mul_ps(_mm256_cvtepi32_ps(code(words, c)), inv_255);
+    // Channel `c` of RGBA from the stored channels, as `expand` does; a missing tap is zero in every
+    // channel, as the scalar fetch returns.
+    let decode = |tap: usize, c: usize| {
+        let w = words[tap];
+        let colour = |i: i32| {
             if srgb {
                 // SAFETY: codes are 0..=255, the table's indices.
-                unsafe { _mm256_i32gather_ps::<4>(table, code(c)) }
+                unsafe { _mm256_i32gather_ps::<4>(table, code(w, i)) }
             } else {
-                unorm(c)
+                unorm(w, i)
             }
         };
-        let rgba = match channels {
-            1 => {
-                let g = colour(0);
-                [g, g, g, one]
-            }
-            2 => {
-                let g = colour(0);
-                [g, g, g, unorm(1)]
-            }
-            3 => [colour(0), colour(1), colour(2), one],
-            _ => [colour(0), colour(1), colour(2), unorm(3)],
+        let v = match (channels, c) {
+            (1 | 2, 0..=2) => colour(0),
+            (_, 0..=2) => colour(c as i32),
+            (1 | 3, _) => one,
+            (2, _) => unorm(w, 1),
+            _ => unorm(w, 3),
         };
-        let keep = _mm256_castsi256_ps(mask);
-        for c in 0..4 {
-            // A missing tap is zero in every channel, as the scalar fetch returns.
-            store_f(_mm256_and_ps(rgba[c], keep), &mut out[tap][c]);
+        _mm256_and_ps(v, _mm256_castsi256_ps(masks[tap]))
+    };
+    let lane_index = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    let active = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(count as i32), lane_index));
+    let t = load_f(&levels.t);
+    let unweighted = _mm256_cmp_ps::<_CMP_EQ_OQ>(t, _mm256_setzero_ps());
+    let magnify = load_i(&levels.magnify);
+    let any_magnify = _mm256_testz_si256(magnify, magnify) == 0;
+    let magnify = _mm256_castsi256_ps(magnify);
+    let (fx, fy) = (load_f(fx), load_f(fy));
+    let lerp = |a: __m256, b: __m256, t: __m256| _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t));
+    for c in 0..4 {
+        let (t00, t10) = (decode(0, c), decode(1, c));
+        let mut value = _mm256_blendv_ps(lerp(t00, t10, t), t00, unweighted);
+        if any_magnify {
+            let (t01, t11) = (decode(2, c), decode(3, c));
+            let bilinear = lerp(lerp(t00, t10, fx), lerp(t01, t11, fx), fy);
+            value = _mm256_blendv_ps(value, bilinear, magnify);
         }
+        store_f(_mm256_and_ps(value, active), &mut out[c]);
     }
-    Some(out)
+    true
 }
 
 #[cfg(test)]
@@ -423,20 +456,30 @@ mod tests {
             taps.present[0][k] = -1;
         }
         taps.offset[0][3] = 60; // the last whole word
-                                // SAFETY (all calls): the CPU has AVX2 (checked above).
-        let got = unsafe { gather_u8(&texels, 3, true, &taps) }.expect("every word inside the array");
+                                // Every lane minifying with weight 0: the result is tap 0 as decoded.
+        let levels = LevelLanes::default();
+        let zero = [0.0; LANES];
+        let mut got = [[0.0; LANES]; 4];
+        let gather = |taps: &TapOffsets, count: usize, got: &mut [Lanes; 4]| {
+            // SAFETY: the CPU has AVX2 (checked above).
+            unsafe { gather_blend_u8(&texels, 3, true, taps, &levels, (&zero, &zero), count, got) }
+        };
+        assert!(gather(&taps, LANES, &mut got), "every word inside the array");
         for k in 0..LANES {
             let at = taps.offset[0][k] as usize;
             let want = [0, 1, 2].map(|c| SRGB_TO_LINEAR[texels[at + c] as usize]);
-            assert_eq!(
-                [got[0][0][k], got[0][1][k], got[0][2][k], got[0][3][k]],
-                [want[0], want[1], want[2], 1.0]
-            );
+            assert_eq!([got[0][k], got[1][k], got[2][k], got[3][k]], [want[0], want[1], want[2], 1.0]);
         }
-        assert_eq!(got[1], [[0.0; LANES]; 4], "absent taps are zero");
+        assert!(gather(&taps, 5, &mut got));
+        assert_eq!(
+            got.map(|c| c[5..].to_vec()),
+            [[0.0; 3]; 4].map(|c| c.to_vec()),
+            "lanes past count are zero"
+        );
         taps.offset[0][5] = 61; // a 3-byte texel at the end: its word would read one byte past
-        assert!(unsafe { gather_u8(&texels, 3, true, &taps) }.is_none());
+        assert!(!gather(&taps, LANES, &mut got));
         taps.present[0][5] = 0; // ... unless that lane does not read it
-        assert!(unsafe { gather_u8(&texels, 3, true, &taps) }.is_some());
+        assert!(gather(&taps, LANES, &mut got));
+        assert_eq!([got[0][5], got[3][5]], [0.0, 0.0], "an absent tap is zero, alpha too");
     }
 }
