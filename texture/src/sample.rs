@@ -36,7 +36,9 @@
 //!
 //! Later, the lane filter's addressing went branch-free and, on AVX2 CPUs, to intrinsics with
 //! hardware texel gathers: `moonray_lanes` 52.8 M → 18.7 M on the same scene (figures and the
-//! portable path in the docs of `sample/lanes.rs`).
+//! portable path in the docs of `sample/lanes.rs`); then the mip level's `log2` became ours
+//! ([`log2`], correctly rounded on every input tested, in `sample/log2.rs`) so the lanes compute it
+//! in registers, and the AVX2 gather and blend became one pass: `moonray_lanes` 18.7 M → 9.5 M.
 
 use crate::error::Error;
 use crate::float::{floor, round};
