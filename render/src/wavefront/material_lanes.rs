@@ -160,7 +160,7 @@ fn primvar_uv_lanes(regs: &mut RegisterLanes, op: &ShaderOp, at: &[&UvFootprint]
 
 /// `OUTPUT` for every lane of `inputs`: the swizzle and the shading input resolved once per op
 /// (each lane through [`ShadingInputs::set`] matched both per lane: ≈ 250 instructions of a
-/// group's ≈ 1,150 outside the lookup on shading-heavy). The same fields as `set` writes.
+/// group's ≈ 1,275 outside the lookup on shading-heavy). The same fields as `set` writes.
 fn output_lanes(inputs: &mut [ShadingInputs], v: &[Lanes; 4], op: &ShaderOp) {
     let column = |i: u32| &v[((op.flags >> (2 * i)) & 3) as usize];
     let (x, y, z) = (column(0), column(1), column(2));
