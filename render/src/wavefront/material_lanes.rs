@@ -15,13 +15,23 @@
 //! each, ≈ 1,260 instructions a group outside the lookup): a second mask marking the registers that
 //! hold derivatives, so texture, constant and primvar ops would store 128 bytes instead of 256, was
 //! tried and left out — the render went from 603.70 M to 603.78 M instructions.
+//!
+//! What did cut it (same settings; the bench programs are `PRIMVAR_UV`, `TEXTURE` and two
+//! `OUTPUT`s): `OUTPUT` matched the shading input and the swizzle per lane (through
+//! `ShadingInputs::set`); it now resolves both once per op and writes each lane's field
+//! (`output_lanes`, ≈ 70 instructions an op). `PRIMVAR_UV` read a transposed copy of the group's
+//! footprints built up front; it now writes its register in place from the hits. Outside the
+//! lookup: 14.6 M → 9.4 M (≈ 1,275 → 825 a group). With the cheaper lookups
+//! (`texture/src/sample/lanes.rs`), `evaluate_lanes` inclusive 33.4 M → 19.1 M, whole render
+//! 527.0 M → 512.6 M.
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
 
 use super::lanes::LANES;
-use crate::shading::{reg, swizzle, wrap, Shading, ShadingInputs, UvFootprint};
-use blob::{op_kind, ShaderOp, MAX_REGISTERS, NONE};
+use crate::shading::{reg, wrap, Shading, ShadingInputs, UvFootprint};
+use blob::{op_kind, shading_input, ShaderOp, MAX_REGISTERS, NONE};
+use glam::Vec3;
 use texture::{Filter, LookupLanes, Touch};
 
 /// One scalar per lane.
@@ -54,6 +64,14 @@ impl RegisterLanes {
         self.dy[r] = dy;
     }
 
+    /// Register `r` to write whole, in place (value and both derivatives).
+    #[inline]
+    fn slot(&mut self, r: u32) -> (&mut [Lanes; 4], &mut [Lanes; 2], &mut [Lanes; 2]) {
+        let r = reg(r);
+        self.written |= 1 << r;
+        (&mut self.value[r], &mut self.dx[r], &mut self.dy[r])
+    }
+
     /// Register `r`: value and derivatives, zero where the program has not written it.
     #[inline]
     fn get(&self, r: u32) -> (&[Lanes; 4], &[Lanes; 2], &[Lanes; 2]) {
@@ -64,15 +82,6 @@ impl RegisterLanes {
             (&ZERO_VALUE, &NO_DERIVATIVE, &NO_DERIVATIVE)
         }
     }
-}
-
-/// The uv footprints of a group's hits, transposed.
-#[derive(Default)]
-struct UvLanes {
-    uv: [Lanes; 2],
-    dx: [Lanes; 2],
-    dy: [Lanes; 2],
-    has_uv: [bool; LANES],
 }
 
 /// Writes the shading inputs of `material` at the first `min(at.len(), 8)` hits `at` into the same
@@ -100,24 +109,10 @@ pub fn evaluate_lanes<T: Touch>(
     if program.is_empty() {
         return;
     }
-    let mut uv = UvLanes::default();
-    for (k, a) in at.iter().enumerate() {
-        for c in 0..2 {
-            uv.uv[c][k] = a.uv[c];
-            uv.dx[c][k] = a.duv_dx[c];
-            uv.dy[c][k] = a.duv_dy[c];
-        }
-        uv.has_uv[k] = a.has_uv;
-    }
     regs.written = 0;
     for op in program {
         match op.kind {
-            op_kind::OUTPUT => {
-                let (v, _, _) = regs.get(op.src);
-                for (k, lane) in inputs.iter_mut().enumerate().take(at.len()) {
-                    lane.set(op.dst, swizzle([v[0][k], v[1][k], v[2][k], v[3][k]], op.flags));
-                }
-            }
+            op_kind::OUTPUT => output_lanes(&mut inputs[..at.len()], regs.get(op.src).0, op),
             op_kind::TEXTURE => {
                 let value = texture_lanes(shading, op, regs, at.len(), filter, touch);
                 regs.set(op.dst, value, NO_DERIVATIVE, NO_DERIVATIVE);
@@ -133,7 +128,7 @@ pub fn evaluate_lanes<T: Touch>(
                 regs.set(op.dst, value, NO_DERIVATIVE, NO_DERIVATIVE);
             }
             op_kind::CONST => regs.set(op.dst, broadcast(op.params[0]), NO_DERIVATIVE, NO_DERIVATIVE),
-            op_kind::PRIMVAR_UV => primvar_uv_lanes(regs, op, &uv),
+            op_kind::PRIMVAR_UV => primvar_uv_lanes(regs, op, at),
             op_kind::TRANSFORM_2D => transform_lanes(regs, op),
             _ => {}
         }
@@ -144,22 +139,51 @@ fn broadcast(v: [f32; 4]) -> [Lanes; 4] {
     v.map(|c| [c; LANES])
 }
 
-/// `PRIMVAR_UV`: `(u, v, 0, 1)` and the footprint where the mesh has uvs, else the fallback.
-fn primvar_uv_lanes(regs: &mut RegisterLanes, op: &ShaderOp, uv: &UvLanes) {
+/// `PRIMVAR_UV`: `(u, v, 0, 1)` and the footprint where the mesh has uvs, else the fallback (lanes
+/// past the group's hits too), written in place from the hits: no transposed copy of the footprints.
+fn primvar_uv_lanes(regs: &mut RegisterLanes, op: &ShaderOp, at: &[&UvFootprint]) {
     let fallback = op.params[0];
-    let (mut value, mut dx, mut dy) = ([[0.0; LANES]; 4], NO_DERIVATIVE, NO_DERIVATIVE);
+    let (value, dx, dy) = regs.slot(op.dst);
     for k in 0..LANES {
-        let has = uv.has_uv[k];
-        value[0][k] = if has { uv.uv[0][k] } else { fallback[0] };
-        value[1][k] = if has { uv.uv[1][k] } else { fallback[1] };
-        value[2][k] = if has { 0.0 } else { fallback[2] };
-        value[3][k] = if has { 1.0 } else { fallback[3] };
+        let hit = at.get(k).filter(|a| a.has_uv);
+        let (uv, duv_dx, duv_dy) =
+            hit.map_or(([fallback[0], fallback[1]], [0.0; 2], [0.0; 2]), |a| (a.uv, a.duv_dx, a.duv_dy));
+        let zw = if hit.is_some() { [0.0, 1.0] } else { [fallback[2], fallback[3]] };
         for c in 0..2 {
-            dx[c][k] = if has { uv.dx[c][k] } else { 0.0 };
-            dy[c][k] = if has { uv.dy[c][k] } else { 0.0 };
+            value[c][k] = uv[c];
+            value[c + 2][k] = zw[c];
+            dx[c][k] = duv_dx[c];
+            dy[c][k] = duv_dy[c];
         }
     }
-    regs.set(op.dst, value, dx, dy);
+}
+
+/// `OUTPUT` for every lane of `inputs`: the swizzle and the shading input resolved once per op
+/// (each lane through [`ShadingInputs::set`] matched both per lane: ≈ 250 instructions of a
+/// group's ≈ 1,275 outside the lookup on shading-heavy). The same fields as `set` writes.
+fn output_lanes(inputs: &mut [ShadingInputs], v: &[Lanes; 4], op: &ShaderOp) {
+    let column = |i: u32| &v[((op.flags >> (2 * i)) & 3) as usize];
+    let (x, y, z) = (column(0), column(1), column(2));
+    let rgb = |k: usize| Vec3::new(x[k], y[k], z[k]);
+    #[inline(always)]
+    fn each(inputs: &mut [ShadingInputs], f: impl Fn(&mut ShadingInputs, usize)) {
+        for (k, lane) in inputs.iter_mut().enumerate() {
+            f(lane, k);
+        }
+    }
+    match op.dst {
+        shading_input::DIFFUSE_COLOR => each(inputs, |l, k| l.diffuse_color = rgb(k)),
+        shading_input::EMISSIVE_COLOR => each(inputs, |l, k| l.emissive_color = rgb(k)),
+        shading_input::SPECULAR_COLOR => each(inputs, |l, k| l.specular_color = rgb(k)),
+        shading_input::ROUGHNESS => each(inputs, |l, k| l.roughness = x[k]),
+        shading_input::METALLIC => each(inputs, |l, k| l.metallic = x[k]),
+        shading_input::OPACITY => each(inputs, |l, k| l.opacity = x[k]),
+        shading_input::NORMAL => each(inputs, |l, k| l.normal = Some(rgb(k))),
+        shading_input::CLEARCOAT => each(inputs, |l, k| l.clearcoat = x[k]),
+        shading_input::CLEARCOAT_ROUGHNESS => each(inputs, |l, k| l.clearcoat_roughness = x[k]),
+        shading_input::IOR => each(inputs, |l, k| l.ior = x[k]),
+        _ => {}
+    }
 }
 
 /// `TRANSFORM_2D`: `xy ← M xy + t` and `M` applied to both derivatives (`zw` carried over).

@@ -52,18 +52,31 @@
 //!   after (the 19.8 M build), texturing speed-up over the scalar integrator 1.14/1.76/1.53× against
 //!   1.82/2.23/1.97×; whole-render speed-ups moved within their noise (1.28–1.42× against 1.37–1.40×).
 //!
-//! Left as they are: `log2` stays libm's, one lane at a time — the level's fraction is a blend weight,
-//! so a vector log2 would have to reproduce glibc's rounding bit for bit (its `log2f` is not
-//! correctly rounded, and glibc picks one of two builds of it by CPU). The sort key's mip level
-//! (`Shading::sort_key`) is the rounded level read off the exponent, not the fraction the blend
-//! needs, so it cannot stand in for `levels`; and the bench scenes' programs make one texture lookup
-//! per group, so there is no second lookup to share a level computation with.
+//! Then the levels and the blend (callgrind, same scene and settings, 11,443 calls): `levels` called
+//! glibc's `log2f` per lane (`__log2f_fma` 2.9 M) and floored, clamped and converted lane by lane
+//! (≈ 1.2 M); the decoded taps went through a 512-byte `[tap][channel][lane]` array returned in an
+//! `Option` (a `memcpy` call, 0.87 M) into the lane-loop `blend` (≈ 1.7 M).
+//! - The mip level's `log2` is now ours ([`super::log2`], correctly rounded on every input
+//!   tested), used by the scalar `mip_level` too, so the AVX2 `levels` computes it in registers
+//!   (`f64` series on two halves) with the level pair: `levels` 1.46 M; `moonray_lanes` 18.7 M →
+//!   14.2 M. The scalar images change where glibc's `log2f` was an ulp off (bench scenes,
+//!   320×213, 16 spp, scalar integrator: shading-heavy 35 of 272,640 beauty samples, max
+//!   |diff| 1.2e-7, mean 3.2e-12; tractor and simple byte-identical).
+//! - On the AVX2 path the gather, the decode and the blend are one function
+//!   (`lanes_avx2::gather_blend_u8`): the taps stay in registers and a group with no magnifying
+//!   lane skips the bilinear half: `moonray_lanes` 14.2 M → 9.5 M (−49 % from 18.7 M).
+//!
+//! Left as they are: the sort key's mip level (`Shading::sort_key`) is the rounded level read off
+//! the exponent, not the fraction the blend needs, so it cannot stand in for `levels`; and the
+//! bench scenes' programs make one texture lookup per group, so there is no second lookup to share
+//! a level computation with.
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
 
 #[cfg(target_arch = "x86_64")]
 use super::lanes_avx2;
+use super::log2::log2;
 use super::{sample_with, Decode, Lookup, Sampler, Srgb8, TextureView, Unorm8, F16, NO_TEXEL};
 use crate::float::floor;
 use crate::format::{Filter, TexelFormat, Wrap};
@@ -169,42 +182,40 @@ pub(crate) fn sample_lanes_on<T: Touch>(
     }
 }
 
-/// The per-lane levels of [`Sampler::moonray_lanes`]: `mip_level` and `level_pair`, in lanes.
+/// The per-lane levels of [`Sampler::moonray_lanes`]: `mip_level` and `level_pair`, in lanes. Masks
+/// and levels are `i32` so that the AVX2 path loads them as vectors as they are. Where a lane
+/// magnifies, its `l0`, `l1` and `t` are not read.
 #[derive(Default)]
-struct LevelLanes {
-    /// Magnifying (level ≤ 0 or NaN): bilinear on level 0.
-    magnify: [bool; LANES],
+pub(super) struct LevelLanes {
+    /// `-1` where the lane magnifies (level ≤ 0 or NaN: bilinear on level 0), else `0`.
+    pub(super) magnify: [i32; LANES],
     /// Nearer level.
-    l0: [u32; LANES],
+    pub(super) l0: [i32; LANES],
     /// Coarser level.
-    l1: [u32; LANES],
+    pub(super) l1: [i32; LANES],
     /// Weight of the coarser level.
-    t: Lanes,
+    pub(super) t: Lanes,
 }
 
-/// `mip_level` for eight footprints; the `log2` calls are libm, one lane at a time. `AVX2`: the
-/// footprint lengths in intrinsics (LLVM left them scalar, 270 instructions a call).
+/// `mip_level` and `level_pair` for eight footprints. `AVX2`: all of it in intrinsics, the `log2`
+/// included ([`lanes_avx2::levels`]); otherwise lane loops around the scalar [`log2`].
 #[inline(always)]
 fn levels<const AVX2: bool>(width: u32, height: u32, last: u32, q: &LookupLanes) -> LevelLanes {
     let (w, h) = (width as f32, height as f32);
     #[cfg(target_arch = "x86_64")]
-    let size = if AVX2 {
+    if AVX2 {
         // SAFETY: `AVX2` is true only in `moonray_lanes_avx2`, which runs on CPUs with AVX2.
-        unsafe { lanes_avx2::footprint_sizes(w, h, &q.duv_dx, &q.duv_dy) }
-    } else {
-        footprint_sizes(w, h, q)
-    };
-    #[cfg(not(target_arch = "x86_64"))]
-    let size = footprint_sizes(w, h, q);
-    let level = size.map(f32::log2);
+        return unsafe { lanes_avx2::levels(w, h, last, &q.duv_dx, &q.duv_dy) };
+    }
+    let level = footprint_sizes(w, h, q).map(log2);
     let mut out = LevelLanes::default();
     for k in 0..LANES {
         let level = level[k];
-        out.magnify[k] = level.is_nan() || level <= 0.0;
+        out.magnify[k] = -((level.is_nan() || level <= 0.0) as i32);
         let clamped = level.min(last as f32);
         let l0 = floor(clamped);
-        out.l0[k] = l0 as u32;
-        out.l1[k] = (out.l0[k] + 1).min(last);
+        out.l0[k] = l0 as u32 as i32;
+        out.l1[k] = (l0 as u32 + 1).min(last) as i32;
         out.t[k] = clamped - l0;
     }
     out
@@ -246,7 +257,7 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         self.moonray_lanes_in::<true>(q, count)
     }
 
-    /// The MoonRay filter in lanes. Levels first (libm `log2` per lane, as the scalar lookup), then
+    /// The MoonRay filter in lanes. Levels first (our `log2`, as the scalar lookup), then
     /// every tap's address for all lanes at once — tap 0 the level-0 bilinear corner (magnifying) or
     /// the nearer level's texel, tap 1 its right neighbour or the coarser level's texel (only where
     /// that level's weight is not 0), taps 2 and 3 the upper bilinear row (magnifying only) — then
@@ -261,31 +272,30 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
         #[cfg(target_arch = "x86_64")]
         if AVX2 && self.avx2_addressing() {
-            let choice = lanes_avx2::LevelChoice { magnify: &lv.magnify, l0: &lv.l0, l1: &lv.l1, t: &lv.t };
             let (s, t) = (self.wrap_s, self.wrap_t);
             let texel_bytes = self.tex.texel_bytes;
             // SAFETY (both calls): `AVX2` is true only in `moonray_lanes_avx2`, which runs on CPUs with
             // AVX2; `avx2_addressing` checked the sizes `addresses` requires.
             let taps = unsafe {
-                lanes_avx2::addresses(rec, texel_bytes, s, t, &q.uv, &choice, count, (&mut fx, &mut fy))
+                lanes_avx2::addresses(rec, texel_bytes, s, t, &q.uv, &lv, count, (&mut fx, &mut fy))
             };
-            let decoded = match D::U8_SRGB {
-                Some(srgb) => unsafe { lanes_avx2::gather_u8(self.tex.texels, rec.channels, srgb, &taps) },
-                None => None,
-            };
-            let decoded = match decoded {
-                Some(decoded) => {
+            if let Some(srgb) = D::U8_SRGB {
+                let mut out = [[0.0f32; LANES]; 4];
+                let weights = (&fx, &fy);
+                let (texels, channels) = (self.tex.texels, rec.channels);
+                if unsafe {
+                    lanes_avx2::gather_blend_u8(texels, channels, srgb, &taps, &lv, weights, count, &mut out)
+                } {
                     self.touch_all(&taps);
-                    decoded
+                    return out;
                 }
-                None => {
-                    let at: [[usize; LANES]; 4] = std::array::from_fn(|tap| {
-                        let (offset, present) = (&taps.offset[tap], &taps.present[tap]);
-                        std::array::from_fn(|k| if present[k] != 0 { offset[k] as usize } else { NO_TEXEL })
-                    });
-                    D::gather(self.tex.texels, rec.channels, texel_bytes as usize, &at, count, self.touch)
-                }
-            };
+            }
+            let at: [[usize; LANES]; 4] = std::array::from_fn(|tap| {
+                let (offset, present) = (&taps.offset[tap], &taps.present[tap]);
+                std::array::from_fn(|k| if present[k] != 0 { offset[k] as usize } else { NO_TEXEL })
+            });
+            let decoded =
+                D::gather(self.tex.texels, rec.channels, texel_bytes as usize, &at, count, self.touch);
             return blend(&lv, &decoded, &fx, &fy, count);
         }
         let at = self.addresses(&lv, q, count, (&mut fx, &mut fy));
@@ -339,7 +349,7 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         let base = self.layout(0);
         let (w0, h0) = (base.width as f32, base.height as f32);
         let (mut x0, mut y0) = ([0.0f32; LANES], [0.0f32; LANES]);
-        if lv.magnify[..count].contains(&true) {
+        if lv.magnify[..count].iter().any(|&m| m != 0) {
             for k in 0..LANES {
                 let x = q.uv[0][k] * w0 - 0.5;
                 let y = q.uv[1][k] * h0 - 0.5;
@@ -352,7 +362,7 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
         let mut at = [[NO_TEXEL; LANES]; 4];
         let mut layouts = LayoutCache::default();
         for k in 0..count {
-            if lv.magnify[k] {
+            if lv.magnify[k] != 0 {
                 let (x0, y0) = (x0[k] as i32, y0[k] as i32);
                 let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
                 at[0][k] = self.address(&base, x0, y0);
@@ -361,9 +371,9 @@ impl<D: Decode, T: Touch> Sampler<'_, D, T> {
                 at[3][k] = self.address(&base, x1, y1);
             } else {
                 let uv = [q.uv[0][k], q.uv[1][k]];
-                at[0][k] = self.nearest_address(&layouts.get(self, lv.l0[k]), uv);
+                at[0][k] = self.nearest_address(&layouts.get(self, lv.l0[k] as u32), uv);
                 if lv.t[k] != 0.0 {
-                    at[1][k] = self.nearest_address(&layouts.get(self, lv.l1[k]), uv);
+                    at[1][k] = self.nearest_address(&layouts.get(self, lv.l1[k] as u32), uv);
                 }
             }
         }
@@ -384,7 +394,7 @@ fn blend(lv: &LevelLanes, taps: &[[Lanes; 4]; 4], fx: &Lanes, fy: &Lanes, count:
             let bilinear = bottom + (top - bottom) * fy[k];
             let t = lv.t[k];
             let levels = if t == 0.0 { t00[k] } else { t00[k] + (t10[k] - t00[k]) * t };
-            let value = if lv.magnify[k] { bilinear } else { levels };
+            let value = if lv.magnify[k] != 0 { bilinear } else { levels };
             // Lanes past `count` read nothing; keep them zero whatever the blend made of the zero taps.
             out[c][k] = if k < count { value } else { 0.0 };
         }

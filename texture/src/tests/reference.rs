@@ -89,7 +89,8 @@ fn mip_level(rec: &TextureRecord, duv_dx: [f32; 2], duv_dy: [f32; 2]) -> f32 {
     let (w, h) = (rec.width as f32, rec.height as f32);
     let ax = length(duv_dx[0] * w, duv_dx[1] * h);
     let ay = length(duv_dy[0] * w, duv_dy[1] * h);
-    ax.max(ay).log2()
+    // The one change since: the level's `log2` is the crate's, which the lane filter computes too.
+    crate::sample::log2(ax.max(ay))
 }
 
 /// Footprint axis length in texels. Not `f32::hypot`: that is a libm call (2% of a lookup in a profile)
