@@ -88,7 +88,6 @@
 #[cfg(target_arch = "x86_64")]
 mod avx;
 
-use super::bsdf_lanes::{Lanes, Lanes3};
 use super::lanes::LANES;
 use crate::area_groups::{self, GroupBox};
 use crate::lights::{sphere_roots, Light, Lights, Shape};
@@ -96,27 +95,16 @@ use glam::Vec3;
 
 /// Rays a batch holds at most (the intersect stage's batch).
 pub const MAX_RAYS: usize = 64;
-const RAY_GROUPS: usize = MAX_RAYS / LANES;
 
-/// Eight rays, transposed. Lanes past a batch's end hold stale rays and are masked out.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct RayLanes {
-    /// Origins.
-    pub o: Lanes3,
-    /// Unit directions (the kernels take `1 / d` for the box tests in lanes, eight divisions in
-    /// one instruction, rather than three scalar divisions per ray here).
-    pub d: Lanes3,
-    /// The distance each ray's emission is gathered up to (its hit; infinite when it escaped).
-    pub tmax: Lanes,
-}
-
-impl RayLanes {
-    /// Lane `k`'s origin and direction, for the scalar tail of a test.
-    #[inline(always)]
-    pub fn ray(&self, k: usize) -> ([f32; 3], [f32; 3]) {
-        ([self.o[0][k], self.o[1][k], self.o[2][k]], [self.d[0][k], self.d[1][k], self.d[2][k]])
-    }
+/// A ray as the kernel reads it from the caller (the path state and hit of the intersect stage).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin.
+    pub o: [f32; 3],
+    /// Unit direction.
+    pub d: [f32; 3],
+    /// The distance its emission is gathered up to (its hit; infinite when it escaped).
+    pub tmax: f32,
 }
 
 /// One area light as the kernel tests it, with the per-light constants of the scalar test
@@ -170,6 +158,36 @@ impl LightShape {
             _ => None,
         }
     }
+
+    /// `Light::intersect`'s distance for this shape, by its operations in their order (the
+    /// portable kernel's test).
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    #[inline(always)]
+    fn hit(&self, r: &Ray) -> Option<f32> {
+        let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        match *self {
+            LightShape::Sphere { center, radius2 } => {
+                let oc = [0, 1, 2].map(|a| r.o[a] - center[a]);
+                let (b, c) = (dot(oc, r.d), dot(oc, oc) - radius2);
+                let disc = b * b - c;
+                if disc < 0.0 {
+                    return None;
+                }
+                sphere_roots(b, c, disc).filter(|&t| t < r.tmax)
+            }
+            LightShape::Planar { center, normal, ex, ex_len2, ey, ey_len2, disk } => {
+                let cos = dot(r.d, normal);
+                if cos >= 0.0 {
+                    return None;
+                }
+                let t = dot([0, 1, 2].map(|a| center[a] - r.o[a]), normal) / cos;
+                if !(t > 0.0 && t < r.tmax) {
+                    return None;
+                }
+                planar_inside(r.o, r.d, t, center, (ex, ex_len2), (ey, ey_len2), disk).then_some(t)
+            }
+        }
+    }
 }
 
 /// A ray–light hit: the ray's position in its batch, the light's position in
@@ -184,7 +202,7 @@ pub struct RayHit {
     pub t: f32,
 }
 
-/// The scene's area lights for the ray-lane kernel, and one batch's rays and hits; built once per
+/// The scene's area lights for the emission kernel, and one batch's hits and sums; built once per
 /// worker (the scratch is allocated then and reused).
 #[derive(Clone, Debug)]
 pub struct AreaLightLanes {
@@ -193,15 +211,13 @@ pub struct AreaLightLanes {
     shapes: Vec<LightShape>,
     /// The box of each run of [`area_groups::GROUP`] lights ([`Lights::area_boxes`]).
     boxes: Vec<GroupBox>,
-    /// The sphere-only groups' spheres for the AVX kernel.
+    /// The lights transposed for the AVX kernel.
     #[cfg(target_arch = "x86_64")]
-    spheres: avx::SphereGroups,
-    /// The current batch: its rays transposed.
-    rays: Box<[RayLanes; RAY_GROUPS]>,
-    /// Hits of the batch, ray group by ray group, each ray's in light order.
+    kernel: avx::Kernel,
+    /// Whether the CPU runs the AVX kernel (asked once here, not per batch).
+    avx: bool,
+    /// Hits of the batch, ray by ray, each ray's in light order.
     hits: Vec<RayHit>,
-    /// The kernel's scratch.
-    rejects: Box<RejectLanes>,
     /// Per ray of the batch: its emission.
     sums: Box<[Vec3; MAX_RAYS]>,
 }
@@ -215,15 +231,18 @@ impl AreaLightLanes {
         debug_assert_eq!(shapes.len(), all.len());
         let boxes = lights.area_boxes().to_vec();
         debug_assert_eq!(boxes.len(), all.len().div_ceil(area_groups::GROUP), "one box per group of eight");
+        #[cfg(target_arch = "x86_64")]
+        let avx = std::arch::is_x86_feature_detected!("avx");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx = false;
         AreaLightLanes {
             lights: all,
             #[cfg(target_arch = "x86_64")]
-            spheres: avx::SphereGroups::new(&shapes),
+            kernel: avx::Kernel::new(&shapes),
+            avx,
             shapes,
             boxes,
-            rays: Box::default(),
             hits: Vec::with_capacity(MAX_RAYS * LANES),
-            rejects: Box::default(),
             sums: Box::new([Vec3::ZERO; MAX_RAYS]),
         }
     }
@@ -233,26 +252,15 @@ impl AreaLightLanes {
         self.lights.is_empty()
     }
 
-    /// Sets ray `j` (< [`MAX_RAYS`]) of the batch: origin `o`, unit direction `d`, gathering up to
-    /// `tmax`.
-    #[inline]
-    pub fn set_ray(&mut self, j: usize, o: Vec3, d: Vec3, tmax: f32) {
-        let (group, k) = (&mut self.rays[j / LANES], j % LANES);
-        for a in 0..3 {
-            group.o[a][k] = o[a];
-            group.d[a][k] = d[a];
-        }
-        group.tmax[k] = tmax;
-    }
-
-    /// [`Lights::area_emission`] of rays `0..n` of the batch (set by [`AreaLightLanes::set_ray`]),
-    /// by ray, MIS-weighted against light sampling from `prev(j)` for ray `j`; `lights` must be the
-    /// lights this was built from. `prev` is asked only for the rays that hit a light (a few in a
-    /// hundred on the bench scene), so the caller's path states are not read for the others.
+    /// [`Lights::area_emission`] of rays `0..n` of a batch (ray `j` is `ray(j)`), by ray,
+    /// MIS-weighted against light sampling from `prev(j)` for ray `j`; `lights` must be the lights
+    /// this was built from. `prev` is asked only for the rays that hit a light (a few in a hundred
+    /// on the bench scene), so the caller's path states are not read for the others.
     pub fn emission(
         &mut self,
         lights: &Lights,
         n: usize,
+        ray: impl Fn(usize) -> Ray,
         prev: impl Fn(usize) -> Option<(Vec3, f32)>,
     ) -> &[Vec3] {
         assert!(n <= MAX_RAYS, "a batch holds at most {MAX_RAYS} rays");
@@ -262,166 +270,51 @@ impl AreaLightLanes {
             return sums;
         }
         self.hits.clear();
-        let rays = &self.rays[..n.div_ceil(LANES)];
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX (checked just above; std caches the answer).
-            unsafe {
-                avx::hit_rays(
-                    &self.shapes,
-                    &self.boxes,
-                    &self.spheres,
-                    rays,
-                    n,
-                    &mut self.rejects,
-                    &mut self.hits,
-                )
-            };
+        if self.avx {
+            // SAFETY: the CPU has AVX (`self.avx` was detected in `new`).
+            unsafe { avx::hit_rays(&self.kernel, &self.shapes, &self.boxes, n, &ray, &mut self.hits) };
         } else {
-            hit_rays(&self.shapes, &self.boxes, rays, n, &mut self.rejects, &mut self.hits);
+            hit_rays(&self.shapes, &self.boxes, n, &ray, &mut self.hits);
         }
         #[cfg(not(target_arch = "x86_64"))]
-        hit_rays(&self.shapes, &self.boxes, rays, n, &mut self.rejects, &mut self.hits);
+        hit_rays(&self.shapes, &self.boxes, n, &ray, &mut self.hits);
         for h in &self.hits {
             let j = h.ray as usize;
-            let (group, k) = (&self.rays[j / LANES], j % LANES);
-            let o = Vec3::new(group.o[0][k], group.o[1][k], group.o[2][k]);
-            let d = Vec3::new(group.d[0][k], group.d[1][k], group.d[2][k]);
-            sums[j] += lights.area_term(h.light as usize, o, d, h.t, prev(j));
+            let r = ray(j);
+            sums[j] += lights.area_term(h.light as usize, r.o.into(), r.d.into(), h.t, prev(j));
         }
         sums
     }
 }
 
-/// Per-light lane values the cheap rejects leave for the scalar rest (scratch of the kernel).
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct RejectLanes {
-    /// Sphere: `oc·d`.
-    pub b: Lanes,
-    /// Sphere: `|oc|² − r²`.
-    pub c: Lanes,
-    /// Sphere: the discriminant `b² − c`.
-    pub disc: Lanes,
-    /// Rect/disk: `d·n`.
-    pub cos: Lanes,
-    /// Rect/disk: the distance to the plane.
-    pub t: Lanes,
-}
-
-/// The hits of rays `0..n` (in groups of eight, `rays`) with the lights `shapes` (boxed eight by
-/// eight by `boxes`), appended to `hits` ray group by ray group, in light order within each: the
-/// portable kernel, for CPUs without AVX (those with it run `avx::hit_rays`, so this one has no
-/// AVX2 clone any more) and as the reference the AVX kernel is tested against.
-///
-/// The two cheap rejects are nested functions kept out of line, as the BVH kernels are
-/// ([`crate::accel`]), and write their lane values into `s`: inlined into this loop, or with
-/// their values kept in registers, LLVM's SLP vectorizer left most of their lanes scalar
-/// (callgrind, shading-heavy at 120×80, 8 spp: ~220 instructions per sphere and group of eight
-/// rays inlined, ~60 out of line).
+/// The hits of rays `0..n` (ray `j` is `rays(j)`) with the lights `shapes` (boxed eight by eight
+/// by `boxes`), appended to `hits` ray by ray, in light order within each: the portable kernel, for
+/// CPUs without AVX (those with it run `avx::hit_rays`), and the reference the AVX kernel is tested
+/// against. It is the scalar loop of [`Lights::area_emission`]: the box test per group, the exact
+/// test per light of a met group.
 fn hit_rays(
     shapes: &[LightShape],
     boxes: &[GroupBox],
-    rays: &[RayLanes],
     n: usize,
-    s: &mut RejectLanes,
+    rays: impl Fn(usize) -> Ray,
     hits: &mut Vec<RayHit>,
 ) {
-    #[inline(never)]
-    fn sphere(ray: &RayLanes, center: [f32; 3], radius2: f32, s: &mut RejectLanes) -> u32 {
-        sphere_rejects(ray, center, radius2, s)
-    }
-    #[inline(never)]
-    fn plane(ray: &RayLanes, center: [f32; 3], normal: [f32; 3], s: &mut RejectLanes) -> u32 {
-        plane_rejects(ray, center, normal, s)
-    }
-    for (r, ray) in rays.iter().enumerate() {
-        let live = (1u32 << (n - r * LANES).min(LANES)) - 1;
-        let inv_d = recip(&ray.d);
+    for j in 0..n {
+        let ray = rays(j);
+        // `1 / d` as `Vec3::recip` divides.
+        let inv_d = ray.d.map(|x| 1.0 / x);
         for (g, (group, b)) in shapes.chunks(area_groups::GROUP).zip(boxes).enumerate() {
-            let meets = area_groups::ray_meets_lanes(b, &ray.o, &inv_d, &ray.tmax) & live;
-            if meets == 0 {
+            if !area_groups::ray_meets(b, ray.o, inv_d, ray.tmax) {
                 continue;
             }
             for (l, shape) in group.iter().enumerate() {
-                let light = (g * area_groups::GROUP + l) as u32;
-                let mut record =
-                    |k: usize, t: f32| hits.push(RayHit { ray: (r * LANES + k) as u32, light, t });
-                match *shape {
-                    LightShape::Sphere { center, radius2 } => {
-                        let mut pass = meets & sphere(ray, center, radius2, s);
-                        while pass != 0 {
-                            let k = pass.trailing_zeros() as usize;
-                            pass &= pass - 1;
-                            let t = sphere_roots(s.b[k], s.c[k], s.disc[k]).filter(|&t| t < ray.tmax[k]);
-                            if let Some(t) = t {
-                                record(k, t);
-                            }
-                        }
-                    }
-                    LightShape::Planar { center, normal, ex, ex_len2, ey, ey_len2, disk } => {
-                        let mut pass = meets & plane(ray, center, normal, s);
-                        while pass != 0 {
-                            let k = pass.trailing_zeros() as usize;
-                            pass &= pass - 1;
-                            let (o, d) = ray.ray(k);
-                            let t = s.t[k];
-                            // The scalar test's early returns, exactly (the lane mask is wider).
-                            #[allow(clippy::neg_cmp_op_on_partial_ord)]
-                            let ahead = !(s.cos[k] >= 0.0) && t > 0.0 && t < ray.tmax[k];
-                            if ahead && planar_inside(o, d, t, center, (ex, ex_len2), (ey, ey_len2), disk) {
-                                record(k, t);
-                            }
-                        }
-                    }
+                if let Some(t) = shape.hit(&ray) {
+                    hits.push(RayHit { ray: j as u32, light: (g * area_groups::GROUP + l) as u32, t });
                 }
             }
         }
     }
-}
-
-/// `1 / d` per lane, as [`glam::Vec3::recip`] computes it (the same bits as the scalar
-/// `area_emission`'s inverse direction).
-#[inline(always)]
-fn recip(d: &Lanes3) -> Lanes3 {
-    d.map(|c| c.map(|x| 1.0 / x))
-}
-
-/// `ray_sphere`'s first part on eight rays (`b = oc·d`, `c = |oc|² − r²`, the discriminant
-/// `b² − c`, with glam's `dot` order `(x·x' + y·y') + z·z'`) into `s`; bit `k` set where the
-/// scalar code goes on (`!(disc < 0)`, NaN included, as the early return treats it).
-#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
-#[inline(always)]
-fn sphere_rejects(ray: &RayLanes, center: [f32; 3], radius2: f32, s: &mut RejectLanes) -> u32 {
-    let mut bits = [0u32; LANES];
-    for k in 0..LANES {
-        let oc = [ray.o[0][k] - center[0], ray.o[1][k] - center[1], ray.o[2][k] - center[2]];
-        let b = oc[0] * ray.d[0][k] + oc[1] * ray.d[1][k] + oc[2] * ray.d[2][k];
-        let c = (oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2]) - radius2;
-        let disc = b * b - c;
-        (s.b[k], s.c[k], s.disc[k]) = (b, c, disc);
-        bits[k] = (!(disc < 0.0) as u32) << k;
-    }
-    bits.iter().fold(0, |a, b| a | b)
-}
-
-/// `Light::intersect`'s rect/disk part up to the plane on eight rays: `cos = d·n` and the distance
-/// `t = ((c − o)·n) / cos` into `s`. Bit `k` is set where `min(t, −cos) > 0`: every ray that faces
-/// the emitting side (`cos < 0`) and meets the plane ahead (`t > 0`), and a few more (NaN `t`); the
-/// scalar rest then applies the exact tests. (The exact `!(cos ≥ 0) & t > 0 & t < tmax` in lanes
-/// was left mostly scalar by LLVM.)
-#[allow(clippy::needless_range_loop)]
-#[inline(always)]
-fn plane_rejects(ray: &RayLanes, center: [f32; 3], n: [f32; 3], s: &mut RejectLanes) -> u32 {
-    let mut bits = [0u32; LANES];
-    for k in 0..LANES {
-        let cos = ray.d[0][k] * n[0] + ray.d[1][k] * n[1] + ray.d[2][k] * n[2];
-        let to = [center[0] - ray.o[0][k], center[1] - ray.o[1][k], center[2] - ray.o[2][k]];
-        let t = (to[0] * n[0] + to[1] * n[1] + to[2] * n[2]) / cos;
-        (s.cos[k], s.t[k]) = (cos, t);
-        bits[k] = ((t.min(-cos) > 0.0) as u32) << k;
-    }
-    bits.iter().fold(0, |a, b| a | b)
 }
 
 /// `Light::intersect`'s rect/disk rest: whether the plane point at `t` lies inside the shape.
@@ -464,7 +357,9 @@ mod tests {
         let view = blob::SceneView::parse(&bytes).expect("valid blob");
         let lights = Lights::new(&view);
         let area: Vec<Light> = lights.area_lights().copied().collect();
-        let mut lanes = AreaLightLanes::new(&lights);
+        let lanes = AreaLightLanes::new(&lights);
+        let portable = AreaLightLanes { avx: false, ..lanes.clone() };
+        let mut kernels = [lanes, portable];
         let bits = |v: Vec3| v.to_array().map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() });
         let (mut rays, mut met, mut inside, mut batch) = (0, 0, 0, 0usize);
         while rays < 20_480 {
@@ -472,6 +367,7 @@ mod tests {
             batch += 1;
             let mut expected = Vec::with_capacity(n);
             let mut prevs = Vec::with_capacity(n);
+            let mut batch_rays = Vec::with_capacity(n);
             for j in 0..n {
                 let i = rays + j;
                 let light = &area[i % area.len()];
@@ -508,15 +404,22 @@ mod tests {
                 let d = (aim - o).normalize_or(Vec3::Z);
                 let tmax = if i % 3 == 1 { f32::INFINITY } else { 5.0 * u() };
                 let prev = (i % 2 == 0).then(|| (o - d * u(), 4.0 * u()));
-                lanes.set_ray(j, o, d, tmax);
+                batch_rays.push(Ray { o: o.to_array(), d: d.to_array(), tmax });
                 let e = lights.area_emission(o, d, tmax, prev);
                 met += (e != Vec3::ZERO) as u32;
                 expected.push((e, o, d, tmax));
                 prevs.push(prev);
             }
-            let got = lanes.emission(&lights, n, |j| prevs[j]);
-            for (j, (&g, &(e, o, d, tmax))) in got.iter().zip(&expected).enumerate() {
-                assert_eq!(bits(g), bits(e), "batch of {n}, ray {j}: o {o} d {d} tmax {tmax}");
+            for lanes in &mut kernels {
+                let avx = lanes.avx;
+                let got = lanes.emission(&lights, n, |j| batch_rays[j], |j| prevs[j]);
+                for (j, (&g, &(e, o, d, tmax))) in got.iter().zip(&expected).enumerate() {
+                    assert_eq!(
+                        bits(g),
+                        bits(e),
+                        "batch of {n}, ray {j} (AVX {avx}): o {o} d {d} tmax {tmax}"
+                    );
+                }
             }
             rays += n;
         }
@@ -534,79 +437,84 @@ mod tests {
         if !std::arch::is_x86_feature_detected!("avx") {
             return;
         }
-        // Mixed shapes, then spheres only (the kernel's sphere-group path, last group partial).
-        for only_spheres in [false, true] {
-            avx_equals_portable(only_spheres);
+        // Mixed shapes, then spheres only and rects and disks only (groups skip the test of the
+        // kind they lack).
+        let kinds: [fn(u32) -> u32; 3] = [
+            |kind| kind,
+            |_| blob::light_kind::SPHERE,
+            |kind| if kind == blob::light_kind::SPHERE { blob::light_kind::DISK } else { kind },
+        ];
+        for kinds in kinds {
+            avx_equals_portable(kinds);
         }
     }
 
     #[cfg(target_arch = "x86_64")]
-    fn avx_equals_portable(only_spheres: bool) {
+    fn avx_equals_portable(kinds: fn(u32) -> u32) {
         let mut rng = crate::testscene::Rng(41);
         let mut u = || rng.next_f32();
-        let mut records = crate::testscene::area_light_records(29, 2.0, (0.1, 0.5), (0.2, 1.0), &mut u);
-        if only_spheres {
-            records.iter_mut().for_each(|r| r.kind = blob::light_kind::SPHERE);
-        }
-        let bytes = crate::testscene::lights_only(records);
-        let view = blob::SceneView::parse(&bytes).expect("valid blob");
-        let lights = Lights::new(&view);
-        let lanes = AreaLightLanes::new(&lights);
-        assert_eq!(lanes.spheres.group(0).is_some(), only_spheres);
-        let (mut rays, mut s) = (Box::new([RayLanes::default(); RAY_GROUPS]), RejectLanes::default());
-        let (mut portable, mut vector) = (Vec::new(), Vec::new());
-        let (mut found, mut met) = (0, 0);
-        for case in 0..600 {
-            for j in 0..MAX_RAYS {
-                let mut o = Vec3::new(u(), u(), u()) * 6.0 - 3.0;
-                let b = &lanes.boxes[j % lanes.boxes.len()];
-                let mut d = (Vec3::new(u(), u(), u()) * 4.0 - 2.0 - o).normalize_or(Vec3::X);
-                match (case + j) % 9 {
-                    0 => d = Vec3::new(d.x, 0.0, 0.0).normalize_or(Vec3::X),
-                    1 => o.y = b.lo[1],
-                    2 => (o.z, d) = (b.hi[2], Vec3::new(d.x, d.y, 0.0).normalize_or(Vec3::Y)),
-                    3 => d = Vec3::ZERO,
-                    _ => {}
+        // 29 lights: four groups, the last one partial; 71: nine groups, two chunks of boxes.
+        for count in [29, 71] {
+            let mut records =
+                crate::testscene::area_light_records(count, 2.0, (0.1, 0.5), (0.2, 1.0), &mut u);
+            records.iter_mut().for_each(|r| r.kind = kinds(r.kind));
+            let bytes = crate::testscene::lights_only(records);
+            let view = blob::SceneView::parse(&bytes).expect("valid blob");
+            let lights = Lights::new(&view);
+            let lanes = AreaLightLanes::new(&lights);
+            let (mut portable, mut vector) = (Vec::new(), Vec::new());
+            let (mut found, mut met) = (0, 0);
+            let mut rays = [Ray { o: [0.0; 3], d: [0.0; 3], tmax: 0.0 }; MAX_RAYS];
+            for case in 0..600 {
+                for (j, ray) in rays.iter_mut().enumerate() {
+                    let mut o = Vec3::new(u(), u(), u()) * 6.0 - 3.0;
+                    let b = &lanes.boxes[j % lanes.boxes.len()];
+                    let mut d = (Vec3::new(u(), u(), u()) * 4.0 - 2.0 - o).normalize_or(Vec3::X);
+                    match (case + j) % 9 {
+                        0 => d = Vec3::new(d.x, 0.0, 0.0).normalize_or(Vec3::X),
+                        1 => o.y = b.lo[1],
+                        2 => (o.z, d) = (b.hi[2], Vec3::new(d.x, d.y, 0.0).normalize_or(Vec3::Y)),
+                        3 => d = Vec3::ZERO,
+                        _ => {}
+                    }
+                    let tmax = [f32::INFINITY, 5.0 * u(), 0.0, f32::NAN, 2.0][(case / 2 + j) % 5];
+                    *ray = Ray { o: o.to_array(), d: d.to_array(), tmax };
                 }
-                let tmax = [f32::INFINITY, 5.0 * u(), 0.0, f32::NAN, 2.0][(case / 2 + j) % 5];
-                let (group, k) = (&mut rays[j / LANES], j % LANES);
-                for a in 0..3 {
-                    (group.o[a][k], group.d[a][k]) = (o[a], d[a]);
-                }
-                group.tmax[k] = tmax;
-            }
-            let n = case % MAX_RAYS + 1;
-            let groups = &rays[..n.div_ceil(LANES)];
-            portable.clear();
-            vector.clear();
-            hit_rays(&lanes.shapes, &lanes.boxes, groups, n, &mut s, &mut portable);
-            // SAFETY: AVX was detected above.
-            unsafe {
-                avx::hit_rays(&lanes.shapes, &lanes.boxes, &lanes.spheres, groups, n, &mut s, &mut vector)
-            };
-            let key = |h: &RayHit| (h.ray, h.light, h.t.to_bits());
-            assert_eq!(
-                portable.iter().map(key).collect::<Vec<_>>(),
-                vector.iter().map(key).collect::<Vec<_>>(),
-                "case {case}"
-            );
-            found += portable.len();
-            for (r, ray) in groups.iter().enumerate() {
-                for b in &lanes.boxes {
-                    // SAFETY: AVX was detected above.
-                    let bits = unsafe { avx::box_bits(b, ray) };
-                    for k in 0..LANES {
-                        let at = |c: &Lanes3| [c[0][k], c[1][k], c[2][k]];
-                        let inv_d = Vec3::from(at(&ray.d)).recip().to_array();
-                        let scalar = area_groups::ray_meets(b, at(&ray.o), inv_d, ray.tmax[k]);
-                        assert_eq!(bits >> k & 1 == 1, scalar, "case {case}, ray {}", r * LANES + k);
-                        met += scalar as u32;
+                let n = case % MAX_RAYS + 1;
+                portable.clear();
+                vector.clear();
+                hit_rays(&lanes.shapes, &lanes.boxes, n, |j| rays[j], &mut portable);
+                // SAFETY: AVX was detected by the caller.
+                unsafe {
+                    avx::hit_rays(&lanes.kernel, &lanes.shapes, &lanes.boxes, n, |j| rays[j], &mut vector)
+                };
+                // Each ray's hits in the same order (the AVX kernel interleaves a ray group's rays).
+                vector.sort_by_key(|h| h.ray);
+                let key = |h: &RayHit| (h.ray, h.light, h.t.to_bits());
+                assert_eq!(
+                    portable.iter().map(key).collect::<Vec<_>>(),
+                    vector.iter().map(key).collect::<Vec<_>>(),
+                    "{count} lights, case {case}"
+                );
+                found += portable.len();
+                for (first, group) in rays[..n].chunks(LANES).enumerate() {
+                    let mut eight = [rays[0]; LANES];
+                    eight[..group.len()].copy_from_slice(group);
+                    for b in &lanes.boxes {
+                        // SAFETY: AVX was detected by the caller.
+                        let bits = unsafe { avx::box_bits(b, &eight) };
+                        for (k, ray) in group.iter().enumerate() {
+                            let inv_d = Vec3::from(ray.d).recip().to_array();
+                            let scalar = area_groups::ray_meets(b, ray.o, inv_d, ray.tmax);
+                            assert_eq!(bits >> k & 1 == 1, scalar, "case {case}, ray {}", first * LANES + k);
+                            met += scalar as u32;
+                        }
                     }
                 }
             }
+            assert!(found > 500, "only {found} hits ({count} lights)");
+            assert!(met > 20_000, "only {met} box hits");
         }
-        assert!(found > 1000, "only {found} hits (spheres only: {only_spheres})");
-        assert!(met > 20_000, "only {met} box hits");
     }
 
     /// With no area light every ray picks up nothing (and the kernel is not run).
@@ -617,7 +525,7 @@ mod tests {
         let lights = Lights::new(&view);
         let mut lanes = AreaLightLanes::new(&lights);
         assert!(lanes.is_empty());
-        lanes.set_ray(0, Vec3::ZERO, Vec3::X, f32::INFINITY);
-        assert_eq!(lanes.emission(&lights, 1, |_| None), &[Vec3::ZERO]);
+        let ray = Ray { o: [0.0; 3], d: [1.0, 0.0, 0.0], tmax: f32::INFINITY };
+        assert_eq!(lanes.emission(&lights, 1, |_| ray, |_| None), &[Vec3::ZERO]);
     }
 }

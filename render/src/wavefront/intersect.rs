@@ -80,15 +80,14 @@ const MISS: Hit = Hit { t: f32::INFINITY, triangle: blob::NONE, b1: 0.0, b2: 0.0
 /// The emission each ray of `batch` found: the area lights it crosses before its hit and, when it
 /// escaped, the dome and distant lights. Hits enter the shade queue; escaped paths leave the wave.
 fn emission(scene: &Scene, w: &mut Worker, batch: &[u32]) {
-    let area = &mut w.area_lights;
-    if !area.is_empty() {
-        for (j, &i) in batch.iter().enumerate() {
-            let st = &w.states[i as usize];
-            area.set_ray(j, st.origin, st.dir, w.hits[i as usize].t);
-        }
-    }
-    let states = &w.states;
-    let area = area.emission(&scene.lights, batch.len(), |j| states[batch[j] as usize].prev());
+    let (states, hits) = (&w.states, &w.hits);
+    // The kernel reads each ray straight from its path state and hit (no transposed copy).
+    let ray = |j: usize| {
+        let i = batch[j] as usize;
+        let st = &states[i];
+        emission_lanes::Ray { o: st.origin.to_array(), d: st.dir.to_array(), tmax: hits[i].t }
+    };
+    let area = w.area_lights.emission(&scene.lights, batch.len(), ray, |j| states[batch[j] as usize].prev());
     let mut escaped = false;
     for (&i, &area) in batch.iter().zip(area) {
         let st = &mut w.states[i as usize];

@@ -1,53 +1,88 @@
-//! The ray-lane emission kernel ([`super::hit_rays`]) in AVX intrinsics: the eight rays of a group
-//! stay in `ymm` registers across every group box and light, each box test is ~25 instructions and
-//! each light's reject ~15, and a lane mask is one `vmovmskps`.
+//! The emission kernel ([`super::hit_rays`]) in AVX intrinsics, in two steps per group of eight
+//! rays: each group box against the eight rays at once (the rays in the lanes, one `vmovmskps`),
+//! then, for each ray that meets the box, that ray against the group's eight lights at once (the
+//! lights in the lanes, the ray broadcast): the rays that meet a box are tested, and only those,
+//! with no lane of the light test idle (a light group has eight lights; a ray group meeting a box
+//! held five rays that meet it on average, on the bench scene).
 //!
-//! Written with `std::arch` rather than as portable lane loops: LLVM compiled those loops into a
-//! call per light that reloaded the rays, stored three result columns, and built the lane mask
-//! with a shift and an `or` per lane (57 instructions per sphere and ray group, 17 of them the
-//! mask); inlined, its SLP vectorizer left most lanes scalar (see the parent module). No FMA: each
-//! lane runs the scalar test's IEEE operations in its order, so results are the same bits.
-//! `vminps`/`vmaxps` return their second operand when either is NaN; operands are ordered so that
-//! this is `f32::min`/`f32::max`'s choice wherever a NaN can occur (a NaN `tmax`).
+//! Written with `std::arch` rather than as portable lane loops: LLVM compiled such loops into
+//! calls that reloaded their inputs and built lane masks with a shift and an `or` per lane, or,
+//! inlined, left most lanes scalar (see the parent module). No FMA: each lane runs the scalar
+//! test's IEEE operations in its order, so results are the same bits. `vminps`/`vmaxps` return
+//! their second operand when either is NaN; operands are ordered so that this is
+//! `f32::min`/`f32::max`'s choice wherever a NaN can occur (a NaN `tmax`).
 
-use super::{planar_inside, LightShape, RayHit, RayLanes, RejectLanes, LANES};
+use super::{planar_inside, LightShape, Ray, RayHit, LANES};
 use crate::area_groups::{self, GroupBox};
 use crate::lights::sphere_roots;
 use std::arch::x86_64::*;
 
-/// Eight rays in registers.
-#[derive(Clone, Copy)]
-struct Rays {
-    o: [__m256; 3],
-    d: [__m256; 3],
-    inv_d: [__m256; 3],
-    tmax: __m256,
+/// Eight rays, transposed (lanes past a batch's end hold stale rays and are masked out).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+struct RayLanes {
+    o: [[f32; LANES]; 3],
+    d: [[f32; LANES]; 3],
+    tmax: [f32; LANES],
+}
+
+/// A group's eight lights, transposed, with the constants of the scalar tests (`r²` computed as
+/// the scalar code does: the same bits).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+struct GroupLanes {
+    center: [[f32; LANES]; 3],
+    /// Sphere lanes: `radius * radius`.
+    radius2: [f32; LANES],
+    /// Rect and disk lanes: the emission normal.
+    normal: [[f32; LANES]; 3],
+    /// The lanes that hold a sphere light.
+    spheres: u32,
+    /// The lanes that hold a rect or disk light.
+    planars: u32,
+}
+
+/// The scene's area lights as the AVX kernel reads them: one [`GroupLanes`] per group of
+/// [`area_groups::GROUP`] lights.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Kernel {
+    groups: Vec<GroupLanes>,
+}
+
+impl Kernel {
+    /// `shapes` in [`crate::lights::Lights::area_lights`] order.
+    pub(super) fn new(shapes: &[LightShape]) -> Self {
+        let groups = shapes
+            .chunks(area_groups::GROUP)
+            .map(|group| {
+                let mut lanes = GroupLanes::default();
+                for (k, shape) in group.iter().enumerate() {
+                    let center = match *shape {
+                        LightShape::Sphere { center, radius2 } => {
+                            lanes.radius2[k] = radius2;
+                            lanes.spheres |= 1 << k;
+                            center
+                        }
+                        LightShape::Planar { center, normal, .. } => {
+                            (0..3).for_each(|a| lanes.normal[a][k] = normal[a]);
+                            lanes.planars |= 1 << k;
+                            center
+                        }
+                    };
+                    (0..3).for_each(|a| lanes.center[a][k] = center[a]);
+                }
+                lanes
+            })
+            .collect();
+        Kernel { groups }
+    }
 }
 
 #[inline]
 #[target_feature(enable = "avx")]
 fn load(lanes: &[f32; LANES]) -> __m256 {
-    // SAFETY: `lanes` is eight readable `f32`s; the load is unaligned.
-    unsafe { _mm256_loadu_ps(lanes.as_ptr()) }
-}
-
-#[inline]
-#[target_feature(enable = "avx")]
-fn store(lanes: &mut [f32; LANES], v: __m256) {
-    // SAFETY: `lanes` is eight writable `f32`s; the store is unaligned.
-    unsafe { _mm256_storeu_ps(lanes.as_mut_ptr(), v) }
-}
-
-#[inline]
-#[target_feature(enable = "avx")]
-fn rays_of(ray: &RayLanes) -> Rays {
-    Rays {
-        o: ray.o.each_ref().map(|c| load(c)),
-        d: ray.d.each_ref().map(|c| load(c)),
-        // `1 / d` as `Vec3::recip` divides.
-        inv_d: ray.d.each_ref().map(|c| _mm256_div_ps(_mm256_set1_ps(1.0), load(c))),
-        tmax: load(&ray.tmax),
-    }
+    // SAFETY: `lanes` is eight readable `f32`s, 32-byte aligned (`RayLanes`, `GroupLanes`).
+    unsafe { _mm256_load_ps(lanes.as_ptr()) }
 }
 
 /// `(a[0]·b[0] + a[1]·b[1]) + a[2]·b[2]`: glam's `dot` order.
@@ -60,14 +95,34 @@ fn dot(a: [__m256; 3], b: [__m256; 3]) -> __m256 {
     )
 }
 
-/// [`area_groups::ray_meets`] of the eight rays against `b`: bit `k` for ray `k`.
+/// Eight rays in registers.
+#[derive(Clone, Copy)]
+struct Rays {
+    o: [__m256; 3],
+    inv_d: [__m256; 3],
+    tmax: __m256,
+}
+
+#[inline]
+#[target_feature(enable = "avx")]
+fn rays_of(ray: &RayLanes) -> Rays {
+    Rays {
+        o: ray.o.each_ref().map(|c| load(c)),
+        // `1 / d` as `Vec3::recip` divides.
+        inv_d: ray.d.each_ref().map(|c| _mm256_div_ps(_mm256_set1_ps(1.0), load(c))),
+        tmax: load(&ray.tmax),
+    }
+}
+
+/// [`area_groups::ray_meets`] of the eight rays against `b`: bit `k` for ray `k` (the same
+/// operations, lane by lane, as the scalar test).
 #[inline]
 #[target_feature(enable = "avx")]
 fn box_mask(b: &GroupBox, r: &Rays) -> u32 {
     let (mut near, mut far) = (_mm256_setzero_ps(), r.tmax);
     for a in 0..3 {
-        let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(b.lo[a]), r.o[a]), r.inv_d[a]);
-        let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(b.hi[a]), r.o[a]), r.inv_d[a]);
+        let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_broadcast_ss(&b.lo[a]), r.o[a]), r.inv_d[a]);
+        let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_broadcast_ss(&b.hi[a]), r.o[a]), r.inv_d[a]);
         // Both ordered: the slab constrains (the scalar test skips it otherwise).
         let keep = _mm256_cmp_ps::<_CMP_ORD_Q>(t0, t1);
         // `near` is never NaN; a NaN `far` (NaN `tmax`) gives way to the slab's far end, as
@@ -80,143 +135,109 @@ fn box_mask(b: &GroupBox, r: &Rays) -> u32 {
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
 }
 
-/// The sphere lights of the groups made of nothing else, as `[centre, r²]` (the kernel broadcasts
-/// them straight from memory and skips the per-light `match`: 41 → 32 instructions per sphere and
-/// ray group).
-#[derive(Clone, Debug, Default)]
-pub(super) struct SphereGroups {
-    /// Per light of [`Lights::area_lights`](crate::lights::Lights::area_lights): `[cx, cy, cz, r²]`
-    /// (zeros for a planar light).
-    spheres: Vec<[f32; 4]>,
-    /// Per group: whether all its lights are spheres.
-    only_spheres: Vec<bool>,
-}
-
-impl SphereGroups {
-    pub(super) fn new(shapes: &[LightShape]) -> Self {
-        let spheres = shapes
-            .iter()
-            .map(|shape| match *shape {
-                LightShape::Sphere { center, radius2 } => [center[0], center[1], center[2], radius2],
-                LightShape::Planar { .. } => [0.0; 4],
-            })
-            .collect();
-        let only_spheres = shapes
-            .chunks(area_groups::GROUP)
-            .map(|group| group.iter().all(|shape| matches!(shape, LightShape::Sphere { .. })))
-            .collect();
-        SphereGroups { spheres, only_spheres }
-    }
-
-    /// Group `g`'s spheres when it holds nothing else.
-    #[inline]
-    pub(super) fn group(&self, g: usize) -> Option<&[[f32; 4]]> {
-        let first = g * area_groups::GROUP;
-        self.only_spheres[g]
-            .then(|| &self.spheres[first..(first + area_groups::GROUP).min(self.spheres.len())])
-    }
-}
-
-/// `ray_sphere` of the rays `meets` (ray group `r`) with sphere light `light` (`[centre, r²]`):
-/// the discriminant's sign in lanes, then the roots of the rays that pass, one at a time.
+/// The hits of ray `k` of `rays` (ray `j` of the batch) with group `g`'s lights (`lanes`),
+/// appended to `hits` in light order: the cheap rejects in lanes with the scalar test's own
+/// operations (for a sphere `!(disc < 0)`, as `ray_sphere` returns early; for a rect or disk
+/// `!(cos ≥ 0)`, `t > 0`, `t < tmax`, as `Light::intersect`), the rest one light at a time for the
+/// few that pass.
 #[inline]
 #[target_feature(enable = "avx")]
-fn sphere_test(
-    v: &Rays,
-    sphere: &[f32; 4],
-    meets: u32,
-    ray: &RayLanes,
-    (r, light): (usize, u32),
-    s: &mut RejectLanes,
+fn group_hits(
+    lanes: &GroupLanes,
+    shapes: &[LightShape],
+    (rays, k, j): (&RayLanes, usize, usize),
+    g: usize,
     hits: &mut Vec<RayHit>,
 ) {
-    let oc = [0, 1, 2].map(|a| _mm256_sub_ps(v.o[a], _mm256_broadcast_ss(&sphere[a])));
-    let bq = dot(oc, v.d);
-    let c = _mm256_sub_ps(dot(oc, oc), _mm256_broadcast_ss(&sphere[3]));
-    let disc = _mm256_sub_ps(_mm256_mul_ps(bq, bq), c);
-    // `!(disc < 0)`, NaN included: where `ray_sphere` goes on.
-    let mut pass = meets & _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, _mm256_setzero_ps())) as u32;
+    let zero = _mm256_setzero_ps();
+    let o = [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.o[a][k]));
+    let d = [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.d[a][k]));
+    let center = lanes.center.each_ref().map(|c| load(c));
+    let (mut bq, mut c, mut disc, mut t) = (zero, zero, zero, zero);
+    let mut pass = 0;
+    if lanes.spheres != 0 {
+        let oc = [0, 1, 2].map(|a| _mm256_sub_ps(o[a], center[a]));
+        bq = dot(oc, d);
+        c = _mm256_sub_ps(dot(oc, oc), load(&lanes.radius2));
+        disc = _mm256_sub_ps(_mm256_mul_ps(bq, bq), c);
+        // `!(disc < 0)`, NaN included: where `ray_sphere` goes on.
+        pass |= _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, zero)) as u32 & lanes.spheres;
+    }
+    if lanes.planars != 0 {
+        let normal = lanes.normal.each_ref().map(|n| load(n));
+        let cos = dot(d, normal);
+        let to = [0, 1, 2].map(|a| _mm256_sub_ps(center[a], o[a]));
+        t = _mm256_div_ps(dot(to, normal), cos);
+        let ahead = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_NGE_UQ>(cos, zero),
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(t, zero),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_broadcast_ss(&rays.tmax[k])),
+            ),
+        );
+        pass |= _mm256_movemask_ps(ahead) as u32 & lanes.planars;
+    }
     if pass == 0 {
         return;
     }
-    store(&mut s.b, bq);
-    store(&mut s.c, c);
-    store(&mut s.disc, disc);
+    let column = |x: __m256| {
+        let mut out = [0.0f32; LANES];
+        // SAFETY: `out` is eight writable `f32`s; the store is unaligned.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
+        out
+    };
+    let (bq, c, disc, t) = (column(bq), column(c), column(disc), column(t));
+    let first = g * area_groups::GROUP;
+    let tmax = rays.tmax[k];
     while pass != 0 {
-        let k = pass.trailing_zeros() as usize;
+        let l = pass.trailing_zeros() as usize;
         pass &= pass - 1;
-        if let Some(t) = sphere_roots(s.b[k], s.c[k], s.disc[k]).filter(|&t| t < ray.tmax[k]) {
-            hits.push(RayHit { ray: (r * LANES + k) as u32, light, t });
+        let light = first + l;
+        let hit = match shapes[light] {
+            LightShape::Sphere { .. } => sphere_roots(bq[l], c[l], disc[l]).filter(|&t| t < tmax),
+            LightShape::Planar { center, ex, ex_len2, ey, ey_len2, disk, .. } => {
+                let (o, d) = ([0, 1, 2].map(|a| rays.o[a][k]), [0, 1, 2].map(|a| rays.d[a][k]));
+                planar_inside(o, d, t[l], center, (ex, ex_len2), (ey, ey_len2), disk).then_some(t[l])
+            }
+        };
+        if let Some(t) = hit {
+            hits.push(RayHit { ray: j as u32, light: light as u32, t });
         }
     }
 }
 
-/// [`super::hit_rays`] on AVX: the same hits in the same order.
+/// [`super::hit_rays`] on AVX: the same hits, each ray's in the same order (the rays of a group
+/// of eight come interleaved: box by box, then ray by ray).
 ///
 /// # Safety
 /// The CPU must support AVX.
 #[target_feature(enable = "avx")]
 pub(super) unsafe fn hit_rays(
+    kernel: &Kernel,
     shapes: &[LightShape],
     boxes: &[GroupBox],
-    spheres: &SphereGroups,
-    rays: &[RayLanes],
     n: usize,
-    s: &mut RejectLanes,
+    rays: impl Fn(usize) -> Ray,
     hits: &mut Vec<RayHit>,
 ) {
-    let zero = _mm256_setzero_ps();
-    for (r, ray) in rays.iter().enumerate() {
-        let live = (1u32 << (n - r * LANES).min(LANES)) - 1;
-        let v = rays_of(ray);
-        for (g, (group, b)) in shapes.chunks(area_groups::GROUP).zip(boxes).enumerate() {
-            let meets = box_mask(b, &v) & live;
-            if meets == 0 {
-                continue;
+    let mut lanes = RayLanes::default();
+    for first in (0..n).step_by(LANES) {
+        let m = (n - first).min(LANES);
+        for k in 0..m {
+            let ray = rays(first + k);
+            for a in 0..3 {
+                (lanes.o[a][k], lanes.d[a][k]) = (ray.o[a], ray.d[a]);
             }
-            let first = g * area_groups::GROUP;
-            if let Some(group) = spheres.group(g) {
-                for (l, sphere) in group.iter().enumerate() {
-                    sphere_test(&v, sphere, meets, ray, (r, (first + l) as u32), s, hits);
-                }
-                continue;
-            }
-            for (l, shape) in group.iter().enumerate() {
-                let light = (first + l) as u32;
-                match *shape {
-                    LightShape::Sphere { center, radius2 } => {
-                        let sphere = [center[0], center[1], center[2], radius2];
-                        sphere_test(&v, &sphere, meets, ray, (r, light), s, hits);
-                    }
-                    LightShape::Planar { center, normal, ex, ex_len2, ey, ey_len2, disk } => {
-                        let nv = normal.map(|x| _mm256_set1_ps(x));
-                        let cos = dot(v.d, nv);
-                        let to = [0, 1, 2].map(|a| _mm256_sub_ps(_mm256_set1_ps(center[a]), v.o[a]));
-                        let t = _mm256_div_ps(dot(to, nv), cos);
-                        // `Light::intersect`'s early returns exactly: `!(cos ≥ 0)`, `t > 0`, `t < tmax`.
-                        let ahead = _mm256_and_ps(
-                            _mm256_cmp_ps::<_CMP_NGE_UQ>(cos, zero),
-                            _mm256_and_ps(
-                                _mm256_cmp_ps::<_CMP_GT_OQ>(t, zero),
-                                _mm256_cmp_ps::<_CMP_LT_OQ>(t, v.tmax),
-                            ),
-                        );
-                        let mut pass = meets & _mm256_movemask_ps(ahead) as u32;
-                        if pass == 0 {
-                            continue;
-                        }
-                        store(&mut s.t, t);
-                        while pass != 0 {
-                            let k = pass.trailing_zeros() as usize;
-                            pass &= pass - 1;
-                            let (o, d) = ray.ray(k);
-                            let t = s.t[k];
-                            if planar_inside(o, d, t, center, (ex, ex_len2), (ey, ey_len2), disk) {
-                                hits.push(RayHit { ray: (r * LANES + k) as u32, light, t });
-                            }
-                        }
-                    }
-                }
+            lanes.tmax[k] = ray.tmax;
+        }
+        let live = (1u32 << m) - 1;
+        let v = rays_of(&lanes);
+        for (g, (b, group)) in boxes.iter().zip(&kernel.groups).enumerate() {
+            let mut meets = box_mask(b, &v) & live;
+            while meets != 0 {
+                let k = meets.trailing_zeros() as usize;
+                meets &= meets - 1;
+                group_hits(group, shapes, (&lanes, k, first + k), g, hits);
             }
         }
     }
@@ -228,6 +249,13 @@ pub(super) unsafe fn hit_rays(
 /// The CPU must support AVX.
 #[cfg(test)]
 #[target_feature(enable = "avx")]
-pub(super) unsafe fn box_bits(b: &GroupBox, ray: &RayLanes) -> u32 {
-    box_mask(b, &rays_of(ray))
+pub(super) unsafe fn box_bits(b: &GroupBox, rays: &[Ray; LANES]) -> u32 {
+    let mut lanes = RayLanes::default();
+    for (k, ray) in rays.iter().enumerate() {
+        for a in 0..3 {
+            (lanes.o[a][k], lanes.d[a][k]) = (ray.o[a], ray.d[a]);
+        }
+        lanes.tmax[k] = ray.tmax;
+    }
+    box_mask(b, &rays_of(&lanes))
 }
