@@ -163,7 +163,7 @@ impl LightShape {
     /// portable kernel's test).
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     #[inline(always)]
-    fn hit(&self, r: &Ray) -> Option<f32> {
+    pub(crate) fn hit(&self, r: &Ray) -> Option<f32> {
         let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
         match *self {
             LightShape::Sphere { center, radius2 } => {

@@ -12,9 +12,8 @@
 //! their second operand when either is NaN; operands are ordered so that this is
 //! `f32::min`/`f32::max`'s choice wherever a NaN can occur (a NaN `tmax`).
 
-use super::{planar_inside, LightShape, Ray, RayHit, LANES};
+use super::{LightShape, Ray, RayHit, LANES};
 use crate::area_groups::{self, GroupBox};
-use crate::lights::sphere_roots;
 use std::arch::x86_64::*;
 
 /// Eight rays, transposed (lanes past a batch's end hold stale rays and are masked out).
@@ -135,39 +134,60 @@ fn box_mask(b: &GroupBox, r: &Rays) -> u32 {
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
 }
 
-/// The hits of ray `k` of `rays` (ray `j` of the batch) with group `g`'s lights (`lanes`),
-/// appended to `hits` in light order: the cheap rejects in lanes with the scalar test's own
-/// operations (for a sphere `!(disc < 0)`, as `ray_sphere` returns early; for a rect or disk
-/// `!(cos ≥ 0)`, `t > 0`, `t < tmax`, as `Light::intersect`), the rest one light at a time for the
-/// few that pass.
+/// The hits of the rays `meets` of `rays` (the batch's rays `first..first + 8`) with group `g`'s
+/// lights (`lanes`), appended to `hits` ray by ray, in light order for each: a cheap reject in
+/// lanes with the scalar test's own operations (for a sphere `!(disc < 0)`, where `ray_sphere`
+/// goes on; for a rect or disk `!(cos ≥ 0)`, `t > 0`, `t < tmax`, where `Light::intersect` goes
+/// on), then the exact scalar test ([`tails`]) for the few lights that pass. The group's lanes are
+/// loaded once for all its rays; a group of spheres only (the usual case) skips the plane test.
 #[inline]
 #[target_feature(enable = "avx")]
 fn group_hits(
     lanes: &GroupLanes,
     shapes: &[LightShape],
-    (rays, k, j): (&RayLanes, usize, usize),
+    (rays, first, mut meets): (&RayLanes, usize, u32),
     g: usize,
     hits: &mut Vec<RayHit>,
 ) {
     let zero = _mm256_setzero_ps();
-    let o = [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.o[a][k]));
-    let d = [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.d[a][k]));
     let center = lanes.center.each_ref().map(|c| load(c));
-    let (mut bq, mut c, mut disc, mut t) = (zero, zero, zero, zero);
-    let mut pass = 0;
-    if lanes.spheres != 0 {
+    let radius2 = load(&lanes.radius2);
+    let sphere_rejects = |o: [__m256; 3], d: [__m256; 3]| {
         let oc = [0, 1, 2].map(|a| _mm256_sub_ps(o[a], center[a]));
-        bq = dot(oc, d);
-        c = _mm256_sub_ps(dot(oc, oc), load(&lanes.radius2));
-        disc = _mm256_sub_ps(_mm256_mul_ps(bq, bq), c);
-        // `!(disc < 0)`, NaN included: where `ray_sphere` goes on.
-        pass |= _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, zero)) as u32 & lanes.spheres;
+        let bq = dot(oc, d);
+        let c = _mm256_sub_ps(dot(oc, oc), radius2);
+        let disc = _mm256_sub_ps(_mm256_mul_ps(bq, bq), c);
+        // `!(disc < 0)`, NaN included.
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, zero)) as u32 & lanes.spheres
+    };
+    let broadcast = |k: usize| {
+        (
+            [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.o[a][k])),
+            [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.d[a][k])),
+        )
+    };
+    if lanes.planars == 0 {
+        while meets != 0 {
+            // `& 7`: no bounds check on the lanes (`meets` has eight bits).
+            let k = meets.trailing_zeros() as usize & 7;
+            meets &= meets - 1;
+            let (o, d) = broadcast(k);
+            let pass = sphere_rejects(o, d);
+            if pass != 0 {
+                tails(shapes, (rays, k, first + k), (g, pass), hits);
+            }
+        }
+        return;
     }
-    if lanes.planars != 0 {
-        let normal = lanes.normal.each_ref().map(|n| load(n));
+    let normal = lanes.normal.each_ref().map(|n| load(n));
+    while meets != 0 {
+        let k = meets.trailing_zeros() as usize & 7;
+        meets &= meets - 1;
+        let (o, d) = broadcast(k);
+        let spheres = if lanes.spheres != 0 { sphere_rejects(o, d) } else { 0 };
         let cos = dot(d, normal);
         let to = [0, 1, 2].map(|a| _mm256_sub_ps(center[a], o[a]));
-        t = _mm256_div_ps(dot(to, normal), cos);
+        let t = _mm256_div_ps(dot(to, normal), cos);
         let ahead = _mm256_and_ps(
             _mm256_cmp_ps::<_CMP_NGE_UQ>(cos, zero),
             _mm256_and_ps(
@@ -175,39 +195,40 @@ fn group_hits(
                 _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_broadcast_ss(&rays.tmax[k])),
             ),
         );
-        pass |= _mm256_movemask_ps(ahead) as u32 & lanes.planars;
+        let pass = spheres | _mm256_movemask_ps(ahead) as u32 & lanes.planars;
+        if pass != 0 {
+            tails(shapes, (rays, k, first + k), (g, pass), hits);
+        }
     }
-    if pass == 0 {
-        return;
-    }
-    let column = |x: __m256| {
-        let mut out = [0.0f32; LANES];
-        // SAFETY: `out` is eight writable `f32`s; the store is unaligned.
-        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
-        out
-    };
-    let (bq, c, disc, t) = (column(bq), column(c), column(disc), column(t));
+}
+
+/// The exact scalar tests ([`LightShape::hit`], the portable kernel's) of the lights `pass` of
+/// group `g` with ray `k` of `rays` (ray `j` of the batch). They redo the lane arithmetic of the
+/// reject, by the same operations (the same bits), rather than read it back: kept in registers
+/// for this, the lane values were spilled for every ray (four stores per ray and group), while a
+/// few rays in a hundred get here. Out of line for the same reason.
+#[inline(never)]
+#[cold]
+fn tails(
+    shapes: &[LightShape],
+    (rays, k, j): (&RayLanes, usize, usize),
+    (g, mut pass): (usize, u32),
+    hits: &mut Vec<RayHit>,
+) {
+    let ray =
+        Ray { o: [0, 1, 2].map(|a| rays.o[a][k]), d: [0, 1, 2].map(|a| rays.d[a][k]), tmax: rays.tmax[k] };
     let first = g * area_groups::GROUP;
-    let tmax = rays.tmax[k];
     while pass != 0 {
-        let l = pass.trailing_zeros() as usize;
+        let light = first + pass.trailing_zeros() as usize;
         pass &= pass - 1;
-        let light = first + l;
-        let hit = match shapes[light] {
-            LightShape::Sphere { .. } => sphere_roots(bq[l], c[l], disc[l]).filter(|&t| t < tmax),
-            LightShape::Planar { center, ex, ex_len2, ey, ey_len2, disk, .. } => {
-                let (o, d) = ([0, 1, 2].map(|a| rays.o[a][k]), [0, 1, 2].map(|a| rays.d[a][k]));
-                planar_inside(o, d, t[l], center, (ex, ex_len2), (ey, ey_len2), disk).then_some(t[l])
-            }
-        };
-        if let Some(t) = hit {
+        if let Some(t) = shapes[light].hit(&ray) {
             hits.push(RayHit { ray: j as u32, light: light as u32, t });
         }
     }
 }
 
 /// [`super::hit_rays`] on AVX: the same hits, each ray's in the same order (the rays of a group
-/// of eight come interleaved: box by box, then ray by ray).
+/// of eight come interleaved: group by group, then ray by ray).
 ///
 /// # Safety
 /// The CPU must support AVX.
@@ -233,11 +254,9 @@ pub(super) unsafe fn hit_rays(
         let live = (1u32 << m) - 1;
         let v = rays_of(&lanes);
         for (g, (b, group)) in boxes.iter().zip(&kernel.groups).enumerate() {
-            let mut meets = box_mask(b, &v) & live;
-            while meets != 0 {
-                let k = meets.trailing_zeros() as usize;
-                meets &= meets - 1;
-                group_hits(group, shapes, (&lanes, k, first + k), g, hits);
+            let meets = box_mask(b, &v) & live;
+            if meets != 0 {
+                group_hits(group, shapes, (&lanes, first, meets), g, hits);
             }
         }
     }
