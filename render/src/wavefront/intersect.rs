@@ -80,9 +80,11 @@ const MISS: Hit = Hit { t: f32::INFINITY, triangle: blob::NONE, b1: 0.0, b2: 0.0
 /// The emission each ray of `batch` found: the area lights it crosses before its hit and, when it
 /// escaped, the dome and distant lights. Hits enter the shade queue; escaped paths leave the wave.
 fn emission(scene: &Scene, w: &mut Worker, batch: &[u32]) {
-    let (states, hits) = (&w.states, &w.hits);
+    // Slices, copied into the closure: their lengths for the bounds checks stay in registers
+    // rather than being reloaded through the `Vec`s for every ray.
+    let (states, hits) = (&w.states[..], &w.hits[..]);
     // The kernel reads each ray straight from its path state and hit (no transposed copy).
-    let ray = |j: usize| {
+    let ray = move |j: usize| {
         let i = batch[j] as usize;
         let st = &states[i];
         emission_lanes::Ray { o: st.origin.to_array(), d: st.dir.to_array(), tmax: hits[i].t }

@@ -46,11 +46,13 @@ struct GroupLanes {
 #[derive(Clone, Debug, Default)]
 pub(super) struct Kernel {
     groups: Vec<GroupLanes>,
+    /// Whether every group box is finite (one condition of [`box_mask`]'s `FINITE` path).
+    finite_boxes: bool,
 }
 
 impl Kernel {
-    /// `shapes` in [`crate::lights::Lights::area_lights`] order.
-    pub(super) fn new(shapes: &[LightShape]) -> Self {
+    /// `shapes` in [`crate::lights::Lights::area_lights`] order, `boxes` their groups' boxes.
+    pub(super) fn new(shapes: &[LightShape], boxes: &[GroupBox]) -> Self {
         let groups = shapes
             .chunks(area_groups::GROUP)
             .map(|group| {
@@ -73,7 +75,8 @@ impl Kernel {
                 lanes
             })
             .collect();
-        Kernel { groups }
+        let finite_boxes = boxes.iter().all(|b| b.lo.iter().chain(&b.hi).all(|x| x.is_finite()));
+        Kernel { groups, finite_boxes }
     }
 }
 
@@ -113,23 +116,46 @@ fn rays_of(ray: &RayLanes) -> Rays {
     }
 }
 
+impl Rays {
+    /// Whether the lanes `live` have finite origins and inverse directions: then no slab of a
+    /// finite box gives NaN (`(lo − o)·(1/d)` is a finite or infinite difference times a finite
+    /// non-zero factor), and the box test can skip [`box_mask`]'s NaN selects. `x·0` is NaN
+    /// exactly where `x` is not finite, and NaN survives the sum.
+    #[inline]
+    #[target_feature(enable = "avx")]
+    fn finite(&self, live: u32) -> bool {
+        let zero = _mm256_setzero_ps();
+        let sum = [self.o, self.inv_d]
+            .iter()
+            .flatten()
+            .fold(zero, |sum, &x| _mm256_add_ps(sum, _mm256_mul_ps(x, zero)));
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_ORD_Q>(sum, sum)) as u32 & live == live
+    }
+}
+
 /// [`area_groups::ray_meets`] of the eight rays against `b`: bit `k` for ray `k` (the same
-/// operations, lane by lane, as the scalar test).
+/// operations, lane by lane, as the scalar test). `FINITE` when no slab can give NaN
+/// ([`Rays::finite`], and a finite box): the selects that skip a NaN slab are then left out
+/// (45 rather than 54 instructions per box and ray group, loop included), with the same bits.
 #[inline]
 #[target_feature(enable = "avx")]
-fn box_mask(b: &GroupBox, r: &Rays) -> u32 {
+fn box_mask<const FINITE: bool>(b: &GroupBox, r: &Rays) -> u32 {
     let (mut near, mut far) = (_mm256_setzero_ps(), r.tmax);
     for a in 0..3 {
         let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_broadcast_ss(&b.lo[a]), r.o[a]), r.inv_d[a]);
         let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_broadcast_ss(&b.hi[a]), r.o[a]), r.inv_d[a]);
-        // Both ordered: the slab constrains (the scalar test skips it otherwise).
-        let keep = _mm256_cmp_ps::<_CMP_ORD_Q>(t0, t1);
         // `near` is never NaN; a NaN `far` (NaN `tmax`) gives way to the slab's far end, as
         // `f32::min` does.
         let nearer = _mm256_max_ps(near, _mm256_min_ps(t0, t1));
         let farther = _mm256_min_ps(far, _mm256_max_ps(t0, t1));
-        near = _mm256_blendv_ps(near, nearer, keep);
-        far = _mm256_blendv_ps(far, farther, keep);
+        if FINITE {
+            (near, far) = (nearer, farther);
+        } else {
+            // Both ordered: the slab constrains (the scalar test skips it otherwise).
+            let keep = _mm256_cmp_ps::<_CMP_ORD_Q>(t0, t1);
+            near = _mm256_blendv_ps(near, nearer, keep);
+            far = _mm256_blendv_ps(far, farther, keep);
+        }
     }
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
 }
@@ -253,22 +279,42 @@ pub(super) unsafe fn hit_rays(
         }
         let live = (1u32 << m) - 1;
         let v = rays_of(&lanes);
-        for (g, (b, group)) in boxes.iter().zip(&kernel.groups).enumerate() {
-            let meets = box_mask(b, &v) & live;
-            if meets != 0 {
-                group_hits(group, shapes, (&lanes, first, meets), g, hits);
-            }
+        let rays = (&lanes, &v, first, live);
+        if kernel.finite_boxes && v.finite(live) {
+            ray_group_hits::<true>(kernel, shapes, boxes, rays, hits);
+        } else {
+            ray_group_hits::<false>(kernel, shapes, boxes, rays, hits);
         }
     }
 }
 
-/// [`box_mask`] for tests: the box test of eight rays.
+/// The hits of a group of eight rays (`lanes`, in registers `v`; the batch's rays `first..`, the
+/// lanes `live`), by [`box_mask::<FINITE>`] then [`group_hits`] for every group box they meet.
+#[inline]
+#[target_feature(enable = "avx")]
+fn ray_group_hits<const FINITE: bool>(
+    kernel: &Kernel,
+    shapes: &[LightShape],
+    boxes: &[GroupBox],
+    (lanes, v, first, live): (&RayLanes, &Rays, usize, u32),
+    hits: &mut Vec<RayHit>,
+) {
+    for (g, (b, group)) in boxes.iter().zip(&kernel.groups).enumerate() {
+        let meets = box_mask::<FINITE>(b, v) & live;
+        if meets != 0 {
+            group_hits(group, shapes, (lanes, first, meets), g, hits);
+        }
+    }
+}
+
+/// [`box_mask`] for tests: the box test of eight rays, by the path the kernel takes for them, and
+/// whether that was the finite one.
 ///
 /// # Safety
 /// The CPU must support AVX.
 #[cfg(test)]
 #[target_feature(enable = "avx")]
-pub(super) unsafe fn box_bits(b: &GroupBox, rays: &[Ray; LANES]) -> u32 {
+pub(super) unsafe fn box_bits(kernel: &Kernel, b: &GroupBox, rays: &[Ray], live: u32) -> (u32, bool) {
     let mut lanes = RayLanes::default();
     for (k, ray) in rays.iter().enumerate() {
         for a in 0..3 {
@@ -276,5 +322,10 @@ pub(super) unsafe fn box_bits(b: &GroupBox, rays: &[Ray; LANES]) -> u32 {
         }
         lanes.tmax[k] = ray.tmax;
     }
-    box_mask(b, &rays_of(&lanes))
+    let v = rays_of(&lanes);
+    if kernel.finite_boxes && v.finite(live) {
+        (box_mask::<true>(b, &v), true)
+    } else {
+        (box_mask::<false>(b, &v), false)
+    }
 }
