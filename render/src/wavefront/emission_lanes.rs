@@ -1,27 +1,26 @@
 //! Emission rays pick up from the area lights they cross ([`crate::lights::Lights::area_emission`],
-//! the scalar reference), with the ray–light tests run on eight *rays* at a time.
+//! the scalar reference), with the ray–light tests run eight at a time.
 //!
 //! Every camera and BSDF ray tests the rect, disk and sphere lights analytically (those of the groups
 //! of eight lights whose box it meets, [`crate::area_groups`]). The intersect stage hands over each
-//! batch of up to [`MAX_RAYS`] rays it has just intersected; they are transposed into groups of eight
-//! ([`RayLanes`]: origin, direction, `tmax` = the hit distance) and the kernel walks the lights in
-//! [`Lights::area_lights`] order for each ray group (on AVX CPUs in intrinsics, `avx`, else the
-//! portable lane loops of [`hit_rays`]; both find the same hits, a test checks it):
-//! 1. per group of eight lights, the box test of the eight rays ([`area_groups::ray_meets_lanes`]);
-//!    when no ray meets the box its eight lights are skipped;
-//! 2. per light, the cheap reject on eight rays with the scalar test's own IEEE operations: for a
-//!    sphere the sign of the discriminant (`!(disc < 0)`, as `ray_sphere` returns early), for a
-//!    rect or disk the facing test and the plane distance (`min(t, −cos) > 0`: a superset of the
-//!    scalar `cos < 0, t > 0`, see [`plane_rejects`]);
-//! 3. only for the rays that pass both (few: most rays miss most lights), the rest of the scalar test
-//!    from the lane values ([`sphere_roots`]; the exact plane tests, `t < tmax` and
-//!    [`planar_inside`]), one ray at a time.
+//! batch of up to [`MAX_RAYS`] rays it has just intersected, as a function from a ray's position in
+//! the batch to its origin, direction and `tmax` (the hit distance) read straight from its path
+//! state and hit ([`Ray`]). On AVX CPUs the kernel (`avx`) takes the rays eight at a time:
+//! 1. per group box, the box test of the eight rays in lanes (the same bits as
+//!    [`area_groups::ray_meets`]);
+//! 2. for each ray that meets the box, that ray against the group's eight lights in lanes, a cheap
+//!    reject with the scalar test's own IEEE operations: for a sphere the sign of the discriminant
+//!    (`!(disc < 0)`, where `ray_sphere` goes on), for a rect or disk the facing test and the plane
+//!    distance (`!(cos ≥ 0)`, `t > 0`, `t < tmax`, where `Light::intersect` goes on);
+//! 3. for the few lights that pass (on the bench scene, exactly those hit), the exact scalar test
+//!    ([`LightShape::hit`]).
 //!
-//! Each hit is recorded as (ray, light, t); as the lights are walked in summation order, each ray's
-//! hits come in that order too, and [`AreaLightLanes::emission`] then adds their
-//! [`Lights::area_term`]s per ray in it, so the sum equals [`Lights::area_emission`] bit for bit.
-//! A ray whose box test fails is masked out of that group's lights, exactly as the scalar loop skips
-//! them, so both skip the same lights; and neither drops a hit, because the boxes are conservative
+//! Other CPUs run [`hit_rays`], the scalar loop of `area_emission` (box, then each light of a met
+//! group); both find the same hits, a test checks it. Each hit is recorded as (ray, light, t); each
+//! ray's hits come in light order (groups in order, lanes in order), and
+//! [`AreaLightLanes::emission`] adds their [`Lights::area_term`]s per ray in it, so the sum equals
+//! [`Lights::area_emission`] bit for bit. A ray skips the lights of a group whose box it misses,
+//! exactly as the scalar loop does; and neither drops a hit, because the boxes are conservative
 //! (each is the union of its lights' bounds, padded for rounding: a light a ray hits lies in a box
 //! the ray meets; `lights::tests::culled_area_emission_equals_the_sum_over_every_light` checks it).
 //!
@@ -84,6 +83,52 @@
 //! Tried and lost: a second level of boxes (a box per half group, tested for the met groups
 //! before their lights): 30.8 → 32.3 M for the kernel, the bench scene's lights being spread so
 //! that a met group's halves are mostly met too.
+
+//!
+//! # Measured, third round (main at 4123e43; callgrind, shading-heavy, 120×80, 8 spp, 1 thread)
+//! The second-round kernel tested each light of a met group on the eight rays, so a light test
+//! paid for the rays of the group that missed the box. Counted on the bench scene (156,011 rays in
+//! 19,590 groups of eight, six group boxes): a ray meets 1.63 boxes on average (none: 38 %; one:
+//! 20 %; two: 9 %; three: 16 %; four: 10 %; five or six: 7 %); a box met by a ray group is met by
+//! 5.0 of its rays (253,792 ray–box pairs over 50,803 met boxes of 117,540 tested); 16 % of the
+//! ray groups meet no box; the discriminant passes 2,449 times, all of them hits. Incoherent bounce
+//! rays and single rays alike meet few boxes, so the test per *ray* pays: eight lights in the lanes
+//! against one ray is one test per ray–box pair (253,792) rather than per light and met box
+//! (406,424), with no idle lane.
+//!
+//! | shading-heavy, instructions | before | after |
+//! |---|---|---|
+//! | area-light kernel (`hit_rays` → `avx::hit_rays`; now with the rays' gather) | 26.4 M | 20.4 M |
+//! | the stage's gather of the rays into `RayLanes` (its loop and `set_ray`) | 3.3 M | — |
+//! | the intersect stage's emission pass (`intersect::emission`, inclusive) | 45.65 M | 32.6 M |
+//! | whole process | 527.0 M | 513.9 M (−2.5 %) |
+//! | tractor / simple (no area light): emission pass | 13.5 M / 9.5 M | 11.8 M / 7.9 M |
+//! | tractor / simple: whole process | 343.0 M / 134.7 M | 341.4 M / 133.1 M |
+//!
+//! Step by step (`intersect::emission` inclusive / whole process): the ray against eight lights
+//! per met box, box test on eight rays 39.5 / 520.8 M; each group's lanes loaded once for its rays
+//! and the exact rest out of line (it had kept the lane values in registers, spilled for every
+//! ray) 35.6 / 517.0 M; the stage's pass fused (area emission, shade queue and escaped rays in one
+//! loop; it also serves the scenes without area lights) 33.7 / 515.0 M; the box test without the
+//! NaN selects for ray groups with finite origins and inverse directions (the same bits, see
+//! `avx::Rays::finite`) 33.0 / 514.4 M; the ray closure over slices (no `Vec` length reloads for
+//! the bounds checks) 32.6 / 513.9 M. Where the kernel's 20.4 M sit: 31 instructions per ray–box
+//! pair for the eight-light reject (7.9 M), 45 per box test of a ray group (5.3 M), ~30 per ray to
+//! gather it from its path state and hit (4.7 M), 93 per ray group for `1 / d` and the finite test
+//! (1.8 M). The goal of ≤ 25 M for the pass was not reached: what is left is the gather, the box
+//! tests and one light test per ray–box pair (a floor for six boxes of eight lights), the pass's
+//! own 24 instructions per ray (the area emission added to every path, as the scalar integrator
+//! does, and the shade queue) and the escaped rays' dome and sun (3.2 M).
+//!
+//! Tried and lost: the test per ray against all six boxes at once (the boxes in the lanes, the
+//! ray broadcast), then the met groups' lights in lanes: 31.3 M for the kernel (26.4 M before),
+//! the per-ray set-up (three divisions, seven broadcasts from registers, spills) outweighing the
+//! shared box test; the six box tests of a ray group first and the light tests after (to keep the
+//! rays in registers): +0.7 M; a union box of all area lights before the group boxes: only 16 %
+//! of the ray groups would skip, for a test in every group; the gather by `vinsertps` straight
+//! from the path states: the same count (LLVM spilled the 56 fields).
+//!
+//! perf (320×213, 16 spp, 1 thread, contended) and `bench integrators`: see the figures below.
 
 #[cfg(target_arch = "x86_64")]
 mod avx;
