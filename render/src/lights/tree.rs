@@ -84,13 +84,15 @@
 //! before and after interleaved, load average 7 on 2 cores): shading-heavy wavefront 1.20–1.48 →
 //! 1.12–1.34, scalar 1.67–1.98 → 1.68–1.86, speed-up 1.34–1.40× → 1.25–1.51×: within the noise.
 
+#[cfg(target_arch = "x86_64")]
+mod avx;
 mod build;
 mod lanes;
 mod node;
 
 use crate::lights::{Light, Shape};
 use glam::Vec3;
-use node::{child_weights, choose, Node, LEAF};
+use node::{child_weights, step, Node, Step, LEAF};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 /// The largest f32 below 1.
@@ -256,11 +258,9 @@ impl LightTree {
 fn descend(nodes: &[Node], p: [f32; 3], mut u: f32) -> (usize, f32) {
     let (mut node, mut pmf) = (&nodes[0], 1.0f32);
     loop {
-        let (w, sum) = child_weights(node, p);
-        let target = u * sum;
-        let (chosen, below) = choose(&w, node.len, target);
-        pmf *= w[chosen] / sum;
-        u = ((target - below) / w[chosen]).clamp(0.0, ONE_MINUS_EPSILON);
+        let Step { chosen, weight, below, sum, target } = step(node, p, u);
+        pmf *= weight / sum;
+        u = ((target - below) / weight).clamp(0.0, ONE_MINUS_EPSILON);
         if node.flags[chosen] & LEAF != 0 {
             return (node.child[chosen] as usize, pmf);
         }
@@ -275,8 +275,8 @@ fn replay(nodes: &[Node], p: [f32; 3], path: Path) -> f32 {
     let (mut node, mut pmf) = (&nodes[0], 1.0f32);
     for level in 0..path.depth {
         let slot = (path.digits >> (3 * level) & 7) as usize;
-        let (w, sum) = child_weights(node, p);
-        pmf *= w[slot] / sum;
+        let weights = child_weights(node, p);
+        pmf *= weights.w[slot] / weights.sum();
         if level + 1 < path.depth {
             node = &nodes[node.child[slot] as usize];
         }
@@ -290,6 +290,9 @@ fn replay(nodes: &[Node], p: [f32; 3], path: Path) -> f32 {
 pub struct LightSelector {
     /// Selection-list indices of the lights at infinity (domes, distant lights), in list order.
     infinite: Vec<u32>,
+    /// `infinite[min(i, len − 1)]` in lane `i` (0 if there is none): the lanes' first choice picks
+    /// from it with one permutation when there are at most eight (`tree/lanes.rs`).
+    infinite_lanes: [u32; lanes::LANES],
     tree: LightTree,
     /// Slots of the first choice: one per light at infinity, one for the tree if it has lights.
     slots: u32,
@@ -318,14 +321,22 @@ impl LightSelector {
         }
         let tree = LightTree::new(&bounded, lights.len());
         let slots = infinite.len() as u32 + !tree.is_empty() as u32;
-        LightSelector { infinite, tree, slots, slot_pmf: if slots == 0 { 0.0 } else { 1.0 / slots as f32 } }
+        LightSelector {
+            infinite_lanes: lanes::padded(&infinite),
+            infinite,
+            tree,
+            slots,
+            slot_pmf: if slots == 0 { 0.0 } else { 1.0 / slots as f32 },
+        }
     }
 
     /// Uniform selection over all `count` lights, as before the tree: the reference of the tests.
     #[cfg(test)]
     pub fn uniform(count: usize) -> Self {
+        let infinite: Vec<u32> = (0..count as u32).collect();
         LightSelector {
-            infinite: (0..count as u32).collect(),
+            infinite_lanes: lanes::padded(&infinite),
+            infinite,
             tree: LightTree::default(),
             slots: count as u32,
             slot_pmf: if count == 0 { 0.0 } else { 1.0 / count as f32 },
