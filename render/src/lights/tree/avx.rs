@@ -150,13 +150,12 @@ pub(super) fn prefix_sums(w: __m256) -> __m256 {
     _mm256_blend_ps::<0b1111_0000>(quads, _mm256_add_ps(low3, quads))
 }
 
-/// [`node::child_weights`] then [`node::choose`] at `target = u · sum`.
+/// [`node::child_weights`]: the weights and their running sums (the last lane of `cdf` is the sum).
 #[inline]
 #[target_feature(enable = "avx,avx2")]
-pub(super) fn step(n: &Node, p: [f32; 3], u: f32) -> Step {
-    let mut w = importances(n, p);
-    let mut cdf = prefix_sums(w);
-    let mut sum = lane(cdf, WIDTH - 1);
+pub(super) fn weights(n: &Node, p: [f32; 3]) -> (__m256, __m256) {
+    let w = importances(n, p);
+    let cdf = prefix_sums(w);
     // `0 < sum < ∞` on the vector (every lane of `sums` is the sum): LLVM turned the scalar test
     // into a dozen integer instructions.
     let sums = _mm256_permutevar8x32_ps(cdf, _mm256_set1_epi32(WIDTH as i32 - 1));
@@ -164,20 +163,35 @@ pub(super) fn step(n: &Node, p: [f32; 3], u: f32) -> Step {
         _mm256_cmp_ps::<_CMP_GT_OQ>(sums, _mm256_setzero_ps()),
         _mm256_cmp_ps::<_CMP_LT_OQ>(sums, _mm256_set1_ps(f32::INFINITY)),
     );
-    if _mm256_movemask_ps(positive_finite) == 0 {
-        // The uniform fallback (rare: a point on a point light, or no child may contribute).
-        let live =
-            _mm256_cmpgt_epi32(_mm256_set1_epi32(n.len as i32), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-        w = _mm256_and_ps(_mm256_castsi256_ps(live), _mm256_set1_ps(1.0));
-        cdf = prefix_sums(w);
-        sum = lane(cdf, WIDTH - 1);
+    if _mm256_movemask_ps(positive_finite) != 0 {
+        return (w, cdf);
     }
+    // The uniform fallback (rare: a point on a point light, or no child may contribute).
+    let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n.len as i32), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+    let w = _mm256_and_ps(_mm256_castsi256_ps(live), _mm256_set1_ps(1.0));
+    (w, prefix_sums(w))
+}
+
+/// [`node::choose`] at `target = u · sum` among the first `len` lanes of the weights `w` and
+/// their running sums `cdf`.
+#[inline]
+#[target_feature(enable = "avx,avx2")]
+pub(super) fn choose(w: __m256, cdf: __m256, len: u32, u: f32) -> Step {
+    let sum = lane(cdf, WIDTH - 1);
     let target = u * sum;
     let at_or_below = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(cdf, _mm256_set1_ps(target))) as u32;
     let positive = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(w, _mm256_setzero_ps())) as u32;
     let run = (!at_or_below).trailing_zeros();
     let last_with_probability = 31 - (positive | 1).leading_zeros();
-    let chosen = if run < n.len { run } else { last_with_probability } as usize;
+    let chosen = if run < len { run } else { last_with_probability } as usize;
     let below = lane(cdf, chosen.wrapping_sub(1) % WIDTH);
     Step { chosen, weight: lane(w, chosen), below: if chosen == 0 { 0.0 } else { below }, sum, target }
+}
+
+/// [`node::step`]: [`weights`] then [`choose`].
+#[inline]
+#[target_feature(enable = "avx,avx2")]
+pub(super) fn step(n: &Node, p: [f32; 3], u: f32) -> Step {
+    let (w, cdf) = weights(n, p);
+    choose(w, cdf, n.len, u)
 }
