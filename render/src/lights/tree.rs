@@ -48,11 +48,25 @@
 //! Sampling descends with one uniform number: at each node the children's probabilities (their
 //! share of the node's importance; 1 / children each where none may contribute, so the
 //! probabilities over all lights always sum to 1), the categorical choice among them (branch-free:
-//! pairwise prefix sums of the importances, the count of those at or below `u` · their sum), and
+//! pairwise prefix sums of the importances, the run of those at or below `u` · their sum), and
 //! `u` rescaled into the chosen child's slice (clamped below 1). A child of probability 0 is never
 //! chosen. The descent is latency-bound (square roots and divisions in a chain, then the next
 //! node's address depends on the choice), so the choice compares weights rather than dividing
-//! all eight first, and φ / d² is divided before the angles are known.
+//! all eight first, and φ / d² is divided before the angles are known. A node whose children all
+//! emit in every direction (spheres, points, the emissive triangles' entry, and nodes over them
+//! only: `Node::omni`, set at build) weighs them by φ / max(d², r²) alone, which is what the
+//! whole formula gives there bit for bit wherever the squared distances are finite (the proof is
+//! at `node::omni_importances`): one division for eight children where the cone terms took four
+//! square roots and three divisions.
+//!
+//! The wavefront's descents (`tree/lanes.rs`) run the node step in AVX2 intrinsics
+//! (`tree/avx.rs`: the weights stay in a register from the importance to the choice, the running
+//! sums are three shuffle-and-add steps, each bit mask of the choice one `vmovmskps`); the
+//! baseline clone and the scalar `descend` and `replay` run the portable functions in
+//! `tree/node.rs`, and the tests hold the two to the same bits. Callgrind (120×80, 8 spp, one
+//! thread, shading-heavy), before → after the intrinsics, the short path and the 8-wide first
+//! choice: wavefront selection 18.67 → 7.98 M instructions; scalar integrator `Lights::sample`
+//! (inclusive, the descent inlined) 33.11 → 30.56 M. Images of both integrators byte-identical.
 //!
 //! Measured (contended machine). RMSE over RGB at 160×107 against a 1024-spp render of the same
 //! build (`bench convergence`, shading-heavy): uniform selection 0.298 at 16 spp and 0.136 at 64
@@ -252,7 +266,7 @@ impl LightTree {
 }
 
 /// [`LightTree::sample`]: at each node, one 8-lane pass for the children's weights, then the child
-/// whose slice of the cumulative weights holds `u · sum` ([`choose`]), and `u` rescaled into that
+/// whose slice of the cumulative weights holds `u · sum` (`node::choose`), and `u` rescaled into that
 /// slice; the probability it multiplies is the chosen child's `w / sum`, as [`replay`]'s.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn descend(nodes: &[Node], p: [f32; 3], mut u: f32) -> (usize, f32) {

@@ -2,20 +2,19 @@
 //! lane kernel: the first choice of all eight lanes without a branch, then the descents of the
 //! lanes that chose the tree interleaved level by level.
 //!
-//! One descent is latency-bound: at each node a chain of square roots and divisions (the 8-lane
-//! importance pass, the sum, the choice, `u` rescaled), and the next node's address depends on the
-//! choice. The descents of different lanes are independent, so each level is two loops over the
-//! lanes still descending: first every lane's importance pass (into a small array), then every
-//! lane's choice and step to its child. Nothing in an iteration waits for the one before, and each
-//! body is short enough (about 60 instructions for the pass) that the out-of-order window holds
-//! several lanes' chains at once. The loops have no data-dependent branch either: the first choice
+//! One descent is latency-bound: at each node a chain (the 8-lane importance pass, the running
+//! sums, the choice, `u` rescaled), and the next node's address depends on the choice. The
+//! descents of different lanes are independent, so each level is one loop over the lanes still
+//! descending, each body one node step of one lane ([`node::step`], or `avx::step` in the AVX2
+//! clone: the same bits); nothing in an iteration waits for the one before, so the out-of-order
+//! window overlaps the lanes' chains. The loop has no data-dependent branch: the first choice
 //! (dome, sun or tree: a coin flip per lane) and a lane's end of descent (a leaf or not) only set a
 //! count; the lanes that go on descending are compacted in place, and the light index and
 //! probability are written at every step, so each lane's last write is its leaf's.
 //!
-//! Every lane makes the scalar descent's operations in the same order ([`child_weights`],
-//! [`choose`], `pmf *= w / sum`, `u` rescaled and clamped): the result equals `select` bit for bit
-//! (the tests check it for 1 to 300 lights; the bench renders are byte-identical).
+//! Every lane makes the scalar descent's operations in the same order ([`node::child_weights`],
+//! [`node::choose`], `pmf *= w / sum`, `u` rescaled and clamped): the result equals `select` bit
+//! for bit (the tests check it for 1 to 300 lights; the bench renders are byte-identical).
 //!
 //! Measured on the shading-heavy bench scene (48 sphere lights, dome, sun; AMD EPYC, contended),
 //! against eight scalar `select` calls per group:
@@ -30,6 +29,18 @@
 //! - callgrind (120×80, 8 spp, one thread): the selection (inclusive) 14.92 → 18.67 M
 //!   instructions (the weights' round trip through memory and the compaction), the render 542.67 →
 //!   544.92 M (+0.4 %): more instructions, less time.
+//!
+//! Then the node step in AVX2 intrinsics (`tree/avx.rs`), the short importance of nodes whose
+//! children all emit in every direction ([`node::omni_importances`]: every node of the bench
+//! scene), and the first choice 8-wide (`first_choice`, `pick`: the slot's `as usize` had taken
+//! about 40 scalar instructions a lane, 4.2 M in all). Callgrind, same settings: the selection
+//! 18.67 → 7.98 M instructions (descents 64,167 node steps: about 226 → 95 instructions a step),
+//! `light_lanes::sample_lanes` inclusive 28.32 → 17.64 M, the render 526.99 → 516.53 M; images
+//! byte-identical. perf, same render, share of samples, 3 runs each, alternated, `-F 20000`:
+//! selection (`descend_interleaved` + `select_lanes` → `select_in`) 3.52 / 3.44 / 3.45 % → 2.10 /
+//! 2.13 / 2.07 %. Tried and dropped: two passes a level again (every lane's weights, then every
+//! lane's choice): 1.90 / 2.13 / 2.00 % against 2.16 / 2.28 / 2.05 % for one pass, within the
+//! noise, and +0.75 M instructions (the weights' round trip through the stack).
 //!
 //! Not done: evaluating the root, which every descending lane visits, for all eight points in one
 //! pass per child (points in lanes, so the sum and the choice would be vertical too). Only about a
