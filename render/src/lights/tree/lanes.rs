@@ -72,9 +72,10 @@ impl LightSelector {
     }
 }
 
-/// [`LightSelector::select_lanes`] under [`multiversion`]: the first choice 8-wide (the slot as
-/// `saturating_i32`, one `cvttps2dq` for all lanes, where `as usize` took about 40 scalar
-/// instructions a lane), then the descents of the lanes in the tree's slot.
+/// [`LightSelector::select_lanes`] under [`multiversion`]: the first choice 8-wide ([`first_choice`]
+/// and [`pick`], or their AVX2 forms: a clamp, one `cvttps2dq` and one `vpermd` for all lanes,
+/// where `as usize` and a bounds-checked load took about 40 scalar instructions a lane), then the
+/// descents of the lanes in the tree's slot.
 #[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn select_in(
