@@ -148,7 +148,7 @@ pub fn weigh_lanes(l: &NeeLanes, out: &mut NeeOut) {
 /// cast runs one `cvttss2si` and two compares per lane (the ray-origin kernel took 217 instructions
 /// per group that way), this one is a blend, a clamp and one `cvttps2dq` for eight lanes.
 #[inline(always)]
-pub(super) fn saturating_i32(x: f32) -> i32 {
+pub(crate) fn saturating_i32(x: f32) -> i32 {
     // The largest f32 below 2³¹; from 2³¹ on the cast saturates to `i32::MAX`.
     const BELOW_2_31: f32 = 2_147_483_520.0;
     // `f32::max` returns the number when one side is NaN, so `clamped` is never NaN.

@@ -2,20 +2,19 @@
 //! lane kernel: the first choice of all eight lanes without a branch, then the descents of the
 //! lanes that chose the tree interleaved level by level.
 //!
-//! One descent is latency-bound: at each node a chain of square roots and divisions (the 8-lane
-//! importance pass, the sum, the choice, `u` rescaled), and the next node's address depends on the
-//! choice. The descents of different lanes are independent, so each level is two loops over the
-//! lanes still descending: first every lane's importance pass (into a small array), then every
-//! lane's choice and step to its child. Nothing in an iteration waits for the one before, and each
-//! body is short enough (about 60 instructions for the pass) that the out-of-order window holds
-//! several lanes' chains at once. The loops have no data-dependent branch either: the first choice
+//! One descent is latency-bound: at each node a chain (the 8-lane importance pass, the running
+//! sums, the choice, `u` rescaled), and the next node's address depends on the choice. The
+//! descents of different lanes are independent, so each level is one loop over the lanes still
+//! descending, each body one node step of one lane ([`node::step`], or `avx::step` in the AVX2
+//! clone: the same bits); nothing in an iteration waits for the one before, so the out-of-order
+//! window overlaps the lanes' chains. The loop has no data-dependent branch: the first choice
 //! (dome, sun or tree: a coin flip per lane) and a lane's end of descent (a leaf or not) only set a
 //! count; the lanes that go on descending are compacted in place, and the light index and
 //! probability are written at every step, so each lane's last write is its leaf's.
 //!
-//! Every lane makes the scalar descent's operations in the same order ([`child_weights`],
-//! [`choose`], `pmf *= w / sum`, `u` rescaled and clamped): the result equals `select` bit for bit
-//! (the tests check it for 1 to 300 lights; the bench renders are byte-identical).
+//! Every lane makes the scalar descent's operations in the same order ([`node::child_weights`],
+//! [`node::choose`], `pmf *= w / sum`, `u` rescaled and clamped): the result equals `select` bit
+//! for bit (the tests check it for 1 to 300 lights; the bench renders are byte-identical).
 //!
 //! Measured on the shading-heavy bench scene (48 sphere lights, dome, sun; AMD EPYC, contended),
 //! against eight scalar `select` calls per group:
@@ -31,14 +30,29 @@
 //!   instructions (the weights' round trip through memory and the compaction), the render 542.67 →
 //!   544.92 M (+0.4 %): more instructions, less time.
 //!
+//! Then the node step in AVX2 intrinsics (`tree/avx.rs`), the short importance of nodes whose
+//! children all emit in every direction ([`node::omni_importances`]: every node of the bench
+//! scene), and the first choice 8-wide (`first_choice`, `pick`: the slot's `as usize` had taken
+//! about 40 scalar instructions a lane, 4.2 M in all). Callgrind, same settings: the selection
+//! 18.67 → 7.98 M instructions (descents 64,167 node steps: about 226 → 95 instructions a step),
+//! `light_lanes::sample_lanes` inclusive 28.32 → 17.64 M, the render 526.99 → 516.53 M; images
+//! byte-identical. perf, same render, share of samples, 3 runs each, alternated, `-F 20000`:
+//! selection (`descend_interleaved` + `select_lanes` → `select_in`) 3.52 / 3.44 / 3.45 % → 2.10 /
+//! 2.13 / 2.07 %. Tried and dropped: two passes a level again (every lane's weights, then every
+//! lane's choice): 1.90 / 2.13 / 2.00 % against 2.16 / 2.28 / 2.05 % for one pass, within the
+//! noise, and +0.75 M instructions (the weights' round trip through the stack).
+//!
 //! Not done: evaluating the root, which every descending lane visits, for all eight points in one
 //! pass per child (points in lanes, so the sum and the choice would be vertical too). Only about a
 //! third of a group's lanes descend on the bench scene (dome, sun and tree hold one slot each), so
 //! eight child passes would replace about three point passes, and the square roots and divisions
 //! (the divider's throughput) would triple at the root.
 
-use super::node::{child_weights, choose, Node, LEAF};
+#[cfg(doc)]
+use super::node;
+use super::node::{step, Node, Step, LEAF};
 use super::{LightSelector, ONE_MINUS_EPSILON};
+use crate::wavefront::lanes::saturating_i32;
 
 /// Shading points per call: the wavefront's lane count.
 pub const LANES: usize = 8;
@@ -47,7 +61,6 @@ impl LightSelector {
     /// [`LightSelector::select`] at the eight points `p` (x, y, z columns) with `u_select`: each
     /// lane's light index (selection-list) into `light` and its probability into `pmf`, bit for
     /// bit the scalar results. Must not be empty.
-    #[allow(clippy::needless_range_loop)]
     pub fn select_lanes(
         &self,
         p: &[[f32; LANES]; 3],
@@ -55,70 +68,125 @@ impl LightSelector {
         light: &mut [u32; LANES],
         pmf: &mut [f32; LANES],
     ) {
-        let infinite = self.infinite.len();
-        let (mut descending, mut count) = ([0u8; LANES], 0usize);
-        let mut u = [0.0f32; LANES];
-        for k in 0..LANES {
-            let slot = self.slot(u_select[k]);
-            // Lanes in the tree's slot get a light at infinity here and their own from the descent.
-            light[k] = self.infinite.get(slot.min(infinite.saturating_sub(1))).copied().unwrap_or(0);
-            pmf[k] = self.slot_pmf;
-            // The tree's slot is the last: stretch `u_select` over it (as `select`).
-            u[k] = (u_select[k] * self.slots as f32 - infinite as f32).clamp(0.0, ONE_MINUS_EPSILON);
-            descending[count] = k as u8;
-            count += (slot >= infinite) as usize;
-        }
-        if count == 0 {
-            return;
-        }
-        let tree = descending;
-        let mut path_pmf = [1.0f32; LANES];
-        descend_interleaved(&self.tree.nodes, p, &mut u, &mut descending, count, light, &mut path_pmf);
-        for &k in &tree[..count] {
-            pmf[k as usize] = self.slot_pmf * path_pmf[k as usize];
-        }
+        select_in(self, p, u_select, light, pmf);
     }
 }
 
-/// The tree's descents of the lanes `descending[..count]` from the root, level by level: at the
-/// end `light[k]` is lane `k`'s light and `pmf[k]` the product of its choices' probabilities (from
-/// 1), as [`super::descend`] returns them. `descending` is used as scratch.
-#[allow(clippy::too_many_arguments)]
+/// [`LightSelector::select_lanes`] under [`multiversion`]: the first choice 8-wide ([`first_choice`]
+/// and [`pick`], or their AVX2 forms: a clamp, one `cvttps2dq` and one `vpermd` for all lanes,
+/// where `as usize` and a bounds-checked load took about 40 scalar instructions a lane), then the
+/// descents of the lanes in the tree's slot.
+#[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
-fn descend_interleaved(
-    nodes: &[Node],
+fn select_in(
+    selector: &LightSelector,
     p: &[[f32; LANES]; 3],
-    u: &mut [f32; LANES],
-    descending: &mut [u8; LANES],
-    mut count: usize,
+    u_select: &[f32; LANES],
     light: &mut [u32; LANES],
     pmf: &mut [f32; LANES],
 ) {
-    // Each lane's current node (all start at the root).
-    let mut at = [0u32; LANES];
-    let mut weights = [([0.0f32; LANES], 0.0f32); LANES];
-    while count > 0 {
-        // The importance passes of all lanes first: independent, so the core overlaps them.
-        for j in 0..count {
-            let k = descending[j] as usize;
-            weights[j] = child_weights(&nodes[at[k] as usize], [p[0][k], p[1][k], p[2][k]]);
+    let infinite = &selector.infinite[..];
+    let (mut slot, mut u) = ([0i32; LANES], [0.0f32; LANES]);
+    multiversion::target::match_target! {
+        "x86_64+avx+avx2+fma" => super::avx::first_choice(u_select, selector.slots, infinite.len(), &mut slot, &mut u),
+        _ => first_choice(u_select, selector.slots, infinite.len(), &mut slot, &mut u),
+    }
+    let mut descending = [0u8; LANES];
+    let mut count = 0usize;
+    *light = if infinite.len() <= LANES {
+        multiversion::target::match_target! {
+            "x86_64+avx+avx2+fma" => super::avx::pick(&selector.infinite_lanes, &slot),
+            _ => pick(&selector.infinite_lanes, &slot),
         }
-        let mut next = 0;
-        for j in 0..count {
-            let k = descending[j] as usize;
-            let node = &nodes[at[k] as usize];
-            let (w, sum) = &weights[j];
-            let target = u[k] * sum;
-            let (chosen, below) = choose(w, node.len, target);
-            pmf[k] *= w[chosen] / sum;
-            u[k] = ((target - below) / w[chosen]).clamp(0.0, ONE_MINUS_EPSILON);
-            // A node index until the lane reaches a leaf, then its light.
-            at[k] = node.child[chosen];
-            light[k] = node.child[chosen];
-            // `next <= j`: the slot written was read already.
-            descending[next] = k as u8;
-            next += (node.flags[chosen] & LEAF == 0) as usize;
+    } else {
+        let last_infinite = infinite.len() - 1;
+        std::array::from_fn(|k| infinite[(slot[k] as usize).min(last_infinite)])
+    };
+    for k in 0..LANES {
+        // Lanes in the tree's slot got a light at infinity above and get their own from the
+        // descent. `count <= k`: always in bounds.
+        descending[count % LANES] = k as u8;
+        count += (slot[k] as usize >= infinite.len()) as usize;
+    }
+    // Lanes that did not descend multiply 1: exactly the slot's probability.
+    let mut path_pmf = [1.0f32; LANES];
+    if count > 0 {
+        let nodes = &selector.tree.nodes[..];
+        let mut descents = Descents { u, descending, count, light, pmf: &mut path_pmf };
+        multiversion::target::match_target! {
+            "x86_64+avx+avx2+fma" => descents.run(nodes, p, |n, q, u| super::avx::step(n, q, u)),
+            _ => descents.run(nodes, p, step),
         }
-        count = next;
+    }
+    for k in 0..LANES {
+        pmf[k] = selector.slot_pmf * path_pmf[k];
+    }
+}
+
+/// Each lane's slot of the first choice, `((u_select · slots) as usize).min(slots − 1)` as
+/// [`LightSelector::select`] computes it, and `u_select` stretched over the tree's slot (the last;
+/// `infinite` slots come before it).
+#[inline(always)]
+pub(super) fn first_choice(
+    u_select: &[f32; LANES],
+    slots: u32,
+    infinite: usize,
+    slot: &mut [i32; LANES],
+    u: &mut [f32; LANES],
+) {
+    for k in 0..LANES {
+        let scaled = u_select[k] * slots as f32;
+        slot[k] = saturating_i32(scaled).max(0).min(slots as i32 - 1);
+        u[k] = (scaled - infinite as f32).clamp(0.0, ONE_MINUS_EPSILON);
+    }
+}
+
+/// `table[min(slot, 7)]` in each lane.
+#[inline(always)]
+pub(super) fn pick(table: &[u32; LANES], slot: &[i32; LANES]) -> [u32; LANES] {
+    std::array::from_fn(|k| table[(slot[k] as usize).min(LANES - 1)])
+}
+
+/// [`LightSelector::infinite_lanes`] for the lights at infinity `infinite`.
+pub(super) fn padded(infinite: &[u32]) -> [u32; LANES] {
+    std::array::from_fn(|i| infinite.get(i.min(infinite.len().saturating_sub(1))).copied().unwrap_or(0))
+}
+
+/// The descents of the lanes `descending[..count]` from the root, with their `u` rescaled at
+/// each node: at the end `light[k]` is lane `k`'s light and `pmf[k]` the product of its choices'
+/// probabilities (from 1), as [`super::descend`] returns them. `descending` is used as scratch.
+struct Descents<'a> {
+    u: [f32; LANES],
+    descending: [u8; LANES],
+    count: usize,
+    light: &'a mut [u32; LANES],
+    pmf: &'a mut [f32; LANES],
+}
+
+impl Descents<'_> {
+    /// Level by level: each lane's node step (`step`: [`node::step`] or `avx::step`, the same
+    /// bits), `pmf` and `u` updated with the scalar descent's operations, and its child.
+    #[inline(always)]
+    fn run(&mut self, nodes: &[Node], p: &[[f32; LANES]; 3], step: impl Fn(&Node, [f32; 3], f32) -> Step) {
+        // Each lane's current node (all start at the root).
+        let mut at = [0u32; LANES];
+        while self.count > 0 {
+            let mut next = 0;
+            for j in 0..self.count.min(LANES) {
+                let k = self.descending[j] as usize % LANES;
+                let node = &nodes[at[k] as usize];
+                let Step { chosen, weight, below, sum, target } =
+                    step(node, [p[0][k], p[1][k], p[2][k]], self.u[k]);
+                self.pmf[k] *= weight / sum;
+                self.u[k] = ((target - below) / weight).clamp(0.0, ONE_MINUS_EPSILON);
+                // A node index until the lane reaches a leaf, then its light.
+                at[k] = node.child[chosen];
+                self.light[k] = node.child[chosen];
+                // `next <= j`: the slot written was read already.
+                self.descending[next % LANES] = k as u8;
+                next += (node.flags[chosen] & LEAF == 0) as usize;
+            }
+            self.count = next;
+        }
     }
 }

@@ -221,46 +221,235 @@ fn eight_lanes(n: &node::Node, p: [f32; 3]) -> [f32; 8] {
     node::importances(n, p)
 }
 
-/// The 8-lane importance (the AVX2 clone where the CPU has it) equals the textbook formula bit for
-/// bit on random nodes (cones of every width, one- and two-sided, points, empty lanes) at random
-/// points (far, near, inside the bounding spheres, on a centre).
+/// A node of 1 to 8 random children (cones of every width, one- and two-sided, points); on every
+/// third case all of them emit in every direction (the short path of `omni_importances`).
+fn random_node(rng: &mut Rng, case: usize) -> node::Node {
+    let mut n = node::Node::EMPTY;
+    let omni = case.is_multiple_of(3);
+    for _ in 0..1 + case % 8 {
+        let c = random_point(rng, 5.0);
+        let half = if rng.next_f32() < 0.2 { Vec3::ZERO } else { Vec3::splat(rng.range(0.0, 2.0)) };
+        let axis = random_point(rng, 1.0).try_normalize().unwrap_or(Vec3::Z);
+        let theta_o = [0.0, PI, rng.range(0.0, PI)][((rng.next_f32() * 3.0) as usize).min(2)];
+        let b = LightBounds {
+            lo: c - half,
+            hi: c + half,
+            phi: if rng.next_f32() < 0.05 { 0.0 } else { rng.range(0.0, 100.0) },
+            axis,
+            theta_o: if omni { PI } else { theta_o },
+            theta_e: if omni || rng.next_f32() < 0.8 { FRAC_PI_2 } else { rng.range(0.0, PI) },
+            two_sided: rng.next_f32() < 0.3,
+        };
+        n.push(&b, 0, 0);
+    }
+    let whole_sphere = |k: usize| n.cos_o[k] == -1.0 && n.sin_o[k] == 0.0 && n.cos_e[k] < 1.0;
+    assert_eq!(n.omni != 0, (0..n.len as usize).all(whole_sphere));
+    n
+}
+
+/// A point to weigh `n`'s children at: on its first child's centre, near it, far, at the origin
+/// (the empty lanes' centre), so far that squared distances overflow, or not a number.
+fn probe_point(rng: &mut Rng, n: &node::Node, case: usize) -> Vec3 {
+    let first = Vec3::new(n.center[0][0], n.center[1][0], n.center[2][0]);
+    match case % 11 {
+        0 => first,
+        1 => random_point(rng, 1.5) + first,
+        2 => Vec3::ZERO,
+        3 => random_point(rng, 3e19),
+        4 => Vec3::new(f32::INFINITY, 1.0, -2.0),
+        5 => Vec3::new(0.5, f32::NAN, 1.0),
+        _ => random_point(rng, 12.0),
+    }
+}
+
+/// The same bits, or both NaN (NaN payloads depend on operand order, and a NaN weight only ever
+/// sends the node to the uniform fallback).
+fn same_bits(a: f32, b: f32) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+/// The 8-lane importance (the AVX2 clone where the CPU has it; the short path for nodes of
+/// omnidirectional children) equals the textbook formula bit for bit on random nodes (cones of
+/// every width, one- and two-sided, points, empty lanes) at random points (far, near, inside the
+/// bounding spheres, on a centre, at the origin, at overflowing distances, not a number).
 #[test]
 fn eight_lane_importance_equals_the_scalar_formula_bit_for_bit() {
     let mut rng = Rng(29);
-    let (mut nonzero, mut zero) = (0, 0);
-    for case in 0..20_000 {
-        let mut n = node::Node::EMPTY;
-        for _ in 0..1 + case % 8 {
-            let c = random_point(&mut rng, 5.0);
-            let half = if rng.next_f32() < 0.2 { Vec3::ZERO } else { Vec3::splat(rng.range(0.0, 2.0)) };
-            let axis = random_point(&mut rng, 1.0).try_normalize().unwrap_or(Vec3::Z);
-            let theta_o = [0.0, PI, rng.range(0.0, PI)][((rng.next_f32() * 3.0) as usize).min(2)];
-            let b = LightBounds {
-                lo: c - half,
-                hi: c + half,
-                phi: rng.range(0.0, 100.0),
-                axis,
-                theta_o,
-                theta_e: if rng.next_f32() < 0.8 { FRAC_PI_2 } else { rng.range(0.0, PI) },
-                two_sided: rng.next_f32() < 0.3,
-            };
-            n.push(&b, 0, 0);
-        }
-        let p = match case % 4 {
-            0 => Vec3::new(n.center[0][0], n.center[1][0], n.center[2][0]),
-            1 => random_point(&mut rng, 1.5) + Vec3::new(n.center[0][0], n.center[1][0], n.center[2][0]),
-            _ => random_point(&mut rng, 12.0),
-        };
+    let (mut nonzero, mut zero, mut short) = (0, 0, 0);
+    for case in 0..30_000 {
+        let n = random_node(&mut rng, case);
+        let p = probe_point(&mut rng, &n, case);
+        short += (n.omni != 0 && node::omni_importances(&n, p.to_array()).is_some()) as u32;
         let lanes = eight_lanes(&n, p.to_array());
         for (k, lane) in lanes.iter().enumerate() {
             let expected = textbook_importance(&n, k, p);
-            assert_eq!(lane.to_bits(), expected.to_bits(), "case {case} lane {k}: {n:?} at {p}");
+            assert!(
+                same_bits(*lane, expected),
+                "case {case} lane {k}: {lane} against {expected}, {n:?} at {p}"
+            );
             if k < n.len as usize {
                 (nonzero, zero) = if expected > 0.0 { (nonzero + 1, zero) } else { (nonzero, zero + 1) };
             }
         }
     }
     assert!(nonzero > 20_000 && zero > 2_000, "{nonzero} lanes with importance, {zero} without");
+    assert!(short > 5_000, "only {short} nodes took the omnidirectional short path");
+}
+
+/// The running sums in registers are the pairwise sums written out, and the last one is the sum
+/// in `child_weights`' former order.
+#[test]
+fn prefix_sums_are_the_pairwise_running_sums() {
+    let mut rng = Rng(37);
+    for case in 0..20_000 {
+        let w: [f32; 8] = std::array::from_fn(|k| match (case + k) % 5 {
+            0 => 0.0,
+            1 => rng.range(0.0, 1e-30),
+            _ => rng.range(0.0, 1e6),
+        });
+        let (s01, s23, s45, s67) = (w[0] + w[1], w[2] + w[3], w[4] + w[5], w[6] + w[7]);
+        let s0123 = s01 + s23;
+        let written = [
+            w[0],
+            s01,
+            s01 + w[2],
+            s0123,
+            s0123 + w[4],
+            s0123 + s45,
+            s0123 + (s45 + w[6]),
+            s0123 + (s45 + s67),
+        ];
+        let cdf = node::prefix_sums(&w);
+        assert_eq!(cdf.map(f32::to_bits), written.map(f32::to_bits), "{w:?}");
+        assert!(cdf.windows(2).all(|c| c[0] <= c[1]), "{w:?}: {cdf:?}");
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            let mut vector = [0.0f32; 8];
+            // SAFETY: the CPU has AVX and AVX2 (checked above); `vector` is eight writable `f32`s.
+            unsafe {
+                use std::arch::x86_64::*;
+                _mm256_storeu_ps(vector.as_mut_ptr(), avx::prefix_sums(_mm256_loadu_ps(w.as_ptr())));
+            }
+            assert_eq!(vector.map(f32::to_bits), written.map(f32::to_bits), "{w:?}");
+        }
+    }
+}
+
+/// The AVX2 node step (importances, running sums, uniform fallback, choice, and the chosen
+/// child's weight and lower end) equals the portable one bit for bit on random nodes, points and
+/// `u` (with the ends 0 and 1 − ε).
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_avx_node_step_equals_the_portable_one() {
+    if !std::arch::is_x86_feature_detected!("avx2") {
+        eprintln!("no AVX2: nothing to compare");
+        return;
+    }
+    let mut rng = Rng(43);
+    let mut fallbacks = 0;
+    for case in 0..50_000 {
+        let n = random_node(&mut rng, case);
+        let p = probe_point(&mut rng, &n, case).to_array();
+        let u = match case % 13 {
+            0 => 0.0,
+            1 => ONE_MINUS_EPSILON,
+            _ => rng.next_f32(),
+        };
+        let mut vector = [0.0f32; 8];
+        // SAFETY: the CPU has AVX and AVX2 (checked above); `vector` is eight writable `f32`s.
+        let got = unsafe {
+            std::arch::x86_64::_mm256_storeu_ps(vector.as_mut_ptr(), avx::importances(&n, p));
+            avx::step(&n, p, u)
+        };
+        let scalar = node::importances(&n, p);
+        for k in 0..8 {
+            assert!(
+                same_bits(vector[k], scalar[k]),
+                "case {case} lane {k}: {vector:?} {scalar:?}, {n:?} at {p:?}"
+            );
+        }
+        let want = node::step(&n, p, u);
+        assert_eq!(
+            (got.chosen, got.weight.to_bits(), got.below.to_bits(), got.sum.to_bits(), got.target.to_bits()),
+            (
+                want.chosen,
+                want.weight.to_bits(),
+                want.below.to_bits(),
+                want.sum.to_bits(),
+                want.target.to_bits()
+            ),
+            "case {case}: {got:?} against {want:?}, {n:?} at {p:?}"
+        );
+        assert!(got.chosen < n.len as usize && got.weight > 0.0, "case {case}: {got:?}");
+        fallbacks += (got.sum == n.len as f32 && got.weight == 1.0) as u32;
+    }
+    assert!(fallbacks > 1_000, "only {fallbacks} steps took the uniform fallback");
+}
+
+/// The lanes' first choice (8-wide where the CPU has AVX2, and the portable lanes) gives each
+/// lane `LightSelector::select`'s slot and stretched `u`, for 1 to 12 slots with and without the
+/// tree's, at random `u` and at the ends, negative, at least 1, infinite and NaN.
+#[test]
+fn the_lanes_first_choice_equals_the_scalar_slot() {
+    let mut rng = Rng(47);
+    for slots in 1..=12u32 {
+        for infinite in [slots - 1, slots] {
+            let table: Vec<u32> = (0..infinite).map(|i| 100 + 3 * i).collect();
+            let padded = lanes::padded(&table);
+            for round in 0..500 {
+                let u_select: [f32; 8] = std::array::from_fn(|k| match (round * 8 + k) % 23 {
+                    0 => 0.0,
+                    1 => ONE_MINUS_EPSILON,
+                    2 => -0.25,
+                    3 => 1.0,
+                    4 => f32::INFINITY,
+                    5 => f32::NAN,
+                    6 => -0.0,
+                    _ => rng.next_f32(),
+                });
+                let (mut slot, mut u) = ([0i32; 8], [0.0f32; 8]);
+                lanes::first_choice(&u_select, slots, infinite as usize, &mut slot, &mut u);
+                let light = lanes::pick(&padded, &slot);
+                for k in 0..8 {
+                    let scaled = u_select[k] * slots as f32;
+                    let want_slot = ((scaled as usize).min(slots as usize - 1)) as i32;
+                    let want_u = (scaled - infinite as f32).clamp(0.0, ONE_MINUS_EPSILON);
+                    assert_eq!(slot[k], want_slot, "{slots} slots, u {}", u_select[k]);
+                    assert!(
+                        same_bits(u[k], want_u),
+                        "{slots} slots, u {}: {} against {want_u}",
+                        u_select[k],
+                        u[k]
+                    );
+                    if (want_slot as u32) < infinite && infinite <= 8 {
+                        assert_eq!(light[k], table[want_slot as usize]);
+                    }
+                }
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    let (mut vector_slot, mut vector_u) = ([0i32; 8], [0.0f32; 8]);
+                    // SAFETY: the CPU has AVX and AVX2 (checked above).
+                    let vector_light = unsafe {
+                        avx::first_choice(
+                            &u_select,
+                            slots,
+                            infinite as usize,
+                            &mut vector_slot,
+                            &mut vector_u,
+                        );
+                        avx::pick(&padded, &vector_slot)
+                    };
+                    assert_eq!(vector_slot, slot, "{slots} slots: {u_select:?}");
+                    assert_eq!(
+                        vector_u.map(f32::to_bits),
+                        u.map(f32::to_bits),
+                        "{slots} slots: {u_select:?}"
+                    );
+                    assert_eq!(vector_light, light, "{slots} slots: {u_select:?}");
+                }
+            }
+        }
+    }
 }
 
 /// Irradiance at `p` on a +Z-facing surface estimated by light sampling: mean and standard error.
@@ -372,13 +561,15 @@ fn choice_takes_the_first_child_above_the_target_and_never_one_of_weight_zero() 
             w[((rng.next_f32() * len as f32) as usize).min(len - 1)] = 1.0;
         }
         let sum = ((w[0] + w[1]) + (w[2] + w[3])) + ((w[4] + w[5]) + (w[6] + w[7]));
+        let weights = node::Weights { w, cdf: node::prefix_sums(&w) };
+        assert_eq!(weights.sum().to_bits(), sum.to_bits(), "{w:?}");
         let target = match case % 5 {
             0 => ONE_MINUS_EPSILON * sum,
             1 => 0.0,
             2 => sum,
             _ => rng.next_f32() * sum,
         };
-        let (chosen, below) = node::choose(&w, len as u32, target);
+        let (chosen, below) = node::choose(&weights, len as u32, target);
         assert!(chosen < len && w[chosen] > 0.0, "{w:?} target {target}: chose {chosen}");
         let before: f64 = w[..chosen].iter().map(|&x| x as f64).sum();
         assert!(
