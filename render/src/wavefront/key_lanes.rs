@@ -470,7 +470,7 @@ mod tests {
             input.clear();
             let mut want = Vec::new();
             // Every other round all lanes share one material (the uniform path), else each lane picks.
-            let shared = (round / LANES) % 2 == 0;
+            let shared = (round / LANES).is_multiple_of(2);
             uniform_groups += shared as u32;
             let group_material = (rng.next_f32() * materials as f32) as u32;
             for _ in 0..1 + round % LANES {
