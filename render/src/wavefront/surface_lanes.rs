@@ -55,6 +55,23 @@
 //! 1.42 / 1.44 / 1.39× → 1.30 / 1.36 / 1.49×; simple 1.75 / 2.04 / 1.80× → 1.96 / 1.54 / 2.08×:
 //! the ±15 % run-to-run noise of that machine hides a 5 % change; the instruction counts above
 //! are the deterministic measure.
+//!
+//! Second round: the gather in AVX2 ([`avx2::gather`], chosen at run time; the portable gather is
+//! kept as the fallback and both are tested against the scalar function). The per-lane gather
+//! was ~105 of the kernel's ~200 instructions per hit (scalar loads and stores of 3 × 3 positions,
+//! normals, 3 × 2 uvs, hit fields, material and mesh flags by triangle index); as 31 eight-lane
+//! gathers by byte offset (optional attributes masked by the lanes' mesh flags, index checks
+//! against the arrays' lengths as vector compares) it takes ~360 instructions per group (~45 per
+//! hit). Callgrind, same settings, images byte-identical (with the key change of
+//! [`super::key_lanes`]'s second round in the process figures):
+//!
+//! | scene | process | `surface_columns` | `keep_surfaces` inclusive |
+//! |---|---|---|---|
+//! | shading-heavy | 499.6 M → 487.2 M (−2.5 %) | 19.19 M → 10.14 M (gather 4.08 M) | 44.8 M → 32.2 M |
+//! | tractor | 336.75 M → 327.94 M (−2.6 %) | 17.10 M → 8.01 M | 14.2 M → 10.2 M |
+//! | simple | 133.1 M → 131.3 M (−1.3 %) | 3.84 M → 2.01 M | — |
+//!
+//! Instance transforms are still read per instanced lane (`gather_instance`).
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
