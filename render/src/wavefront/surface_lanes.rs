@@ -72,6 +72,15 @@
 //! | simple | 133.1 M → 131.3 M (−1.3 %) | 3.84 M → 2.01 M | — |
 //!
 //! Instance transforms are still read per instanced lane (`gather_instance`).
+//!
+//! In time the gather is about even: the loads wait on the triangle records and vertices missing
+//! the cache whichever way they are issued (perf annotate: the hot spot is the first use of the
+//! triangle-record gather). `perf` (contended, shading-heavy, wavefront, 320×213, 16 spp,
+//! 1 thread, % of samples): `surface_columns` 5.04 before, `avx2::gather` 4.16 + `surface_columns`
+//! 1.00 after; `keys` 1.33 → 0.87. Task clock of that render (ms, 8 runs alternating three
+//! binaries, sorted): before 944 / 1117 / 1134 / 1135 / 1159 / 1161 / 1169 / 1171, with the key
+//! change only 912 / 1068 / 1089 / 1102 / 1119 / 1128 / 1129 / 1149, with both 964 / 1059 / 1059 /
+//! 1074 / 1122 / 1124 / 1137 / 1165 (medians 1147 / 1110 / 1098: within the machine's noise).
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
