@@ -12,7 +12,12 @@
 #[inline(always)]
 pub(super) fn entry<T>(table: &[T], index: usize) {
     if let Some(item) = table.get(index) {
-        bytes(std::ptr::from_ref(item).cast(), size_of::<T>());
+        if size_of::<T>() <= align_of::<T>() {
+            // An entry no larger than its alignment (a `u32`, a `u64`) never straddles two lines.
+            line(std::ptr::from_ref(item).cast());
+        } else {
+            bytes(std::ptr::from_ref(item).cast(), size_of::<T>());
+        }
     }
 }
 
