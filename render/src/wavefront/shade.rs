@@ -135,6 +135,37 @@
 //! each of the three sites alone came out between the two on shading-heavy. Before / after builds,
 //! 8 runs: shading-heavy median 890 / 864 (min 843 / 826), tractor 465 / 468, simple 167 / 169. A
 //! search over the distances (8/16 to 32/64) drowned in the machine's noise.
+//!
+//! # The glue between the path states and the lanes
+//! What moves each hit's data between the AoS path states and the lanes, cut where callgrind showed
+//! it (`--dump-instr=yes`, line level): [`prepare`] checks its lane once (`assert!(k < LANES)`)
+//! instead of once per column store; [`scatter`] clamps its point count to `LANES` so its lane
+//! loops index the group's columns unchecked, runs the first-hit albedo loop only when the group
+//! holds a first hit (`ScatterGroup::firsts`), asks whether the scene has a textured dome once per
+//! group instead of per lane, and hashes the shadow rays' pass-through seeds eight at a time
+//! ([`shadow_seed_lanes`], AVX2; two scalar `hash_combine` chains per kept shadow ray were
+//! 1.78 M instructions on shading-heavy); [`run`] resolves each member's surface (kept or built)
+//! once instead of per use; [`super::prefetch::entry`] asks for one line for an entry no larger
+//! than its alignment (the surface slots). Callgrind, wavefront, 120×80, 8 spp, 1 thread, before →
+//! after (images byte-equal on all three blobs):
+//!
+//! | scene | whole process | `shade` inclusive | `scatter` inclusive | `shade` + `scatter` self |
+//! |---|---|---|---|---|
+//! | shading-heavy | 499.6 M → 496.7 M (−0.58 %) | 110.6 M → 107.7 M | 64.06 M → 61.52 M | 22.93 M → 20.99 M |
+//! | tractor | 336.8 M → 333.7 M (−0.92 %) | 92.2 M → 89.1 M | 41.27 M → 38.79 M | 26.19 M → 24.19 M |
+//! | simple | 133.1 M → 132.7 M (−0.34 %) | 19.01 M → 18.56 M | 7.50 M → 7.18 M | 5.40 M → 5.02 M |
+//!
+//! Timed (`perf stat` task-clock, shading-heavy, 320×213, 16 spp, 1 thread, 10 alternating runs,
+//! contended, ms): before median 987 (min 845), after median 946 (min 899): inside the noise.
+//!
+//! Measured and kept out: counting the light lanes in the light loop instead of over `has_light`
+//! afterwards (+0.6 M instructions in `scatter`: the count over the array vectorises); prefetching
+//! each path's shadow-ray slot in [`Lookahead`] (its store in `scatter` is the function's hottest
+//! `perf` line, a store miss): task-clock medians 1064 (without) / 1030 (with) ms, minima 834 /
+//! 868, 10 runs each: no win the machine could show, for two more prefetches per hit. The
+//! [`Lookahead`] itself (4.8 M instructions on shading-heavy, 1 % of the process) against none:
+//! medians 1064 / 1093 ms, minima 834 / 843 (10 alternating runs, contended): kept, as in the
+//! earlier measurement above (−4.5 %).
 
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
