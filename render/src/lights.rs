@@ -459,6 +459,12 @@ impl<'a> Lights<'a> {
         Vec3::from(m.emissive_color).max(Vec3::ZERO)
     }
 
+    /// Whether any dome light has a map ([`Lights::is_textured_dome`] is false for every `u_select`
+    /// otherwise).
+    pub(crate) fn has_textured_dome(&self) -> bool {
+        !self.dome_maps.is_empty()
+    }
+
     /// Whether [`Lights::sample`] with `u_select` picks a textured dome.
     pub(crate) fn is_textured_dome(&self, u_select: f32) -> bool {
         !self.dome_maps.is_empty()

@@ -151,33 +151,61 @@ pub(super) fn hit_material(scene: &Scene, hit: &Hit, curve: &CurveHit) -> u32 {
 /// pushed to the kept-surface table in that order.
 pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
     let scene = ctx.scene;
-    w.surfaces.clear();
+    let Worker {
+        shade,
+        states,
+        hits,
+        curve_hits,
+        materials,
+        surface_slot,
+        textured_materials,
+        surfaces,
+        key_plans,
+        surface_group: group,
+        ..
+    } = w;
+    // The per-path tables cut to the pool's length: one bounds check of a path index covers them
+    // all (each was checked on its own: 1.36 M instructions of checks on shading-heavy).
+    let paths = states.len();
+    let (hits, curve_hits) = (&hits[..paths], &curve_hits[..paths]);
+    let (materials, surface_slot) = (&mut materials[..paths], &mut surface_slot[..paths]);
+    let mut keep = KeptSurfaces { shade, surfaces, surface_slot, key_plans, group };
+    keep.surfaces.clear();
     // Shared with shading's runs, which leave their last group in it.
-    w.surface_group.clear();
+    keep.group.clear();
     // Queue positions of the group's hits.
     let mut at = [0usize; LANES];
-    for pos in 0..w.shade.len() {
-        let i = sort::index(w.shade[pos]) as usize;
-        let hit = &w.hits[i];
-        let material = hit_material(scene, hit, &w.curve_hits[i]);
-        w.materials[i] = material;
+    for pos in 0..keep.shade.len() {
+        let i = sort::index(keep.shade[pos]) as usize;
+        let (hit, st) = (&hits[i], &states[i]);
+        let material = hit_material(scene, hit, &curve_hits[i]);
+        materials[i] = material;
         if !ctx.textured {
             continue;
         }
-        w.surface_slot[i] = u32::MAX;
-        if is_curve(hit) || !w.textured_materials[material as usize] {
+        keep.surface_slot[i] = u32::MAX;
+        if is_curve(hit) || !textured_materials[material as usize] {
             continue;
         }
-        let st = &w.states[i];
-        at[w.surface_group.len()] = pos;
-        w.surface_group.push(hit, -st.dir, st.cone().width_at(hit.t));
-        if w.surface_group.is_full() {
-            keep_surfaces(scene, w, &at);
+        at[keep.group.len()] = pos;
+        keep.group.push(hit, -st.dir, st.cone().width_at(hit.t));
+        if keep.group.is_full() {
+            keep_surfaces(scene, &mut keep, &at);
         }
     }
-    if !w.surface_group.is_empty() {
-        keep_surfaces(scene, w, &at);
+    if !keep.group.is_empty() {
+        keep_surfaces(scene, &mut keep, &at);
     }
+}
+
+/// What [`keep_surfaces`] writes: the worker's fields it needs, borrowed apart from the per-path
+/// tables [`sort_keys`] reads alongside.
+struct KeptSurfaces<'a> {
+    shade: &'a mut [u64],
+    surfaces: &'a mut Vec<crate::integrator::Surface>,
+    surface_slot: &'a mut [u32],
+    key_plans: &'a [KeyPlan],
+    group: &'a mut surface_lanes::HitGroup,
 }
 
 /// The surfaces of the worker's surface group (the hits at queue positions `at`; the group is
@@ -185,8 +213,9 @@ pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
 /// degenerate triangle keeps key 0 and no surface): in lanes ([`key_lanes`]) where the material's
 /// key has a lane plan, once per material where it does not depend on the hit, else by
 /// [`crate::shading::Shading::sort_key`].
-fn keep_surfaces(scene: &Scene, w: &mut Worker, at: &[usize; LANES]) {
-    let Worker { shade, surfaces, surface_slot, key_plans, surface_group: group, .. } = w;
+fn keep_surfaces(scene: &Scene, w: &mut KeptSurfaces<'_>, at: &[usize; LANES]) {
+    let KeptSurfaces { shade, surfaces, surface_slot, key_plans, group } = w;
+    let key_plans: &[KeyPlan] = key_plans;
     // The closure only stores: with the key work inside it, it was compiled out of line and every
     // surface went through memory to it (+1.1 M `memcpy` instructions on the tractor).
     let first = surfaces.len();

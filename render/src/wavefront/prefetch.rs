@@ -8,11 +8,18 @@
 //! crates.io wrap the same one x86 instruction; on other targets this is a no-op.
 
 /// Asks for the cache lines of `table[index]` (all of them: a 92-byte `RayState` spans two or
-/// three). An index past the table prefetches nothing.
+/// three). Not bounds-checked: an index past the table asks for lines past it, which a prefetch
+/// may do (it never faults and reads nothing); the check and its branch per entry were ~1 M
+/// instructions in shading's look-ahead on shading-heavy (120×80, 8 spp).
 #[inline(always)]
 pub(super) fn entry<T>(table: &[T], index: usize) {
-    if let Some(item) = table.get(index) {
-        bytes(std::ptr::from_ref(item).cast(), size_of::<T>());
+    // `wrapping_add`: the address is only computed, never dereferenced.
+    let item = table.as_ptr().wrapping_add(index).cast::<u8>();
+    if size_of::<T>() <= align_of::<T>() {
+        // An entry no larger than its alignment (a `u32`, a `u64`) never straddles two lines.
+        line(item);
+    } else {
+        bytes(item, size_of::<T>());
     }
 }
 
@@ -53,11 +60,11 @@ mod tests {
 
     #[test]
     fn prefetching_any_index_leaves_the_table_alone_and_never_faults() {
-        // A hint has no observable effect: the table is unchanged and an index past its end (the
-        // look-ahead at a queue's end) is ignored rather than read.
+        // A hint has no observable effect: the table is unchanged, and an index past its end (the
+        // look-ahead at a queue's end) or far past it neither faults nor reads.
         let table: Vec<super::super::RayState> =
             (0..5).map(|i| super::super::RayState { pixel: i, ..Default::default() }).collect();
-        for i in 0..10 {
+        for i in (0..10).chain([1 << 40, usize::MAX]) {
             entry(&table, i);
         }
         field(&table[4].radiance);

@@ -135,6 +135,52 @@
 //! each of the three sites alone came out between the two on shading-heavy. Before / after builds,
 //! 8 runs: shading-heavy median 890 / 864 (min 843 / 826), tractor 465 / 468, simple 167 / 169. A
 //! search over the distances (8/16 to 32/64) drowned in the machine's noise.
+//!
+//! # The glue between the path states and the lanes
+//! What moves each hit's data between the AoS path states and the lanes, cut where callgrind showed
+//! it (`--dump-instr=yes`, line level): [`prepare`] checks its lane once (`assert!(k < LANES)`)
+//! instead of once per column store; [`scatter`] clamps its point count to `LANES` so its lane
+//! loops index the group's columns unchecked, runs the first-hit albedo loop only when the group
+//! holds a first hit (`ScatterGroup::firsts`), asks whether the scene has a textured dome once per
+//! group instead of per lane, and hashes the shadow rays' pass-through seeds eight at a time
+//! ([`shadow_seed_lanes`], AVX2; two scalar `hash_combine` chains per kept shadow ray were
+//! 1.78 M instructions on shading-heavy); [`run`] resolves each member's surface (kept or built)
+//! once instead of per use; [`super::prefetch::entry`] asks for one line for an entry no larger
+//! than its alignment (the surface slots). Callgrind, wavefront, 120×80, 8 spp, 1 thread, before →
+//! after (images byte-equal on all three blobs):
+//!
+//! | scene | whole process | `shade` inclusive | `scatter` inclusive | `shade` + `scatter` self |
+//! |---|---|---|---|---|
+//! | shading-heavy | 499.6 M → 496.7 M (−0.58 %) | 110.6 M → 107.7 M | 64.06 M → 61.52 M | 22.93 M → 20.99 M |
+//! | tractor | 336.8 M → 333.7 M (−0.92 %) | 92.2 M → 89.1 M | 41.27 M → 38.79 M | 26.19 M → 24.19 M |
+//! | simple | 133.1 M → 132.7 M (−0.34 %) | 19.01 M → 18.56 M | 7.50 M → 7.18 M | 5.40 M → 5.02 M |
+//!
+//! Then [`super::intersect::sort_keys`] with the per-path tables sliced to the pool's length (one
+//! bounds check per path index instead of one per table; [`super::intersect::keep_surfaces`]
+//! borrows only the fields it writes): whole process 496.7 M → 495.1 M (shading-heavy), 333.7 M →
+//! 332.6 M (tractor), 132.65 M → 132.45 M (simple); images byte-equal. Then
+//! [`super::prefetch::entry`] without its bounds check (a prefetch past a table is harmless):
+//! 495.1 M → 493.2 M, 332.6 M → 330.7 M ([`Lookahead`] 4.34 M → 3.46 M), 132.45 M → 131.90 M.
+//! In all, this section: shading-heavy 499.6 M → 493.2 M (−1.3 %), tractor 336.8 M → 330.7 M
+//! (−1.8 %), simple 133.1 M → 131.9 M (−0.9 %). Task-clock of the whole section (shading-heavy,
+//! 320×213, 16 spp, 1 thread, 10 alternating runs, contended): median 1016 → 997 ms, min 854 →
+//! 814 ms.
+//!
+//! Timed (`perf stat` task-clock, shading-heavy, 320×213, 16 spp, 1 thread, 10 alternating runs,
+//! contended, ms): before median 987 (min 845), after median 946 (min 899): inside the noise.
+//! `bench integrators` (2 threads, contended, 3 runs each, alternating), wavefront speed-up over
+//! scalar, before / after: shading-heavy 2.06 / 2.08 / 1.77× and 1.95 / 1.87 / 2.20× (shading +
+//! integration 2.46 / 2.50 / 2.01× and 2.33 / 2.28 / 2.60×), tractor 1.84 / 2.03 / 1.58× and 1.97 /
+//! 2.26 / 2.23×, simple 1.82 / 1.67 / 1.77× and 1.86 / 1.68 / 1.73×: also inside the noise.
+//!
+//! Measured and kept out: counting the light lanes in the light loop instead of over `has_light`
+//! afterwards (+0.6 M instructions in `scatter`: the count over the array vectorises); prefetching
+//! each path's shadow-ray slot in [`Lookahead`] (its store in `scatter` is the function's hottest
+//! `perf` line, a store miss): task-clock medians 1064 (without) / 1030 (with) ms, minima 834 /
+//! 868, 10 runs each: no win the machine could show, for two more prefetches per hit. The
+//! [`Lookahead`] itself (4.8 M instructions on shading-heavy, 1 % of the process) against none:
+//! medians 1064 / 1093 ms, minima 834 / 843 (10 alternating runs, contended): kept, as in the
+//! earlier measurement above (−4.5 %).
 
 use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
 use super::lanes::{self, NeeLanes, NeeOut, LANES};
@@ -165,6 +211,8 @@ pub struct ScatterGroup {
     pub index: [u32; LANES],
     /// 1 where the hit is its path's first (its albedo goes to the first-hit AOV).
     pub first: [u32; LANES],
+    /// How many lanes of `first` are 1: most groups have none, and skip the first-hit loop.
+    pub firsts: u32,
     /// The hits' shading inputs and normals.
     pub inputs: InputLanes,
     /// The BSDFs at the hits (phase 2 builds them from `inputs`), with the directions towards the
@@ -375,19 +423,24 @@ fn run<T: Touch>(
         return;
     }
     let built = &*built;
+    // Each member's surface resolved once (kept or built), not per use below. Filled by a loop:
+    // `array::from_fn` stayed out of line here (+1.8 M instructions on the shading-heavy scene).
+    // Lanes past `count` are not read.
     let surface = |k: usize| match slots[k] {
         NO_SURFACE => built[built_at[k]].as_ref().expect("a member without a kept surface has a built one"),
         slot => &kept[slot as usize],
     };
-    let material = surface(0).material;
+    let mut surfaces = [surface(0); LANES];
+    for (k, s) in surfaces.iter_mut().enumerate().take(count).skip(1) {
+        *s = surface(k);
+    }
+    let material = surfaces[0].material;
     if count == 1 {
-        inputs[0] = scene.shade(surface(0), filter, touch);
+        inputs[0] = scene.shade(surfaces[0], filter, touch);
     } else {
-        // Filled by a loop: `array::from_fn` stayed out of line here (+1.8 M instructions on the
-        // shading-heavy scene). Lanes past `count` are not read.
-        let mut at = [&surface(0).uv; LANES];
-        for (k, at) in at.iter_mut().enumerate().take(count).skip(1) {
-            *at = &surface(k).uv;
+        let mut at = [&surfaces[0].uv; LANES];
+        for (at, s) in at.iter_mut().zip(&surfaces).take(count).skip(1) {
+            *at = &s.uv;
         }
         material_lanes::evaluate_lanes(
             &scene.shading,
@@ -403,8 +456,8 @@ fn run<T: Touch>(
     if w.clock.enabled() {
         w.clock.lap(if w.textured_materials[material as usize] { Phase::Texturing } else { Phase::Shading });
     }
-    for k in 0..count {
-        prepare(ctx, w, paths[k], surface(k), &inputs[k], rays);
+    for ((&path, &s), inputs) in paths.iter().zip(&surfaces).zip(inputs.iter()).take(count) {
+        prepare(ctx, w, path, s, inputs, rays);
         if w.scatter_points == LANES {
             scatter(ctx, w, rays);
         }
@@ -492,8 +545,12 @@ fn prepare<T: Touch>(
 
     let (beta, play) = (st.beta, (st.bounces + 1 >= RR_START_BOUNCE) as u32);
     let (g, k) = (&mut *w.scatter, w.scatter_points);
+    // One check for the lane instead of one per column store below (the compiler cannot see that
+    // `scatter` runs as soon as the group is full).
+    assert!(k < LANES, "the scatter group runs when full");
     g.index[k] = i;
     g.first[k] = is_first as u32;
+    g.firsts += is_first as u32;
     g.inputs.set(k, inputs, ns, s.ng);
     (g.bsdf.wo[0][k], g.bsdf.wo[1][k], g.bsdf.wo[2][k]) = (wo.x, wo.y, wo.z);
     (g.light.p[0][k], g.light.p[1][k], g.light.p[2][k]) = (s.p.x, s.p.y, s.p.z);
@@ -502,6 +559,18 @@ fn prepare<T: Touch>(
     g.footprint[k] = footprint;
     g.play[k] = play;
     w.scatter_points += 1;
+}
+
+/// `out[k]` = the pass-through seed of lane `k`'s shadow ray, `hash_combine(hash_combine(seed_hash,
+/// pixel), sample) ^ vertex` as the scalar integrator draws it: eight lanes at once (AVX2
+/// `vpmulld`) instead of two scalar hash chains per kept shadow ray (1.78 M instructions on
+/// shading-heavy at 120×80, 8 spp, one thread). Lanes past the group's points hash stale keys.
+#[allow(clippy::needless_range_loop)]
+#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
+fn shadow_seed_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [u32; LANES]) {
+    for k in 0..LANES {
+        out[k] = hash_combine(hash_combine(seed_hash, keys.pixel[k]), keys.sample[k]) ^ keys.vertex[k];
+    }
 }
 
 /// `|n · w|` per lane (glam's `dot` order), the cosine the estimators weigh by.
@@ -535,7 +604,9 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
         clock,
         ..
     } = w;
-    let (g, len) = (&mut **scatter, std::mem::take(scatter_points));
+    // `min`: the lane loops below then index the group's columns without bounds checks
+    // (`scatter_points` never exceeds `LANES`).
+    let (g, len) = (&mut **scatter, std::mem::take(scatter_points).min(LANES));
     // Without lights every lane's sample stays absent (these zeros are never read).
     let mut ls = LightSampleLanes::default();
     let KernelLanes {
@@ -559,10 +630,12 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
 
     // The BSDFs, the first hits' albedos, and the origin of both rays leaving each hit.
     bsdf_lanes::from_inputs_lanes(&g.inputs, &mut g.bsdf);
-    for k in 0..len {
-        if g.first[k] != 0 {
-            if let Some(first) = first_hits[g.index[k] as usize].as_mut() {
-                first.albedo = at(&g.bsdf.diffuse, k);
+    if std::mem::take(&mut g.firsts) > 0 {
+        for k in 0..len {
+            if g.first[k] != 0 {
+                if let Some(first) = first_hits[g.index[k] as usize].as_mut() {
+                    first.albedo = at(&g.bsdf.diffuse, k);
+                }
             }
         }
     }
@@ -572,9 +645,11 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     let mut has_light = [false; LANES];
     if let Some(table) = table {
         light_lanes::sample_lanes(table, &g.light, &mut ls);
+        // Once per group, not per lane: most scenes have no textured dome.
+        let textured_dome = scene.lights.has_textured_dome();
         for k in 0..len {
             // Textured domes sample by their map on the scalar path (the kernel has no map lookups).
-            if scene.lights.is_textured_dome(g.light.u_select[k]) {
+            if textured_dome && scene.lights.is_textured_dome(g.light.u_select[k]) {
                 let u = [g.light.u[0][k], g.light.u[1][k]];
                 let s = scene.lights.sample(at(&g.light.p, k), g.light.u_select[k], u);
                 ls.ok[k] = s.is_some() as u32;
@@ -604,18 +679,19 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     (nl.light_pdf, nl.bsdf_pdf, nl.delta) = (ls.pdf, ev.pdf, ls.delta);
     abs_cos_lanes(&g.bsdf.n, &ls.wi, &mut nl.cos);
     lanes::weigh_lanes(nl, nout);
+    let mut seeds = [0; LANES];
+    shadow_seed_lanes(seed_hash, &g.keys, &mut seeds);
     for k in 0..len {
         if !has_light[k] || nout.keep[k] == 0 {
             continue;
         }
         let (i, p, origin) = (g.index[k] as usize, at(&g.light.p, k), at(origin, k));
-        let st = &states[i];
         shadow[i] = ShadowRay {
             origin,
             dir: at(&ls.wi, k),
             tmax: shadow_tmax(ls.distance[k], origin, p),
             contribution: at(&nout.contribution, k),
-            seed: hash_combine(hash_combine(seed_hash, st.pixel), st.sample) ^ st.vertex,
+            seed: seeds[k],
         };
         occlusion.push(i as u32);
     }
@@ -653,6 +729,29 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shadow_seed_lanes_equal_the_scalar_seeds() {
+        let mut rng = crate::sampler::hash_u32(17);
+        let mut next = || {
+            rng = crate::sampler::hash_u32(rng.wrapping_add(1));
+            rng
+        };
+        for _ in 0..100 {
+            let seed_hash = next();
+            let mut keys = KeyLanes::default();
+            for k in 0..LANES {
+                (keys.pixel[k], keys.sample[k], keys.vertex[k]) = (next(), next() % 4096, next() % 64);
+            }
+            let mut seeds = [0; LANES];
+            shadow_seed_lanes(seed_hash, &keys, &mut seeds);
+            for (k, &seed) in seeds.iter().enumerate() {
+                let scalar =
+                    hash_combine(hash_combine(seed_hash, keys.pixel[k]), keys.sample[k]) ^ keys.vertex[k];
+                assert_eq!(seed, scalar, "lane {k}");
+            }
+        }
+    }
 
     #[test]
     fn runs_cover_the_queue_once_in_order_with_one_material_and_no_curves() {
