@@ -72,7 +72,6 @@ render_filters=(
     lights::tests::escaped_emission_of_many_rays_equals_the_scalar_one
     lights::tree::tests::
     lights::tests::culled_area_emission_equals_the_sum_over_every_light
-    area_groups::tests::the_lane_box_test_equals_the_scalar_one_bit_for_bit
     shading::tests::small_register_file_equals_the_full_one
     dome_tests::wavefront_image_equals_the_scalar_one_under_a_textured_dome
 )
