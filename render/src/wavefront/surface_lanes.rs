@@ -624,6 +624,40 @@ mod avx2 {
         unsafe { _mm256_i32gather_epi32::<1>(base as *const i32, at) }
     }
 
+    /// The `C` components of a per-vertex attribute (`data`, by vertex index) at the three corners
+    /// `v` into `columns`, in the lanes of `mask` (the others keep their stale values), or `false`
+    /// (nothing trusted written) when a masked lane's vertex index is out of `data`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn corner_attribute<const C: usize>(
+        columns: &mut [[[f32; LANES]; C]; 3],
+        data: &[[f32; C]],
+        v: &[__m256i; 3],
+        mask: __m256i,
+    ) -> bool {
+        let unmasked = _mm256_xor_si256(mask, _mm256_set1_epi32(-1));
+        if data.is_empty() || !v.iter().all(|&v| all(_mm256_or_si256(below(v, data.len()), unmasked))) {
+            return false;
+        }
+        let base = data.as_ptr() as *const f32;
+        let record = _mm256_set1_epi32(size_of::<[f32; C]>() as i32);
+        for (corner, columns) in v.iter().zip(columns) {
+            for (c, column) in columns.iter_mut().enumerate() {
+                let at =
+                    _mm256_add_epi32(_mm256_mullo_epi32(*corner, record), _mm256_set1_epi32(4 * c as i32));
+                // SAFETY: every masked lane's index is below `data.len()` (checked above) and
+                // `data` is small enough for 32-bit byte offsets (the caller's `fits`); the column
+                // is an aligned `[f32; 8]`.
+                unsafe {
+                    let old = _mm256_load_ps(column.as_ptr());
+                    let got = _mm256_mask_i32gather_ps::<1>(old, base, at, _mm256_castsi256_ps(mask));
+                    _mm256_store_ps(column.as_mut_ptr(), got);
+                }
+            }
+        }
+        true
+    }
+
     /// [`super::gather_portable`]'s columns and result, or `None` (nothing trusted written) when
     /// an index is out of its array or an array is too large for 32-bit byte offsets: the
     /// portable gather then reports it as the scalar code does.
@@ -655,7 +689,6 @@ mod avx2 {
             }
             let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
             let used = _mm256_cmpgt_epi32(_mm256_set1_epi32(len as i32), lane);
-            let ones = _mm256_set1_epi32(-1);
 
             // The hits' fields (an array of `Hit`s: one gather per field).
             let hit_base = hits.as_ptr() as *const u8;
@@ -718,50 +751,10 @@ mod avx2 {
                 }
             }
             let any = |mask: __m256i| _mm256_movemask_ps(_mm256_castsi256_ps(mask)) != 0;
-            // Lanes without the attribute keep their (stale) column values.
-            let masked = |column: &mut [f32; LANES], base: *const u8, at: __m256i, mask: __m256i| {
-                let old = _mm256_load_ps(column.as_ptr());
-                let got =
-                    _mm256_mask_i32gather_ps::<1>(old, base as *const f32, at, _mm256_castsi256_ps(mask));
-                _mm256_store_ps(column.as_mut_ptr(), got);
-            };
-            if any(has_normals) {
-                if normals.is_empty()
-                    || !v.iter().all(|&v| {
-                        all(_mm256_or_si256(below(v, normals.len()), _mm256_xor_si256(has_normals, ones)))
-                    })
-                {
-                    return None;
-                }
-                for i in 0..3 {
-                    for c in 0..3 {
-                        masked(
-                            &mut g.n[i][c],
-                            normals.as_ptr() as *const u8,
-                            by_vertex(v[i], 12, c as i32),
-                            has_normals,
-                        );
-                    }
-                }
-            }
-            if any(has_uvs) {
-                if uvs.is_empty()
-                    || !v
-                        .iter()
-                        .all(|&v| all(_mm256_or_si256(below(v, uvs.len()), _mm256_xor_si256(has_uvs, ones))))
-                {
-                    return None;
-                }
-                for i in 0..3 {
-                    for c in 0..2 {
-                        masked(
-                            &mut g.t[i][c],
-                            uvs.as_ptr() as *const u8,
-                            by_vertex(v[i], 8, c as i32),
-                            has_uvs,
-                        );
-                    }
-                }
+            if (any(has_normals) && !corner_attribute(&mut g.n, normals, &v, has_normals))
+                || (any(has_uvs) && !corner_attribute(&mut g.t, uvs, &v, has_uvs))
+            {
+                return None;
             }
             let instanced_lanes = _mm256_movemask_ps(_mm256_castsi256_ps(instanced)) as u32;
             let mut rest = instanced_lanes;
