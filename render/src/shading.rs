@@ -123,18 +123,34 @@ impl ShadingInputs {
 
     /// Binds `v` (an `OUTPUT` op's swizzled register) to shading input `input`.
     pub(crate) fn set(&mut self, input: u32, v: [f32; 4]) {
-        let rgb = Vec3::new(v[0], v[1], v[2]);
+        Self::set_each(std::slice::from_mut(self), input, |_| [v[0], v[1], v[2]]);
+    }
+
+    /// Binds shading input `input` of every entry `k` of `inputs` to `value(k)`: a colour takes its
+    /// three channels, a scalar the first. The one mapping from an input to its field, for the
+    /// scalar program ([`Self::set`]) and the lanes (`material_lanes`), which call it once per op
+    /// rather than once per lane. Inlined, so unused channels are never read.
+    #[inline(always)]
+    pub(crate) fn set_each(inputs: &mut [ShadingInputs], input: u32, value: impl Fn(usize) -> [f32; 3]) {
+        #[inline(always)]
+        fn each(inputs: &mut [ShadingInputs], f: impl Fn(&mut ShadingInputs, usize)) {
+            for (k, lane) in inputs.iter_mut().enumerate() {
+                f(lane, k);
+            }
+        }
+        let rgb = |k: usize| Vec3::from_array(value(k));
+        let x = |k: usize| value(k)[0];
         match input {
-            shading_input::DIFFUSE_COLOR => self.diffuse_color = rgb,
-            shading_input::EMISSIVE_COLOR => self.emissive_color = rgb,
-            shading_input::SPECULAR_COLOR => self.specular_color = rgb,
-            shading_input::ROUGHNESS => self.roughness = v[0],
-            shading_input::METALLIC => self.metallic = v[0],
-            shading_input::OPACITY => self.opacity = v[0],
-            shading_input::NORMAL => self.normal = Some(rgb),
-            shading_input::CLEARCOAT => self.clearcoat = v[0],
-            shading_input::CLEARCOAT_ROUGHNESS => self.clearcoat_roughness = v[0],
-            shading_input::IOR => self.ior = v[0],
+            shading_input::DIFFUSE_COLOR => each(inputs, |l, k| l.diffuse_color = rgb(k)),
+            shading_input::EMISSIVE_COLOR => each(inputs, |l, k| l.emissive_color = rgb(k)),
+            shading_input::SPECULAR_COLOR => each(inputs, |l, k| l.specular_color = rgb(k)),
+            shading_input::ROUGHNESS => each(inputs, |l, k| l.roughness = x(k)),
+            shading_input::METALLIC => each(inputs, |l, k| l.metallic = x(k)),
+            shading_input::OPACITY => each(inputs, |l, k| l.opacity = x(k)),
+            shading_input::NORMAL => each(inputs, |l, k| l.normal = Some(rgb(k))),
+            shading_input::CLEARCOAT => each(inputs, |l, k| l.clearcoat = x(k)),
+            shading_input::CLEARCOAT_ROUGHNESS => each(inputs, |l, k| l.clearcoat_roughness = x(k)),
+            shading_input::IOR => each(inputs, |l, k| l.ior = x(k)),
             _ => {}
         }
     }

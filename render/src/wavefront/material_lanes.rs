@@ -30,8 +30,7 @@
 
 use super::lanes::LANES;
 use crate::shading::{reg, wrap, Shading, ShadingInputs, UvFootprint};
-use blob::{op_kind, shading_input, ShaderOp, MAX_REGISTERS, NONE};
-use glam::Vec3;
+use blob::{op_kind, ShaderOp, MAX_REGISTERS, NONE};
 use texture::{Filter, LookupLanes, Touch};
 
 /// One scalar per lane.
@@ -160,30 +159,12 @@ fn primvar_uv_lanes(regs: &mut RegisterLanes, op: &ShaderOp, at: &[&UvFootprint]
 
 /// `OUTPUT` for every lane of `inputs`: the swizzle and the shading input resolved once per op
 /// (each lane through [`ShadingInputs::set`] matched both per lane: ≈ 250 instructions of a
-/// group's ≈ 1,275 outside the lookup on shading-heavy). The same fields as `set` writes.
+/// group's ≈ 1,275 outside the lookup on shading-heavy), by [`ShadingInputs::set_each`], the
+/// mapping `set` uses too.
 fn output_lanes(inputs: &mut [ShadingInputs], v: &[Lanes; 4], op: &ShaderOp) {
     let column = |i: u32| &v[((op.flags >> (2 * i)) & 3) as usize];
     let (x, y, z) = (column(0), column(1), column(2));
-    let rgb = |k: usize| Vec3::new(x[k], y[k], z[k]);
-    #[inline(always)]
-    fn each(inputs: &mut [ShadingInputs], f: impl Fn(&mut ShadingInputs, usize)) {
-        for (k, lane) in inputs.iter_mut().enumerate() {
-            f(lane, k);
-        }
-    }
-    match op.dst {
-        shading_input::DIFFUSE_COLOR => each(inputs, |l, k| l.diffuse_color = rgb(k)),
-        shading_input::EMISSIVE_COLOR => each(inputs, |l, k| l.emissive_color = rgb(k)),
-        shading_input::SPECULAR_COLOR => each(inputs, |l, k| l.specular_color = rgb(k)),
-        shading_input::ROUGHNESS => each(inputs, |l, k| l.roughness = x[k]),
-        shading_input::METALLIC => each(inputs, |l, k| l.metallic = x[k]),
-        shading_input::OPACITY => each(inputs, |l, k| l.opacity = x[k]),
-        shading_input::NORMAL => each(inputs, |l, k| l.normal = Some(rgb(k))),
-        shading_input::CLEARCOAT => each(inputs, |l, k| l.clearcoat = x[k]),
-        shading_input::CLEARCOAT_ROUGHNESS => each(inputs, |l, k| l.clearcoat_roughness = x[k]),
-        shading_input::IOR => each(inputs, |l, k| l.ior = x[k]),
-        _ => {}
-    }
+    ShadingInputs::set_each(inputs, op.dst, |k| [x[k], y[k], z[k]]);
 }
 
 /// `TRANSFORM_2D`: `xy ← M xy + t` and `M` applied to both derivatives (`zw` carried over).
