@@ -1,9 +1,11 @@
 //! `bench integrators [BLOB…]`: the scalar (depth-first) and wavefront (breadth-first) integrators on
 //! the same scenes, options and threads, side by side in one process (MoonRay, HPG 2017, Table 2).
 //!
-//! Without blobs the bench runs three scenes: the bundled tractor (`examples/tractor.usda`), a
-//! generated shading-heavy scene (textured spheres and ground, 48 sphere lights, a dome and a sun) and
-//! a generated simple one (a grey sphere under a dome). Per scene and integrator:
+//! Without blobs the bench runs four scenes: the bundled tractor (`examples/tractor.usda`), a
+//! generated shading-heavy scene (textured spheres and ground, 48 sphere lights, a dome and a sun), the
+//! same geometry and lights with production-style materials (material-heavy: per material a
+//! UsdTransform2d and base-colour, roughness, metallic and normal maps) and a generated simple one (a
+//! grey sphere under a dome). Per scene and integrator:
 //!
 //! * speed: best of `repeat` renders without phase timers, in process CPU seconds (all threads) and
 //!   wall seconds, as Mrays and M shader evaluations per CPU second;
@@ -303,6 +305,117 @@ fn shading_heavy_scene() -> anyhow::Result<ingest::Scene> {
     })
 }
 
+/// A procedural `n`² texture of `channels` 8-bit channels: value noise over a brick pattern, seeded so
+/// each map of each material differs (every lookup reads varied texels, as a painted map's would).
+fn procedural_texture(
+    n: u32,
+    channels: u32,
+    seed: u32,
+    color_space: texture::ColorSpace,
+    texel: impl Fn(u32, u32, u32) -> [u8; 4],
+) -> anyhow::Result<ingest::scene::SceneTexture> {
+    use ingest::scene::{SceneTexture, TextureData};
+    let samples: Vec<u8> = (0..n * n)
+        .flat_map(|i| {
+            let (x, y) = (i % n, i / n);
+            let h = (x.wrapping_mul(73_856_093) ^ y.wrapping_mul(19_349_663) ^ seed.wrapping_mul(83_492_791))
+                .wrapping_mul(2_654_435_761);
+            texel(x, y, h)[..channels as usize].to_vec()
+        })
+        .collect();
+    let src = texture::SourceImage { width: n, height: n, channels, samples: texture::Samples::U8(samples) };
+    let baked = texture::bake(&src, &texture::BakeOptions { color_space, ..Default::default() })?;
+    Ok(SceneTexture {
+        path: format!("generated-{seed}").into(),
+        color_space,
+        data: TextureData::Image(baked),
+    })
+}
+
+/// The shading-heavy scene's geometry and lights with production-style materials: six
+/// UsdPreviewSurface networks, each reading its own base-colour, roughness, metallic and normal maps
+/// (sRGB colour, raw data) through a UsdTransform2d, as a published asset's look does. The maps are
+/// 256² so that texel density on screen is a production render's: at the bench's 320-pixel width a
+/// map repeat covers ~40 pixels, so lookups read levels 2–3, as a 4K map does filling a 2K frame
+/// (1024² maps put every lookup on level 4 or coarser and made a 72 MB blob).
+fn material_heavy_scene() -> anyhow::Result<ingest::Scene> {
+    use ingest::scene::{ShaderNode, ShadingInput};
+    use texture::{ColorSpace, Wrap};
+    let mut scene = shading_heavy_scene()?;
+    let n = 256;
+    let mut textures = vec![];
+    let mut materials = vec![];
+    for m in 0..6u32 {
+        let base = textures.len() as u32;
+        let brick = move |x: u32, y: u32| (((x + (y / 32) % 2 * 32) / 64 + y / 32) % 2) as u8;
+        textures.push(procedural_texture(n, 3, 4 * m, ColorSpace::Srgb, move |x, y, h| {
+            let b = brick(x, y);
+            [
+                40 + 30 * m as u8 + b * 90 + (h >> 28) as u8,
+                70 + b * 60 + (h >> 27) as u8,
+                180 - b * 100 + (h >> 28) as u8,
+                255,
+            ]
+        })?);
+        textures.push(procedural_texture(n, 1, 4 * m + 1, ColorSpace::Raw, move |x, y, h| {
+            [30 + brick(x, y) * 120 + (h >> 26) as u8, 0, 0, 0]
+        })?);
+        textures.push(procedural_texture(n, 1, 4 * m + 2, ColorSpace::Raw, move |x, y, h| {
+            [if (m % 3 == 1) ^ (brick(x, y) == 1 && h >> 30 == 0) { 250 } else { 5 }, 0, 0, 0]
+        })?);
+        textures.push(procedural_texture(n, 3, 4 * m + 3, ColorSpace::Raw, move |x, y, h| {
+            // Tangent-space normals: bevelled brick edges plus a little noise.
+            let (ex, ey) = ((x % 64) as i32 - 32, (y % 32) as i32 - 16);
+            let tx = if ex.abs() > 28 { ex.signum() * 60 } else { 0 } + ((h >> 29) as i32 - 4);
+            let ty = if ey.abs() > 13 { ey.signum() * 60 } else { 0 } + ((h >> 26 & 7) as i32 - 4);
+            [(128 + tx) as u8, (128 + ty) as u8, 230, 255]
+        })?);
+        let lookup = |dst: u32, texture: u32, scale: [f32; 4], bias: [f32; 4]| ShaderNode::Texture {
+            dst,
+            src: 1,
+            texture: Some(texture),
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+            scale,
+            bias,
+            fallback: [0.5; 4],
+        };
+        let program = vec![
+            ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
+            ShaderNode::Transform2d {
+                dst: 1,
+                src: 0,
+                rotation_degrees: 15.0 * m as f32,
+                scale: [2.0, 2.0],
+                translation: [0.1 * m as f32, 0.0],
+            },
+            lookup(2, base, [1.0; 4], [0.0; 4]),
+            lookup(3, base + 1, [1.0; 4], [0.0; 4]),
+            lookup(4, base + 2, [1.0; 4], [0.0; 4]),
+            lookup(5, base + 3, [2.0, 2.0, 2.0, 1.0], [-1.0, -1.0, -1.0, 0.0]),
+            ShaderNode::Output { input: ShadingInput::DiffuseColor, src: 2, swizzle: [0, 1, 2, 3] },
+            ShaderNode::Output { input: ShadingInput::Roughness, src: 3, swizzle: [0; 4] },
+            ShaderNode::Output { input: ShadingInput::Metallic, src: 4, swizzle: [0; 4] },
+            ShaderNode::Output { input: ShadingInput::Normal, src: 5, swizzle: [0, 1, 2, 3] },
+        ];
+        materials.push(ingest::Material {
+            path: format!("/Looks/Pbr_{m}"),
+            ior: 1.5,
+            clearcoat: if m == 5 { 1.0 } else { 0.0 },
+            clearcoat_roughness: 0.1,
+            program,
+            ..ingest::Material::default()
+        });
+    }
+    for (k, mesh) in scene.meshes.iter_mut().enumerate() {
+        let m = k as u32 % 6;
+        mesh.triangle_materials.iter_mut().for_each(|t| *t = m);
+    }
+    scene.materials = materials;
+    scene.textures = textures;
+    Ok(scene)
+}
+
 /// One grey Lambert sphere under a white dome: the least shading per ray.
 fn simple_scene() -> ingest::Scene {
     let grey = ingest::Material {
@@ -337,6 +450,7 @@ fn default_scenes(work: &Path) -> anyhow::Result<Vec<(String, blob::AlignedBytes
     Ok(vec![
         ("tractor".into(), blob::AlignedBytes::copy_from(&std::fs::read(&out)?)),
         ("shading-heavy".into(), blob_of(&shading_heavy_scene()?, &work.join("shading-heavy.blob"))?),
+        ("material-heavy".into(), blob_of(&material_heavy_scene()?, &work.join("material-heavy.blob"))?),
         ("simple".into(), blob_of(&simple_scene(), &work.join("simple.blob"))?),
     ])
 }

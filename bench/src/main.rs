@@ -7,8 +7,8 @@
 //! - `bench subdiv`: subdivision tessellation error (pixels at the render camera) against ingest
 //!   seconds and blob bytes, for uniform levels and dicing rates, charted as SVG.
 //! - `bench integrators [BLOB…]`: the scalar and wavefront integrators side by side (default scenes: the
-//!   tractor, a generated shading-heavy scene, a simple one): speed, phase breakdown, SIMD lane use,
-//!   image difference; table, JSON and stacked-bar SVG.
+//!   tractor, a generated shading-heavy scene, its material-heavy variant, a simple one): speed, phase
+//!   breakdown, SIMD lane use, image difference; table, JSON and stacked-bar SVG.
 //!
 //! - `bench instancing`: 1,000 instanced spheres as one prototype plus instance records versus
 //!   flattened: blob bytes and closest-hit Mrays/s on the same rays; then peak RSS and wall time of
@@ -68,7 +68,8 @@ enum Cmd {
     },
     /// Scalar against wavefront integrator side by side: speed, phase breakdown, lane use, chart.
     Integrators {
-        /// Scene blobs (default: the tractor, a generated shading-heavy scene and a simple one).
+        /// Scene blobs (default: the tractor, a generated shading-heavy scene, its material-heavy variant
+        /// and a simple one).
         blobs: Vec<PathBuf>,
         /// Samples per pixel.
         #[arg(long, default_value_t = 16)]

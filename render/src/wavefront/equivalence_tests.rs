@@ -160,6 +160,77 @@ fn wavefront_equals_scalar_with_textures_and_many_area_lights() {
     assert!(wave.stats.counters.bsdf_lane_groups > 0);
 }
 
+/// [`scene`] with production-style UsdPreviewSurface networks on the spheres and the card: st through
+/// a UsdTransform2d, then base colour, roughness and metallic from the colour texture's channels and a
+/// tangent-space normal map (a second, raw texture, `2·t − 1`), as a published asset's looks read
+/// them; each material rotates and scales its uvs differently.
+fn pbr_scene() -> Scene {
+    let mut scene = scene();
+    let n = 32u32;
+    let texels: Vec<u8> = (0..n * n)
+        .flat_map(|i| {
+            let h = crate::sampler::hash_u32(i ^ 0x5bd1_e995);
+            // Normals tilted up to ~40° off the tangent plane's normal.
+            [64 + (h >> 25) as u8, 64 + (h >> 17) as u8 % 128, 200 + (h >> 3) as u8 % 55]
+        })
+        .collect();
+    let src =
+        texture::SourceImage { width: n, height: n, channels: 3, samples: texture::Samples::U8(texels) };
+    let options = texture::BakeOptions { color_space: texture::ColorSpace::Raw, ..Default::default() };
+    scene.textures.push(SceneTexture {
+        path: "generated-normals".into(),
+        color_space: texture::ColorSpace::Raw,
+        data: TextureData::Image(texture::bake(&src, &options).expect("valid image")),
+    });
+    let lookup = |dst, texture, scale, bias| ShaderNode::Texture {
+        dst,
+        src: 1,
+        texture: Some(texture),
+        wrap_s: texture::Wrap::Repeat,
+        wrap_t: texture::Wrap::Mirror,
+        scale,
+        bias,
+        fallback: [0.5; 4],
+    };
+    for (k, m) in scene.materials.iter_mut().take(3).enumerate() {
+        m.program = vec![
+            ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
+            ShaderNode::Transform2d {
+                dst: 1,
+                src: 0,
+                rotation_degrees: 30.0 * k as f32,
+                scale: [1.5, 2.0],
+                translation: [0.25, -0.1 * k as f32],
+            },
+            lookup(2, 0, [1.0; 4], [0.0; 4]),
+            lookup(3, 1, [2.0, 2.0, 2.0, 1.0], [-1.0, -1.0, -1.0, 0.0]),
+            ShaderNode::Output { input: ShadingInput::DiffuseColor, src: 2, swizzle: [0, 1, 2, 3] },
+            ShaderNode::Output { input: ShadingInput::Roughness, src: 2, swizzle: [3; 4] },
+            ShaderNode::Output { input: ShadingInput::Metallic, src: 2, swizzle: [1; 4] },
+            ShaderNode::Output { input: ShadingInput::Normal, src: 3, swizzle: [0, 1, 2, 3] },
+        ];
+    }
+    scene
+}
+
+#[test]
+fn wavefront_equals_scalar_with_production_material_networks() {
+    let bytes = testscene::bytes(&pbr_scene());
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    let (scalar, _) = both_integrators(&view, &options(), "transform2d + 2 maps + normal map");
+    // The normal map must bend the shading normals: the normal AOV differs from the plain scene's.
+    let plain_bytes = testscene::bytes(&scene());
+    let plain_view = blob::SceneView::parse(&plain_bytes).expect("valid blob");
+    let plain = render_image(&plain_view, &RenderOptions { integrator: Integrator::Scalar, ..options() })
+        .expect("renders");
+    // Only the spheres carry uvs (tangents): the cards' normals stay (0, 0, 1).
+    let on_spheres = |k: usize| plain.normal[k][2] < 0.99;
+    let spheres = (0..plain.normal.len()).filter(|&k| on_spheres(k)).count();
+    let bent =
+        (0..plain.normal.len()).filter(|&k| on_spheres(k) && scalar.normal[k] != plain.normal[k]).count();
+    assert!(spheres > 150 && bent * 3 > spheres * 2, "{bent} of {spheres} sphere pixels' normals bent");
+}
+
 /// Material indices [`curve_scene`] adds after [`scene`]'s four.
 const TRANSLUCENT: u32 = 4;
 const GLOWING: u32 = 5;
