@@ -393,7 +393,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
         }
         image.stats.nonfinite_samples += r.nonfinite;
     }
-    image.stats.phases = clock.seconds;
+    image.stats.phases = clock.seconds();
     image.stats.shader_evaluations = clock.shader_evaluations;
     Ok(image)
 }

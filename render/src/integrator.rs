@@ -569,6 +569,8 @@ impl<'a> Scene<'a> {
                 },
                 (None, None) => {
                     radiance += beta * self.lights.escaped_emission(dir, prev.map(|p| p.1));
+                    // Shading, as the area emission above (the wavefront charges both there).
+                    clock.lap(Phase::Shading);
                     break;
                 }
             };
@@ -589,6 +591,7 @@ impl<'a> Scene<'a> {
                 cone.width = footprint;
                 origin = s.spawn(dir);
                 rays.bounce += 1;
+                clock.lap(Phase::Integration);
                 continue;
             }
             if let Some(n) = inputs.normal {
@@ -666,6 +669,9 @@ impl<'a> Scene<'a> {
             travelled = 0.0;
             cone = RayCone { width: footprint, spread: cone.spread + CONE_WIDEN_PER_ALPHA * bs.lobe_alpha };
             rays.bounce += 1;
+            // BSDF sampling, the roulette and the continuation ray are integration; without this lap
+            // the next closest-hit lap charged them to intersection.
+            clock.lap(Phase::Integration);
         }
         clock.lap(Phase::Integration);
         result.radiance = radiance;
