@@ -203,11 +203,13 @@ impl Summary {
 
 /// The phases of path tracing both integrators time alike (`--stats`, MoonRay's Table 2).
 ///
-/// Checked without timers: perf samples of untimed one-thread renders of the shading-heavy bench
-/// scene put 30.6 % (scalar) and 50.8 % (wavefront) of the time in the BVH query functions; the
-/// timed runs charge 35 % and 54 % to [`Phase::Intersect`] (which also holds ray set-up and the
-/// loop around the queries). Before the scalar loop lapped after its BSDF sampling, that work and
-/// the light sampling of paths that cast no shadow ray were charged to intersection (45 %).
+/// Checked without timers (320×213, 16 spp, one thread): perf samples of untimed renders put 28.7 %
+/// (scalar) and 50.8 % (wavefront) of the shading-heavy bench scene's time in the BVH query
+/// functions, 26.6 % and 48.6 % of the tractor's; the timed runs charge 33.7 % and 54.1 %, 35.8 %
+/// and 52.1 % to [`Phase::Intersect`], which also holds ray set-up, the loops around the queries and
+/// part of each lap's own cost. Before the scalar loop lapped after its BSDF sampling, that work
+/// (and the light sampling of paths that cast no shadow ray) was charged to intersection: 45 % on
+/// shading-heavy.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Phase {
     /// BVH queries: closest hits and shadow rays.
