@@ -9,8 +9,10 @@
 //!
 //! * speed: best of `repeat` renders without phase timers, in process CPU seconds (all threads) and
 //!   wall seconds, as Mrays and M shader evaluations per CPU second;
-//! * the phase breakdown from one more render with `phase_stats` (its timers cost a few percent, so
-//!   they never time the speed runs): intersection, shading, texturing, integration, overhead;
+//! * the phase breakdown from the least disturbed of `repeat` more renders with `phase_stats` (their
+//!   lap timers cost time, so they never time the speed runs): intersection, shading, texturing,
+//!   integration, overhead; the shading+texturing+integration speed-up applies each integrator's
+//!   share of those phases to its untimed CPU seconds;
 //! * the wavefront's SIMD lane utilisation, and the largest beauty difference between the two images;
 //! * the wavefront under its queue driver (`--integrator wavefront-queues`, MoonRay's queues flushed
 //!   when full) as a third row: its speed-up and whether its image equals the scalar one.
@@ -129,10 +131,11 @@ fn measure(
     let with = |integrator, phase_stats| RenderOptions { integrator, phase_stats, ..options.clone() };
     let scalar = best_of(view, &with(Integrator::Scalar, false), repeat)?;
     let wave = best_of(view, &with(Integrator::Wavefront, false), repeat)?;
-    let scalar_timed = render_image(view, &with(Integrator::Scalar, true))?;
-    let wave_timed = render_image(view, &with(Integrator::Wavefront, true))?;
+    // Phase shares from the least disturbed of `repeat` timed runs, as the speed is.
+    let scalar_timed = best_of(view, &with(Integrator::Scalar, true), repeat)?.image;
+    let wave_timed = best_of(view, &with(Integrator::Wavefront, true), repeat)?.image;
     let queues = best_of(view, &with(Integrator::WavefrontQueues, false), repeat)?;
-    let queues_timed = render_image(view, &with(Integrator::WavefrontQueues, true))?;
+    let queues_timed = best_of(view, &with(Integrator::WavefrontQueues, true), repeat)?.image;
     let (mut max_diff, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
     for (a, b) in scalar.image.beauty.iter().flatten().zip(wave.image.beauty.iter().flatten()) {
         let d = (a - b).abs();
