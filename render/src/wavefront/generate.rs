@@ -214,6 +214,7 @@ mod tests {
     use crate::sampler::{sample_2d, SampleKey};
     use crate::scene::Scene;
     use crate::testscene::{self, camera_looking_down_z, card};
+    use crate::wavefront::POOL_PATHS;
 
     /// Every path of a chunk holds the camera ray the scalar film loop generates for its pixel and
     /// sample, in pixel-then-sample order: odd tile sizes and sample counts leave a partly filled last
@@ -252,7 +253,7 @@ mod tests {
             };
             let mut w = Worker::new(16, &scene, false);
             for (tile, s0, samples) in [
-                (Tile { x0: 0, y0: 0, x1: 16, y1: 16 }, 0, 16),
+                (Tile { x0: 0, y0: 0, x1: 16, y1: 16 }, 0, POOL_PATHS as u32 / 256),
                 (Tile { x0: 32, y0: 16, x1: 37, y1: 23 }, 5, 3),
                 (Tile { x0: 16, y0: 16, x1: 32, y1: 23 }, 7, 1),
             ] {
@@ -292,6 +293,6 @@ mod tests {
                 }
             }
         }
-        assert!(cases > 10_000, "{cases}");
+        assert!(cases > 3 * POOL_PATHS, "{cases}");
     }
 }

@@ -85,7 +85,8 @@
 //! 22 % fewer instructions; an idle machine is needed to settle it.
 //!
 //! Experiments that did not pay (kept out): a smaller path pool (1024 or 512 paths instead of 4096:
-//! the same L1 misses, within timing noise); rebuilding the surface in shading instead of keeping the
+//! the same L1 misses, within timing noise; later measured at L2, where 2048 paths did pay:
+//! [`POOL_PATHS`]); rebuilding the surface in shading instead of keeping the
 //! one the sort key reconstructs (5 % more instructions, 12 % fewer L1 misses, no clear time change);
 //! packet traversal ([`packet`]: closest-hit packets for the camera wave and any-hit packets for
 //! the occlusion queue ran 2–8 % more query instructions; its docs have the figures, and show the
@@ -224,7 +225,17 @@ use texture::Touch;
 
 /// Paths in flight per worker: a tile's samples are processed in chunks of at most this many paths
 /// (a tile wider than this gets one path per pixel per chunk).
-pub const POOL_PATHS: usize = 4096;
+///
+/// Sized for the 1 MiB L2 of a core: a path's state, hit, kept surface and shadow ray take ~300
+/// bytes, so 4096 paths (1.2 MiB) streamed each stage through L3. Cachegrind with the last level
+/// modelled as that L2 (120×80, 16 spp, one thread; instructions, D1 misses, L2 misses), 4096 → 2048
+/// → 1024 paths: shading-heavy 919.5 / 920.6 / 922.0 M, 7.72 / 7.74 / 8.07 M, 2.31 / 1.33 / 0.72 M;
+/// tractor 633.0 / 633.9 / 634.8 M, 3.47 / 3.51 / 3.61 M, 0.75 / 0.12 / 0.09 M; simple 249.4 /
+/// 249.7 / 250.2 M, 1.34 / 1.34 / 1.39 M, 0.12 / 0.08 / 0.07 M; material-heavy 1008.5 / 1010.0 /
+/// 1012.4 M, 8.70 / 8.46 / 8.87 M, 2.36 / 1.39 / 0.77 M. The misses that went were the shade
+/// stage's first reads of path states, the material lanes', the accumulation's and the occlusion
+/// stage's; 2048 keeps the L1 misses level where 1024 adds 4 %. Images are byte-identical.
+pub const POOL_PATHS: usize = 2048;
 
 /// The state of one path between stages: small, fixed-size, indices and floats only (MoonRay's
 /// RayState grew to ~576 bytes; this one is [`RAY_STATE_BYTES`]). Texture footprint, MIS history and
