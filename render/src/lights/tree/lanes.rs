@@ -75,7 +75,9 @@ impl LightSelector {
 /// [`LightSelector::select_lanes`] under [`multiversion`]: the first choice 8-wide ([`first_choice`]
 /// and [`pick`], or their AVX2 forms: a clamp, one `cvttps2dq` and one `vpermd` for all lanes,
 /// where `as usize` and a bounds-checked load took about 40 scalar instructions a lane), then the
-/// descents of the lanes in the tree's slot.
+/// descents of the lanes in the tree's slot: in the AVX2 clone the root's step of all eight lanes
+/// at once when the root's children all emit in every direction (`avx::root_lanes`), then the
+/// lanes that did not reach a light interleaved level by level.
 #[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn select_in(
@@ -91,8 +93,6 @@ fn select_in(
         "x86_64+avx+avx2+fma" => super::avx::first_choice(u_select, selector.slots, infinite.len(), &mut slot, &mut u),
         _ => first_choice(u_select, selector.slots, infinite.len(), &mut slot, &mut u),
     }
-    let mut descending = [0u8; LANES];
-    let mut count = 0usize;
     *light = if infinite.len() <= LANES {
         multiversion::target::match_target! {
             "x86_64+avx+avx2+fma" => super::avx::pick(&selector.infinite_lanes, &slot),
@@ -102,20 +102,23 @@ fn select_in(
         let last_infinite = infinite.len() - 1;
         std::array::from_fn(|k| infinite[(slot[k] as usize).min(last_infinite)])
     };
+    // Lanes in the tree's slot got a light at infinity above and get their own from the descent.
+    let mut tree_lanes = 0u32;
     for k in 0..LANES {
-        // Lanes in the tree's slot got a light at infinity above and get their own from the
-        // descent. `count <= k`: always in bounds.
-        descending[count % LANES] = k as u8;
-        count += (slot[k] as usize >= infinite.len()) as usize;
+        tree_lanes |= ((slot[k] as usize >= infinite.len()) as u32) << k;
     }
     // Lanes that did not descend multiply 1: exactly the slot's probability.
     let mut path_pmf = [1.0f32; LANES];
-    if count > 0 {
+    if tree_lanes != 0 {
         let nodes = &selector.tree.nodes[..];
-        let mut descents = Descents { u, descending, count, light, pmf: &mut path_pmf };
+        let mut descents = Descents { u, at: [0; LANES], light, pmf: &mut path_pmf };
         multiversion::target::match_target! {
-            "x86_64+avx+avx2+fma" => descents.run(nodes, p, |n, q, u| super::avx::step(n, q, u)),
-            _ => descents.run(nodes, p, step),
+            "x86_64+avx+avx2+fma" => {
+                let Descents { u, at, light, pmf } = &mut descents;
+                let lanes = super::avx::root_lanes(&nodes[0], p, tree_lanes, u, at, light, pmf).unwrap_or(tree_lanes);
+                descents.run(nodes, p, lanes, |n, q, u| super::avx::step(n, q, u));
+            },
+            _ => descents.run(nodes, p, tree_lanes, step),
         }
     }
     for k in 0..LANES {
@@ -152,41 +155,69 @@ pub(super) fn padded(infinite: &[u32]) -> [u32; LANES] {
     std::array::from_fn(|i| infinite.get(i.min(infinite.len().saturating_sub(1))).copied().unwrap_or(0))
 }
 
-/// The descents of the lanes `descending[..count]` from the root, with their `u` rescaled at
-/// each node: at the end `light[k]` is lane `k`'s light and `pmf[k]` the product of its choices'
-/// probabilities (from 1), as [`super::descend`] returns them. `descending` is used as scratch.
+/// The lanes of each 8-bit mask, lowest first, one byte each (`LANE_LISTS[m]`'s byte `i` is the
+/// `i`-th set bit of `m`): a mask's list of lanes in one load, where a loop over the bits took a
+/// compare, an add and a store a lane.
+const LANE_LISTS: [u64; 256] = {
+    let mut lists = [0u64; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let (mut list, mut count, mut k) = (0u64, 0, 0);
+        while k < LANES {
+            if mask & (1 << k) != 0 {
+                list |= (k as u64) << (8 * count);
+                count += 1;
+            }
+            k += 1;
+        }
+        lists[mask] = list;
+        mask += 1;
+    }
+    lists
+};
+
+/// Descents of lanes from their node `at` (the root, or the root's chosen child), with their `u`
+/// rescaled at each node: at the end `light[k]` is lane `k`'s light and `pmf[k]` the product of
+/// its choices' probabilities (from 1), as [`super::descend`] returns them.
 struct Descents<'a> {
     u: [f32; LANES],
-    descending: [u8; LANES],
-    count: usize,
+    /// Each lane's current node.
+    at: [u32; LANES],
     light: &'a mut [u32; LANES],
     pmf: &'a mut [f32; LANES],
 }
 
 impl Descents<'_> {
-    /// Level by level: each lane's node step (`step`: [`node::step`] or `avx::step`, the same
-    /// bits), `pmf` and `u` updated with the scalar descent's operations, and its child.
+    /// Level by level, the lanes of the bit mask `lanes` from their node `at`: each lane's node
+    /// step (`step`: [`node::step`] or `avx::step`, the same bits), `pmf` and `u` updated with the
+    /// scalar descent's operations, and its child.
     #[inline(always)]
-    fn run(&mut self, nodes: &[Node], p: &[[f32; LANES]; 3], step: impl Fn(&Node, [f32; 3], f32) -> Step) {
-        // Each lane's current node (all start at the root).
-        let mut at = [0u32; LANES];
-        while self.count > 0 {
+    fn run(
+        &mut self,
+        nodes: &[Node],
+        p: &[[f32; LANES]; 3],
+        lanes: u32,
+        step: impl Fn(&Node, [f32; 3], f32) -> Step,
+    ) {
+        let mut descending = LANE_LISTS[lanes as usize & 0xff].to_le_bytes();
+        let mut count = lanes.count_ones() as usize;
+        while count > 0 {
             let mut next = 0;
-            for j in 0..self.count.min(LANES) {
-                let k = self.descending[j] as usize % LANES;
-                let node = &nodes[at[k] as usize];
+            for j in 0..count.min(LANES) {
+                let k = descending[j] as usize % LANES;
+                let node = &nodes[self.at[k] as usize];
                 let Step { chosen, weight, below, sum, target } =
                     step(node, [p[0][k], p[1][k], p[2][k]], self.u[k]);
                 self.pmf[k] *= weight / sum;
                 self.u[k] = ((target - below) / weight).clamp(0.0, ONE_MINUS_EPSILON);
                 // A node index until the lane reaches a leaf, then its light.
-                at[k] = node.child[chosen];
+                self.at[k] = node.child[chosen];
                 self.light[k] = node.child[chosen];
                 // `next <= j`: the slot written was read already.
-                self.descending[next % LANES] = k as u8;
+                descending[next % LANES] = k as u8;
                 next += (node.flags[chosen] & LEAF == 0) as usize;
             }
-            self.count = next;
+            count = next;
         }
     }
 }
