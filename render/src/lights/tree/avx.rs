@@ -150,50 +150,70 @@ pub(super) fn prefix_sums(w: __m256) -> __m256 {
     _mm256_blend_ps::<0b1111_0000>(quads, _mm256_add_ps(low3, quads))
 }
 
-/// [`node::child_weights`]: the weights and their running sums (the last lane of `cdf` is the sum).
+/// The sum of the eight weights in every lane, in [`node::prefix_sums`]' order (`((w0 + w1) +
+/// (w2 + w3)) + ((w4 + w5) + (w6 + w7))`; each step adds lanes swapped in pairs, so every lane adds
+/// the same two numbers, in one order or the other: the same bits). Three swap-and-add steps where
+/// the running sums' last lane, broadcast, came four dependent steps later.
 #[inline]
 #[target_feature(enable = "avx,avx2")]
-pub(super) fn weights(n: &Node, p: [f32; 3]) -> (__m256, __m256) {
+fn total(w: __m256) -> __m256 {
+    let pairs = _mm256_add_ps(w, _mm256_permute_ps::<0b10_11_00_01>(w));
+    let quads = _mm256_add_ps(pairs, _mm256_permute_ps::<0b01_00_11_10>(pairs));
+    _mm256_add_ps(quads, _mm256_permute2f128_ps::<0x01>(quads, quads))
+}
+
+/// [`node::child_weights`]: the weights, their running sums and their sum (in every lane).
+#[inline]
+#[target_feature(enable = "avx,avx2")]
+pub(super) fn weights(n: &Node, p: [f32; 3]) -> (__m256, __m256, __m256) {
     let w = importances(n, p);
-    let cdf = prefix_sums(w);
-    // `0 < sum < ∞` on the vector (every lane of `sums` is the sum): LLVM turned the scalar test
-    // into a dozen integer instructions.
-    let sums = _mm256_permutevar8x32_ps(cdf, _mm256_set1_epi32(WIDTH as i32 - 1));
+    let sums = total(w);
+    // `0 < sum < ∞` on the vector: LLVM turned the scalar test into a dozen integer instructions.
     let positive_finite = _mm256_and_ps(
         _mm256_cmp_ps::<_CMP_GT_OQ>(sums, _mm256_setzero_ps()),
         _mm256_cmp_ps::<_CMP_LT_OQ>(sums, _mm256_set1_ps(f32::INFINITY)),
     );
     if _mm256_movemask_ps(positive_finite) != 0 {
-        return (w, cdf);
+        return (w, prefix_sums(w), sums);
     }
     // The uniform fallback (rare: a point on a point light, or no child may contribute).
     let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n.len as i32), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
     let w = _mm256_and_ps(_mm256_castsi256_ps(live), _mm256_set1_ps(1.0));
-    (w, prefix_sums(w))
+    (w, prefix_sums(w), total(w))
 }
 
-/// [`node::choose`] at `target = u · sum` among the first `len` lanes of the weights `w` and
-/// their running sums `cdf`.
+/// [`node::choose`] at `target = u · sum` among the first `len` lanes of the weights `w`, their
+/// running sums `cdf` and their sum `sums` (every lane). Branch-free: the running sum below the
+/// chosen lane is a lane of `cdf` moved up one lane with 0 in lane 0 (a branch on `chosen == 0`
+/// mispredicted).
 #[inline]
 #[target_feature(enable = "avx,avx2")]
-pub(super) fn choose(w: __m256, cdf: __m256, len: u32, u: f32) -> Step {
-    let sum = lane(cdf, WIDTH - 1);
-    let target = u * sum;
-    let at_or_below = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(cdf, _mm256_set1_ps(target))) as u32;
+pub(super) fn choose(w: __m256, cdf: __m256, sums: __m256, len: u32, u: f32) -> Step {
+    let targets = _mm256_mul_ps(_mm256_set1_ps(u), sums);
+    let at_or_below = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(cdf, targets)) as u32;
     let positive = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(w, _mm256_setzero_ps())) as u32;
     let run = (!at_or_below).trailing_zeros();
     let last_with_probability = 31 - (positive | 1).leading_zeros();
     let chosen = if run < len { run } else { last_with_probability } as usize;
-    let below = lane(cdf, chosen.wrapping_sub(1) % WIDTH);
-    Step { chosen, weight: lane(w, chosen), below: if chosen == 0 { 0.0 } else { below }, sum, target }
+    let before = _mm256_blend_ps::<1>(
+        _mm256_permutevar8x32_ps(cdf, _mm256_setr_epi32(0, 0, 1, 2, 3, 4, 5, 6)),
+        _mm256_setzero_ps(),
+    );
+    Step {
+        chosen,
+        weight: lane(w, chosen),
+        below: lane(before, chosen),
+        sum: _mm256_cvtss_f32(sums),
+        target: _mm256_cvtss_f32(targets),
+    }
 }
 
 /// [`node::step`]: [`weights`] then [`choose`].
 #[inline]
 #[target_feature(enable = "avx,avx2")]
 pub(super) fn step(n: &Node, p: [f32; 3], u: f32) -> Step {
-    let (w, cdf) = weights(n, p);
-    choose(w, cdf, n.len, u)
+    let (w, cdf, sums) = weights(n, p);
+    choose(w, cdf, sums, n.len, u)
 }
 
 /// The root's step for the eight lanes at once, the lanes in the register's lanes (one pass per
