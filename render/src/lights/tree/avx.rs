@@ -9,6 +9,13 @@
 //! weights went through memory between the two (about 255 instructions a node step); here the
 //! eight weights stay in one register from the importance to the choice, the running sums are
 //! three shuffle-and-add steps, and each mask is one `vmovmskps`.
+//!
+//! The sum is not the running sums' last lane broadcast (four dependent shuffles and adds, then a
+//! `vpermps`) but its own three swap-and-add steps ([`total`]: every lane ends with the same two
+//! addends, in one order or the other, so with the same bits); the target `u · sum` is formed
+//! 8-wide from it, and the running sum below the chosen lane is read from the sums moved up one
+//! lane, 0 in lane 0, where a branch on `chosen == 0` mispredicted. [`root_lanes`] is the root's
+//! step for eight points at once (see `lanes.rs`).
 
 #[cfg(doc)]
 use super::node;

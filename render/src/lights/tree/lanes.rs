@@ -42,11 +42,28 @@
 //! lane's choice): 1.90 / 2.13 / 2.00 % against 2.16 / 2.28 / 2.05 % for one pass, within the
 //! noise, and +0.75 M instructions (the weights' round trip through the stack).
 //!
-//! Not done: evaluating the root, which every descending lane visits, for all eight points in one
-//! pass per child (points in lanes, so the sum and the choice would be vertical too). Only about a
-//! third of a group's lanes descend on the bench scene (dome, sun and tree hold one slot each), so
-//! eight child passes would replace about three point passes, and the square roots and divisions
-//! (the divider's throughput) would triple at the root.
+//! Then (session 2026-11-23 #3) the root for all eight points at once where its children all emit
+//! in every direction (`avx::root_lanes`: the points in the register's lanes, one pass per child,
+//! eight `vdivps` for the group where the per-lane steps made one chain each; the running sums, the
+//! choice and the rescaled `u` vertical, branch-free), the lanes' list from a 256-entry table (mask →
+//! lane bytes) instead of a compare-and-count loop, and in the per-lane step (`avx::step`) the sum
+//! by three swap-and-add steps and the target 8-wide (a shorter chain to the choice) and the
+//! running sum below the choice without the branch on `chosen == 0` (it mispredicted). The root pass
+//! had been left out earlier for its divider cost (eight child passes for about three descending
+//! lanes); it wins because it removes the longest dependent chain and the loop's mispredicted exit
+//! for the level every descending lane visits. Measured, shading-heavy bench scene:
+//! - timed in one process, the frozen 7165985 selection against this one, 10⁵ groups of random
+//!   points in the lights' box grown to twice its size (contended, best of 15 rounds, 4 runs):
+//!   145.5–171.9 → 92.6–132.4 ns a group (best 145.5 → 92.6: −36 %; root pass and table alone
+//!   −19 %);
+//! - callgrind (120×80, 8 spp, one thread): the selection 7.98 → 7.84 M instructions (the gain is
+//!   in latency and mispredictions, not instructions);
+//! - perf, one thread, 320×213, 16 spp, `-F 20000`, 2 runs each, alternated (contended):
+//!   `select_in` 2.37 / 2.53 % → 1.78 / 2.00 %.
+//!
+//! Tried on paper and left: the levels below the root vertical as well. Every lane is then at its
+//! own node, so the children's columns of eight nodes would need five 8×8 transpositions (120
+//! shuffles) or 40 gathers a level, about what the two or three per-lane steps of a level cost.
 
 #[cfg(doc)]
 use super::node;
