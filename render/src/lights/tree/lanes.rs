@@ -42,11 +42,31 @@
 //! lane's choice): 1.90 / 2.13 / 2.00 % against 2.16 / 2.28 / 2.05 % for one pass, within the
 //! noise, and +0.75 M instructions (the weights' round trip through the stack).
 //!
-//! Not done: evaluating the root, which every descending lane visits, for all eight points in one
-//! pass per child (points in lanes, so the sum and the choice would be vertical too). Only about a
-//! third of a group's lanes descend on the bench scene (dome, sun and tree hold one slot each), so
-//! eight child passes would replace about three point passes, and the square roots and divisions
-//! (the divider's throughput) would triple at the root.
+//! Then (session 2026-11-23 #3) the root for all eight points at once where its children all emit
+//! in every direction (`avx::root_lanes`: the points in the register's lanes, one pass per child,
+//! eight `vdivps` for the group where the per-lane steps made one chain each; the running sums, the
+//! choice and the rescaled `u` vertical, branch-free), the lanes' list from a 256-entry table (mask →
+//! lane bytes) instead of a compare-and-count loop, and in the per-lane step (`avx::step`) the sum
+//! by three swap-and-add steps and the target 8-wide (a shorter chain to the choice) and the
+//! running sum below the choice without the branch on `chosen == 0` (it mispredicted). The root pass
+//! had been left out earlier for its divider cost (eight child passes for about three descending
+//! lanes); it wins because it removes the longest dependent chain and the loop's mispredicted exit
+//! for the level every descending lane visits. Measured, shading-heavy bench scene:
+//! - timed in one process, the frozen 7165985 selection against this one, 10⁵ groups of random
+//!   points in the lights' box grown to twice its size (contended, best of 15 rounds, 4 runs):
+//!   145.5–171.9 → 92.6–132.4 ns a group (best 145.5 → 92.6: −36 %; root pass and table alone
+//!   −19 %);
+//! - callgrind (120×80, 8 spp, one thread): the selection 7.98 → 7.84 M instructions (the gain is
+//!   in latency and mispredictions, not instructions);
+//! - perf, one thread, 320×213, 16 spp, `-F 20000`, 2 runs each, alternated (contended):
+//!   `select_in` 2.37 / 2.53 % → 1.78 / 2.00 %.
+//!
+//! Tried and dropped: the levels below the root vertical as well, while every lane's node is
+//! omnidirectional. Every lane is then at its own node, so each level transposed the centres,
+//! squared radii and powers of the eight lanes' nodes (five 8×8 transpositions, 120 shuffles) and
+//! read each lane's child by its chosen slot: bit-exact, but in the same timing (one process,
+//! 5 runs) the selection took 0.81–0.86 of the frozen 7165985 one's time, against 0.54–0.77 with
+//! the root pass alone.
 
 #[cfg(doc)]
 use super::node;
@@ -75,7 +95,9 @@ impl LightSelector {
 /// [`LightSelector::select_lanes`] under [`multiversion`]: the first choice 8-wide ([`first_choice`]
 /// and [`pick`], or their AVX2 forms: a clamp, one `cvttps2dq` and one `vpermd` for all lanes,
 /// where `as usize` and a bounds-checked load took about 40 scalar instructions a lane), then the
-/// descents of the lanes in the tree's slot.
+/// descents of the lanes in the tree's slot: in the AVX2 clone the root's step of all eight lanes
+/// at once when the root's children all emit in every direction (`avx::root_lanes`), then the
+/// lanes that did not reach a light interleaved level by level.
 #[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn select_in(
@@ -91,8 +113,6 @@ fn select_in(
         "x86_64+avx+avx2+fma" => super::avx::first_choice(u_select, selector.slots, infinite.len(), &mut slot, &mut u),
         _ => first_choice(u_select, selector.slots, infinite.len(), &mut slot, &mut u),
     }
-    let mut descending = [0u8; LANES];
-    let mut count = 0usize;
     *light = if infinite.len() <= LANES {
         multiversion::target::match_target! {
             "x86_64+avx+avx2+fma" => super::avx::pick(&selector.infinite_lanes, &slot),
@@ -102,20 +122,23 @@ fn select_in(
         let last_infinite = infinite.len() - 1;
         std::array::from_fn(|k| infinite[(slot[k] as usize).min(last_infinite)])
     };
+    // Lanes in the tree's slot got a light at infinity above and get their own from the descent.
+    let mut tree_lanes = 0u32;
     for k in 0..LANES {
-        // Lanes in the tree's slot got a light at infinity above and get their own from the
-        // descent. `count <= k`: always in bounds.
-        descending[count % LANES] = k as u8;
-        count += (slot[k] as usize >= infinite.len()) as usize;
+        tree_lanes |= ((slot[k] as usize >= infinite.len()) as u32) << k;
     }
     // Lanes that did not descend multiply 1: exactly the slot's probability.
     let mut path_pmf = [1.0f32; LANES];
-    if count > 0 {
+    if tree_lanes != 0 {
         let nodes = &selector.tree.nodes[..];
-        let mut descents = Descents { u, descending, count, light, pmf: &mut path_pmf };
+        let mut descents = Descents { u, at: [0; LANES], light, pmf: &mut path_pmf };
         multiversion::target::match_target! {
-            "x86_64+avx+avx2+fma" => descents.run(nodes, p, |n, q, u| super::avx::step(n, q, u)),
-            _ => descents.run(nodes, p, step),
+            "x86_64+avx+avx2+fma" => {
+                let Descents { u, at, light, pmf } = &mut descents;
+                let lanes = super::avx::root_lanes(&nodes[0], p, tree_lanes, u, at, light, pmf).unwrap_or(tree_lanes);
+                descents.run(nodes, p, lanes, |n, q, u| super::avx::step(n, q, u));
+            },
+            _ => descents.run(nodes, p, tree_lanes, step),
         }
     }
     for k in 0..LANES {
@@ -152,41 +175,69 @@ pub(super) fn padded(infinite: &[u32]) -> [u32; LANES] {
     std::array::from_fn(|i| infinite.get(i.min(infinite.len().saturating_sub(1))).copied().unwrap_or(0))
 }
 
-/// The descents of the lanes `descending[..count]` from the root, with their `u` rescaled at
-/// each node: at the end `light[k]` is lane `k`'s light and `pmf[k]` the product of its choices'
-/// probabilities (from 1), as [`super::descend`] returns them. `descending` is used as scratch.
+/// The lanes of each 8-bit mask, lowest first, one byte each (`LANE_LISTS[m]`'s byte `i` is the
+/// `i`-th set bit of `m`): a mask's list of lanes in one load, where a loop over the bits took a
+/// compare, an add and a store a lane.
+const LANE_LISTS: [u64; 256] = {
+    let mut lists = [0u64; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let (mut list, mut count, mut k) = (0u64, 0, 0);
+        while k < LANES {
+            if mask & (1 << k) != 0 {
+                list |= (k as u64) << (8 * count);
+                count += 1;
+            }
+            k += 1;
+        }
+        lists[mask] = list;
+        mask += 1;
+    }
+    lists
+};
+
+/// Descents of lanes from their node `at` (the root, or the root's chosen child), with their `u`
+/// rescaled at each node: at the end `light[k]` is lane `k`'s light and `pmf[k]` the product of
+/// its choices' probabilities (from 1), as [`super::descend`] returns them.
 struct Descents<'a> {
     u: [f32; LANES],
-    descending: [u8; LANES],
-    count: usize,
+    /// Each lane's current node.
+    at: [u32; LANES],
     light: &'a mut [u32; LANES],
     pmf: &'a mut [f32; LANES],
 }
 
 impl Descents<'_> {
-    /// Level by level: each lane's node step (`step`: [`node::step`] or `avx::step`, the same
-    /// bits), `pmf` and `u` updated with the scalar descent's operations, and its child.
+    /// Level by level, the lanes of the bit mask `lanes` from their node `at`: each lane's node
+    /// step (`step`: [`node::step`] or `avx::step`, the same bits), `pmf` and `u` updated with the
+    /// scalar descent's operations, and its child.
     #[inline(always)]
-    fn run(&mut self, nodes: &[Node], p: &[[f32; LANES]; 3], step: impl Fn(&Node, [f32; 3], f32) -> Step) {
-        // Each lane's current node (all start at the root).
-        let mut at = [0u32; LANES];
-        while self.count > 0 {
+    fn run(
+        &mut self,
+        nodes: &[Node],
+        p: &[[f32; LANES]; 3],
+        lanes: u32,
+        step: impl Fn(&Node, [f32; 3], f32) -> Step,
+    ) {
+        let mut descending = LANE_LISTS[lanes as usize & 0xff].to_le_bytes();
+        let mut count = lanes.count_ones() as usize;
+        while count > 0 {
             let mut next = 0;
-            for j in 0..self.count.min(LANES) {
-                let k = self.descending[j] as usize % LANES;
-                let node = &nodes[at[k] as usize];
+            for j in 0..count.min(LANES) {
+                let k = descending[j] as usize % LANES;
+                let node = &nodes[self.at[k] as usize];
                 let Step { chosen, weight, below, sum, target } =
                     step(node, [p[0][k], p[1][k], p[2][k]], self.u[k]);
                 self.pmf[k] *= weight / sum;
                 self.u[k] = ((target - below) / weight).clamp(0.0, ONE_MINUS_EPSILON);
                 // A node index until the lane reaches a leaf, then its light.
-                at[k] = node.child[chosen];
+                self.at[k] = node.child[chosen];
                 self.light[k] = node.child[chosen];
                 // `next <= j`: the slot written was read already.
-                self.descending[next % LANES] = k as u8;
+                descending[next % LANES] = k as u8;
                 next += (node.flags[chosen] & LEAF == 0) as usize;
             }
-            self.count = next;
+            count = next;
         }
     }
 }

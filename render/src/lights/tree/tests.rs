@@ -584,6 +584,52 @@ fn choice_takes_the_first_child_above_the_target_and_never_one_of_weight_zero() 
     }
 }
 
+/// Runs `select_lanes` on `rounds` groups of eight random points (some on the lights' centres, some
+/// far, some at `huge` coordinates where squared distances overflow) and `u`, and asserts each lane
+/// equals the scalar `select` bit for bit. Returns how many lanes went down the tree.
+fn assert_lanes_equal_select(records: Vec<blob::Light>, rounds: usize, case: usize, rng: &mut Rng) -> u32 {
+    let centres: Vec<Vec3> =
+        records.iter().map(|r| Vec3::from(r.world_from_light.map(|row| row[3]))).collect();
+    let count = records.len();
+    let bytes = lights_only(records);
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    let lights = Lights::new(&view);
+    let selector = lights.selector();
+    let mut descents = 0;
+    for round in 0..rounds {
+        let (mut p, mut u) = ([[0.0f32; 8]; 3], [0.0f32; 8]);
+        for k in 0..8 {
+            let q = match (round + k) % 11 {
+                // On a light's centre (a point light's: an infinite importance).
+                0 => centres[(rng.next_f32() * centres.len() as f32) as usize % centres.len()],
+                1 => random_point(rng, 60.0),
+                2 if round % 13 == 0 => random_point(rng, 6.0) * 1e20,
+                _ => random_point(rng, 6.0),
+            };
+            (p[0][k], p[1][k], p[2][k]) = (q.x, q.y, q.z);
+            u[k] = match (round * 8 + k + case) % 97 {
+                0 => 0.0,
+                1 => ONE_MINUS_EPSILON,
+                _ => rng.next_f32(),
+            };
+        }
+        let (mut light, mut pmf) = ([u32::MAX; 8], [f32::NAN; 8]);
+        selector.select_lanes(&p, &u, &mut light, &mut pmf);
+        for k in 0..8 {
+            let q = Vec3::new(p[0][k], p[1][k], p[2][k]);
+            let (want, want_pmf) = selector.select(q, u[k]);
+            assert_eq!(
+                (light[k] as usize, pmf[k].to_bits()),
+                (want, want_pmf.to_bits()),
+                "{count} lights, lane {k} at {q} with u {}",
+                u[k]
+            );
+            descents += (want_pmf < selector.infinite_pmf()) as u32;
+        }
+    }
+    descents
+}
+
 /// The interleaved descents of eight lanes equal the scalar `select` lane by lane, bit for bit, for
 /// 1 to 300 lights, with and without lights at infinity (lanes of the tree and of the uniform first
 /// choice mixed), at random points (some on point lights: the uniform fallback) and random `u`.
@@ -594,42 +640,46 @@ fn eight_interleaved_descents_equal_scalar_selection_bit_for_bit() {
     for (case, count) in [1usize, 2, 3, 5, 8, 9, 17, 64, 65, 150, 300].into_iter().enumerate() {
         for infinite in [false, true] {
             let records = random_lights(count, infinite, &mut rng);
-            let centres: Vec<Vec3> =
-                records.iter().map(|r| Vec3::from(r.world_from_light.map(|row| row[3]))).collect();
-            let bytes = lights_only(records);
-            let view = blob::SceneView::parse(&bytes).expect("valid blob");
-            let lights = Lights::new(&view);
-            let selector = lights.selector();
-            for round in 0..400 {
-                let (mut p, mut u) = ([[0.0f32; 8]; 3], [0.0f32; 8]);
-                for k in 0..8 {
-                    let q = match (round + k) % 11 {
-                        // On a light's centre (a point light's: an infinite importance).
-                        0 => centres[(rng.next_f32() * centres.len() as f32) as usize % centres.len()],
-                        1 => random_point(&mut rng, 60.0),
-                        _ => random_point(&mut rng, 6.0),
-                    };
-                    (p[0][k], p[1][k], p[2][k]) = (q.x, q.y, q.z);
-                    u[k] = match (round * 8 + k + case) % 97 {
-                        0 => 0.0,
-                        1 => ONE_MINUS_EPSILON,
-                        _ => rng.next_f32(),
-                    };
-                }
-                let (mut light, mut pmf) = ([u32::MAX; 8], [f32::NAN; 8]);
-                selector.select_lanes(&p, &u, &mut light, &mut pmf);
-                for k in 0..8 {
-                    let q = Vec3::new(p[0][k], p[1][k], p[2][k]);
-                    let (want, want_pmf) = selector.select(q, u[k]);
-                    assert_eq!(
-                        (light[k] as usize, pmf[k].to_bits()),
-                        (want, want_pmf.to_bits()),
-                        "{count} lights (infinite: {infinite}), lane {k} at {q} with u {}",
-                        u[k]
-                    );
-                    descents += (want_pmf < selector.infinite_pmf()) as u32;
-                }
+            descents += assert_lanes_equal_select(records, 400, case, &mut rng);
+        }
+    }
+    assert!(descents > 20_000, "only {descents} lanes went down the tree");
+}
+
+/// Trees of sphere and point lights only (the bench scene's kind): the root's children all emit in
+/// every direction, so the AVX2 clone steps the root for all eight lanes at once
+/// (`avx::root_lanes`); every lane still equals the scalar `select` bit for bit, with the uniform
+/// fallback (points on point lights) and overflowing distances (the per-lane path) among them.
+#[test]
+fn eight_lanes_through_an_omnidirectional_root_equal_scalar_selection_bit_for_bit() {
+    let mut rng = Rng(31);
+    let mut descents = 0;
+    for (case, count) in [2usize, 5, 8, 9, 48, 64, 200].into_iter().enumerate() {
+        for infinite in [false, true] {
+            let mut records: Vec<blob::Light> = (0..count)
+                .map(|i| {
+                    let c = random_point(&mut rng, 5.0);
+                    let mut r = at(blob::light_kind::SPHERE, c, rng.range(0.5, 20.0), rng.range(0.02, 0.4));
+                    if i % 5 == 2 {
+                        r.flags |= blob::LIGHT_TREAT_AS_POINT;
+                    }
+                    r
+                })
+                .collect();
+            if infinite {
+                records.push(blob::Light {
+                    kind: blob::light_kind::DOME,
+                    radiance: [0.3; 3],
+                    ..Default::default()
+                });
+                let mut sun = at(blob::light_kind::DISTANT, Vec3::ZERO, 2.0, 0.0);
+                sun.angle_degrees = 1.0;
+                records.insert(count / 2, sun);
             }
+            let bytes = lights_only(records.clone());
+            let lights = Lights::new(&blob::SceneView::parse(&bytes).expect("valid blob"));
+            assert!(lights.selector().tree.nodes[0].omni != 0, "{count} lights: an omnidirectional root");
+            descents += assert_lanes_equal_select(records, 600, case, &mut rng);
         }
     }
     assert!(descents > 20_000, "only {descents} lanes went down the tree");
