@@ -601,56 +601,74 @@ fn inside_a_sphere(g: &Gathered, inp: &LightInputs) -> bool {
     inside
 }
 
+/// What every kind's step 4 shares for one lane: the uniform direction on the unit sphere (the dome's,
+/// a sphere's normal seen from inside), and the cone a distant light or a sphere seen from outside
+/// subtends at `p`: a direction in it, its `1 − cos θmax`, and the distance to the sphere along that
+/// direction (else along the axis); `dc2` is the squared distance to the centre.
+struct ConeLane {
+    on_sphere: V,
+    dc2: f32,
+    one_minus_cos_max: f32,
+    cone_dir: V,
+    cone_distance: f32,
+}
+
+/// [`ConeLane`] with the scalar code's operations (`uniform_sphere`, `sample_cone`, `ray_sphere`).
+// `!(a < b)` as in the scalar `ray_sphere`: NaN does not return early.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[inline(always)]
+fn cone_lane(distant: bool, p: V, (c, s): (V, f32), u0: f32, (cos, sin): (f32, f32)) -> ConeLane {
+    // `uniform_sphere(u)`.
+    let z = 1.0 - 2.0 * u0;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let on_sphere = V { x: r * cos, y: r * sin, z };
+
+    // A sphere seen from outside: the cone it subtends.
+    let dc = c.sub(p);
+    let dc2 = dc.dot(dc);
+    let sin2 = s * s / dc2;
+    let cos_max = (1.0 - sin2).max(0.0).sqrt();
+    let sphere_one_minus_cos_max = sin2 / (1.0 + cos_max);
+    let sphere_axis = dc.div(dc2.sqrt());
+
+    // `sample_cone`: a distant cone or a sphere's.
+    let axis = V::select(distant, c, sphere_axis);
+    let one_minus_cos_max = if distant { s } else { sphere_one_minus_cos_max };
+    let one_minus_cos = u0 * one_minus_cos_max;
+    let cos_theta = 1.0 - one_minus_cos;
+    let sin_theta = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+    let local = V { x: sin_theta * cos, y: sin_theta * sin, z: cos_theta };
+    let cone_dir = frame_to_world(axis, local).normalize();
+
+    // `ray_sphere(p, cone_dir, centre, radius)`, else the distance along the axis.
+    let oc = p.sub(c);
+    let b = oc.dot(cone_dir);
+    let cc = oc.dot(oc) - s * s;
+    let disc = b * b - cc;
+    let sq = disc.sqrt();
+    let q = if b > 0.0 { -b - sq } else { -b + sq };
+    let (t0, t1) = (q, if q != 0.0 { cc / q } else { 0.0 });
+    let (t0, t1) = if t0 > t1 { (t1, t0) } else { (t0, t1) };
+    let sphere_hit = !(disc < 0.0) && (t0 > 0.0 || t1 > 0.0);
+    let t = if t0 > 0.0 { t0 } else { t1 };
+    let cone_distance = if sphere_hit { t } else { dc.dot(cone_dir) };
+    ConeLane { on_sphere, dc2, one_minus_cos_max, cone_dir, cone_distance }
+}
+
 /// Step 4 of [`sample_lanes`] when every lane picked a light at infinity or a sphere seen from
 /// outside: [`every_kind`]'s operations for those kinds only. Every lane's result is a direction in
 /// a cone (a sphere's or a distant light's), the dome's uniform direction or the delta direction,
 /// so the point on a light, its distance, its cosine and the area pdf (eight divisions and a
 /// square root a lane) are not computed; `b` stays zero.
-// `!(a < b)` as in [`every_kind`].
-#[allow(clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 fn cones(g: &Gathered, inp: &LightInputs, cos: &Lanes, sin: &Lanes, out: &mut LightSampleLanes) {
     for k in 0..LANES {
         let (kind, sel) = (g.kind[k], g.sel[k]);
-        let p = V::at(&inp.p, k);
-        let u0 = g.u0[k];
-        let (c, s) = (V::at(&g.center, k), g.scalar[k]);
-
-        let z = 1.0 - 2.0 * u0;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let on_sphere = V { x: r * cos[k], y: r * sin[k], z };
-
-        let dc = c.sub(p);
-        let dc2 = dc.dot(dc);
-        let sin2 = s * s / dc2;
-        let cos_max = (1.0 - sin2).max(0.0).sqrt();
-        let sphere_one_minus_cos_max = sin2 / (1.0 + cos_max);
-        let sphere_axis = dc.div(dc2.sqrt());
-
-        let distant = kind == KIND_CONE;
-        let axis = V::select(distant, c, sphere_axis);
-        let one_minus_cos_max = if distant { s } else { sphere_one_minus_cos_max };
-        let one_minus_cos = u0 * one_minus_cos_max;
-        let cos_theta = 1.0 - one_minus_cos;
-        let sin_theta = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
-        let local = V { x: sin_theta * cos[k], y: sin_theta * sin[k], z: cos_theta };
-        let cone_dir = frame_to_world(axis, local).normalize();
-
-        let oc = p.sub(c);
-        let b = oc.dot(cone_dir);
-        let cc = oc.dot(oc) - s * s;
-        let disc = b * b - cc;
-        let sq = disc.sqrt();
-        let q = if b > 0.0 { -b - sq } else { -b + sq };
-        let (t0, t1) = (q, if q != 0.0 { cc / q } else { 0.0 });
-        let (t0, t1) = if t0 > t1 { (t1, t0) } else { (t0, t1) };
-        let sphere_hit = !(disc < 0.0) && (t0 > 0.0 || t1 > 0.0);
-        let t = if t0 > 0.0 { t0 } else { t1 };
-        let cone_distance = if sphere_hit { t } else { dc.dot(cone_dir) };
-
+        let centre = (V::at(&g.center, k), g.scalar[k]);
+        let cone = cone_lane(kind == KIND_CONE, V::at(&inp.p, k), centre, g.u0[k], (cos[k], sin[k]));
         let (dome, delta, sphere) = (kind == KIND_DOME, kind == KIND_DELTA, kind == KIND_SPHERE);
-        let wi = V::select(dome, on_sphere, V::select(delta, c, cone_dir));
-        let cone_pdf = sel / (TAU * one_minus_cos_max);
+        let wi = V::select(dome, cone.on_sphere, V::select(delta, centre.0, cone.cone_dir));
+        let cone_pdf = sel / (TAU * cone.one_minus_cos_max);
         let pdf = if dome {
             sel / (4.0 * PI)
         } else if delta {
@@ -661,7 +679,7 @@ fn cones(g: &Gathered, inp: &LightInputs, cos: &Lanes, sin: &Lanes, out: &mut Li
         V::at(&g.radiance, k).store(&mut out.li, k);
         wi.store(&mut out.wi, k);
         out.ok[k] = 1;
-        out.distance[k] = if sphere { cone_distance } else { f32::INFINITY };
+        out.distance[k] = if sphere { cone.cone_distance } else { f32::INFINITY };
         out.pdf[k] = pdf;
         out.delta[k] = delta as u32;
         out.triangle[k] = g.triangle[k];
@@ -673,8 +691,6 @@ fn cones(g: &Gathered, inp: &LightInputs, cos: &Lanes, sin: &Lanes, out: &mut Li
 /// Step 4 of [`sample_lanes`]: every kind's formula with the scalar code's operations, the kind
 /// selecting; without `PATCHES` (no lane picked a rect, disk or triangle) their points are not
 /// computed and `b` stays zero.
-// `!(a < b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
-#[allow(clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 fn every_kind<const PATCHES: bool>(
     g: &Gathered,
@@ -689,43 +705,10 @@ fn every_kind<const PATCHES: bool>(
         let (u0, u1) = (g.u0[k], inp.u[1][k]);
         let (c, s) = (V::at(&g.center, k), g.scalar[k]);
         let radiance = V::at(&g.radiance, k);
-
-        // `uniform_sphere(u)`: the dome's direction, a sphere's normal seen from inside.
-        let z = 1.0 - 2.0 * u0;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let on_sphere = V { x: r * cos[k], y: r * sin[k], z };
-
-        // A sphere seen from outside: the cone it subtends.
-        let dc = c.sub(p);
-        let dc2 = dc.dot(dc);
-        let inside = dc2 <= s * s * (1.0 + 1e-4);
-        let sin2 = s * s / dc2;
-        let cos_max = (1.0 - sin2).max(0.0).sqrt();
-        let sphere_one_minus_cos_max = sin2 / (1.0 + cos_max);
-        let sphere_axis = dc.div(dc2.sqrt());
-
-        // `sample_cone`: a distant cone or a sphere's.
         let distant = kind == KIND_CONE;
-        let axis = V::select(distant, c, sphere_axis);
-        let one_minus_cos_max = if distant { s } else { sphere_one_minus_cos_max };
-        let one_minus_cos = u0 * one_minus_cos_max;
-        let cos_theta = 1.0 - one_minus_cos;
-        let sin_theta = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
-        let local = V { x: sin_theta * cos[k], y: sin_theta * sin[k], z: cos_theta };
-        let cone_dir = frame_to_world(axis, local).normalize();
-
-        // `ray_sphere(p, cone_dir, centre, radius)`, else the distance along the axis.
-        let oc = p.sub(c);
-        let b = oc.dot(cone_dir);
-        let cc = oc.dot(oc) - s * s;
-        let disc = b * b - cc;
-        let sq = disc.sqrt();
-        let q = if b > 0.0 { -b - sq } else { -b + sq };
-        let (t0, t1) = (q, if q != 0.0 { cc / q } else { 0.0 });
-        let (t0, t1) = if t0 > t1 { (t1, t0) } else { (t0, t1) };
-        let sphere_hit = !(disc < 0.0) && (t0 > 0.0 || t1 > 0.0);
-        let t = if t0 > 0.0 { t0 } else { t1 };
-        let cone_distance = if sphere_hit { t } else { dc.dot(cone_dir) };
+        let ConeLane { on_sphere, dc2, one_minus_cos_max, cone_dir, cone_distance } =
+            cone_lane(distant, p, (c, s), u0, (cos[k], sin[k]));
+        let inside = dc2 <= s * s * (1.0 + 1e-4);
 
         // A point on the light: rect, disk, triangle, the sphere from inside, or the point light.
         let x_sphere = c.add(on_sphere.scale(s));
