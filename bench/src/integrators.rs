@@ -383,15 +383,8 @@ fn material_heavy_scene() -> anyhow::Result<ingest::Scene> {
             bias,
             fallback: [0.5; 4],
         };
-        let program = vec![
-            ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
-            ShaderNode::Transform2d {
-                dst: 1,
-                src: 0,
-                rotation_degrees: 15.0 * m as f32,
-                scale: [2.0, 2.0],
-                translation: [0.1 * m as f32, 0.0],
-            },
+        let mut program = ShaderNode::transformed_uvs(15.0 * m as f32, [2.0, 2.0], [0.1 * m as f32, 0.0]);
+        program.extend([
             lookup(2, base, [1.0; 4], [0.0; 4]),
             lookup(3, base + 1, [1.0; 4], [0.0; 4]),
             lookup(4, base + 2, [1.0; 4], [0.0; 4]),
@@ -400,7 +393,7 @@ fn material_heavy_scene() -> anyhow::Result<ingest::Scene> {
             ShaderNode::Output { input: ShadingInput::Roughness, src: 3, swizzle: [0; 4] },
             ShaderNode::Output { input: ShadingInput::Metallic, src: 4, swizzle: [0; 4] },
             ShaderNode::Output { input: ShadingInput::Normal, src: 5, swizzle: [0, 1, 2, 3] },
-        ];
+        ]);
         materials.push(ingest::Material {
             path: format!("/Looks/Pbr_{m}"),
             ior: 1.5,

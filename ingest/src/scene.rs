@@ -170,6 +170,15 @@ pub enum ShaderNode {
 }
 
 impl ShaderNode {
+    /// The mesh's uvs through a UsdTransform2d into register 1 (register 0 holds them untransformed):
+    /// the head of a program whose texture lookups read `st` from register 1.
+    pub fn transformed_uvs(rotation_degrees: f32, scale: [f32; 2], translation: [f32; 2]) -> Vec<ShaderNode> {
+        vec![
+            ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
+            ShaderNode::Transform2d { dst: 1, src: 0, rotation_degrees, scale, translation },
+        ]
+    }
+
     /// The program of a material whose diffuse colour is texture `texture` read at the mesh's uvs
     /// (repeat wrap, `fallback` where there is no texel); register 1 holds the texel, so callers may
     /// route more of its channels (e.g. alpha to roughness) with further [`ShaderNode::Output`]s.

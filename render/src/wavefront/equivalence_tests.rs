@@ -193,22 +193,15 @@ fn pbr_scene() -> Scene {
         fallback: [0.5; 4],
     };
     for (k, m) in scene.materials.iter_mut().take(3).enumerate() {
-        m.program = vec![
-            ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
-            ShaderNode::Transform2d {
-                dst: 1,
-                src: 0,
-                rotation_degrees: 30.0 * k as f32,
-                scale: [1.5, 2.0],
-                translation: [0.25, -0.1 * k as f32],
-            },
+        m.program = ShaderNode::transformed_uvs(30.0 * k as f32, [1.5, 2.0], [0.25, -0.1 * k as f32]);
+        m.program.extend([
             lookup(2, 0, [1.0; 4], [0.0; 4]),
             lookup(3, 1, [2.0, 2.0, 2.0, 1.0], [-1.0, -1.0, -1.0, 0.0]),
             ShaderNode::Output { input: ShadingInput::DiffuseColor, src: 2, swizzle: [0, 1, 2, 3] },
             ShaderNode::Output { input: ShadingInput::Roughness, src: 2, swizzle: [3; 4] },
             ShaderNode::Output { input: ShadingInput::Metallic, src: 2, swizzle: [1; 4] },
             ShaderNode::Output { input: ShadingInput::Normal, src: 3, swizzle: [0, 1, 2, 3] },
-        ];
+        ]);
     }
     scene
 }
