@@ -84,7 +84,14 @@
 //! on that scene came out level with the scalar one (±8 % noise between runs) although it executes
 //! 22 % fewer instructions; an idle machine is needed to settle it.
 //!
-//! Experiments that did not pay (kept out): a smaller path pool (1024 or 512 paths instead of 4096:
+//! Experiments that did not pay (kept out): building every hit's surface and sort key per 64-ray
+//! batch inside the closest-hit stage, its triangle record and vertices prefetched during the
+//! traversal (a 92-byte kept record; 2026-11-23): the surface work fell from ~9.7 % to 7.3 % of the
+//! perf samples on shading-heavy, but the shade stage took its first touch (3.6 → 5.5 %) and the
+//! prefetches' own loads landed in the traversal loop (1.5 → 3.1 %), +2.8 % instructions; with the
+//! 2048-path pool the whole render came out level (untimed task-clock medians 905 / 916 ms;
+//! non-traversal samples per traversal sample 0.848 / 0.862 over three alternating perf runs
+//! each), so it only moved time from shading into intersection. A smaller path pool (1024 or 512 paths instead of 4096:
 //! the same L1 misses, within timing noise; later measured at L2, where 2048 paths did pay:
 //! [`POOL_PATHS`]); rebuilding the surface in shading instead of keeping the
 //! one the sort key reconstructs (5 % more instructions, 12 % fewer L1 misses, no clear time change);
