@@ -92,9 +92,9 @@
 //! 2048-path pool the whole render came out level (untimed task-clock medians 905 / 916 ms;
 //! non-traversal samples per traversal sample 0.848 / 0.862 over three alternating perf runs
 //! each), so it only moved time from shading into intersection. A smaller path pool (1024 or 512
-//! paths instead of 4096: the same L1 misses, within timing noise; later measured at L2, where 2048 paths did pay:
-//! [`POOL_PATHS`]); rebuilding the surface in shading instead of keeping the
-//! one the sort key reconstructs (5 % more instructions, 12 % fewer L1 misses, no clear time change);
+//! paths instead of 4096: the same L1 misses, within timing noise; later measured at L2, where
+//! 2048 paths did pay: [`POOL_PATHS`]); rebuilding the surface in shading instead of keeping the one
+//! the sort key reconstructs (5 % more instructions, 12 % fewer L1 misses, no clear time change);
 //! packet traversal ([`packet`]: closest-hit packets for the camera wave and any-hit packets for
 //! the occlusion queue ran 2–8 % more query instructions; its docs have the figures, and show the
 //! traversal missing L1 *less* than the scalar integrator's); ordering the occlusion queue by
