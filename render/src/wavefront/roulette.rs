@@ -4,6 +4,13 @@
 //! `β ← β · f · (|n·ωᵢ| / pdf)`; from [`crate::integrator::RR_START_BOUNCE`] bounces on, the path
 //! survives with probability `q = min(max(β), 0.95)` and then `β ← β / q`. Same IEEE operations in the
 //! same order as the scalar code, so lanes equal it bit for bit.
+//!
+//! Groups where no lane plays roulette skip the three divisions by `q` (the kernel is a chain of
+//! two divisions, `cos / pdf` then `β / q`, so it is latency-bound). One-process timing against
+//! the frozen old kernel (2048 groups, min of 60 alternating rounds, contended), per group: no lane
+//! playing 5.2–8.0 → 4.2–6.1 ns (−21 to −24 %), half the groups playing −9 to −11 %, every group
+//! playing −3 to −10 % (the throughput products written out: as `[0, 1, 2].map(..)` they became
+//! an out-of-line call in the two-variant kernel).
 
 use super::bsdf_lanes::{Lanes, Lanes3};
 use super::lanes::LANES;
@@ -53,13 +60,35 @@ pub fn continue_scalar(beta: Vec3, f: Vec3, cos: f32, pdf: f32, play: bool, u: f
 }
 
 /// [`continue_scalar`] on eight lanes.
-// `!(a <= b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
-#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+///
+/// Groups where no lane plays roulette (all before [`crate::integrator::RR_START_BOUNCE`]: the
+/// first bounces, the most numerous) take a variant without the three divisions by the survival
+/// probability, which the selects would discard.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn continue_lanes(l: &RouletteLanes, out: &mut RouletteOut) {
+    if l.play.iter().any(|&p| p != 0) {
+        continue_group::<true>(l, out);
+    } else {
+        continue_group::<false>(l, out);
+    }
+}
+
+// `!(a <= b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+#[inline(always)]
+fn continue_group<const PLAY: bool>(l: &RouletteLanes, out: &mut RouletteOut) {
     for k in 0..LANES {
         let s = l.cos[k] / l.pdf[k];
-        let b = [0, 1, 2].map(|c| l.beta[c][k] * (l.f[c][k] * s));
+        // Written out: `[0, 1, 2].map(..)` stayed an out-of-line call in the two variants.
+        let b =
+            [l.beta[0][k] * (l.f[0][k] * s), l.beta[1][k] * (l.f[1][k] * s), l.beta[2][k] * (l.f[2][k] * s)];
+        if !PLAY {
+            for c in 0..3 {
+                out.beta[c][k] = b[c];
+            }
+            out.alive[k] = 1;
+            continue;
+        }
         // glam's `max_element`: `if a > b { a } else { b }`, right to left.
         let gt = |a: f32, b: f32| if a > b { a } else { b };
         let survive = gt(b[0], gt(b[1], b[2])).min(0.95);
@@ -83,9 +112,11 @@ mod tests {
             (x >> 8) as f32 / 16_777_216.0
         };
         let special = [0.0, f32::INFINITY, f32::NAN, 1e-30, 3.0];
-        let (mut alive, mut total) = (0, 0);
-        for _ in 0..1000 {
+        let (mut alive, mut total, mut no_play_groups) = (0, 0, 0);
+        for round in 0..1000 {
             let mut l = RouletteLanes::default();
+            // One group in three plays no roulette on any lane (the kernel's variant without it).
+            let no_play_group = round % 3 == 0;
             for k in 0..LANES {
                 for c in 0..3 {
                     l.beta[c][k] = if u() < 0.03 { special[(u() * 5.0) as usize % 5] } else { 2.0 * u() };
@@ -94,8 +125,9 @@ mod tests {
                 l.cos[k] = u();
                 l.pdf[k] = if u() < 0.03 { 0.0 } else { 4.0 * u() };
                 l.u[k] = u();
-                l.play[k] = (u() < 0.7) as u32;
+                l.play[k] = (!no_play_group && u() < 0.7) as u32;
             }
+            no_play_groups += l.play.iter().all(|&p| p == 0) as u32;
             let mut out = RouletteOut::default();
             continue_lanes(&l, &mut out);
             for k in 0..LANES {
@@ -113,5 +145,6 @@ mod tests {
             }
         }
         assert!(alive > total / 3 && alive < total, "{alive} of {total} survive");
+        assert!((334..400).contains(&no_play_groups), "{no_play_groups} groups without roulette");
     }
 }
