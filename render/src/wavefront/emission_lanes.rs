@@ -141,10 +141,13 @@
 //! every run.
 //!
 //! # Measured, fourth round (main at 2f35c45: fewer mispredicted branches and spills)
-//! perf annotate put the third-round kernel's hottest instruction on the `jne` after the box
-//! test's `vmovmskps` (whether a ray group meets a box: 43 % of the 117,540 box tests, no pattern),
-//! then on the exit of each met box's loop over its rays (one to eight rays) and on ymm spills and
-//! reloads of the rays around those loops. Now the box tests of a ray group fill one `u64` of
+//! perf annotate of the third-round kernel (cpu-clock: a sample lands after the instruction that
+//! stalls) put 12.9 % of its samples on the branch after the sphere reject's `vmovmskps` (the wait
+//! for the reject's chain, with the exit of the met box's ray loop right after it), 5.8 % on the
+//! branch after the box test's `vmovmskps` (whether a ray group meets a box: 43 % of the 117,540
+//! box tests, no pattern) and 10 % on the stores of `1/d` after its divisions; callgrind's branch
+//! model put 94 k mispredicts in the kernel, most on each met box's loop over its rays (one to
+//! eight) and on the box branch. Now the box tests of a ray group fill one `u64` of
 //! (group, ray) bits without a branch, and one loop over its set bits runs the light tests
 //! (`avx::ray_group_hits`): one data-dependent exit per ray group. Kept with it: the rays in
 //! registers die before that loop when there are at most eight groups (else they were reloaded for
@@ -167,13 +170,18 @@
 //! for every pair; the exact test's tuple stored for every pair); with the rays dead before the
 //! loop, scalar arguments and the branch-free sphere reject, +4.2 M and −9 % in time (1.03 and 2.3
 //! boxes alike; four ymm reloads per pair were left at the plane branch's join); without the plane
-//! branch and with the group read unchecked (one box per group), +0.5 M and −11 % / −13 %. Images
+//! branch and with the group read unchecked (one box per group), +0.5 M and −11 % / −13 %. perf,
+//! 320×213, 64 spp, 1 thread, four alternating runs (contended): the kernel's share of the
+//! wavefront's samples 3.46–3.84 % before, 3.12–3.58 % after; the branch after the sphere reject
+//! keeps its 12.9 % of the kernel's samples (the reject's latency, not a mispredict). Images
 //! byte-identical to main's on the bench blobs (both integrators).
 //!
-//! Tried and lost: nothing else in the time box; left: the box test's six broadcasts per box
-//! (the boxes could be stored broadcast and `(o − lo)·(−1/d)` used, the same bits but for the sign
-//! of a zero slab, which the comparisons ignore), ray-major bits sharing a ray's broadcasts over its
-//! groups (a bit-matrix transpose per ray group, but a second loop exit per ray).
+//! Tried and lost: the boxes stored broadcast to the lanes and the slabs computed as
+//! `(o − lo)·(−1/d)` (the same bits but for the sign of a zero, which the comparisons ignore), so
+//! that `vsubps` reads the bound from memory: six instructions fewer per box test, but 0–1.5 %
+//! slower in the harness against this kernel frozen (minimum of 61 rounds, three runs at three ray
+//! spreads). Left: ray-major bits sharing a ray's broadcasts over its groups (a bit-matrix
+//! transpose per ray group, but a second loop exit per ray).
 
 #[cfg(target_arch = "x86_64")]
 mod avx;
