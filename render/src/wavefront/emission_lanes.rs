@@ -139,6 +139,49 @@
 //! shading-heavy wavefront speed-up over scalar 1.83/1.83/1.75× before, 1.84/1.79/1.76× after,
 //! shading + texturing + integration 1.98/2.10/1.72× before, 2.10/2.01/1.96× after; max |Δ| 0 in
 //! every run.
+//!
+//! # Measured, fourth round (main at 2f35c45: fewer mispredicted branches and spills)
+//! perf annotate of the third-round kernel (cpu-clock: a sample lands after the instruction that
+//! stalls) put 12.9 % of its samples on the branch after the sphere reject's `vmovmskps` (the wait
+//! for the reject's chain, with the exit of the met box's ray loop right after it), 5.8 % on the
+//! branch after the box test's `vmovmskps` (whether a ray group meets a box: 43 % of the 117,540
+//! box tests, no pattern) and 10 % on the stores of `1/d` after its divisions; callgrind's branch
+//! model put 94 k mispredicts in the kernel, most on each met box's loop over its rays (one to
+//! eight) and on the box branch. Now the box tests of a ray group fill one `u64` of
+//! (group, ray) bits without a branch, and one loop over its set bits runs the light tests
+//! (`avx::ray_group_hits`): one data-dependent exit per ray group. Kept with it: the rays in
+//! registers die before that loop when there are at most eight groups (else they were reloaded for
+//! every pair), the plane test's per-pair branch left out of scenes without rect or disk lights,
+//! the sphere reject without its branch (masked by the sphere lanes), and the rare exact test
+//! called with scalar arguments (a tuple by reference had three stores per pair).
+//!
+//! | shading-heavy, callgrind 120×80, 8 spp, 1 thread | before | after |
+//! |---|---|---|
+//! | `avx::hit_rays` inclusive, instructions | 20.38 M | 20.92 M |
+//! | `avx::hit_rays`, mispredicted conditional branches (`--branch-sim=yes`) | 94.3 k | 54.7 k |
+//! | `intersect::emission` inclusive, instructions / mispredicts | 32.65 M / 129.4 k | 33.19 M / 92.6 k |
+//! | whole process, instructions | 466.6 M | 467.4 M |
+//!
+//! Time, one process (a harness, not kept, timing the third-round kernel frozen beside this one
+//! on the bench scene's six boxes and 48 spheres, 16 k random rays in batches of 64, 15 alternating
+//! rounds, median ns per ray, contended): 10.43 → 9.24 (−11 %) with rays meeting 1.03 boxes on
+//! average, 14.25 → 12.41 (−13 %) at 2.3 boxes, 14.87 → 12.90 (−13 %) at 2.6. Step by step: the
+//! bit loop alone had +7.3 M instructions in the kernel (the rays, live across the loop, reloaded
+//! for every pair; the exact test's tuple stored for every pair); with the rays dead before the
+//! loop, scalar arguments and the branch-free sphere reject, +4.2 M and −9 % in time (1.03 and 2.3
+//! boxes alike; four ymm reloads per pair were left at the plane branch's join); without the plane
+//! branch and with the group read unchecked (one box per group), +0.5 M and −11 % / −13 %. perf,
+//! 320×213, 64 spp, 1 thread, four alternating runs (contended): the kernel's share of the
+//! wavefront's samples 3.46–3.84 % before, 3.12–3.58 % after; the branch after the sphere reject
+//! keeps its 12.9 % of the kernel's samples (the reject's latency, not a mispredict). Images
+//! byte-identical to main's on the bench blobs (both integrators).
+//!
+//! Tried and lost: the boxes stored broadcast to the lanes and the slabs computed as
+//! `(o − lo)·(−1/d)` (the same bits but for the sign of a zero, which the comparisons ignore), so
+//! that `vsubps` reads the bound from memory: six instructions fewer per box test, but 0–1.5 %
+//! slower in the harness against this kernel frozen (minimum of 61 rounds, three runs at three ray
+//! spreads). Left: ray-major bits sharing a ray's broadcasts over its groups (a bit-matrix
+//! transpose per ray group, but a second loop exit per ray).
 
 #[cfg(target_arch = "x86_64")]
 mod avx;

@@ -1,9 +1,12 @@
 //! The emission kernel ([`super::hit_rays`]) in AVX intrinsics, in two steps per group of eight
-//! rays: each group box against the eight rays at once (the rays in the lanes, one `vmovmskps`),
-//! then, for each ray that meets the box, that ray against the group's eight lights at once (the
-//! lights in the lanes, the ray broadcast): the rays that meet a box are tested, and only those,
-//! with no lane of the light test idle (a light group has eight lights; a ray group meeting a box
-//! held five rays that meet it on average, on the bench scene).
+//! rays: every group box against the eight rays at once (the rays in the lanes, one `vmovmskps`
+//! per box), the masks gathered into one `u64` of (group, ray) bits with no branch; then, for each
+//! set bit, that ray against the group's eight lights at once (the lights in the lanes, the ray
+//! broadcast): the rays that meet a box are tested, and only those, with no lane of the light
+//! test idle (a light group has eight lights; a ray group meeting a box held five rays that meet
+//! it on average, on the bench scene). One loop over the bits, rather than a branch per box and a
+//! loop per met box, leaves one data-dependent branch per ray group (see the parent module's
+//! fourth round).
 //!
 //! Written with `std::arch` rather than as portable lane loops: LLVM compiled such loops into
 //! calls that reloaded their inputs and built lane masks with a shift and an `or` per lane, or,
@@ -48,12 +51,14 @@ pub(super) struct Kernel {
     groups: Vec<GroupLanes>,
     /// Whether every group box is finite (one condition of [`box_mask`]'s `FINITE` path).
     finite_boxes: bool,
+    /// Whether a group holds a rect or disk light (else the plane test is left out).
+    planars: bool,
 }
 
 impl Kernel {
     /// `shapes` in [`crate::lights::Lights::area_lights`] order, `boxes` their groups' boxes.
     pub(super) fn new(shapes: &[LightShape], boxes: &[GroupBox]) -> Self {
-        let groups = shapes
+        let groups: Vec<GroupLanes> = shapes
             .chunks(area_groups::GROUP)
             .map(|group| {
                 let mut lanes = GroupLanes::default();
@@ -76,7 +81,8 @@ impl Kernel {
             })
             .collect();
         let finite_boxes = boxes.iter().all(|b| b.lo.iter().chain(&b.hi).all(|x| x.is_finite()));
-        Kernel { groups, finite_boxes }
+        let planars = groups.iter().any(|g| g.planars != 0);
+        Kernel { groups, finite_boxes, planars }
     }
 }
 
@@ -160,57 +166,34 @@ fn box_mask<const FINITE: bool>(b: &GroupBox, r: &Rays) -> u32 {
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
 }
 
-/// The hits of the rays `meets` of `rays` (the batch's rays `first..first + 8`) with group `g`'s
-/// lights (`lanes`), appended to `hits` ray by ray, in light order for each: a cheap reject in
-/// lanes with the scalar test's own operations (for a sphere `!(disc < 0)`, where `ray_sphere`
-/// goes on; for a rect or disk `!(cos ≥ 0)`, `t > 0`, `t < tmax`, where `Light::intersect` goes
-/// on), then the exact scalar test ([`tails`]) for the few lights that pass. The group's lanes are
-/// loaded once for all its rays; a group of spheres only (the usual case) skips the plane test.
+/// The hits of ray `k` of `rays` (the batch's ray `j`) with group `g`'s lights (`lanes`),
+/// appended to `hits` in light order: a cheap reject in lanes with the scalar test's own
+/// operations (for a sphere `!(disc < 0)`, where `ray_sphere` goes on; for a rect or disk
+/// `!(cos ≥ 0)`, `t > 0`, `t < tmax`, where `Light::intersect` goes on), then the exact scalar test
+/// ([`tails`]) for the few lights that pass. The ray is broadcast from memory and the group's lanes
+/// loaded for each pair: loads, where values kept in registers across the pairs were spilled.
 #[inline]
 #[target_feature(enable = "avx")]
-fn group_hits(
+fn ray_light_hits<const PLANARS: bool>(
     lanes: &GroupLanes,
     shapes: &[LightShape],
-    (rays, first, mut meets): (&RayLanes, usize, u32),
+    (rays, k, j): (&RayLanes, usize, usize),
     g: usize,
     hits: &mut Vec<RayHit>,
 ) {
     let zero = _mm256_setzero_ps();
     let center = lanes.center.each_ref().map(|c| load(c));
-    let radius2 = load(&lanes.radius2);
-    let sphere_rejects = |o: [__m256; 3], d: [__m256; 3]| {
-        let oc = [0, 1, 2].map(|a| _mm256_sub_ps(o[a], center[a]));
-        let bq = dot(oc, d);
-        let c = _mm256_sub_ps(dot(oc, oc), radius2);
-        let disc = _mm256_sub_ps(_mm256_mul_ps(bq, bq), c);
-        // `!(disc < 0)`, NaN included.
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, zero)) as u32 & lanes.spheres
-    };
-    let broadcast = |k: usize| {
-        (
-            [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.o[a][k])),
-            [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.d[a][k])),
-        )
-    };
-    if lanes.planars == 0 {
-        while meets != 0 {
-            // `& 7`: no bounds check on the lanes (`meets` has eight bits).
-            let k = meets.trailing_zeros() as usize & 7;
-            meets &= meets - 1;
-            let (o, d) = broadcast(k);
-            let pass = sphere_rejects(o, d);
-            if pass != 0 {
-                tails(shapes, (rays, k, first + k), (g, pass), hits);
-            }
-        }
-        return;
-    }
-    let normal = lanes.normal.each_ref().map(|n| load(n));
-    while meets != 0 {
-        let k = meets.trailing_zeros() as usize & 7;
-        meets &= meets - 1;
-        let (o, d) = broadcast(k);
-        let spheres = if lanes.spheres != 0 { sphere_rejects(o, d) } else { 0 };
+    let o = [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.o[a][k]));
+    let d = [0, 1, 2].map(|a| _mm256_broadcast_ss(&rays.d[a][k]));
+    // The sphere reject in every group (no branch: `spheres` masks it).
+    let oc = [0, 1, 2].map(|a| _mm256_sub_ps(o[a], center[a]));
+    let bq = dot(oc, d);
+    let c = _mm256_sub_ps(dot(oc, oc), load(&lanes.radius2));
+    let disc = _mm256_sub_ps(_mm256_mul_ps(bq, bq), c);
+    // `!(disc < 0)`, NaN included.
+    let mut pass = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, zero)) as u32 & lanes.spheres;
+    if PLANARS && lanes.planars != 0 {
+        let normal = lanes.normal.each_ref().map(|n| load(n));
         let cos = dot(d, normal);
         let to = [0, 1, 2].map(|a| _mm256_sub_ps(center[a], o[a]));
         let t = _mm256_div_ps(dot(to, normal), cos);
@@ -221,10 +204,10 @@ fn group_hits(
                 _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_broadcast_ss(&rays.tmax[k])),
             ),
         );
-        let pass = spheres | _mm256_movemask_ps(ahead) as u32 & lanes.planars;
-        if pass != 0 {
-            tails(shapes, (rays, k, first + k), (g, pass), hits);
-        }
+        pass |= _mm256_movemask_ps(ahead) as u32 & lanes.planars;
+    }
+    if pass != 0 {
+        tails(shapes, rays, k, j, g * area_groups::GROUP, pass, hits);
     }
 }
 
@@ -237,13 +220,15 @@ fn group_hits(
 #[cold]
 fn tails(
     shapes: &[LightShape],
-    (rays, k, j): (&RayLanes, usize, usize),
-    (g, mut pass): (usize, u32),
+    rays: &RayLanes,
+    k: usize,
+    j: usize,
+    first: usize,
+    mut pass: u32,
     hits: &mut Vec<RayHit>,
 ) {
     let ray =
         Ray { o: [0, 1, 2].map(|a| rays.o[a][k]), d: [0, 1, 2].map(|a| rays.d[a][k]), tmax: rays.tmax[k] };
-    let first = g * area_groups::GROUP;
     while pass != 0 {
         let light = first + pass.trailing_zeros() as usize;
         pass &= pass - 1;
@@ -267,6 +252,8 @@ pub(super) unsafe fn hit_rays(
     rays: impl Fn(usize) -> Ray,
     hits: &mut Vec<RayHit>,
 ) {
+    // One box per group (`pair_loop` relies on it).
+    let boxes = &boxes[..boxes.len().min(kernel.groups.len())];
     let mut lanes = RayLanes::default();
     for first in (0..n).step_by(LANES) {
         let m = (n - first).min(LANES);
@@ -288,8 +275,16 @@ pub(super) unsafe fn hit_rays(
     }
 }
 
+/// Groups whose box tests fill one `u64` of (group, ray) bits.
+const GROUPS_PER_MASK: usize = 64 / LANES;
+
 /// The hits of a group of eight rays (`lanes`, in registers `v`; the batch's rays `first..`, the
-/// lanes `live`), by [`box_mask::<FINITE>`] then [`group_hits`] for every group box they meet.
+/// lanes `live`): [`box_mask::<FINITE>`] of up to eight group boxes into one `u64` (bit `8g + k`:
+/// ray `k` meets box `g`), with no branch, then [`ray_light_hits`] for each set bit. Only the
+/// bit loop's exit is a data-dependent branch (one per ray group, rather than one per box and one
+/// per met box's ray loop). Scenes with at most eight groups (the usual case) take one `u64`, so
+/// the rays in registers die before the light tests (live across them, they were reloaded from
+/// the stack for every pair).
 #[inline]
 #[target_feature(enable = "avx")]
 fn ray_group_hits<const FINITE: bool>(
@@ -299,11 +294,70 @@ fn ray_group_hits<const FINITE: bool>(
     (lanes, v, first, live): (&RayLanes, &Rays, usize, u32),
     hits: &mut Vec<RayHit>,
 ) {
-    for (g, (b, group)) in boxes.iter().zip(&kernel.groups).enumerate() {
-        let meets = box_mask::<FINITE>(b, v) & live;
-        if meets != 0 {
-            group_hits(group, shapes, (lanes, first, meets), g, hits);
-        }
+    let live = u64::from(live) * 0x0101_0101_0101_0101;
+    if boxes.len() <= GROUPS_PER_MASK {
+        let pairs = box_masks::<FINITE>(boxes, v) & live;
+        pair_hits(kernel, &kernel.groups, shapes, (lanes, first), (0, pairs), hits);
+        return;
+    }
+    let chunks = boxes.chunks(GROUPS_PER_MASK).zip(kernel.groups.chunks(GROUPS_PER_MASK));
+    for (c, (boxes, groups)) in chunks.enumerate() {
+        let pairs = box_masks::<FINITE>(boxes, v) & live;
+        pair_hits(kernel, groups, shapes, (lanes, first), (c * GROUPS_PER_MASK, pairs), hits);
+    }
+}
+
+/// [`box_mask::<FINITE>`] of the rays `v` against up to eight boxes: bit `8g + k` for ray `k`
+/// and box `g`.
+#[inline]
+#[target_feature(enable = "avx")]
+fn box_masks<const FINITE: bool>(boxes: &[GroupBox], v: &Rays) -> u64 {
+    let mut pairs = 0u64;
+    for (g, b) in boxes.iter().take(GROUPS_PER_MASK).enumerate() {
+        pairs |= u64::from(box_mask::<FINITE>(b, v)) << (LANES * g);
+    }
+    pairs
+}
+
+/// [`ray_light_hits`] for each (group, ray) bit of `pairs` (`groups` being the groups from
+/// `first_group` on, one per box of the bits), in bit order: group by group, ray by ray. Scenes
+/// without rect and disk lights (the usual case) take a loop without the plane test's branch.
+#[inline]
+#[target_feature(enable = "avx")]
+fn pair_hits(
+    kernel: &Kernel,
+    groups: &[GroupLanes],
+    shapes: &[LightShape],
+    rays: (&RayLanes, usize),
+    (first_group, pairs): (usize, u64),
+    hits: &mut Vec<RayHit>,
+) {
+    if kernel.planars {
+        pair_loop::<true>(groups, shapes, rays, (first_group, pairs), hits);
+    } else {
+        pair_loop::<false>(groups, shapes, rays, (first_group, pairs), hits);
+    }
+}
+
+/// [`pair_hits`]' loop.
+#[inline]
+#[target_feature(enable = "avx")]
+fn pair_loop<const PLANARS: bool>(
+    groups: &[GroupLanes],
+    shapes: &[LightShape],
+    (lanes, first): (&RayLanes, usize),
+    (first_group, mut pairs): (usize, u64),
+    hits: &mut Vec<RayHit>,
+) {
+    while pairs != 0 {
+        let bit = pairs.trailing_zeros() as usize;
+        pairs &= pairs - 1;
+        let (g, k) = (bit / LANES, bit % LANES);
+        debug_assert!(g < groups.len());
+        // SAFETY: `pairs` has bits only for the boxes given to `box_masks`, one per group of
+        // `groups` (`hit_rays` cuts the boxes to the groups).
+        let group = unsafe { groups.get_unchecked(g) };
+        ray_light_hits::<PLANARS>(group, shapes, (lanes, k, first + k), first_group + g, hits);
     }
 }
 
