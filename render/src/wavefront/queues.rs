@@ -43,7 +43,7 @@
 //! hot path, and the order in which threads' hits meet in a shared batch would differ from run to
 //! run (the image would not change, since every path's terms keep their order, but the batches,
 //! counters and timings would). They would pay only if per-worker batches ran short of full 8-lane
-//! groups, and they do not: a tile's paths already fill them (`--stats`: 99.7 % lane use with the
+//! groups, and they do not: a tile's paths already fill them (`--stats`: 99.4–99.9 % lane use with the
 //! wave driver, 98.8–99.8 % with this one), so the queues stay per worker.
 //!
 //! # Measured against the wave driver (not the default: [`super::DEFAULT_DRIVER`])
