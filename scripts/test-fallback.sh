@@ -55,6 +55,17 @@ fi
 render_filters=(
     dispatch_tests::
     wavefront::
+    bsdf::lanes::
+    hair::lanes::
+    lights::lanes::
+    lights::emission_lanes::
+    lights::mis::
+    sampler::lanes::
+    shading::lanes::
+    shading::sort_key::
+    surface::lanes::
+    path::roulette::
+    accel::packet::
     accel::tests::simd_kernels_equal_scalar_kernels
     accel::tests::branch_free_watertight_ray_equals_the_branchy_construction
     accel::tests::bvh_agrees_with_brute_force_on_10000_random_rays
@@ -68,7 +79,7 @@ render_filters=(
     camera::tests::
     sampler::tests::fast_sampler_equals_the_reference_formulation_bit_for_bit
     sampler::tests::table_free_sobol1_matches_the_bit_serial_reference
-    integrator::
+    surface::surface_tests::
     lights::tests::escaped_emission_of_many_rays_equals_the_scalar_one
     lights::tree::tests::
     lights::tests::culled_area_emission_equals_the_sum_over_every_light

@@ -12,7 +12,7 @@
 use glam::{Mat4, Vec3};
 use ingest::pack_curves::Split;
 use plotters::prelude::*;
-use render::curves::CurveAccel;
+use render::accel::curves::CurveAccel;
 use std::path::Path;
 
 /// The groom scene.

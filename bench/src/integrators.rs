@@ -671,7 +671,7 @@ fn ray_sets(scene: &render::Scene, width: u32, height: u32) -> anyhow::Result<Ra
         shadow.push((p, (above - p).normalize()));
     }
     for set in [&mut bounce, &mut shadow] {
-        set.sort_by_key(|&(_, d)| render::wavefront::packet::octant(d));
+        set.sort_by_key(|&(_, d)| render::accel::packet::octant(d));
     }
     Ok(vec![("primary", primary), ("incoherent (bounce)", bounce), ("occlusion (shadow)", shadow)])
 }
@@ -682,7 +682,7 @@ fn traversal(
     width: u32,
     height: u32,
 ) -> anyhow::Result<Vec<TraversalRow>> {
-    use render::wavefront::packet::{closest_packet, PACKET};
+    use render::accel::packet::{closest_packet, PACKET};
     let scene = render::Scene::new(*view);
     let mut rows = Vec::new();
     for (queue, rays) in ray_sets(&scene, width, height)? {
@@ -742,7 +742,7 @@ fn traversal(
 type Timer = dyn Fn(&mut dyn FnMut() -> usize) -> (f64, usize);
 
 /// The shadow rays as any-hit queries (what the occlusion queue asks): single rays against
-/// [`render::wavefront::packet::any_packet`], every triangle blocking.
+/// [`render::accel::packet::any_packet`], every triangle blocking.
 fn any_hit_row(
     name: &str,
     scene: &render::Scene,
@@ -750,7 +750,7 @@ fn any_hit_row(
     dirs: &[Vec3],
     time: &Timer,
 ) -> anyhow::Result<TraversalRow> {
-    use render::wavefront::packet::{any_packet, PACKET};
+    use render::accel::packet::{any_packet, PACKET};
     let mut single_blocked = vec![false; origins.len()];
     let (single, _) = time(&mut || {
         for (k, blocked) in single_blocked.iter_mut().enumerate() {

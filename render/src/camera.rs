@@ -142,8 +142,7 @@ impl Camera {
     }
 }
 
-/// Lane count of [`camera_ray_lanes`].
-pub const LANES: usize = 8;
+pub use lanekit::LANES;
 
 /// What [`camera_ray_lanes`] needs of a camera and an image, constant over a render.
 #[derive(Clone, Copy, Debug)]

@@ -1,8 +1,8 @@
 //! Textured dome lights end to end: maps generated here, baked and packed as ingest does, checked
 //! against quadratures of the same texels (a bilinear reconstruction written independently of
-//! [`crate::dome_map`]) and against the UsdLux orientation.
+//! [`crate::lights::dome_map`]) and against the UsdLux orientation.
 
-use crate::dome_map::DomeMap;
+use crate::lights::dome_map::DomeMap;
 use crate::lights::Lights;
 use crate::testscene::{self, camera_looking_down_z, card, lambert, sphere, Rng};
 use crate::{render_image, Image, Integrator, RenderOptions};

@@ -34,29 +34,29 @@
 #![deny(missing_docs)]
 
 pub mod accel;
-pub mod area_groups;
 pub mod bsdf;
 pub mod camera;
 pub mod cli;
-pub mod curves;
 #[cfg(test)]
 mod dispatch_tests;
-pub mod dome_map;
 #[cfg(test)]
 mod dome_tests;
 pub mod error;
 pub mod film;
+pub mod frame;
 pub mod hair;
 pub mod info;
-pub mod instanced;
-pub mod integrator;
 pub mod lights;
 pub mod mapped;
+pub mod options;
 pub mod output;
+pub mod path;
 pub mod sampler;
+pub mod scalar;
 pub mod scene;
 pub mod shading;
 pub mod stats;
+pub mod surface;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
@@ -68,10 +68,13 @@ pub mod wavefront;
 
 pub use accel::{Accel, Hit, Ray};
 pub use error::RenderError;
-pub use film::{render_scene, render_scene_with_progress, Image, Integrator, RenderOptions, RenderStats};
+pub use film::Image;
+pub use frame::{render_scene, render_scene_with_progress};
 pub use mapped::{map_blob, parse_blob, read_blob, MappedBlob};
+pub use options::{Integrator, RenderOptions};
 pub use output::{write_exr, write_png};
 pub use scene::Scene;
+pub use stats::RenderStats;
 
 use anyhow::Context;
 use std::io::IsTerminal;

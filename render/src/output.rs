@@ -75,7 +75,7 @@ pub fn write_png(path: &Path, image: &Image) -> Result<(), RenderError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::film::RenderStats;
+    use crate::stats::RenderStats;
 
     #[test]
     fn exr_and_png_round_trip() {

@@ -1,9 +1,9 @@
 //! A validated blob view plus what rendering derives from it once: the BVH wrapper, the light list,
 //! the camera choice and the resolution.
 
+use crate::accel::curves::CurveAccel;
 use crate::accel::Accel;
 use crate::camera::{default_height, Camera};
-use crate::curves::CurveAccel;
 use crate::error::RenderError;
 use crate::lights::Lights;
 use crate::shading::Shading;

@@ -1,8 +1,85 @@
-//! The end-of-run summary: rays, throughput and seconds per phase, printed on stderr and optionally
-//! written as JSON.
+//! What a render counts: [`RenderStats`] (rays, samples, stage and phase seconds, lane counters) and
+//! the end-of-run [`Summary`] printed on stderr and optionally written as JSON.
 
-use crate::film::RenderStats;
+use crate::path::RayCounts;
 use serde::Serialize;
+
+/// Render statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    /// Rays by kind.
+    pub rays: RayCounts,
+    /// Camera samples taken.
+    pub samples: u64,
+    /// Samples discarded because their radiance was NaN or infinite.
+    pub nonfinite_samples: u64,
+    /// Wall-clock seconds of the render loop.
+    pub seconds: f64,
+    /// Worker threads used.
+    pub threads: usize,
+    /// Texel bytes in the blob.
+    pub texture_bytes_total: u64,
+    /// Bytes of the 4 KiB texel pages read at least once (0 unless `RenderOptions::texture_stats`).
+    pub texture_bytes_touched: u64,
+    /// Wavefront stage timers, summed over workers (zero for the scalar integrator).
+    pub stages: StageSeconds,
+    /// Wavefront work and lane counters (zero for the scalar integrator).
+    pub counters: Counters,
+    /// CPU seconds per phase, both integrators (zero unless `RenderOptions::phase_stats`).
+    pub phases: PhaseSeconds,
+    /// Material programs evaluated at path vertices.
+    pub shader_evaluations: u64,
+}
+
+/// Per-stage wall-clock seconds, summed over workers (so over threads: CPU-seconds).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StageSeconds {
+    /// Camera ray generation.
+    pub generate: f64,
+    /// Closest-hit queries (plus emission found along rays and the sort key).
+    pub intersect: f64,
+    /// Sort keys (the surface reconstruction of textured hits), radix sort and per-material bucketing
+    /// of the shade queue.
+    pub sort: f64,
+    /// Shading, light and BSDF sampling, and the 8-lane MIS kernel.
+    pub shade: f64,
+    /// Any-hit shadow queries.
+    pub occlusion: f64,
+    /// Per-pixel accumulation.
+    pub accumulate: f64,
+}
+
+impl StageSeconds {
+    /// Adds `other` into `self`.
+    pub fn add(&mut self, other: &StageSeconds) {
+        self.generate += other.generate;
+        self.intersect += other.intersect;
+        self.sort += other.sort;
+        self.shade += other.shade;
+        self.occlusion += other.occlusion;
+        self.accumulate += other.accumulate;
+    }
+}
+
+/// What the wavefront did, for `--stats`: shader evaluations and how full the 8-lane kernels ran.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Counters {
+    /// Eight-lane groups run through the BSDF kernels.
+    pub bsdf_lane_groups: u64,
+    /// Lanes of those groups holding a shading point (the rest idle at a chunk's end).
+    pub bsdf_lanes_active: u64,
+    /// Lanes of those groups holding a light sample (the light and MIS kernels' useful lanes).
+    pub light_lanes_active: u64,
+}
+
+impl Counters {
+    /// Adds `other` into `self`.
+    pub fn add(&mut self, other: &Counters) {
+        self.bsdf_lane_groups += other.bsdf_lane_groups;
+        self.bsdf_lanes_active += other.bsdf_lanes_active;
+        self.light_lanes_active += other.light_lanes_active;
+    }
+}
 
 /// Figures of one `render` run.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -42,7 +119,7 @@ pub struct Summary {
     /// Integrator (`scalar` or `wavefront`).
     pub integrator: String,
     /// Wavefront CPU-seconds per stage (intersection, shading, sort/queue overhead; zero for scalar).
-    pub stages: crate::wavefront::StageSeconds,
+    pub stages: StageSeconds,
     /// Material programs evaluated at path vertices.
     pub shader_evaluations: u64,
     /// Million shader evaluations per second of render time.
@@ -410,11 +487,7 @@ mod tests {
                 integration: 0.25,
                 overhead: 0.0,
             },
-            counters: crate::wavefront::Counters {
-                bsdf_lane_groups: 10,
-                bsdf_lanes_active: 60,
-                light_lanes_active: 40,
-            },
+            counters: Counters { bsdf_lane_groups: 10, bsdf_lanes_active: 60, light_lanes_active: 40 },
             ..RenderStats::default()
         };
         let s = Summary::from_render(&stats, 4, 4, 1);

@@ -15,7 +15,7 @@
 
 use super::Worker;
 use crate::film::TileResult;
-use crate::integrator::{FirstHit, RayCounts};
+use crate::path::{FirstHit, RayCounts};
 use glam::Vec3;
 
 /// What a finished path leaves for its pixel: the film slot of one (pixel, sample) of a chunk.

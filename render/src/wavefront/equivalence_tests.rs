@@ -108,7 +108,7 @@ fn max_abs_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
 
 /// Renders `view` with both integrators and asserts the images are equal bit for bit (beauty and
 /// every AOV), with the same ray and shader-evaluation counts.
-pub(super) fn both_integrators(
+pub(crate) fn both_integrators(
     view: &blob::SceneView,
     options: &RenderOptions,
     what: &str,
@@ -319,8 +319,8 @@ fn wavefront_equals_scalar_with_curves_and_points() {
     let stages = wave.stats.stages;
     assert!(stages.intersect > 0.0 && stages.shade > 0.0 && stages.occlusion > 0.0, "{stages:?}");
     assert!(wave.stats.counters.bsdf_lane_groups > 0);
-    assert_eq!(scalar.stats.stages, crate::wavefront::StageSeconds::default());
-    assert_eq!(scalar.stats.counters, crate::wavefront::Counters::default());
+    assert_eq!(scalar.stats.stages, crate::stats::StageSeconds::default());
+    assert_eq!(scalar.stats.counters, crate::stats::Counters::default());
 
     // The curves and points are in the picture: without them, many pixels change.
     let plain = testscene::bytes(&scene());
@@ -338,7 +338,7 @@ fn wavefront_equals_scalar_with_curves_and_points() {
 /// `emissiveColor` evaluated per light sample): the wavefront image equals the scalar one.
 #[test]
 fn wavefront_equals_scalar_with_every_light_kind() {
-    let mut lit = super::light_lanes::every_light_kind();
+    let mut lit = crate::lights::lanes::every_light_kind();
     lit.textures = scene().textures;
     lit.materials[2].program = vec![
         ShaderNode::PrimvarUv { dst: 0, fallback: [0.0; 4] },
@@ -405,7 +405,7 @@ fn phase_timers_cover_both_integrators() {
             assert!(c.bsdf_lanes_active * 10 >= c.bsdf_lane_groups * 8 * 9, "{c:?}");
             assert!(c.light_lanes_active <= c.bsdf_lanes_active && c.light_lanes_active > 0, "{c:?}");
         } else {
-            assert_eq!(c, crate::wavefront::Counters::default());
+            assert_eq!(c, crate::stats::Counters::default());
         }
     }
     // Without `phase_stats` nothing is timed.
@@ -455,7 +455,7 @@ struct DriverImage {
     albedo: Vec<[f32; 3]>,
     normal: Vec<[f32; 3]>,
     depth: Vec<f32>,
-    rays: crate::integrator::RayCounts,
+    rays: crate::path::RayCounts,
     shader_evaluations: u64,
     batches: super::queues::QueueBatches,
 }
@@ -476,14 +476,8 @@ fn render_with_driver(
     let ctx = super::Context {
         scene: &scene,
         camera: &camera,
-        options,
-        settings: crate::integrator::PathSettings {
-            max_depth: options.max_depth,
-            filter: options.texture_filter,
-        },
-        width,
-        height,
-        forward: camera.forward(),
+        sampling: &crate::film::Sampling::new(options, width, height, camera.forward()),
+        settings: crate::path::PathSettings { max_depth: options.max_depth, filter: options.texture_filter },
         touch: &texture::NoTouch,
         textured: scene.shading.textures().texel_bytes() > 0,
     };
@@ -621,7 +615,7 @@ fn queue_driver_equals_scalar_with_curves_and_points() {
 
 #[test]
 fn queue_driver_equals_scalar_with_every_light_kind() {
-    let mut lit = super::light_lanes::every_light_kind();
+    let mut lit = crate::lights::lanes::every_light_kind();
     lit.textures = scene().textures;
     let bytes = testscene::bytes(&lit);
     let view = blob::SceneView::parse(&bytes).expect("valid blob");

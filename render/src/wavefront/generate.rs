@@ -60,13 +60,14 @@
 //! `camera_ray_lanes` (2.1–2.4 %: its three `vdivps` must stay divisions to equal the scalar
 //! `generate_ray` bit for bit).
 
-use super::lanes::LANES;
-use super::{sampler_lanes, Context, RayState, Worker};
+use super::{Context, RayState, Worker};
 use crate::camera::{self, CameraLanes, RayLanes};
 use crate::film::Tile;
-use crate::integrator::RayCounts;
+use crate::path::RayCounts;
+use crate::sampler::lanes as sampler_lanes;
 use crate::sampler::{dim, hash_u32, PairSeeds};
 use glam::Vec3;
+use lanekit::LANES;
 
 /// Fills the pool with the camera rays of samples `s0 .. s0 + samples` of every pixel of `tile`, and the
 /// ray queue with their indices (the wave driver: one chunk's paths at once).
@@ -104,9 +105,14 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
     paths: std::ops::Range<usize>,
     mut put: F,
 ) {
-    let cam =
-        CameraLanes::new(ctx.camera, ctx.forward, ctx.width, ctx.height, ctx.options.texture_footprint_scale);
-    let seed_hash = hash_u32(ctx.options.seed);
+    let cam = CameraLanes::new(
+        ctx.camera,
+        ctx.sampling.forward,
+        ctx.sampling.width,
+        ctx.sampling.height,
+        ctx.sampling.footprint_scale,
+    );
+    let seed_hash = hash_u32(ctx.sampling.seed);
     let mut jitter = [[0.0f32; LANES]; 2];
     let mut out = RayLanes::default();
     let mut flush = |keys: &PathKeys, len: usize, put: &mut F| {
@@ -155,7 +161,7 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
     // The first pixel of the eight whose seeds `row_seeds` holds.
     let mut seeds_of = u32::MAX;
     for position in paths {
-        let pixel = y * ctx.width + x;
+        let pixel = y * ctx.sampling.width + x;
         // The jitter seeds of a pixel are shared by all its samples: hashed once per pixel, eight
         // pixels of a row at a time (pixels past the row's end are hashed and never read).
         let j = ((x - tile.x0) as usize) % LANES;
@@ -209,8 +215,8 @@ struct PathKeys {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::film::RenderOptions;
-    use crate::integrator::PathSettings;
+    use crate::options::RenderOptions;
+    use crate::path::PathSettings;
     use crate::sampler::{sample_2d, SampleKey};
     use crate::scene::Scene;
     use crate::testscene::{self, camera_looking_down_z, card};
@@ -243,11 +249,8 @@ mod tests {
             let ctx = Context {
                 scene: &scene,
                 camera: &cam,
-                options: &options,
+                sampling: &crate::film::Sampling::new(&options, width, height, cam.forward()),
                 settings: PathSettings { max_depth: 4, filter: options.texture_filter },
-                width,
-                height,
-                forward: cam.forward(),
                 touch: &texture::NoTouch,
                 textured: false,
             };
@@ -274,7 +277,7 @@ mod tests {
                                 (x as f32 + jx) / width as f32,
                                 (y as f32 + jy) / height as f32,
                             );
-                            let mut cone = cam.pixel_cone(d.dot(ctx.forward));
+                            let mut cone = cam.pixel_cone(d.dot(ctx.sampling.forward));
                             cone.width *= scale;
                             cone.spread *= scale;
                             let st = &w.states[i];

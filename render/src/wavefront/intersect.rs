@@ -3,19 +3,20 @@
 //! dome and distant lights) to its path and writes the shade queue (`key << 32 | index`, unsorted;
 //! [`sort_keys`] fills the keys), batch by batch. Escaped paths leave the wave here.
 //!
-//! Curves and points have their own BVH ([`crate::curves`]). As in the scalar integrator, a ray first
+//! Curves and points have their own BVH ([`crate::accel::curves`]). As in the scalar integrator, a ray first
 //! finds its closest triangle, then asks the curves for a hit nearer than that one; a curve hit wins
 //! and is recorded in `curve_hits`, with [`blob::NONE`] as the triangle of its [`Hit`] (whose `t` is
 //! the curve's, so the cone footprint is taken at the right distance).
 
-use super::key_lanes::{self, KeyInputs, KeyPlan};
-use super::lanes::LANES;
-use super::surface_lanes;
-use super::{emission_lanes, prefetch, sort, Context, Worker};
+use super::{prefetch, sort, Context, Worker};
+use crate::accel::curves::CurveHit;
 use crate::accel::Hit;
-use crate::curves::CurveHit;
+use crate::lights::emission_lanes;
 use crate::scene::Scene;
+use crate::shading::sort_key::{self as key_lanes, KeyInputs, KeyPlan};
 use crate::stats::Phase;
+use crate::surface::lanes as surface_lanes;
+use lanekit::LANES;
 use texture::Touch;
 
 /// Rays intersected before their emission is added: few enough that their path states are still
@@ -23,7 +24,7 @@ use texture::Touch;
 /// nothing measurable; the batch is what the area-light kernel tests eight rays at a time.
 const BATCH: usize = emission_lanes::MAX_RAYS;
 
-/// Intersects every queued ray, one ray at a time: packets ([`super::packet`]) did not pay here.
+/// Intersects every queued ray, one ray at a time: packets ([`crate::accel::packet`]) did not pay here.
 /// Then adds the emission each ray found ([`emission`]), batch by batch, so that `--stats` charges
 /// that to shading as the scalar integrator does (timing each ray's two parts would put two clock
 /// reads per ray into the figures: they inflated the simple scene's shading share from 5 % to 33 %;
@@ -202,7 +203,7 @@ pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
 /// tables [`sort_keys`] reads alongside.
 struct KeptSurfaces<'a> {
     shade: &'a mut [u64],
-    surfaces: &'a mut Vec<crate::integrator::Surface>,
+    surfaces: &'a mut Vec<crate::surface::Surface>,
     surface_slot: &'a mut [u32],
     key_plans: &'a [KeyPlan],
     group: &'a mut surface_lanes::HitGroup,

@@ -118,7 +118,7 @@
 //! writes each hit's shading inputs, normals and sampler keys straight into its lane of an AoSoA
 //! [`shade::ScatterGroup`], and phase 2 runs on the group, in lanes: the vertex's random numbers,
 //! the BSDF construction
-//! ([`bsdf_lanes::from_inputs_lanes`]), the ray origins ([`lanes::offset_origin_lanes`], shared by
+//! ([`crate::bsdf::lanes::from_inputs_lanes`]), the ray origins ([`crate::lights::mis::offset_origin_lanes`], shared by
 //! the shadow and the continuation ray), the light sample, the BSDF evaluation, the MIS weight, the
 //! BSDF sample and the roulette; shadow-ray set-up runs only for the samples MIS keeps. Callgrind,
 //! whole process, 120×80, 8 spp, 1 thread (instructions; tractor D1 misses read + write):
@@ -197,35 +197,25 @@
 //! much; the ≥ 1.5× goal needs the intersection share (50 %) down.
 
 mod accumulate;
-pub mod bsdf_lanes;
-pub mod emission_lanes;
 #[cfg(test)]
-mod equivalence_tests;
+pub(crate) mod equivalence_tests;
 mod generate;
-pub mod hair_lanes;
 mod intersect;
-mod key_lanes;
-pub mod lanes;
-pub mod light_lanes;
-pub mod material_lanes;
 mod occlusion;
-pub mod packet;
 mod prefetch;
 pub mod queue;
 pub mod queues;
-pub mod roulette;
-pub mod sampler_lanes;
 mod shade;
 mod shade_curves;
 pub mod sort;
-mod surface_lanes;
 
 use crate::accel::Hit;
 use crate::camera::{Camera, RayCone};
-use crate::film::{RenderOptions, Tile, TileResult};
-use crate::integrator::{FirstHit, PathSettings, RayCounts};
+use crate::film::Sampling;
+use crate::film::{Tile, TileResult};
+use crate::path::{FirstHit, PathSettings, RayCounts};
 use crate::scene::Scene;
-use crate::stats::Phase;
+use crate::stats::{Counters, Phase, StageSeconds};
 use glam::Vec3;
 use std::time::Instant;
 use texture::Touch;
@@ -292,7 +282,7 @@ impl RayState {
     /// from `origin` (a null event: no bounce). False when it has used up its null events.
     fn pass_through(&mut self, t: f32, footprint: f32, origin: Vec3, max_depth: u32) -> bool {
         self.vertex += 1;
-        if self.vertex > max_depth + crate::integrator::MAX_NULL_EVENTS {
+        if self.vertex > max_depth + crate::path::MAX_NULL_EVENTS {
             return false;
         }
         self.travelled += t;
@@ -317,42 +307,12 @@ pub struct ShadowRay {
     pub seed: u32,
 }
 
-/// Per-stage wall-clock seconds, summed over workers (so over threads: CPU-seconds).
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct StageSeconds {
-    /// Camera ray generation.
-    pub generate: f64,
-    /// Closest-hit queries (plus emission found along rays and the sort key).
-    pub intersect: f64,
-    /// Sort keys (the surface reconstruction of textured hits), radix sort and per-material bucketing
-    /// of the shade queue.
-    pub sort: f64,
-    /// Shading, light and BSDF sampling, and the 8-lane MIS kernel.
-    pub shade: f64,
-    /// Any-hit shadow queries.
-    pub occlusion: f64,
-    /// Per-pixel accumulation.
-    pub accumulate: f64,
-}
-
-impl StageSeconds {
-    /// Adds `other` into `self`.
-    pub fn add(&mut self, other: &StageSeconds) {
-        self.generate += other.generate;
-        self.intersect += other.intersect;
-        self.sort += other.sort;
-        self.shade += other.shade;
-        self.occlusion += other.occlusion;
-        self.accumulate += other.accumulate;
-    }
-}
-
 /// One worker's pools and queues, allocated once (before its first tile) and reused.
 pub struct Worker {
     states: Vec<RayState>,
     hits: Vec<Hit>,
     /// Curve and point hits, valid where `hits` holds [`blob::NONE`] as the triangle.
-    curve_hits: Vec<crate::curves::CurveHit>,
+    curve_hits: Vec<crate::accel::curves::CurveHit>,
     first_hits: Vec<Option<FirstHit>>,
     shadow: Vec<ShadowRay>,
     /// Incoherent ray queue being intersected, and the one shade fills for the next wave.
@@ -366,25 +326,25 @@ pub struct Worker {
     scatter: Box<shade::ScatterGroup>,
     scatter_points: usize,
     /// The area lights, eight per group, for the emission rays pick up.
-    area_lights: emission_lanes::AreaLightLanes,
+    area_lights: crate::lights::emission_lanes::AreaLightLanes,
     /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
     textured_materials: Vec<bool>,
     /// Per material: how its sort key is computed ([`key_lanes`]).
-    key_plans: Vec<key_lanes::KeyPlan>,
+    key_plans: Vec<crate::shading::sort_key::KeyPlan>,
     /// Hits waiting for their surfaces ([`surface_lanes`]), with the kernel's columns (~2.5 KiB,
     /// allocated once rather than cleared per stage).
-    surface_group: Box<surface_lanes::HitGroup>,
+    surface_group: Box<crate::surface::lanes::HitGroup>,
     /// Surfaces reconstructed by the sort-key pass for textured hits (their sort key needs the uv
     /// footprint), used by shading instead of being rebuilt (`surface_slot` indexes it per path,
     /// `u32::MAX`: none kept). Shading builds the other hits' surfaces run by run on its stack.
-    surfaces: Vec<crate::integrator::Surface>,
+    surfaces: Vec<crate::surface::Surface>,
     surface_slot: Vec<u32>,
     /// Per path: the material of its current hit (written by the sort-key pass in queue order):
     /// the material bucketing and shading's runs read these 4 bytes (16 KiB for the pool, in L1)
     /// instead of the 20-byte hit and the triangle's material record, by sorted index.
     materials: Vec<u32>,
     /// Register file of the material-program lanes.
-    registers: Box<material_lanes::RegisterLanes>,
+    registers: Box<crate::shading::lanes::RegisterLanes>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
     occlusion: queue::Queue<u32>,
     /// Which loop renders the tiles.
@@ -399,26 +359,6 @@ pub struct Worker {
     pub counters: Counters,
     /// Phase timer (`--stats`) and shader evaluation count.
     pub clock: crate::stats::PhaseClock,
-}
-
-/// What the wavefront did, for `--stats`: shader evaluations and how full the 8-lane kernels ran.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub struct Counters {
-    /// Eight-lane groups run through the BSDF kernels.
-    pub bsdf_lane_groups: u64,
-    /// Lanes of those groups holding a shading point (the rest idle at a chunk's end).
-    pub bsdf_lanes_active: u64,
-    /// Lanes of those groups holding a light sample (the light and MIS kernels' useful lanes).
-    pub light_lanes_active: u64,
-}
-
-impl Counters {
-    /// Adds `other` into `self`.
-    pub fn add(&mut self, other: &Counters) {
-        self.bsdf_lane_groups += other.bsdf_lane_groups;
-        self.bsdf_lanes_active += other.bsdf_lanes_active;
-        self.light_lanes_active += other.light_lanes_active;
-    }
 }
 
 /// The driver renders use: the wave driver, which ran fewer instructions with fewer L1 data misses
@@ -449,7 +389,7 @@ impl Worker {
         Worker {
             states: Vec::with_capacity(paths),
             hits: vec![Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: blob::NONE }; paths],
-            curve_hits: vec![crate::curves::CurveHit::default(); paths],
+            curve_hits: vec![crate::accel::curves::CurveHit::default(); paths],
             first_hits: vec![None; paths],
             shadow: vec![ShadowRay::default(); paths],
             rays: Vec::with_capacity(paths),
@@ -460,9 +400,9 @@ impl Worker {
             scatter: Box::default(),
             scatter_points: 0,
             textured_materials,
-            key_plans: key_lanes::plans(&scene.shading, materials),
+            key_plans: crate::shading::sort_key::plans(&scene.shading, materials),
             surface_group: Box::default(),
-            area_lights: emission_lanes::AreaLightLanes::new(&scene.lights),
+            area_lights: crate::lights::emission_lanes::AreaLightLanes::new(&scene.lights),
             surfaces: Vec::with_capacity(paths),
             surface_slot: vec![u32::MAX; paths],
             materials: vec![0; paths],
@@ -491,16 +431,10 @@ pub struct Context<'s, 'a, T> {
     pub scene: &'s Scene<'a>,
     /// The camera.
     pub camera: &'s Camera,
-    /// Options of the render.
-    pub options: &'s RenderOptions,
+    /// Image size, samples, seed and the camera rays' footprint.
+    pub(crate) sampling: &'s Sampling,
     /// Depth and filter.
     pub settings: PathSettings,
-    /// Image width.
-    pub width: u32,
-    /// Image height.
-    pub height: u32,
-    /// The camera's viewing direction.
-    pub forward: Vec3,
     /// Texel-read reporting.
     pub touch: &'s T,
     /// The scene has texels (else every texture sort key is 0 and is not computed).
@@ -548,7 +482,7 @@ impl Worker {
 /// Renders one tile breadth-first, with the worker's driver.
 pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &Tile) -> TileResult {
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
-    let spp = ctx.options.spp as usize;
+    let spp = ctx.sampling.spp as usize;
     let mut rays = RayCounts::default();
     accumulate::begin(w, npix);
     if let queues::Driver::Queues(_) = w.driver {

@@ -1,9 +1,9 @@
 //! Stage 5: occlusion. Reads the occlusion queue and the shadow-ray side table; adds the contribution of
 //! every unoccluded light sample to its path. One ray at a time: any-hit packets
-//! ([`super::packet::any_packet`]) lost here (see [`super::packet`]).
+//! ([`crate::accel::packet::any_packet`]) lost here (see [`crate::accel::packet`]).
 
 use super::{prefetch, Context, Worker};
-use crate::integrator::RayCounts;
+use crate::path::RayCounts;
 use texture::Touch;
 
 /// Traces every queued shadow ray and empties the queue: any hit among the triangles (with

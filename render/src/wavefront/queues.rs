@@ -95,7 +95,7 @@ use super::accumulate::{self, FilmSample, Finished};
 use super::queue::{BatchHistogram, Queue};
 use super::{generate, intersect, occlusion, shade, sort, timed, Context, Worker};
 use crate::film::Tile;
-use crate::integrator::RayCounts;
+use crate::path::RayCounts;
 use crate::stats::Phase;
 use texture::Touch;
 
@@ -255,7 +255,7 @@ impl QueueState {
 /// Renders one tile with the queue driver, chunk by chunk of its samples.
 pub(super) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &Tile, rays: &mut RayCounts) {
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
-    let spp = ctx.options.spp as usize;
+    let spp = ctx.sampling.spp as usize;
     let q = w.queues.as_mut().expect("the queue driver's worker has queues");
     let per_chunk = (q.film.len() / npix).clamp(1, spp);
     let paths = q.config.paths;

@@ -5,7 +5,7 @@
 //! vertex per hit ([`super::shade_curves`]), else up to eight consecutive triangle hits on one
 //! material (the queue is grouped by material), in these phases:
 //! 1a. the run's surfaces (the ones the sort key kept, else built together in lanes,
-//!    [`super::surface_lanes`]), then the
+//!    [`crate::surface::lanes`]), then the
 //!    material program over the run in lanes ([`material_lanes::evaluate_lanes`]; a lone hit runs
 //!    the scalar program);
 //! 1. per hit: stochastic transparency, the normal map, emission at the hit (the depth limit ends
@@ -182,23 +182,26 @@
 //! medians 1064 / 1093 ms, minima 834 / 843 (10 alternating runs, contended): kept, as in the
 //! earlier measurement above (−4.5 %).
 
-use super::bsdf_lanes::{self, BsdfLanes, EvalLanes, InputLanes, Lanes, Lanes3, SampleInputs, SampleLanes};
-use super::lanes::{self, NeeLanes, NeeOut, LANES};
-use super::light_lanes::{self, LightInputs, LightSampleLanes};
-use super::material_lanes;
-use super::roulette::{self, RouletteLanes, RouletteOut};
-use super::sampler_lanes::{self, KeyLanes, DIMS};
-use super::surface_lanes;
 use super::{prefetch, sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;
+use crate::bsdf::lanes::{self as bsdf_lanes, BsdfLanes, EvalLanes, InputLanes, SampleInputs, SampleLanes};
 use crate::bsdf::Bsdf;
-use crate::integrator::{shadow_tmax, FirstHit, RayCounts, Surface, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
+use crate::lights::lanes::{self as light_lanes, LightInputs, LightSampleLanes};
+use crate::lights::mis::{self as lanes, NeeLanes, NeeOut};
 use crate::lights::power_heuristic;
+use crate::path::roulette::{self as roulette, RouletteLanes, RouletteOut};
+use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
+use crate::sampler::lanes::{self as sampler_lanes, KeyLanes, DIMS};
 use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, SampleKey};
 use crate::scene::Scene;
+use crate::shading::lanes as material_lanes;
 use crate::shading::ShadingInputs;
 use crate::stats::Phase;
+use crate::surface::lanes as surface_lanes;
+use crate::surface::Surface;
 use glam::Vec3;
+use lanekit::LANES;
+use lanekit::{Lanes, Lanes3};
 use texture::Touch;
 
 /// Eight shaded hits waiting for the lane kernels, in AoSoA form: phase 1 writes them lane by lane
@@ -500,7 +503,7 @@ fn prepare<T: Touch>(
 
     let opacity = inputs.effective_opacity();
     // The vertex's other random numbers are drawn in lanes in phase 2; this one decides phase 1.
-    let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed };
+    let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed };
     if opacity < 1.0 && sample_1d(key, st.vertex, dim::OPACITY) >= opacity {
         let origin = offset_ray_origin(s.p, -s.ng);
         if st.pass_through(hit.t, footprint, origin, max_depth) {
@@ -591,7 +594,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
     let scene: &Scene = ctx.scene;
     let table = (!scene.lights.is_empty()).then(|| scene.lights.lane_table());
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
-    let seed_hash = hash_u32(ctx.options.seed);
+    let seed_hash = hash_u32(ctx.sampling.seed);
     let Worker {
         scatter,
         scatter_points,

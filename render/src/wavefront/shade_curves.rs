@@ -6,7 +6,7 @@
 //! Fibre hits are shaded eight at a time: [`vertex`] runs the per-hit part (surface, material,
 //! stochastic transparency, emission, the light sample) and parks the hit's hair BSDF in a
 //! [`CurveGroup`]; when eight are parked (and at the end of the queue, [`flush`]) the hair lane
-//! kernels ([`super::hair_lanes`]) evaluate the eight light samples and draw the eight
+//! kernels ([`crate::hair::lanes`]) evaluate the eight light samples and draw the eight
 //! continuations, and each hit queues its shadow ray and continuation as before. Points
 //! (UsdPreviewSurface with per-point colours) finish their vertex at once, one at a time.
 //!
@@ -14,24 +14,24 @@
 //! for every triangle hit too): the fibre's tangent, offset, colour and spawn distance stay, and
 //! the BSDF is built from them where the hit is shaded.
 //!
-//! Figures (callgrind, the shade stage of a 20 000-strand groom): see [`super::hair_lanes`]. On
+//! Figures (callgrind, the shade stage of a 20 000-strand groom): see [`crate::hair::lanes`]. On
 //! the triangle-only bench scenes the smaller `Surface` left the instruction counts level (±0.2 %,
 //! 120×80, 8 spp, 1 thread, both integrators: surfaces are built in place, not copied) and cut the
 //! wavefront's D1 misses on shading-heavy from 4.20 M to 4.07 M (writes 1.03 M → 0.94 M; cachegrind,
 //! same settings: the sort stage keeps a `Surface` per textured hit).
 
-use super::bsdf_lanes::{EvalLanes, Lanes3, SampleInputs, SampleLanes};
-use super::hair_lanes::{eval_lanes, sample_lanes, HairLanes};
-use super::lanes::LANES;
 use super::{Context, ShadowRay, Worker};
+use crate::bsdf::lanes::{EvalLanes, SampleInputs, SampleLanes};
 use crate::bsdf::BsdfSample;
-use crate::integrator::{
-    shadow_tmax, FirstHit, RayCounts, Surface, SurfaceBsdf, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE,
-};
+use crate::hair::lanes::{eval_lanes, sample_lanes, HairLanes};
 use crate::lights::{power_heuristic, LightSample};
+use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, SampleKey};
 use crate::stats::Phase;
+use crate::surface::{Surface, SurfaceBsdf};
 use glam::Vec3;
+use lanekit::Lanes3;
+use lanekit::LANES;
 use texture::Touch;
 
 /// Fibre hits waiting for the hair lane kernels: the first `len` lanes are in use.
@@ -82,7 +82,8 @@ pub(super) fn vertex<T: Touch>(
     let hit = w.curve_hits[i as usize];
     let st = &mut w.states[i as usize];
     // The scalar sampler (equal to the lanes bit for bit): curve hits are not in scatter groups.
-    let (key, vertex) = (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed }, st.vertex);
+    let (key, vertex) =
+        (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed }, st.vertex);
     let r = |d: u32| sample_1d(key, vertex, d);
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
@@ -205,7 +206,8 @@ fn finish<T: Touch>(
 ) {
     let Parked { path: i, surface: s, footprint, light } = parked;
     let st = &mut w.states[i as usize];
-    let (key, vertex) = (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.options.seed }, st.vertex);
+    let (key, vertex) =
+        (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed }, st.vertex);
 
     // Next-event estimation.
     if let (Some(ls), Some((f, bsdf_pdf))) = (light, eval) {
@@ -214,7 +216,7 @@ fn finish<T: Touch>(
             let mis = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
             let origin = s.spawn(ls.wi);
             let tmax = shadow_tmax(ls.distance, origin, s.p);
-            let seed = hash_combine(hash_combine(hash_u32(ctx.options.seed), st.pixel), st.sample) ^ vertex;
+            let seed = hash_combine(hash_combine(hash_u32(ctx.sampling.seed), st.pixel), st.sample) ^ vertex;
             w.shadow[i as usize] =
                 ShadowRay { origin, dir: ls.wi, tmax, contribution: contribution * mis, seed };
             w.occlusion.push(i);

@@ -72,10 +72,9 @@
 use super::node;
 use super::node::{step, Node, Step, LEAF};
 use super::{LightSelector, ONE_MINUS_EPSILON};
-use crate::wavefront::lanes::saturating_i32;
+use crate::lights::mis::saturating_i32;
 
-/// Shading points per call: the wavefront's lane count.
-pub const LANES: usize = 8;
+pub use lanekit::LANES;
 
 impl LightSelector {
     /// [`LightSelector::select`] at the eight points `p` (x, y, z columns) with `u_select`: each

@@ -38,7 +38,7 @@
 //! | shading-heavy | 636.8 M → 602.2 M (−5.4 %) | 45.5 M → 19.2 M | 85.6 M → 51.8 M | 176.8 M → 175.9 M |
 //! | simple | 135.6 M → 132.1 M (−2.6 %) | 9.1 M → 3.8 M | 1.0 M → 0.9 M | 21.8 M → 18.2 M |
 //!
-//! The process figures include the sort keys in lanes ([`super::key_lanes`]); the surfaces alone
+//! The process figures include the sort keys in lanes ([`crate::shading::sort_key`]); the surfaces alone
 //! took the processes to 359.4 / 621.0 / 132.9 M (−1.7 / −2.5 / −2.1 %). The kernel runs ~190
 //! instructions per hit on shading-heavy (the scalar function ~500), about half of them the
 //! gather's scalar loads and stores.
@@ -63,7 +63,7 @@
 //! gathers by byte offset (optional attributes masked by the lanes' mesh flags, index checks
 //! against the arrays' lengths as vector compares) it takes ~360 instructions per group (~45 per
 //! hit). Callgrind, same settings, images byte-identical (with the key change of
-//! [`super::key_lanes`]'s second round in the process figures):
+//! [`crate::shading::sort_key`]'s second round in the process figures):
 //!
 //! | scene | process | `surface_columns` | `keep_surfaces` inclusive |
 //! |---|---|---|---|
@@ -85,16 +85,15 @@
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
 
-use super::lanes::LANES;
 use crate::accel::Hit;
-use crate::integrator::Surface;
 use crate::scene::Scene;
 use crate::shading::{MeshPoint, UvFootprint};
+use crate::surface::Surface;
 use glam::Vec3;
+use lanekit::LANES;
 
-type Lanes = [f32; LANES];
+use lanekit::{Lanes, Lanes3};
 type Lanes2 = [Lanes; 2];
-type Lanes3 = [Lanes; 3];
 
 /// Groups smaller than this are built by the scalar [`Scene::surface`], one call per hit: the
 /// lane kernel's fixed cost (gather setup, eight-lane arithmetic) does not pay for one or two hits.
@@ -771,7 +770,7 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrator::surface_tests::{bits, random_unit};
+    use crate::surface::surface_tests::{bits, random_unit};
     use crate::testscene::{self, Rng};
     use glam::{Mat4, Vec2};
 

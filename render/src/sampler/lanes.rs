@@ -42,8 +42,8 @@
 //! the coordinates): LLVM scalarised part of it, 78 ns; an AVX-512VL clone (ternary logic for the
 //! Sobol shift-and-XOR steps): 49.0 ns, 3 % more for a third clone.
 
-use super::lanes::LANES;
 use crate::sampler::{dim, hash_combine, pair_index, sobol1_reversed, unit_from_reversed, PairSeeds};
+use lanekit::LANES;
 
 /// Dimensions of a vertex: `vertex_lanes` writes `out[d]` for `d < DIMS`, except `dim::OPACITY`.
 pub const DIMS: usize = 8;

@@ -6,7 +6,7 @@
 //! * `normalize` divides the radiance of rect, disk and sphere lights by their world-space surface area
 //!   (rect w·h, disk πr², sphere 4πr²), so power does not depend on size. Dome lights ignore it.
 //! * A DomeLight with a lat-long `texture:file` shows `radiance × map(direction)` and is sampled by
-//!   the map's luminance distribution ([`crate::dome_map`]); an untextured one is uniform.
+//!   the map's luminance distribution ([`crate::lights::dome_map`]); an untextured one is uniform.
 //! * DistantLight: with `normalize` the intensity is the illuminance E at normal incidence whatever the
 //!   angle, so the radiance over the cone of half-angle θ/2 is E / (π sin²(θ/2)); without `normalize`
 //!   the radiance over the cone is the intensity itself. An angle of 0 is a delta light of illuminance
@@ -23,12 +23,17 @@
 //! "power" depends on the scene's extent) and one slot for the light BVH over the others, which
 //! picks by importance at the shading point.
 
+pub mod area_groups;
+pub mod dome_map;
+pub mod emission_lanes;
+pub mod lanes;
+pub mod mis;
+
 pub mod tree;
 
-use crate::area_groups;
 use crate::bsdf::{sample_concentric_disk, Frame};
 use crate::camera::affine_from_rows;
-use crate::dome_map::DomeMap;
+use crate::lights::dome_map::DomeMap;
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
 
@@ -37,7 +42,7 @@ use std::f32::consts::{PI, TAU};
 pub enum Shape {
     /// Uniform radiance from every direction.
     Dome,
-    /// A lat-long map ([`crate::dome_map`]): `radiance` times the map's value in each direction.
+    /// A lat-long map ([`crate::lights::dome_map`]): `radiance` times the map's value in each direction.
     TexturedDome {
         /// Index into the scene's dome maps (in [`Lights`]).
         map: u32,
@@ -142,7 +147,7 @@ pub struct Lights<'a> {
     materials: &'a [blob::Material],
     /// The same lights laid out for the wavefront's 8-lane sampling kernel, built on first use (the
     /// scalar integrator never pays for it).
-    lane_table: std::sync::OnceLock<crate::wavefront::light_lanes::LightTable>,
+    lane_table: std::sync::OnceLock<crate::lights::lanes::LightTable>,
 }
 
 /// Power heuristic (β = 2) weight of a strategy with pdf `a` against one with pdf `b`.
@@ -435,8 +440,8 @@ impl<'a> Lights<'a> {
     }
 
     /// [`Lights::sample`]'s data in the wavefront light kernel's layout, built once per scene.
-    pub(crate) fn lane_table(&self) -> &crate::wavefront::light_lanes::LightTable {
-        self.lane_table.get_or_init(|| crate::wavefront::light_lanes::LightTable::new(self))
+    pub(crate) fn lane_table(&self) -> &crate::lights::lanes::LightTable {
+        self.lane_table.get_or_init(|| crate::lights::lanes::LightTable::new(self))
     }
 
     /// True if there is nothing to sample.

@@ -16,6 +16,8 @@
 //! Frame: x along the fibre (tangent), z towards the viewer perpendicular to x, y = z × x; `h` is the
 //! hit's offset across the fibre along y, in [−1, 1].
 
+pub mod lanes;
+
 use crate::bsdf::BsdfSample;
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
@@ -136,7 +138,7 @@ impl Lobes {
 
 /// The frame's z axis for a fibre along unit `tangent` seen from `wo`: `wo` without its component
 /// along the fibre, normalized (any perpendicular when `wo` runs along the fibre). It is also the
-/// hit's shading normal, so [`crate::integrator::Surface`] keeps it and the BSDF is built from it
+/// hit's shading normal, so [`crate::surface::Surface`] keeps it and the BSDF is built from it
 /// where the hit is shaded ([`HairBsdf::from_view_axis`]).
 pub fn view_axis(tangent: Vec3, wo: Vec3) -> Vec3 {
     let x = tangent;
@@ -368,7 +370,7 @@ impl HairBsdf {
     }
 
     /// Value (divided by |cos| to [`HairBsdf::normal`], as the integrator multiplies it back) and
-    /// pdf for local `wi`. Shared with the lane kernels ([`crate::wavefront::hair_lanes`]),
+    /// pdf for local `wi`. Shared with the lane kernels ([`crate::hair::lanes`]),
     /// which call it per lane after finding the local directions eight at a time.
     #[inline(always)]
     pub(crate) fn eval_local(&self, wi: Vec3) -> (Vec3, f32) {

@@ -1,7 +1,7 @@
 //! The throughput update after a BSDF sample and Russian roulette, eight paths at a time, beside the
 //! scalar reference (the integrator's own lines, [`continue_scalar`]).
 //!
-//! `β ← β · f · (|n·ωᵢ| / pdf)`; from [`crate::integrator::RR_START_BOUNCE`] bounces on, the path
+//! `β ← β · f · (|n·ωᵢ| / pdf)`; from [`crate::path::RR_START_BOUNCE`] bounces on, the path
 //! survives with probability `q = min(max(β), 0.95)` and then `β ← β / q`. Same IEEE operations in the
 //! same order as the scalar code, so lanes equal it bit for bit.
 //!
@@ -12,9 +12,9 @@
 //! playing −3 to −10 % (the throughput products written out: as `[0, 1, 2].map(..)` they became
 //! an out-of-line call in the two-variant kernel).
 
-use super::bsdf_lanes::{Lanes, Lanes3};
-use super::lanes::LANES;
 use glam::Vec3;
+use lanekit::LANES;
+use lanekit::{Lanes, Lanes3};
 
 /// Eight paths' inputs.
 #[derive(Clone, Copy, Debug, Default)]
@@ -61,7 +61,7 @@ pub fn continue_scalar(beta: Vec3, f: Vec3, cos: f32, pdf: f32, play: bool, u: f
 
 /// [`continue_scalar`] on eight lanes.
 ///
-/// Groups where no lane plays roulette (all before [`crate::integrator::RR_START_BOUNCE`]: the
+/// Groups where no lane plays roulette (all before [`crate::path::RR_START_BOUNCE`]: the
 /// first bounces, the most numerous) take a variant without the three divisions by the survival
 /// probability, which the selects would discard.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]

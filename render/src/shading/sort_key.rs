@@ -17,7 +17,7 @@
 //! instructions inclusive on shading-heavy (~280 a key), the lane kernel takes 9.2 M (~100 a key,
 //! most of it the per-lane plan gather); the tractor's 9.7 M of keys are all constant keys now
 //! (its textures read constant coordinates). Whole process with the surfaces in lanes: 621.0 M →
-//! 602.2 M on shading-heavy, 359.4 M → 345.7 M on the tractor (see [`super::surface_lanes`]).
+//! 602.2 M on shading-heavy, 359.4 M → 345.7 M on the tractor (see [`crate::surface::lanes`]).
 //! The quantisation is written so that it vectorises ([`morton`]): with `texture::float::floor`
 //! and the saturating `as u32` per lane the kernel compiled to a compare, a branch and a
 //! `cvttss2si` per lane (10.6 M against 9.2 M).
@@ -32,9 +32,9 @@
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
 
-use super::lanes::LANES;
 use crate::shading::{reg, Shading, UvFootprint};
 use blob::{op_kind, MAX_REGISTERS};
+use lanekit::LANES;
 use texture::sort_key::{MAX_SORT_MIP, MIP_SHIFT};
 
 /// UsdTransform2d ops a [`KeyPlan::Uv`] follows between the uv reader and the texture read.

@@ -40,10 +40,12 @@
 //! the shade stage 25 % down. The curve traversal, untouched, moved by up to −37 M between these
 //! builds (code placement), so compare the stage columns rather than the process ones.
 
-use super::bsdf_lanes::{EvalLanes, Lanes, Lanes3, SampleInputs, SampleLanes, V};
-use super::lanes::LANES;
+use crate::bsdf::lanes::{EvalLanes, SampleInputs, SampleLanes};
 use crate::hair::{HairBsdf, Lobes, View};
 use glam::Vec3;
+use lanekit::LANES;
+use lanekit::V;
+use lanekit::{Lanes, Lanes3};
 use std::f32::consts::TAU;
 
 /// Eight hair BSDFs and their outgoing directions, transposed.

@@ -13,7 +13,7 @@
 //!
 //! The op kind is matched once per op; programs are a handful of ops, so a per-kind batch (one queue per
 //! op kind) would not pay for itself in the scalar integrator. The wavefront integrator runs the same
-//! programs eight hits at a time instead ([`crate::wavefront::material_lanes`], equal to
+//! programs eight hits at a time instead ([`crate::shading::lanes`], equal to
 //! [`Shading::evaluate`] bit for bit).
 //!
 //! Programs that name registers 0..4 only (the usual uv reader → transform → texture chain) run on a
@@ -27,6 +27,9 @@
 //! (whole render 635.4 M → 630.0 M, −0.8 %; tractor 383.4 M → 382.1 M, −0.35 %), images unchanged.
 //! Reusing the key's level in the lookup instead was not done: the surface-side table it needs
 //! would live in the wavefront's worker, and only kept surfaces (textured triangle hits) have one.
+
+pub mod lanes;
+pub mod sort_key;
 
 use blob::{op_kind, shading_input, ShaderOp, MAX_REGISTERS, NONE};
 use glam::Vec3;

@@ -21,8 +21,7 @@
 use crate::lights::power_heuristic;
 use glam::Vec3;
 
-/// Lane count (AVX2: eight 32-bit lanes).
-pub const LANES: usize = 8;
+pub use lanekit::LANES;
 
 /// A next-event candidate from shading (AoS, indexed by its path).
 #[derive(Clone, Copy, Debug, Default)]

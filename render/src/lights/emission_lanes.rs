@@ -2,7 +2,7 @@
 //! the scalar reference), with the ray–light tests run eight at a time.
 //!
 //! Every camera and BSDF ray tests the rect, disk and sphere lights analytically (those of the groups
-//! of eight lights whose box it meets, [`crate::area_groups`]). The intersect stage hands over each
+//! of eight lights whose box it meets, [`crate::lights::area_groups`]). The intersect stage hands over each
 //! batch of up to [`MAX_RAYS`] rays it has just intersected, as a function from a ray's position in
 //! the batch to its origin, direction and `tmax` (the hit distance) read straight from its path
 //! state and hit ([`Ray`]). On AVX CPUs the kernel (`avx`) takes the rays eight at a time:
@@ -186,10 +186,10 @@
 #[cfg(target_arch = "x86_64")]
 mod avx;
 
-use super::lanes::LANES;
-use crate::area_groups::{self, GroupBox};
+use crate::lights::area_groups::{self, GroupBox};
 use crate::lights::{sphere_roots, Light, Lights, Shape};
 use glam::Vec3;
+use lanekit::LANES;
 
 /// Rays a batch holds at most (the intersect stage's batch).
 pub const MAX_RAYS: usize = 64;

@@ -40,16 +40,13 @@
 //! — they are 1.6–3.4 % of the groups (material-heavy, tractor, shading-heavy; 11 % of
 //! shading-heavy's are all GGX).
 
-use super::lanes::LANES;
 use crate::bsdf::Bsdf;
 use crate::shading::ShadingInputs;
 use glam::Vec3;
+use lanekit::LANES;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
-/// Eight lanes of one scalar.
-pub type Lanes = [f32; LANES];
-/// Eight lanes of a 3-vector, one column per component.
-pub type Lanes3 = [Lanes; 3];
+pub use lanekit::{Lanes, Lanes3, V};
 
 const CLEARCOAT_F0: f32 = 0.04;
 
@@ -234,59 +231,6 @@ pub struct SampleInputs {
     pub u0: Lanes,
     /// Second direction coordinate.
     pub u1: Lanes,
-}
-
-/// A 3-vector of one lane, with glam's operation order (shared by the lane kernels).
-#[derive(Clone, Copy)]
-pub(super) struct V {
-    pub(super) x: f32,
-    pub(super) y: f32,
-    pub(super) z: f32,
-}
-
-impl V {
-    #[inline(always)]
-    pub(super) fn at(c: &Lanes3, k: usize) -> V {
-        V { x: c[0][k], y: c[1][k], z: c[2][k] }
-    }
-    #[inline(always)]
-    pub(super) fn dot(self, o: V) -> f32 {
-        (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
-    }
-    #[inline(always)]
-    pub(super) fn scale(self, s: f32) -> V {
-        V { x: self.x * s, y: self.y * s, z: self.z * s }
-    }
-    #[inline(always)]
-    pub(super) fn div(self, s: f32) -> V {
-        V { x: self.x / s, y: self.y / s, z: self.z / s }
-    }
-    #[inline(always)]
-    pub(super) fn add(self, o: V) -> V {
-        V { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
-    }
-    #[inline(always)]
-    pub(super) fn sub(self, o: V) -> V {
-        V { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
-    }
-    #[inline(always)]
-    pub(super) fn mul(self, o: V) -> V {
-        V { x: self.x * o.x, y: self.y * o.y, z: self.z * o.z }
-    }
-    #[inline(always)]
-    pub(super) fn normalize(self) -> V {
-        self.scale(1.0 / self.dot(self).sqrt())
-    }
-    #[inline(always)]
-    pub(super) fn select(c: bool, a: V, b: V) -> V {
-        V { x: if c { a.x } else { b.x }, y: if c { a.y } else { b.y }, z: if c { a.z } else { b.z } }
-    }
-    #[inline(always)]
-    pub(super) fn store(self, c: &mut Lanes3, k: usize) {
-        c[0][k] = self.x;
-        c[1][k] = self.y;
-        c[2][k] = self.z;
-    }
 }
 
 #[inline(always)]

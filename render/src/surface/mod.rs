@@ -1,12 +1,5 @@
-//! The scalar, depth-first, unidirectional path tracer.
-//!
-//! Per path vertex: gather emission (area lights crossed by the incoming segment, the emissive triangle
-//! hit, or dome/distant lights on escape — all MIS-weighted against light sampling with the power
-//! heuristic), resolve stochastic transparency, sample one light (next-event estimation, MIS-weighted
-//! against BSDF sampling), sample the BSDF, and after [`RR_START_BOUNCE`] bounces play unbiased Russian
-//! roulette on the throughput. Every random number is [`sample_1d`]/[`sample_2d`] of the path's
-//! [`SampleKey`], its vertex counter and a fixed dimension (see [`crate::sampler::dim`]), so the result is
-//! a pure function of the keys.
+//! The surface model both integrators share: a hit rebuilt from the blob ([`Scene::surface`]), its
+//! BSDF, its shading inputs, and how shadow rays pass transparent surfaces.
 //!
 //! # Surface reconstruction ([`Scene::surface`])
 //! Both integrators rebuild each hit's position, normals, uvs and uv footprint from the blob; it was
@@ -36,95 +29,18 @@
 //! (tangent, offset, colour, spawn distance; `CurveSurface`) and is 148 bytes, the hair BSDF built
 //! where a curve hit is shaded.
 
+pub mod lanes;
+
+use crate::accel::curves::CurveHit;
 use crate::accel::offset_ray_origin;
 use crate::bsdf::{Bsdf, BsdfSample, Frame};
-use crate::camera::RayCone;
-use crate::curves::CurveHit;
 use crate::hair::HairBsdf;
-use crate::lights::power_heuristic;
-use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
+use crate::path::MAX_NULL_EVENTS;
+use crate::sampler::hash_combine;
 use crate::scene::Scene;
 use crate::shading::{ShadingInputs, UvFootprint};
-use crate::stats::{Phase, PhaseClock};
 use glam::Vec3;
-use texture::{Filter, NoTouch, Touch};
-
-/// Bounces before Russian roulette starts.
-pub const RR_START_BOUNCE: u32 = 3;
-/// Null (pass-through) events allowed per path on top of `max_depth`, so stacks of transparent cards
-/// cannot loop forever.
-pub const MAX_NULL_EVENTS: u32 = 64;
-
-/// How far a shadow ray from `origin` runs towards a light sample `distance` away from the shading
-/// point `p`: the rest of the way, less a relative 1e-4 so it stops short of the light's own surface
-/// (infinite for lights at infinity).
-#[inline]
-pub(crate) fn shadow_tmax(distance: f32, origin: Vec3, p: Vec3) -> f32 {
-    if distance.is_finite() {
-        (distance - (origin - p).length()) * (1.0 - 1e-4)
-    } else {
-        f32::INFINITY
-    }
-}
-
-/// First-hit data for the AOVs.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct FirstHit {
-    /// Diffuse albedo of the first scattering surface.
-    pub albedo: Vec3,
-    /// World-space shading normal there (facing the camera).
-    pub normal: Vec3,
-    /// Distance from the camera.
-    pub depth: f32,
-}
-
-/// Result of one camera path.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PathResult {
-    /// Radiance along the camera ray.
-    pub radiance: Vec3,
-    /// `Some` if the camera ray reached a surface.
-    pub first_hit: Option<FirstHit>,
-}
-
-/// Ray counts, summed per tile.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct RayCounts {
-    /// Camera rays.
-    pub camera: u64,
-    /// Closest-hit rays after the first (BSDF continuations and pass-throughs).
-    pub bounce: u64,
-    /// Any-hit shadow rays.
-    pub shadow: u64,
-}
-
-impl RayCounts {
-    /// All rays.
-    pub fn total(&self) -> u64 {
-        self.camera + self.bounce + self.shadow
-    }
-    /// Adds `other` into `self`.
-    pub fn add(&mut self, other: &RayCounts) {
-        self.camera += other.camera;
-        self.bounce += other.bounce;
-        self.shadow += other.shadow;
-    }
-}
-
-/// Per-render settings the path reads.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PathSettings {
-    /// Maximum number of bounces.
-    pub max_depth: u32,
-    /// Texture filter.
-    pub filter: Filter,
-}
-
-/// How much a bounce off a lobe of GGX α widens a ray cone, radians per unit α. A diffuse bounce
-/// (α = 1) adds half a radian: indirect texture reads come from coarse levels, as in MoonRay, where the
-/// footprint of a rough bounce is far larger than a pixel. Specular bounces (α → 0) keep the cone
-/// (surface curvature is ignored).
-pub const CONE_WIDEN_PER_ALPHA: f32 = 0.5;
+use texture::{Filter, Touch};
 
 /// Surface data at a hit.
 pub struct Surface {
@@ -245,7 +161,7 @@ fn triangle_surface(scene: &Scene, hit: &crate::accel::Hit, wo: Vec3, footprint:
     let instance = (hit.instance != blob::NONE).then(|| scene.accel.instances().record(hit.instance));
     let [p0, p1, p2] = match instance {
         Some(inst) => {
-            let to_world = |p| crate::instanced::point_to_world(inst, p);
+            let to_world = |p| crate::accel::instanced::point_to_world(inst, p);
             [to_world(stored[0]), to_world(stored[1]), to_world(stored[2])]
         }
         None => stored,
@@ -265,7 +181,7 @@ fn triangle_surface(scene: &Scene, hit: &crate::accel::Hit, wo: Vec3, footprint:
         let [n0, n1, n2] = [Vec3::from(normals[v0]), Vec3::from(normals[v1]), Vec3::from(normals[v2])];
         let n = n0 * b0 + n1 * hit.b1 + n2 * hit.b2;
         let n = match instance {
-            Some(inst) => crate::instanced::normal_to_world(inst, n),
+            Some(inst) => crate::accel::instanced::normal_to_world(inst, n),
             None => n,
         };
         if let Some(n) = n.try_normalize() {
@@ -493,189 +409,6 @@ impl<'a> Scene<'a> {
             o = offset_ray_origin(s.p, -s.ng);
         }
         false
-    }
-
-    /// Traces one camera path with keys `key`, without texture footprints (level-0 lookups).
-    pub fn trace_path(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        key: SampleKey,
-        max_depth: u32,
-        rays: &mut RayCounts,
-    ) -> PathResult {
-        let settings = PathSettings { max_depth, filter: Filter::default() };
-        self.trace_path_with(origin, dir, RayCone::default(), key, &settings, rays, &NoTouch)
-    }
-
-    /// Traces one camera path with keys `key` whose pixel footprint is `cone`, reporting texel reads to
-    /// `touch`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn trace_path_with<T: Touch>(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        cone: RayCone,
-        key: SampleKey,
-        settings: &PathSettings,
-        rays: &mut RayCounts,
-        touch: &T,
-    ) -> PathResult {
-        let mut clock = PhaseClock::new(false);
-        self.trace_path_timed(origin, dir, cone, key, settings, rays, touch, &mut clock)
-    }
-
-    /// [`Scene::trace_path_with`] charging its time to `clock`'s phases (when enabled) and counting
-    /// its shader evaluations there.
-    #[allow(clippy::too_many_arguments)]
-    pub fn trace_path_timed<T: Touch>(
-        &self,
-        mut origin: Vec3,
-        mut dir: Vec3,
-        mut cone: RayCone,
-        key: SampleKey,
-        settings: &PathSettings,
-        rays: &mut RayCounts,
-        touch: &T,
-        clock: &mut PhaseClock,
-    ) -> PathResult {
-        clock.lap(Phase::Overhead);
-        let max_depth = settings.max_depth;
-        let filter = settings.filter;
-        let mut result = PathResult::default();
-        let mut beta = Vec3::ONE;
-        let mut radiance = Vec3::ZERO;
-        // Previous scattering vertex and BSDF pdf, for MIS of emission found by BSDF sampling.
-        let mut prev: Option<(Vec3, f32)> = None;
-        let mut bounces = 0u32;
-        let mut vertex = 0u32;
-        let mut travelled = 0.0f32;
-        let shadow_seed = hash_combine(hash_combine(hash_u32(key.seed), key.pixel), key.sample);
-        rays.camera += 1;
-        loop {
-            let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
-            // Curves and points have their own BVH; only hits closer than the triangle count.
-            let curve_hit = self.curves.closest_hit(origin, dir, hit.map_or(f32::INFINITY, |h| h.t));
-            let t_hit = curve_hit.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
-            clock.lap(Phase::Intersect);
-            radiance += beta * self.lights.area_emission(origin, dir, t_hit, prev);
-            let wo = -dir;
-            let footprint = cone.width_at(t_hit);
-            let mut s = match (curve_hit, hit) {
-                (Some(c), _) => self.curve_surface(&c, wo),
-                (None, Some(h)) => match self.surface(&h, wo, footprint) {
-                    Some(s) => s,
-                    None => break,
-                },
-                (None, None) => {
-                    radiance += beta * self.lights.escaped_emission(dir, prev.map(|p| p.1));
-                    // Shading, as the area emission above (the wavefront charges both there).
-                    clock.lap(Phase::Shading);
-                    break;
-                }
-            };
-            clock.lap(Phase::Shading);
-            let inputs = self.shade(&s, filter, touch);
-            clock.shader_evaluations += 1;
-            let textured = clock.enabled() && crate::stats::reads_textures(&self.view, s.material);
-            clock.lap(if textured { Phase::Texturing } else { Phase::Shading });
-
-            // Stochastic transparency: continue straight with probability 1 − opacity.
-            let opacity = inputs.effective_opacity();
-            if opacity < 1.0 && sample_1d(key, vertex, dim::OPACITY) >= opacity {
-                vertex += 1;
-                if vertex > max_depth + MAX_NULL_EVENTS {
-                    break;
-                }
-                travelled += t_hit;
-                cone.width = footprint;
-                origin = s.spawn(dir);
-                rays.bounce += 1;
-                clock.lap(Phase::Integration);
-                continue;
-            }
-            if let Some(n) = inputs.normal {
-                s.ns = Self::mapped_normal(&s, n, wo);
-            }
-
-            let bsdf = self.bsdf(&s, &inputs, wo);
-            if result.first_hit.is_none() && bounces == 0 {
-                result.first_hit =
-                    Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });
-            }
-
-            let le = inputs.emissive_color.max(Vec3::ZERO);
-            if le != Vec3::ZERO {
-                let w = match prev {
-                    // Curves are not sampled as lights: BSDF sampling is their only strategy.
-                    Some((p, bsdf_pdf)) if s.triangle != blob::NONE => {
-                        power_heuristic(bsdf_pdf, self.lights.triangle_pdf(s.triangle, p, s.p))
-                    }
-                    _ => 1.0,
-                };
-                radiance += beta * le * w;
-            }
-            if bounces >= max_depth {
-                break;
-            }
-
-            // Next-event estimation.
-            let u_select = sample_1d(key, vertex, dim::LIGHT_SELECT);
-            let u_light = sample_2d(key, vertex, dim::LIGHT_UV);
-            if let Some(mut ls) = self.lights.sample(s.p, u_select, u_light) {
-                if let Some((tri, [b1, b2])) = ls.emitter {
-                    ls.li = self.emission_at(tri, b1, b2, filter, touch);
-                }
-                let (f, bsdf_pdf) = bsdf.eval(wo, ls.wi);
-                let contribution = beta * f * ls.li * (s.ns.dot(ls.wi).abs() / ls.pdf);
-                if contribution.max_element() > 0.0 {
-                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
-                    let shadow_origin = s.spawn(ls.wi);
-                    let tmax = shadow_tmax(ls.distance, shadow_origin, s.p);
-                    rays.shadow += 1;
-                    clock.lap(Phase::Integration);
-                    let transmits = self.shadow_transmits(
-                        shadow_origin,
-                        ls.wi,
-                        tmax,
-                        shadow_seed ^ vertex,
-                        filter,
-                        touch,
-                    ) && !self.curves.any_hit(shadow_origin, ls.wi, tmax);
-                    clock.lap(Phase::Intersect);
-                    if transmits {
-                        radiance += contribution * w;
-                    }
-                }
-            }
-
-            // BSDF sampling.
-            let u_lobe = sample_1d(key, vertex, dim::LOBE);
-            let u_bsdf = sample_2d(key, vertex, dim::BSDF_UV);
-            let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else { break };
-            beta *= bs.f * (s.ns.dot(bs.wi).abs() / bs.pdf);
-            prev = Some((s.p, bs.pdf));
-            bounces += 1;
-            if bounces >= RR_START_BOUNCE {
-                let survive = beta.max_element().min(0.95);
-                if sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) >= survive {
-                    break;
-                }
-                beta /= survive;
-            }
-            vertex += 1;
-            origin = s.spawn(bs.wi);
-            dir = bs.wi;
-            travelled = 0.0;
-            cone = RayCone { width: footprint, spread: cone.spread + CONE_WIDEN_PER_ALPHA * bs.lobe_alpha };
-            rays.bounce += 1;
-            // BSDF sampling, the roulette and the continuation ray are integration; without this lap
-            // the next closest-hit lap charged them to intersection.
-            clock.lap(Phase::Integration);
-        }
-        clock.lap(Phase::Integration);
-        result.radiance = radiance;
-        result
     }
 
     /// Emitted radiance at barycentrics `(b1, b2)` of emissive triangle `tri` (a light sample), with

@@ -25,7 +25,7 @@
 //!   `t` is known the walk goes on with the limit `tie_limit(t)`, 256 ulps beyond it, so no
 //!   rounding of a limit equal to `t` culls a triangle met at exactly `t`. The answer is then
 //!   independent of the order leaves are visited in: the wavefront's packets
-//!   ([`crate::wavefront::packet`]) and a tree with every node's children reversed give the same
+//!   ([`crate::accel::packet`]) and a tree with every node's children reversed give the same
 //!   hit (tested on a stack of identical triangles). Cost: within ±1 % of the traversal's
 //!   instructions (cachegrind, the three `bench integrators` scenes).
 //! * **Scalar reference**: [`Scalar`] implements the same two kernels child by child and triangle by
@@ -113,6 +113,10 @@
 //!   8-wide triangle blocks, Möller–Trumbore on precomputed edges (not watertight), AVX-512, prefetching
 //!   the second-nearest child, and processing leaf children at once instead of through the stack.
 
+pub mod curves;
+pub mod instanced;
+pub mod packet;
+
 use blob::{child_ref, BvhNode, TriangleBlock, BLOCK_WIDTH, BVH_WIDTH};
 use glam::{Vec3, Vec4};
 use multiversion::multiversion;
@@ -145,7 +149,7 @@ pub struct Hit {
 }
 
 /// Read-only acceleration structure over mapped blob slices: the world BVH over the top-level
-/// triangles and, when the scene has instances, the two-level structure of [`crate::instanced`].
+/// triangles and, when the scene has instances, the two-level structure of [`crate::accel::instanced`].
 #[derive(Clone, Copy, Debug)]
 pub struct Accel<'a> {
     // Crate-visible for the wavefront's packet-traversal experiment (`wavefront::packet`).
@@ -153,7 +157,7 @@ pub struct Accel<'a> {
     pub(crate) blocks: &'a [TriangleBlock],
     positions: &'a [[f32; 3]],
     triangles: &'a [blob::Triangle],
-    instances: crate::instanced::Instances<'a>,
+    instances: crate::accel::instanced::Instances<'a>,
 }
 
 impl<'a> Accel<'a> {
@@ -164,7 +168,7 @@ impl<'a> Accel<'a> {
             blocks: view.bvh_blocks,
             positions: view.positions,
             triangles: view.triangles,
-            instances: crate::instanced::Instances::new(view),
+            instances: crate::accel::instanced::Instances::new(view),
         }
     }
 
@@ -199,7 +203,7 @@ impl<'a> Accel<'a> {
     }
 
     /// The instancing tables (empty for a scene without instances).
-    pub fn instances(&self) -> &crate::instanced::Instances<'a> {
+    pub fn instances(&self) -> &crate::accel::instanced::Instances<'a> {
         &self.instances
     }
 
@@ -314,7 +318,7 @@ impl<'a> Accel<'a> {
 /// The two lane kernels ([`Lanes::node`], [`Lanes::block`]) compiled for the target of the
 /// `#[multiversion]` clone this is expanded in, as a pair of closures `(node, block)` to hand to a
 /// traversal. Every multiversioned traversal entry point (closest and any hit here, packets in
-/// [`crate::wavefront::packet`]) takes its kernels from here.
+/// [`crate::accel::packet`]) takes its kernels from here.
 ///
 /// The kernels are nested `inherit_target` functions, deliberately not inlined: inlined into the
 /// traversal loop, LLVM's SLP vectorizer split the 8-wide slab test into 4-wide halves with shuffles

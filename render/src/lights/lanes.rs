@@ -93,10 +93,12 @@
 //! that sampled an emissive triangle, as the scalar integrator calls it, and `Lights::sample` itself
 //! per lane that picked a textured dome (its map's CDF search and lookup).
 
-use super::bsdf_lanes::{Lanes, Lanes3, V};
-use super::lanes::{saturating_i32, LANES};
+use crate::lights::mis::saturating_i32;
 use crate::lights::tree::LightSelector;
 use crate::lights::{Lights, Shape};
+use lanekit::LANES;
+use lanekit::V;
+use lanekit::{Lanes, Lanes3};
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
 /// A dome light.
@@ -781,7 +783,7 @@ fn every_kind<const PATCHES: bool>(
 #[cfg(test)]
 /// A scene with every light kind: dome, delta and cone distant lights, point, sphere, rect and disk
 /// lights, and emissive triangles of three powers.
-pub(super) fn every_light_kind() -> ingest::Scene {
+pub(crate) fn every_light_kind() -> ingest::Scene {
     use crate::testscene::{self, card, sphere};
     use glam::{Mat4, Vec3};
     use ingest::{Light as SceneLight, LightKind, Material, Scene};

@@ -11,6 +11,8 @@
 //! the pairs the integrator actually uses (pixel position, light position, BSDF direction); 1D uses take
 //! one coordinate of a pair.
 
+pub mod lanes;
+
 /// Identifies one camera sample: which pixel, which sample of that pixel, under which seed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SampleKey {
@@ -71,7 +73,7 @@ const SOBOL_DIRECTIONS: [[u32; 32]; 2] = {
 /// It replaced four byte-indexed tables (one lookup per index byte, themselves the replacement of a
 /// 32-step bit-serial loop that made the sampler half of the render time): about as many scalar
 /// instructions, with one `reverse_bits` fewer around it, and it vectorises where table lookups need
-/// gathers (the lane sampler, [`crate::wavefront::sampler_lanes`]). The scalar integrator gained
+/// gathers (the lane sampler, [`crate::sampler::lanes`]). The scalar integrator gained
 /// little (callgrind, tractor, 120×80, 8 spp: 642.9 M → 639.9 M instructions: LLVM already folds
 /// a reversal of a reversal, so only dimension 1's reversal and table lookups went); its sampler calls are still 12.5 % of its instructions, mostly the
 /// pair-seed hashes each call recomputes.
@@ -177,7 +179,7 @@ pub fn sample_2d(key: SampleKey, vertex: u32, dimension: u32) -> [f32; 2] {
 /// The hashes of one (seed, pixel, vertex, pair) that every sample of the pixel shares: the pair
 /// seed that shuffles the Sobol index and the scramble seeds of its two coordinates. Five of the
 /// seven hashes of a 2D sample, so a caller drawing many samples of one pixel computes them once
-/// (the wavefront's camera jitter, [`crate::wavefront::sampler_lanes::pair_lanes`]).
+/// (the wavefront's camera jitter, [`crate::sampler::lanes::pair_lanes`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PairSeeds {
     /// Scrambles the sample index.

@@ -17,6 +17,8 @@
 //! accepted only if it is above both the shading and the geometric hemispheres of the side facing `v`, so
 //! a shading normal can never let light leak through the surface.
 
+pub mod lanes;
+
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI, TAU};
 

@@ -16,7 +16,7 @@
 //! `f32::min`/`f32::max`'s choice wherever a NaN can occur (a NaN `tmax`).
 
 use super::{LightShape, Ray, RayHit, LANES};
-use crate::area_groups::{self, GroupBox};
+use crate::lights::area_groups::{self, GroupBox};
 use std::arch::x86_64::*;
 
 /// Eight rays, transposed (lanes past a batch's end hold stale rays and are masked out).

@@ -28,13 +28,12 @@
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]
 
-use super::lanes::LANES;
 use crate::shading::{reg, wrap, Shading, ShadingInputs, UvFootprint};
 use blob::{op_kind, ShaderOp, MAX_REGISTERS, NONE};
+use lanekit::LANES;
 use texture::{Filter, LookupLanes, Touch};
 
-/// One scalar per lane.
-type Lanes = [f32; LANES];
+use lanekit::Lanes;
 
 const REGISTERS: usize = MAX_REGISTERS as usize;
 const NO_DERIVATIVE: [Lanes; 2] = [[0.0; LANES]; 2];

@@ -1,0 +1,269 @@
+//! The scalar, depth-first, unidirectional path tracer.
+//!
+//! Per path vertex: gather emission (area lights crossed by the incoming segment, the emissive triangle
+//! hit, or dome/distant lights on escape — all MIS-weighted against light sampling with the power
+//! heuristic), resolve stochastic transparency, sample one light (next-event estimation, MIS-weighted
+//! against BSDF sampling), sample the BSDF, and after [`RR_START_BOUNCE`] bounces play unbiased Russian
+//! roulette on the throughput. Every random number is [`sample_1d`]/[`sample_2d`] of the path's
+//! [`SampleKey`], its vertex counter and a fixed dimension (see [`crate::sampler::dim`]), so the result is
+//! a pure function of the keys.
+
+use crate::camera::Camera;
+use crate::camera::RayCone;
+use crate::film::{Sampling, Tile, TileResult};
+use crate::lights::power_heuristic;
+use crate::path::{
+    shadow_tmax, FirstHit, PathResult, PathSettings, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS,
+    RR_START_BOUNCE,
+};
+use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
+use crate::scene::Scene;
+use crate::stats::{Phase, PhaseClock};
+use glam::Vec3;
+use texture::{Filter, NoTouch, Touch};
+
+impl Scene<'_> {
+    /// Traces one camera path with keys `key`, without texture footprints (level-0 lookups).
+    pub fn trace_path(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        key: SampleKey,
+        max_depth: u32,
+        rays: &mut RayCounts,
+    ) -> PathResult {
+        let settings = PathSettings { max_depth, filter: Filter::default() };
+        self.trace_path_with(origin, dir, RayCone::default(), key, &settings, rays, &NoTouch)
+    }
+
+    /// Traces one camera path with keys `key` whose pixel footprint is `cone`, reporting texel reads to
+    /// `touch`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace_path_with<T: Touch>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        cone: RayCone,
+        key: SampleKey,
+        settings: &PathSettings,
+        rays: &mut RayCounts,
+        touch: &T,
+    ) -> PathResult {
+        let mut clock = PhaseClock::new(false);
+        self.trace_path_timed(origin, dir, cone, key, settings, rays, touch, &mut clock)
+    }
+
+    /// [`Scene::trace_path_with`] charging its time to `clock`'s phases (when enabled) and counting
+    /// its shader evaluations there.
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace_path_timed<T: Touch>(
+        &self,
+        mut origin: Vec3,
+        mut dir: Vec3,
+        mut cone: RayCone,
+        key: SampleKey,
+        settings: &PathSettings,
+        rays: &mut RayCounts,
+        touch: &T,
+        clock: &mut PhaseClock,
+    ) -> PathResult {
+        clock.lap(Phase::Overhead);
+        let max_depth = settings.max_depth;
+        let filter = settings.filter;
+        let mut result = PathResult::default();
+        let mut beta = Vec3::ONE;
+        let mut radiance = Vec3::ZERO;
+        // Previous scattering vertex and BSDF pdf, for MIS of emission found by BSDF sampling.
+        let mut prev: Option<(Vec3, f32)> = None;
+        let mut bounces = 0u32;
+        let mut vertex = 0u32;
+        let mut travelled = 0.0f32;
+        let shadow_seed = hash_combine(hash_combine(hash_u32(key.seed), key.pixel), key.sample);
+        rays.camera += 1;
+        loop {
+            let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
+            // Curves and points have their own BVH; only hits closer than the triangle count.
+            let curve_hit = self.curves.closest_hit(origin, dir, hit.map_or(f32::INFINITY, |h| h.t));
+            let t_hit = curve_hit.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
+            clock.lap(Phase::Intersect);
+            radiance += beta * self.lights.area_emission(origin, dir, t_hit, prev);
+            let wo = -dir;
+            let footprint = cone.width_at(t_hit);
+            let mut s = match (curve_hit, hit) {
+                (Some(c), _) => self.curve_surface(&c, wo),
+                (None, Some(h)) => match self.surface(&h, wo, footprint) {
+                    Some(s) => s,
+                    None => break,
+                },
+                (None, None) => {
+                    radiance += beta * self.lights.escaped_emission(dir, prev.map(|p| p.1));
+                    // Shading, as the area emission above (the wavefront charges both there).
+                    clock.lap(Phase::Shading);
+                    break;
+                }
+            };
+            clock.lap(Phase::Shading);
+            let inputs = self.shade(&s, filter, touch);
+            clock.shader_evaluations += 1;
+            let textured = clock.enabled() && crate::stats::reads_textures(&self.view, s.material);
+            clock.lap(if textured { Phase::Texturing } else { Phase::Shading });
+
+            // Stochastic transparency: continue straight with probability 1 − opacity.
+            let opacity = inputs.effective_opacity();
+            if opacity < 1.0 && sample_1d(key, vertex, dim::OPACITY) >= opacity {
+                vertex += 1;
+                if vertex > max_depth + MAX_NULL_EVENTS {
+                    break;
+                }
+                travelled += t_hit;
+                cone.width = footprint;
+                origin = s.spawn(dir);
+                rays.bounce += 1;
+                clock.lap(Phase::Integration);
+                continue;
+            }
+            if let Some(n) = inputs.normal {
+                s.ns = Self::mapped_normal(&s, n, wo);
+            }
+
+            let bsdf = self.bsdf(&s, &inputs, wo);
+            if result.first_hit.is_none() && bounces == 0 {
+                result.first_hit =
+                    Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });
+            }
+
+            let le = inputs.emissive_color.max(Vec3::ZERO);
+            if le != Vec3::ZERO {
+                let w = match prev {
+                    // Curves are not sampled as lights: BSDF sampling is their only strategy.
+                    Some((p, bsdf_pdf)) if s.triangle != blob::NONE => {
+                        power_heuristic(bsdf_pdf, self.lights.triangle_pdf(s.triangle, p, s.p))
+                    }
+                    _ => 1.0,
+                };
+                radiance += beta * le * w;
+            }
+            if bounces >= max_depth {
+                break;
+            }
+
+            // Next-event estimation.
+            let u_select = sample_1d(key, vertex, dim::LIGHT_SELECT);
+            let u_light = sample_2d(key, vertex, dim::LIGHT_UV);
+            if let Some(mut ls) = self.lights.sample(s.p, u_select, u_light) {
+                if let Some((tri, [b1, b2])) = ls.emitter {
+                    ls.li = self.emission_at(tri, b1, b2, filter, touch);
+                }
+                let (f, bsdf_pdf) = bsdf.eval(wo, ls.wi);
+                let contribution = beta * f * ls.li * (s.ns.dot(ls.wi).abs() / ls.pdf);
+                if contribution.max_element() > 0.0 {
+                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
+                    let shadow_origin = s.spawn(ls.wi);
+                    let tmax = shadow_tmax(ls.distance, shadow_origin, s.p);
+                    rays.shadow += 1;
+                    clock.lap(Phase::Integration);
+                    let transmits = self.shadow_transmits(
+                        shadow_origin,
+                        ls.wi,
+                        tmax,
+                        shadow_seed ^ vertex,
+                        filter,
+                        touch,
+                    ) && !self.curves.any_hit(shadow_origin, ls.wi, tmax);
+                    clock.lap(Phase::Intersect);
+                    if transmits {
+                        radiance += contribution * w;
+                    }
+                }
+            }
+
+            // BSDF sampling.
+            let u_lobe = sample_1d(key, vertex, dim::LOBE);
+            let u_bsdf = sample_2d(key, vertex, dim::BSDF_UV);
+            let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else { break };
+            beta *= bs.f * (s.ns.dot(bs.wi).abs() / bs.pdf);
+            prev = Some((s.p, bs.pdf));
+            bounces += 1;
+            if bounces >= RR_START_BOUNCE {
+                let survive = beta.max_element().min(0.95);
+                if sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) >= survive {
+                    break;
+                }
+                beta /= survive;
+            }
+            vertex += 1;
+            origin = s.spawn(bs.wi);
+            dir = bs.wi;
+            travelled = 0.0;
+            cone = RayCone { width: footprint, spread: cone.spread + CONE_WIDEN_PER_ALPHA * bs.lobe_alpha };
+            rays.bounce += 1;
+            // BSDF sampling, the roulette and the continuation ray are integration; without this lap
+            // the next closest-hit lap charged them to intersection.
+            clock.lap(Phase::Integration);
+        }
+        clock.lap(Phase::Integration);
+        result.radiance = radiance;
+        result
+    }
+}
+
+/// Renders `tile` one path at a time: each pixel's samples in sample order.
+pub(crate) fn render_tile<T: Touch>(
+    scene: &Scene,
+    camera: &Camera,
+    sampling: &Sampling,
+    settings: PathSettings,
+    phase_stats: bool,
+    tile: &Tile,
+    touch: &T,
+) -> TileResult {
+    let Sampling { width, height, spp, forward, .. } = *sampling;
+    let n = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
+    let mut out = TileResult {
+        beauty: Vec::with_capacity(n),
+        albedo: Vec::with_capacity(n),
+        normal: Vec::with_capacity(n),
+        depth: Vec::with_capacity(n),
+        rays: RayCounts::default(),
+        nonfinite: 0,
+        clock: None,
+    };
+    let mut clock = PhaseClock::new(phase_stats);
+    for y in tile.y0..tile.y1 {
+        for x in tile.x0..tile.x1 {
+            let pixel = y * width + x;
+            let mut sum = Vec3::ZERO;
+            let (mut albedo, mut normal, mut depth, mut hits) = (Vec3::ZERO, Vec3::ZERO, 0.0f64, 0u32);
+            for sample in 0..spp {
+                let key = SampleKey { pixel, sample, seed: sampling.seed };
+                let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
+                let (o, d) =
+                    camera.generate_ray((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
+                let mut cone = camera.pixel_cone(d.dot(forward));
+                cone.width *= sampling.footprint_scale;
+                cone.spread *= sampling.footprint_scale;
+                let r = scene.trace_path_timed(o, d, cone, key, &settings, &mut out.rays, touch, &mut clock);
+                if r.radiance.is_finite() {
+                    sum += r.radiance;
+                } else {
+                    out.nonfinite += 1;
+                }
+                if let Some(h) = r.first_hit {
+                    albedo += h.albedo;
+                    normal += h.normal;
+                    depth += h.depth as f64;
+                    hits += 1;
+                }
+            }
+            let inv = 1.0 / spp as f32;
+            let c = sum * inv;
+            out.beauty.push([c.x, c.y, c.z, hits as f32 * inv]);
+            out.albedo.push((albedo * inv).to_array());
+            out.normal.push(normal.normalize_or_zero().to_array());
+            out.depth.push(if hits > 0 { (depth / hits as f64) as f32 } else { f32::INFINITY });
+        }
+    }
+    clock.lap(Phase::Overhead);
+    out.clock = Some(clock);
+    out
+}
