@@ -24,7 +24,12 @@ pub(crate) struct Sampling {
 
 impl Sampling {
     /// The sampling `options` ask for, of a `width`×`height` image seen along `forward`.
-    pub(crate) fn new(options: &crate::options::RenderOptions, width: u32, height: u32, forward: Vec3) -> Self {
+    pub(crate) fn new(
+        options: &crate::options::RenderOptions,
+        width: u32,
+        height: u32,
+        forward: Vec3,
+    ) -> Self {
         Sampling {
             width,
             height,

@@ -5,6 +5,7 @@ use crate::accel::curves::CurveAccel;
 use crate::accel::Accel;
 use crate::camera::{default_height, Camera};
 use crate::error::RenderError;
+use crate::lights::lanes::LightTable;
 use crate::lights::Lights;
 use crate::shading::Shading;
 use blob::SceneView;
@@ -23,6 +24,9 @@ pub struct Scene<'a> {
     pub lights: Lights<'a>,
     /// Material programs and textures.
     pub shading: Shading<'a>,
+    /// The lights laid out for the wavefront's 8-lane sampling kernel, built on first use (the
+    /// scalar integrator never pays for it).
+    light_table: std::sync::OnceLock<LightTable>,
 }
 
 impl<'a> Scene<'a> {
@@ -33,8 +37,14 @@ impl<'a> Scene<'a> {
             curves: CurveAccel::new(&view),
             lights: Lights::new(&view),
             shading: Shading::new(&view),
+            light_table: std::sync::OnceLock::new(),
             view,
         }
+    }
+
+    /// [`Lights::sample`]'s data in the wavefront light kernel's layout, built once per scene.
+    pub(crate) fn light_table(&self) -> &LightTable {
+        self.light_table.get_or_init(|| LightTable::new(&self.lights))
     }
 
     /// Index of the camera with prim path `path`, or the default camera when `path` is `None`

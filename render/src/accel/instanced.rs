@@ -12,7 +12,8 @@
 //! Instance leaves hold one instance each (a leaf visit is a transform plus a whole prototype
 //! walk, so grouping instances in leaves would only add work).
 
-use crate::accel::{self, BlockHits, Hit, NodeRay, WatertightRay};
+use crate::accel::ray::Hit;
+use crate::accel::traverse::{self, BlockHits, NodeRay, WatertightRay};
 use blob::{child_ref, BvhNode, Instance, TriangleBlock, BVH_WIDTH};
 use glam::Vec3;
 
@@ -138,13 +139,13 @@ impl<'a> Instances<'a> {
     ) -> Option<Hit> {
         let nray = NodeRay::new(origin, direction);
         let start = best.map_or(tmax, |h| h.t);
-        accel::walk_closest(self.top_nodes, 0, &nray, start, node_kernel, &mut |leaf, mut tmax| {
+        traverse::walk_closest(self.top_nodes, 0, &nray, start, node_kernel, &mut |leaf, mut tmax| {
             let (first, count) = child_ref::leaf_range(leaf);
             for &instance in &self.top_items[first as usize..(first + count) as usize] {
                 let inst = &self.instances[instance as usize];
                 let root = self.prototypes[inst.prototype as usize].first_node;
                 let (o, d) = Self::object_ray(inst, origin, direction);
-                let found = accel::closest(
+                let found = traverse::closest(
                     self.prototype_nodes,
                     self.prototype_blocks,
                     root,
@@ -176,14 +177,14 @@ impl<'a> Instances<'a> {
         blocks: &mut impl FnMut(u32, u32) -> bool,
     ) -> bool {
         let nray = NodeRay::new(origin, direction);
-        accel::walk_any(self.top_nodes, 0, &nray, tmax, node_kernel, |leaf| {
+        traverse::walk_any(self.top_nodes, 0, &nray, tmax, node_kernel, |leaf| {
             let (first, count) = child_ref::leaf_range(leaf);
             self.top_items[first as usize..(first + count) as usize].iter().any(|&instance| {
                 let inst = &self.instances[instance as usize];
                 let root = self.prototypes[inst.prototype as usize].first_node;
                 let (o, d) = Self::object_ray(inst, origin, direction);
                 let mut blocker = |triangle| blocks(triangle, instance);
-                accel::any(
+                traverse::any(
                     self.prototype_nodes,
                     self.prototype_blocks,
                     root,

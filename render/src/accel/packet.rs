@@ -61,7 +61,9 @@
 //! [`Lanes::node`]: crate::accel::Kernels::node
 //! [`Lanes::block`]: crate::accel::Kernels::block
 
-use crate::accel::{precedes, tie_limit, Accel, BlockHits, Hit, NodeRay, WatertightRay};
+use crate::accel::ray::Hit;
+use crate::accel::traverse::{precedes, tie_limit, BlockHits, NodeRay, WatertightRay};
+use crate::accel::Accel;
 use blob::{child_ref, BvhNode, TriangleBlock, BVH_WIDTH};
 use glam::Vec3;
 

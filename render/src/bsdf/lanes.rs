@@ -45,6 +45,7 @@ use crate::shading::ShadingInputs;
 use glam::Vec3;
 use lanekit::LANES;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
+use std::ops::{Add, Mul, Sub};
 
 pub use lanekit::{Lanes, Lanes3, V};
 

@@ -47,6 +47,7 @@ use lanekit::LANES;
 use lanekit::V;
 use lanekit::{Lanes, Lanes3};
 use std::f32::consts::TAU;
+use std::ops::Add;
 
 /// Eight hair BSDFs and their outgoing directions, transposed.
 #[derive(Clone, Copy, Debug)]

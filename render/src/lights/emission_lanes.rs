@@ -187,7 +187,8 @@
 mod avx;
 
 use crate::lights::area_groups::{self, GroupBox};
-use crate::lights::{sphere_roots, Light, Lights, Shape};
+use crate::lights::light::{sphere_roots, Light, Shape};
+use crate::lights::Lights;
 use glam::Vec3;
 use lanekit::LANES;
 

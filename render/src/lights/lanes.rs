@@ -93,13 +93,14 @@
 //! that sampled an emissive triangle, as the scalar integrator calls it, and `Lights::sample` itself
 //! per lane that picked a textured dome (its map's CDF search and lookup).
 
-use crate::lights::mis::saturating_i32;
 use crate::lights::tree::LightSelector;
 use crate::lights::{Lights, Shape};
+use lanekit::saturating_i32;
 use lanekit::LANES;
 use lanekit::V;
 use lanekit::{Lanes, Lanes3};
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
+use std::ops::{Add, Div, Sub};
 
 /// A dome light.
 pub const KIND_DOME: u32 = 0;

@@ -18,8 +18,20 @@
 //! Candidates arrive AoS from shading (sorted by material and texture, not by lane), are transposed
 //! eight at a time into [`NeeLanes`], weighed, and scattered back.
 
-use crate::lights::power_heuristic;
 use glam::Vec3;
+
+/// Power heuristic (β = 2) weight of a strategy with pdf `a` against one with pdf `b`.
+#[inline]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 && (a2 + b2).is_finite() {
+        a2 / (a2 + b2)
+    } else if a.is_infinite() {
+        1.0
+    } else {
+        0.0
+    }
+}
 
 pub use lanekit::LANES;
 
@@ -143,48 +155,6 @@ pub fn weigh_lanes(l: &NeeLanes, out: &mut NeeOut) {
     }
 }
 
-/// `x as i32` (saturating, NaN → 0) in a form LLVM vectorises: its own lowering of the saturating
-/// cast runs one `cvttss2si` and two compares per lane (the ray-origin kernel took 217 instructions
-/// per group that way), this one is a blend, a clamp and one `cvttps2dq` for eight lanes.
-#[inline(always)]
-pub(crate) fn saturating_i32(x: f32) -> i32 {
-    // The largest f32 below 2³¹; from 2³¹ on the cast saturates to `i32::MAX`.
-    const BELOW_2_31: f32 = 2_147_483_520.0;
-    // `f32::max` returns the number when one side is NaN, so `clamped` is never NaN.
-    let clamped = x.max(i32::MIN as f32).min(BELOW_2_31);
-    // SAFETY: `clamped` is a number within [−2³¹, 2³¹ − 128], which truncates to a valid `i32`.
-    let truncated = unsafe { clamped.to_int_unchecked::<i32>() };
-    // Integer selects after the conversion: a NaN test before it became a branch per lane.
-    let saturated = if x >= 2_147_483_648.0 { i32::MAX } else { truncated };
-    if x.is_nan() {
-        0
-    } else {
-        saturated
-    }
-}
-
-/// [`crate::accel::offset_ray_origin`] on eight lanes: each point `p` moved off its surface along
-/// the normal `n` (Wächter & Binder, Ray Tracing Gems ch. 6: integer ulps away from the origin, a
-/// float offset near it), the same integer and IEEE operations per component.
-#[allow(clippy::needless_range_loop)]
-#[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
-pub fn offset_origin_lanes(p: &[[f32; LANES]; 3], n: &[[f32; LANES]; 3], out: &mut [[f32; LANES]; 3]) {
-    // The constants of `offset_ray_origin`.
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
-    for c in 0..3 {
-        for k in 0..LANES {
-            let (p, n) = (p[c][k], n[c][k]);
-            let of_i = saturating_i32(INT_SCALE * n);
-            let bits = p.to_bits() as i32;
-            let moved =
-                f32::from_bits(bits.wrapping_add(if p < 0.0 { of_i.wrapping_neg() } else { of_i }) as u32);
-            out[c][k] = if p.abs() < ORIGIN { p + FLOAT_SCALE * n } else { moved };
-        }
-    }
-}
-
 /// Weighs `cands` eight at a time, calling `emit(candidate, weighted contribution)` for each kept one,
 /// in order.
 pub fn weigh_all(cands: &[NeeCandidate], mut emit: impl FnMut(&NeeCandidate, Vec3)) {
@@ -244,73 +214,5 @@ mod tests {
             assert_eq!(g, e, "{:?}", cands[e.0 as usize]);
         }
         assert_eq!(got.len(), expected.len());
-    }
-
-    #[test]
-    fn saturating_i32_equals_the_cast() {
-        let mut x = 3u32;
-        let mut specials = vec![
-            0.0f32,
-            -0.0,
-            0.5,
-            -0.5,
-            255.9,
-            -256.0,
-            f32::NAN,
-            -f32::NAN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            2_147_483_520.0,
-            2_147_483_648.0,
-            -2_147_483_648.0,
-            -2_147_483_904.0,
-            f32::MAX,
-            f32::MIN,
-            f32::MIN_POSITIVE,
-        ];
-        for _ in 0..100_000 {
-            x = crate::sampler::hash_u32(x);
-            specials.push(f32::from_bits(x));
-        }
-        for v in specials {
-            assert_eq!(saturating_i32(v), v as i32, "{v} ({:#x})", v.to_bits());
-        }
-    }
-
-    #[test]
-    fn offset_origin_lanes_equal_the_scalar_offset_bit_for_bit() {
-        let mut x = 41u32;
-        let mut u = || {
-            x = crate::sampler::hash_u32(x);
-            (x >> 8) as f32 / 16_777_216.0
-        };
-        let (mut near, mut far) = (0, 0);
-        for _ in 0..2000 {
-            let (mut p, mut n) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3]);
-            for k in 0..LANES {
-                // Points near the origin (the float offset), far from it (ulps), either sign.
-                let scale = [0.01, 1.0, 100.0, 1e5][(u() * 4.0) as usize % 4];
-                let dir = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5).normalize_or(Vec3::Z);
-                for c in 0..3 {
-                    p[c][k] = (2.0 * u() - 1.0) * scale;
-                    n[c][k] = dir[c];
-                }
-            }
-            let mut out = [[0.0f32; LANES]; 3];
-            offset_origin_lanes(&p, &n, &mut out);
-            for k in 0..LANES {
-                let at = |c: &[[f32; LANES]; 3]| Vec3::new(c[0][k], c[1][k], c[2][k]);
-                let expected = crate::accel::offset_ray_origin(at(&p), at(&n));
-                assert_eq!(at(&out).to_array().map(f32::to_bits), expected.to_array().map(f32::to_bits));
-                for axis in &p {
-                    if axis[k].abs() < 1.0 / 32.0 {
-                        near += 1;
-                    } else {
-                        far += 1;
-                    }
-                }
-            }
-        }
-        assert!(near > 1000 && far > 10_000, "{near} components near the origin, {far} far");
     }
 }

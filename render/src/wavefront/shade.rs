@@ -592,7 +592,7 @@ fn abs_cos_lanes(n: &Lanes3, w: &Lanes3, out: &mut Lanes) {
 #[allow(clippy::needless_range_loop)]
 fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
     let scene: &Scene = ctx.scene;
-    let table = (!scene.lights.is_empty()).then(|| scene.lights.lane_table());
+    let table = (!scene.lights.is_empty()).then(|| scene.light_table());
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let seed_hash = hash_u32(ctx.sampling.seed);
     let Worker {
@@ -642,7 +642,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCou
             }
         }
     }
-    lanes::offset_origin_lanes(&g.light.p, &g.bsdf.ng, origin);
+    crate::accel::ray::offset_origin_lanes(&g.light.p, &g.bsdf.ng, origin);
 
     // Next-event estimation: the light sample, the BSDF towards it, the MIS weight.
     let mut has_light = [false; LANES];

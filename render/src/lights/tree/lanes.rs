@@ -72,7 +72,7 @@
 use super::node;
 use super::node::{step, Node, Step, LEAF};
 use super::{LightSelector, ONE_MINUS_EPSILON};
-use crate::lights::mis::saturating_i32;
+use lanekit::saturating_i32;
 
 pub use lanekit::LANES;
 

@@ -104,7 +104,7 @@ mod build;
 mod lanes;
 mod node;
 
-use crate::lights::{Light, Shape};
+use crate::lights::light::{Light, Shape};
 use glam::Vec3;
 use node::{child_weights, step, Node, Step, LEAF};
 use std::f32::consts::{FRAC_PI_2, PI};
