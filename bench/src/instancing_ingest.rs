@@ -3,17 +3,53 @@
 //! `--flatten-instances` (and against an older `ingest` binary when one is given), each run a fresh
 //! process under `/usr/bin/time -v`. The `--dump-json` listings of every run must be identical:
 //! instancing changes what is stored, never what is drawn.
+//!
+//! The default layout assets come from the shared asset library: `$SHARED_ASSETS` if set, else
+//! `../shared/assets` beside the workspace (the folder the other benches name from the workspace root).
 
 use anyhow::{bail, Context};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The layout assets measured by default (1,000 subdivided teapots; 1,000 displayColor assets).
+/// The layout assets measured by default (1,000 subdivided teapots; 1,000 displayColor assets), relative
+/// to [`shared_assets`].
 pub const LAYOUT_ASSETS: [&str; 2] = [
-    "/work/shared/assets/intent_vfx_layout/intent-vfx/scenes/teapotScene_layout.usd",
-    "/work/shared/assets/intent_vfx_layout/intent-vfx/scenes/simpleAssetScene.usd",
+    "intent_vfx_layout/intent-vfx/scenes/teapotScene_layout.usd",
+    "intent_vfx_layout/intent-vfx/scenes/simpleAssetScene.usd",
 ];
+
+/// The shared asset library: `$SHARED_ASSETS` if set, else `../shared/assets` from the workspace root.
+pub fn shared_assets() -> PathBuf {
+    match std::env::var_os("SHARED_ASSETS") {
+        Some(dir) => PathBuf::from(dir),
+        // CARGO_MANIFEST_DIR is `<workspace>/bench`; its grandparent holds `shared/`.
+        None => Path::new(env!("CARGO_MANIFEST_DIR"))
+            .ancestors()
+            .nth(2)
+            .unwrap_or(Path::new(".."))
+            .join("shared/assets"),
+    }
+}
+
+/// [`LAYOUT_ASSETS`] in [`shared_assets`]; the error names the first one missing.
+pub fn layout_assets() -> anyhow::Result<Vec<PathBuf>> {
+    layout_assets_in(&shared_assets())
+}
+
+fn layout_assets_in(root: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let found = |name: &&str| {
+        let path = root.join(name);
+        anyhow::ensure!(
+            path.exists(),
+            "layout asset {} not found (shared assets are read from $SHARED_ASSETS, else \
+             ../shared/assets beside the workspace; --ingest-assets names other stages)",
+            path.display()
+        );
+        Ok(path)
+    };
+    LAYOUT_ASSETS.iter().map(found).collect()
+}
 
 /// A stage of `count` instanceable references to one polygon sphere (`rings × segments` quads) on
 /// a 10 × 10 grid of layers, each rotated and scaled differently, without a camera.
@@ -133,7 +169,10 @@ pub fn measure(
     let generated = scratch.join(format!("instanced_{count}.usda"));
     std::fs::write(&generated, instanced_stage(count, 12, 24))?;
     let mut inputs = vec![generated];
-    inputs.extend(assets.iter().filter(|a| a.exists()).cloned());
+    for asset in assets {
+        anyhow::ensure!(asset.exists(), "ingest asset {} not found", asset.display());
+        inputs.push(asset.clone());
+    }
     println!(
         "\n{:<28} {:<22} {:>12} {:>9} {:>12}",
         "ingest input", "run", "peak RSS MiB", "wall s", "blob bytes"
@@ -177,4 +216,25 @@ pub fn measure(
         }));
     }
     Ok(serde_json::json!({ "generated_instances": count, "inputs": figures }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shared_assets_sit_beside_the_workspace() {
+        if std::env::var_os("SHARED_ASSETS").is_none() {
+            let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+            assert_eq!(shared_assets(), workspace.parent().unwrap().join("shared/assets"));
+        }
+    }
+
+    #[test]
+    fn a_missing_layout_asset_is_an_error_naming_its_path() {
+        let root = Path::new("/nonexistent/shared/assets");
+        let message = layout_assets_in(root).unwrap_err().to_string();
+        assert!(message.contains(&root.join(LAYOUT_ASSETS[0]).display().to_string()), "{message}");
+        assert!(message.contains("SHARED_ASSETS"), "{message}");
+    }
 }

@@ -158,7 +158,8 @@ enum Cmd {
         /// Instances of the generated stage whose ingest is measured (0: skip the ingest runs).
         #[arg(long, default_value_t = 10_000)]
         ingest_instances: usize,
-        /// Stages whose ingest is measured as well (default: teapotScene_layout, simpleAssetScene).
+        /// Stages whose ingest is measured as well (default: teapotScene_layout, simpleAssetScene from
+        /// $SHARED_ASSETS, else ../shared/assets beside the workspace).
         #[arg(long)]
         ingest_assets: Vec<PathBuf>,
         /// An older `ingest` binary to measure against.
@@ -356,7 +357,7 @@ fn main() -> anyhow::Result<()> {
                 None
             } else {
                 let assets = if ingest_assets.is_empty() {
-                    instancing_ingest::LAYOUT_ASSETS.iter().map(PathBuf::from).collect()
+                    instancing_ingest::layout_assets()?
                 } else {
                     ingest_assets
                 };

@@ -349,7 +349,7 @@ fn pack_textures(scene: &Scene, data: &mut blob::SceneData) -> Vec<(u32, bool)> 
         }
     }
     let set = builder.finish();
-    data.texture_records = bytemuck::cast_slice(&set.records).to_vec();
+    data.texture_records = set.records;
     data.texels = set.texels;
     data.udim_sets = udim_sets;
     data.udim_tiles = udim_tiles;

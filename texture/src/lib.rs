@@ -15,8 +15,9 @@
 //!                         TextureSetView::sample_udim(set, &Lookup, fallback)              → linear RGBA
 //! ```
 //!
-//! Records are `#[repr(C)]` [`bytemuck::Pod`] ([`TextureRecord`], 168 bytes; [`UdimSetRecord`], 16 bytes)
-//! whose texel locations are byte offsets into the texel array, so ingest copies them without fix-ups.
+//! Records are `#[repr(C)]` [`bytemuck::Pod`] ([`TextureRecord`], 168 bytes, the blob crate's record
+//! re-exported; [`UdimSetRecord`], 16 bytes) whose texel locations are byte offsets into the texel
+//! array, so ingest copies them without fix-ups.
 //! Texels are stored as sRGB-encoded `u8` (8-bit sources), linear `u8` (8-bit `raw`) or linear `f16`
 //! (16-bit and float sources), keeping the source's 1–4 channels; lookups decode to linear RGBA.
 //!
@@ -53,7 +54,7 @@
 //! - [`layout`]: tiled addressing shared by bake and lookup;
 //! - [`bake`](mod@bake): [`SourceImage`] → [`BakedTexture`];
 //! - [`udim`]: `<UDIM>` pattern expansion;
-//! - [`record`]: the Pod records;
+//! - [`record`]: the Pod records ([`TextureRecord`] is `blob::TextureRecord`);
 //! - [`set`]: the builder and the validated view over the four tables;
 //! - [`sample`](mod@sample): filtered lookups;
 //! - [`stats`]: texel-byte counting for `--stats`;

@@ -302,20 +302,25 @@ const _: () = assert!(std::mem::size_of::<TriangleBlock>() == 160);
 /// One baked texture: size, texel format and where each mip level starts in the
 /// [`crate::SectionKind::TextureTexels`] section. 168 bytes, align 8.
 ///
-/// Bit-identical to `texture::TextureRecord` (this crate depends on bytemuck only, so the layout is
-/// repeated here and pinned by the same size assertion; render casts one slice type to the other).
+/// The one definition of the record: the `texture` crate re-exports it as `texture::TextureRecord`,
+/// bakes it and samples through it in place, so ingest and render use the same type and no copy or
+/// cast stands between them.
 ///
-/// | offset | field           | meaning                                                        |
-/// |-------:|-----------------|----------------------------------------------------------------|
-/// | 0      | `width`         | level-0 width; level `l` is `max(1, width >> l)`                |
-/// | 4      | `height`        | level-0 height                                                  |
-/// | 8      | `channels`      | 1..=4                                                           |
-/// | 12     | `format`        | 0 sRGB8, 1 unorm8, 2 f16                                        |
-/// | 16     | `mip_count`     | levels stored (down to 1×1)                                     |
-/// | 20     | `tile_log2`     | tiles are `2^tile_log2` texels square (clipped to the level)    |
-/// | 24     | `reserved`      | zero                                                            |
-/// | 32     | `byte_len`      | bytes from `level_offsets[0]` to the end of the last level      |
-/// | 40     | `level_offsets` | byte offset of each level in the texel section                  |
+/// | offset | field           | meaning                                                             |
+/// |-------:|-----------------|---------------------------------------------------------------------|
+/// | 0      | `width`         | level-0 width in texels; level `l` is `max(1, width >> l)`          |
+/// | 4      | `height`        | level-0 height, halved the same way                                 |
+/// | 8      | `channels`      | stored channels: 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA                |
+/// | 12     | `format`        | `texture::TexelFormat` discriminant: 0 sRGB8, 1 unorm8, 2 f16       |
+/// | 16     | `mip_count`     | levels stored, `floor(log2(max(width, height))) + 1` (down to 1×1)  |
+/// | 20     | `tile_log2`     | tiles are `2^tile_log2` texels square (clipped to the level)        |
+/// | 24     | `reserved`      | zero                                                                |
+/// | 32     | `byte_len`      | bytes from `level_offsets[0]` to the end of the last level          |
+/// | 40     | `level_offsets` | byte offset of each level in the texel section; unused entries zero |
+///
+/// Within a level, tiles are stored row-major and each tile's texels row-major, channels interleaved
+/// (`texture::layout::LevelLayout`). Rows run bottom-up: row 0 is the bottom of the image, so the USD
+/// texture coordinate `t` maps to rows without a flip.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct TextureRecord {
@@ -325,25 +330,25 @@ pub struct TextureRecord {
     pub height: u32,
     /// Stored channels per texel, 1..=4.
     pub channels: u32,
-    /// Texel format discriminant (0 sRGB8, 1 unorm8, 2 f16).
+    /// Texel format discriminant (0 sRGB8, 1 unorm8, 2 f16; `texture::TexelFormat` as `u32`).
     pub format: u32,
-    /// Mip levels stored.
+    /// Number of mip levels stored.
     pub mip_count: u32,
-    /// log2 of the tile edge.
+    /// log2 of the tile edge in texels.
     pub tile_log2: u32,
-    /// Zero.
+    /// Zero; keeps `byte_len` 8-aligned without implicit padding.
     pub reserved: [u32; 2],
-    /// Total bytes of all levels.
+    /// Total bytes of all levels, starting at `level_offsets[0]`.
     pub byte_len: u64,
-    /// Byte offset of each level in the texel section.
+    /// Byte offset of each level from the start of the texel section.
     pub level_offsets: [u64; MAX_MIP_LEVELS],
 }
 const _: () = assert!(std::mem::size_of::<TextureRecord>() == 168);
 const _: () = assert!(std::mem::align_of::<TextureRecord>() == 8);
 
-/// Most mip levels a texture may store.
+/// Most mip levels a texture may store: enough for [`MAX_TEXTURE_DIMENSION`] down to 1×1.
 pub const MAX_MIP_LEVELS: usize = 16;
-/// Largest texture side.
+/// Largest texture width or height: `2^(MAX_MIP_LEVELS - 1)`.
 pub const MAX_TEXTURE_DIMENSION: u32 = 1 << (MAX_MIP_LEVELS - 1);
 
 /// A UDIM set: a `u_count × v_count` window of the UDIM grid in the [`crate::SectionKind::UdimTiles`]

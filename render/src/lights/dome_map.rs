@@ -54,8 +54,7 @@ impl<'a> DomeMap<'a> {
     /// The map `index` of a validated view, seen through `world_from_light` (its 3×3 part).
     pub fn new(view: &blob::SceneView<'a>, index: u32, world_from_light: Mat3) -> Option<Self> {
         let rec = view.dome.maps.get(index as usize)?;
-        let record: &texture::TextureRecord =
-            bytemuck::cast_ref(view.texture_records.get(rec.texture as usize)?);
+        let record = view.texture_records.get(rec.texture as usize)?;
         // The blob validated the record as `TextureView::new` does; this cannot fail.
         let texture = TextureView::new(record, view.texels).ok()?;
         let marginal = &view.dome.cdf_values[rec.marginal()];

@@ -214,7 +214,7 @@ impl<'a> Shading<'a> {
         // The blob validated every record the way `TextureSetView::new` does (same checks, repeated in
         // the blob crate), so this cannot fail; an empty view would only make lookups return fallbacks.
         let textures = TextureSetView::new(
-            bytemuck::cast_slice(view.texture_records),
+            view.texture_records,
             bytemuck::cast_slice(view.udim_sets),
             view.udim_tiles,
             view.texels,

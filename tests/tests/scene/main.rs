@@ -1,0 +1,15 @@
+//! End-to-end tests: USD (or Alembic) in, pixels out, one integration-test binary with a module per
+//! area. Test names carry the module path, so `cargo test -p scene-tests textures::` runs one area.
+//!
+//! - [`pipeline`]: analytic scenes (Lambert under a dome and a distant light, the white furnace),
+//!   determinism, bad input, wavefront against scalar;
+//! - [`textures`]: texture files and UsdShade networks through ingest and render;
+//! - [`dome`]: textured dome lights;
+//! - [`instancing`]: two-level instancing against the flattened scene;
+//! - [`alembic`]: Alembic archives against the USD they were exported from.
+
+mod alembic;
+mod dome;
+mod instancing;
+mod pipeline;
+mod textures;
