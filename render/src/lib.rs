@@ -22,7 +22,7 @@
 //! For benchmarks, [`trace_rays`] (or [`Accel::closest_hit`] / [`Accel::any_hit`]) queries the BVH
 //! directly.
 //!
-//! Modules: [`cli`] (arguments → validated command), [`mapped`] (memory map, `unsafe fn` with its
+//! Modules: [`mapped`] (memory map, `unsafe fn` with its
 //! contract), [`accel`] (8-wide BVH traversal, watertight triangle test, ray offsets), [`instanced`]
 //! (the top-level BVH over instances and the move into prototype space), [`curves`] (curve and
 //! point BVH, tube/ribbon/sphere tests), [`hair`] (Chiang et al. hair BSDF for curves), [`camera`],
@@ -36,7 +36,6 @@
 pub mod accel;
 pub mod bsdf;
 pub mod camera;
-pub mod cli;
 #[cfg(test)]
 mod dispatch_tests;
 #[cfg(test)]
@@ -76,11 +75,6 @@ pub use output::{write_exr, write_png};
 pub use scene::Scene;
 pub use stats::RenderStats;
 
-use anyhow::Context;
-use std::io::IsTerminal;
-use std::process::ExitCode;
-use std::time::Instant;
-
 /// Renders a validated blob view (prepares a [`Scene`] and calls [`render_scene`]).
 pub fn render_image(view: &blob::SceneView, options: &RenderOptions) -> Result<Image, RenderError> {
     render_scene(&Scene::new(*view), options)
@@ -89,77 +83,4 @@ pub fn render_image(view: &blob::SceneView, options: &RenderOptions) -> Result<I
 /// Closest hits of `rays` against the blob's BVH, in order (for benchmarks; single-threaded).
 pub fn trace_rays(view: &blob::SceneView, rays: &[Ray]) -> Vec<Option<Hit>> {
     Accel::new(view).trace_closest(rays)
-}
-
-/// The `render` binary: parses `args`, renders or prints `--info`, reports on stderr.
-pub fn run<I, T>(args: I) -> anyhow::Result<ExitCode>
-where
-    I: IntoIterator<Item = T>,
-    T: Into<std::ffi::OsString> + Clone,
-{
-    use clap::Parser;
-    let args = match cli::Args::try_parse_from(args) {
-        Ok(a) => a,
-        Err(e) => {
-            let _ = e.print();
-            return Ok(if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS });
-        }
-    };
-    let command = args.into_command()?;
-    let load_start = Instant::now();
-    let blob_path = match &command {
-        cli::Command::Info { blob } | cli::Command::Render { blob, .. } => blob.clone(),
-    };
-    // SAFETY: blobs are replaced atomically by ingest (temporary file + rename), never written in place;
-    // the map lives until this function returns and nothing here writes to the file.
-    let map = unsafe { map_blob(&blob_path) }?;
-    let view = parse_blob(&blob_path, &map)?;
-    let load_seconds = load_start.elapsed().as_secs_f64();
-
-    match command {
-        cli::Command::Info { .. } => {
-            println!("{}", serde_json::to_string(&info::summarize(&view))?);
-            Ok(ExitCode::SUCCESS)
-        }
-        cli::Command::Render { output, png, stats, options, .. } => {
-            let scene = Scene::new(view);
-            let bar = std::io::stderr().is_terminal().then(|| {
-                let bar = indicatif::ProgressBar::new(0);
-                bar.set_style(
-                    indicatif::ProgressStyle::with_template(
-                        "{bar:40} {pos}/{len} tiles {elapsed_precise} eta {eta}",
-                    )
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-                );
-                bar
-            });
-            let progress = |done: usize, total: usize| {
-                if let Some(bar) = &bar {
-                    bar.set_length(total as u64);
-                    bar.set_position(done as u64);
-                }
-            };
-            let image = render_scene_with_progress(&scene, &options, &progress)
-                .with_context(|| format!("rendering {}", blob_path.display()))?;
-            if let Some(bar) = &bar {
-                bar.finish_and_clear();
-            }
-            let write_start = Instant::now();
-            write_exr(&output, &image)?;
-            if let Some(png) = &png {
-                write_png(png, &image)?;
-            }
-            let mut summary =
-                stats::Summary::from_render(&image.stats, image.width, image.height, options.spp);
-            summary.load_seconds = load_seconds;
-            summary.integrator = format!("{:?}", options.integrator).to_lowercase();
-            summary.write_seconds = write_start.elapsed().as_secs_f64();
-            eprintln!("{}", summary.to_text());
-            if let Some(path) = &stats {
-                std::fs::write(path, serde_json::to_string_pretty(&summary)?)
-                    .with_context(|| format!("writing statistics to {}", path.display()))?;
-            }
-            Ok(ExitCode::SUCCESS)
-        }
-    }
 }

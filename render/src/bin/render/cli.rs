@@ -1,8 +1,7 @@
 //! Command-line arguments (clap) and their validation into [`Command`].
 
-use crate::error::RenderError;
-use crate::options::RenderOptions;
 use clap::Parser;
+use render::{RenderError, RenderOptions};
 use std::path::PathBuf;
 
 /// Raw arguments of the `render` binary.
@@ -48,23 +47,23 @@ pub struct Args {
     pub texture_filter: texture::Filter,
     /// Draw all curves as `tube` or `ribbon` (default: tubes, oriented ribbons where normals are authored).
     #[arg(long, value_parser = parse_curve_shape)]
-    pub curve_shape: Option<crate::accel::curves::CurveShape>,
+    pub curve_shape: Option<render::accel::curves::CurveShape>,
     /// Integrator: wavefront (breadth first, batched, 8-lane kernels; the default: it is faster on
     /// every bench scene), scalar (depth first, the reference) or wavefront-queues (the wavefront under
     /// MoonRay-style queues flushed when full; slower on two of the three bench scenes, kept for
     /// `bench integrators`); same image bit for bit.
     #[arg(long, default_value = "wavefront")]
-    pub integrator: crate::options::Integrator,
+    pub integrator: render::Integrator,
 }
 
 fn parse_filter(s: &str) -> Result<texture::Filter, String> {
     s.parse()
 }
 
-fn parse_curve_shape(s: &str) -> Result<crate::accel::curves::CurveShape, String> {
+fn parse_curve_shape(s: &str) -> Result<render::accel::curves::CurveShape, String> {
     match s {
-        "tube" => Ok(crate::accel::curves::CurveShape::Tube),
-        "ribbon" => Ok(crate::accel::curves::CurveShape::Ribbon),
+        "tube" => Ok(render::accel::curves::CurveShape::Tube),
+        "ribbon" => Ok(render::accel::curves::CurveShape::Ribbon),
         _ => Err(format!("expected tube or ribbon, got {s:?}")),
     }
 }
@@ -158,16 +157,16 @@ mod tests {
         let Command::Render { options, output, .. } = args.into_command().unwrap() else { panic!() };
         assert_eq!(output, PathBuf::from("o.exr"));
         assert_eq!((options.spp, options.resolution, options.threads), (4, Some([64, 32]), 2));
-        assert_eq!(options.integrator, crate::options::Integrator::Wavefront);
+        assert_eq!(options.integrator, render::Integrator::Wavefront);
         let scalar =
             Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "scalar"]).unwrap();
         let Command::Render { options, .. } = scalar.into_command().unwrap() else { panic!() };
-        assert_eq!(options.integrator, crate::options::Integrator::Scalar);
+        assert_eq!(options.integrator, render::Integrator::Scalar);
         let queues =
             Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "wavefront-queues"])
                 .unwrap();
         let Command::Render { options, .. } = queues.into_command().unwrap() else { panic!() };
-        assert_eq!(options.integrator, crate::options::Integrator::WavefrontQueues);
+        assert_eq!(options.integrator, render::Integrator::WavefrontQueues);
         assert!(Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "gpu"]).is_err());
         assert!(Args::try_parse_from(["render", "s.blob"]).is_err(), "-o is required without --info");
         assert!(matches!(
