@@ -65,7 +65,6 @@ render_filters=(
     shading::sort_key::
     surface::lanes::
     path::roulette::
-    accel::packet::
     accel::tests::simd_kernels_equal_scalar_kernels
     accel::tests::branch_free_watertight_ray_equals_the_branchy_construction
     accel::tests::bvh_agrees_with_brute_force_on_10000_random_rays

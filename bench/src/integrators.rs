@@ -14,8 +14,6 @@
 //!   integration, overhead; the shading+texturing+integration speed-up applies each integrator's
 //!   share of those phases to its untimed CPU seconds;
 //! * the wavefront's SIMD lane utilisation, and the largest beauty difference between the two images;
-//! * the wavefront under its queue driver (`--integrator wavefront-queues`, MoonRay's queues flushed
-//!   when full) as a third row: its speed-up and whether its image equals the scalar one.
 //!
 //! Outputs in `out`: `integrators.json`, `integrators.md` (the table) and `integrators.svg` (stacked
 //! bars of CPU µs per sample by phase, scalar beside wavefront per scene).
@@ -95,10 +93,6 @@ struct SceneResult {
     size: [u32; 2],
     scalar: Figures,
     wave: Figures,
-    /// The wavefront under its queue driver (`--integrator wavefront-queues`).
-    queues: Figures,
-    /// Whether the queue driver's image equals the scalar one bit for bit.
-    queues_equal: bool,
     max_diff: f32,
     mean_diff: f64,
 }
@@ -134,8 +128,6 @@ fn measure(
     // Phase shares from the least disturbed of `repeat` timed runs, as the speed is.
     let scalar_timed = best_of(view, &with(Integrator::Scalar, true), repeat)?.image;
     let wave_timed = best_of(view, &with(Integrator::Wavefront, true), repeat)?.image;
-    let queues = best_of(view, &with(Integrator::WavefrontQueues, false), repeat)?;
-    let queues_timed = best_of(view, &with(Integrator::WavefrontQueues, true), repeat)?.image;
     let (mut max_diff, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
     for (a, b) in scalar.image.beauty.iter().flatten().zip(wave.image.beauty.iter().flatten()) {
         let d = (a - b).abs();
@@ -148,8 +140,6 @@ fn measure(
         size: [scalar.image.width, scalar.image.height],
         scalar: figures(&scalar, &scalar_timed),
         wave: figures(&wave, &wave_timed),
-        queues_equal: queues.image.beauty == scalar.image.beauty,
-        queues: figures(&queues, &queues_timed),
         max_diff,
         mean_diff: sum / n.max(1) as f64,
     })
@@ -469,7 +459,6 @@ pub fn run(
             .collect::<anyhow::Result<Vec<_>>>()?
     };
     let mut results = Vec::new();
-    let mut trav = Vec::new();
     for (name, bytes) in &scenes {
         let view = blob::SceneView::parse(bytes).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
         let scene = render::Scene::new(view);
@@ -479,7 +468,6 @@ pub fn run(
         let options =
             RenderOptions { spp, resolution: Some([width, height]), threads, ..RenderOptions::default() };
         let r = measure(name, &view, &options, repeat)?;
-        trav.extend(traversal(name, &view, width, height)?);
         eprintln!(
             "{name}: scalar {:.3} CPU s, wavefront {:.3} CPU s: {:.2}× overall, {:.2}× shading+integration; \
              max |Δ| {:e}",
@@ -492,7 +480,7 @@ pub fn run(
         results.push(r);
     }
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
-    let report = table(&results, spp, threads, load.trim()) + &traversal_table(&trav);
+    let report = table(&results, spp, threads, load.trim());
     std::fs::write(out.join("integrators.md"), &report)?;
     std::fs::write(
         out.join("integrators.json"),
@@ -519,7 +507,7 @@ fn table(results: &[SceneResult], spp: u32, threads: usize, load: &str) -> Strin
         if threads == 0 { "all".to_string() } else { threads.to_string() }
     );
     for r in results {
-        for (label, f) in [("scalar", &r.scalar), ("wavefront", &r.wave), ("wavefront-queues", &r.queues)] {
+        for (label, f) in [("scalar", &r.scalar), ("wavefront", &r.wave)] {
             let p = pct(&f.phases);
             s += &format!(
                 "| {} | {}×{} | {label} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |\n",
@@ -540,18 +528,16 @@ fn table(results: &[SceneResult], spp: u32, threads: usize, load: &str) -> Strin
             );
         }
     }
-    s += "\n| scene | wavefront speed-up (CPU) | shading+texturing+integration speed-up | max abs Δ beauty | mean abs Δ | \
-          queue driver speed-up (CPU) | queue driver image = scalar |\n|---|---|---|---|---|---|---|\n";
+    s += "\n| scene | wavefront speed-up (CPU) | shading+texturing+integration speed-up | max abs Δ beauty | mean abs Δ |\n\
+          |---|---|---|---|---|\n";
     for r in results {
         s += &format!(
-            "| {} | {:.2}× | {:.2}× | {:e} | {:e} | {:.2}× | {} |\n",
+            "| {} | {:.2}× | {:.2}× | {:e} | {:e} |\n",
             r.name,
             r.speedup(),
             r.shading_speedup(),
             r.max_diff,
             r.mean_diff,
-            r.scalar.cpu / r.queues.cpu.max(1e-9),
-            if r.queues_equal { "yes" } else { "NO" },
         );
     }
     s
@@ -570,8 +556,7 @@ fn json(results: &[SceneResult], spp: u32, load: &str) -> serde_json::Value {
         "loadavg": load,
         "scenes": results.iter().map(|r| serde_json::json!({
             "name": r.name, "width": r.size[0], "height": r.size[1],
-            "scalar": f(&r.scalar), "wavefront": f(&r.wave), "wavefront_queues": f(&r.queues),
-            "queues_image_equals_scalar": r.queues_equal,
+            "scalar": f(&r.scalar), "wavefront": f(&r.wave),
             "speedup": r.speedup(), "shading_speedup": r.shading_speedup(),
             "max_abs_beauty_difference": r.max_diff, "mean_abs_beauty_difference": r.mean_diff,
         })).collect::<Vec<_>>(),
@@ -624,183 +609,4 @@ fn chart(results: &[SceneResult], path: &Path) -> anyhow::Result<()> {
     chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
     root.present()?;
     Ok(())
-}
-
-/// Single-ray against packet traversal on one ray set: (name, single Mrays/CPU s, packet Mrays/CPU s,
-/// rays, exact-tie differences).
-struct TraversalRow {
-    scene: String,
-    queue: &'static str,
-    rays: usize,
-    single: f64,
-    packet: f64,
-    ties: usize,
-}
-
-/// Named sets of (origin, unit direction) rays.
-type RaySets = Vec<(&'static str, Vec<(Vec3, Vec3)>)>;
-
-/// Primary rays (packets of 8 neighbouring pixels), diffuse bounce rays and shadow rays (to a point
-/// above the scene) from the primary hits; the last two octant-sorted before packing.
-fn ray_sets(scene: &render::Scene, width: u32, height: u32) -> anyhow::Result<RaySets> {
-    let camera = scene.camera(scene.camera_index(None)?, width, height);
-    let mut primary = Vec::new();
-    for y in 0..height {
-        for x in 0..width {
-            primary
-                .push(camera.generate_ray((x as f32 + 0.5) / width as f32, (y as f32 + 0.5) / height as f32));
-        }
-    }
-    let mut state = 0x9e37_79b9u32;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 17;
-        state ^= state << 5;
-        (state >> 8) as f32 / 16_777_216.0
-    };
-    let (lo, hi) = (scene.view.info.bounds_min, scene.view.info.bounds_max);
-    let above = Vec3::new(0.5 * (lo[0] + hi[0]), hi[1] + (hi[1] - lo[1]), 0.5 * (lo[2] + hi[2]));
-    let (mut bounce, mut shadow) = (Vec::new(), Vec::new());
-    for &(o, d) in &primary {
-        let Some(hit) = scene.accel.closest_hit(o, d, f32::INFINITY) else { continue };
-        let Some(s) = scene.surface(&hit, -d, 0.0) else { continue };
-        let p = render::accel::offset_ray_origin(s.p, s.ng);
-        let frame = render::bsdf::Frame::new(s.ng);
-        let local = render::bsdf::sample_cosine_hemisphere([next(), next()]);
-        bounce.push((p, frame.to_world(local).normalize()));
-        shadow.push((p, (above - p).normalize()));
-    }
-    for set in [&mut bounce, &mut shadow] {
-        set.sort_by_key(|&(_, d)| render::accel::packet::octant(d));
-    }
-    Ok(vec![("primary", primary), ("incoherent (bounce)", bounce), ("occlusion (shadow)", shadow)])
-}
-
-fn traversal(
-    name: &str,
-    view: &blob::SceneView,
-    width: u32,
-    height: u32,
-) -> anyhow::Result<Vec<TraversalRow>> {
-    use render::accel::packet::{closest_packet, PACKET};
-    let scene = render::Scene::new(*view);
-    let mut rows = Vec::new();
-    for (queue, rays) in ray_sets(&scene, width, height)? {
-        let (origins, dirs): (Vec<Vec3>, Vec<Vec3>) = rays.iter().copied().unzip();
-        let time = |f: &mut dyn FnMut() -> usize| {
-            let mut best = f64::INFINITY;
-            let mut sink = 0;
-            for _ in 0..3 {
-                let cpu = crate::ingest_speed::process_cpu_seconds();
-                sink += f();
-                best = best.min(crate::ingest_speed::process_cpu_seconds() - cpu);
-            }
-            (best, sink)
-        };
-        let mut single_hits = vec![None; rays.len()];
-        let (single, _) = time(&mut || {
-            for (k, (o, d)) in rays.iter().enumerate() {
-                single_hits[k] = scene.accel.closest_hit(*o, *d, f32::INFINITY);
-            }
-            single_hits.iter().filter(|h| h.is_some()).count()
-        });
-        let mut packet_hits = vec![None; rays.len()];
-        let (packet, _) = time(&mut || {
-            for (k, out) in packet_hits.chunks_mut(PACKET).enumerate() {
-                let r = k * PACKET..(k * PACKET + out.len());
-                closest_packet(&scene.accel, &origins[r.clone()], &dirs[r], f32::INFINITY, out);
-            }
-            packet_hits.iter().filter(|h| h.is_some()).count()
-        });
-        let mut ties = 0;
-        for (a, b) in single_hits.iter().zip(&packet_hits) {
-            match (a, b) {
-                (Some(a), Some(b)) if a.t == b.t && a.triangle != b.triangle => ties += 1,
-                (a, b) if a != b => {
-                    anyhow::bail!("{name} {queue}: packet traversal found {b:?}, single ray {a:?}")
-                }
-                _ => {}
-            }
-        }
-        let m = rays.len() as f64 / 1e6;
-        rows.push(TraversalRow {
-            scene: name.into(),
-            queue,
-            rays: rays.len(),
-            single: m / single.max(1e-9),
-            packet: m / packet.max(1e-9),
-            ties,
-        });
-        if queue.starts_with("occlusion") {
-            rows.push(any_hit_row(name, &scene, &origins, &dirs, &time)?);
-        }
-    }
-    Ok(rows)
-}
-
-/// Best-of-3 CPU seconds of a ray loop, and the sum of what it returned.
-type Timer = dyn Fn(&mut dyn FnMut() -> usize) -> (f64, usize);
-
-/// The shadow rays as any-hit queries (what the occlusion queue asks): single rays against
-/// [`render::accel::packet::any_packet`], every triangle blocking.
-fn any_hit_row(
-    name: &str,
-    scene: &render::Scene,
-    origins: &[Vec3],
-    dirs: &[Vec3],
-    time: &Timer,
-) -> anyhow::Result<TraversalRow> {
-    use render::accel::packet::{any_packet, PACKET};
-    let mut single_blocked = vec![false; origins.len()];
-    let (single, _) = time(&mut || {
-        for (k, blocked) in single_blocked.iter_mut().enumerate() {
-            *blocked = scene.accel.any_hit(origins[k], dirs[k], f32::INFINITY, |_, _| true);
-        }
-        single_blocked.iter().filter(|b| **b).count()
-    });
-    let tmax = [f32::INFINITY; PACKET];
-    let mut packet_blocked = vec![false; origins.len()];
-    let (packet, _) = time(&mut || {
-        for (k, out) in packet_blocked.chunks_mut(PACKET).enumerate() {
-            let r = k * PACKET..(k * PACKET + out.len());
-            let mask =
-                any_packet(&scene.accel, &origins[r.clone()], &dirs[r], &tmax[..out.len()], |_, _, _| true);
-            for (j, blocked) in out.iter_mut().enumerate() {
-                *blocked = mask & (1 << j) != 0;
-            }
-        }
-        packet_blocked.iter().filter(|b| **b).count()
-    });
-    if single_blocked != packet_blocked {
-        anyhow::bail!("{name}: any-hit packets and single rays disagree on a shadow ray");
-    }
-    let m = origins.len() as f64 / 1e6;
-    Ok(TraversalRow {
-        scene: name.into(),
-        queue: "occlusion (shadow), any hit",
-        rays: origins.len(),
-        single: m / single.max(1e-9),
-        packet: m / packet.max(1e-9),
-        ties: 0,
-    })
-}
-
-fn traversal_table(rows: &[TraversalRow]) -> String {
-    let mut s = String::from(
-        "\n## Traversal: single ray against 8-ray packets (closest hit unless the queue says any hit; one thread, Mrays per CPU second)\n\n\
-         | scene | queue | rays | single | packet | packet/single | exact-tie differences |\n|---|---|---|---|---|---|---|\n",
-    );
-    for r in rows {
-        s += &format!(
-            "| {} | {} | {} | {:.3} | {:.3} | {:.2} | {} |\n",
-            r.scene,
-            r.queue,
-            r.rays,
-            r.single,
-            r.packet,
-            r.packet / r.single,
-            r.ties
-        );
-    }
-    s
 }

@@ -98,13 +98,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
                 })
                 .collect()
         }),
-        Integrator::Wavefront | Integrator::WavefrontQueues => {
-            let driver = match options.integrator {
-                Integrator::WavefrontQueues => {
-                    crate::wavefront::queues::Driver::Queues(crate::wavefront::queues::QueueConfig::DEFAULT)
-                }
-                _ => crate::wavefront::DEFAULT_DRIVER,
-            };
+        Integrator::Wavefront => {
             let ctx = crate::wavefront::Context {
                 scene,
                 camera: &camera,
@@ -131,8 +125,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
                     .par_iter()
                     .map_init(
                         || {
-                            let worker =
-                                crate::wavefront::Worker::with_driver(ts, scene, options.phase_stats, driver);
+                            let worker = crate::wavefront::Worker::new(ts, scene, options.phase_stats);
                             Merge(worker, &stages)
                         },
                         |m, tile| {

@@ -45,10 +45,6 @@ pub enum Integrator {
     /// bench scene (`bench integrators`).
     #[default]
     Wavefront,
-    /// The wavefront integrator under its queue driver ([`crate::wavefront::queues`]: bounded queues
-    /// flushed into their handlers when full, MoonRay's scheme); the same image, kept selectable so
-    /// `bench integrators` measures it beside the default wave driver, which is faster here.
-    WavefrontQueues,
 }
 
 impl std::str::FromStr for Integrator {
@@ -57,8 +53,7 @@ impl std::str::FromStr for Integrator {
         match s {
             "scalar" => Ok(Integrator::Scalar),
             "wavefront" => Ok(Integrator::Wavefront),
-            "wavefront-queues" => Ok(Integrator::WavefrontQueues),
-            _ => Err(format!("unknown integrator {s:?} (scalar, wavefront or wavefront-queues)")),
+            _ => Err(format!("unknown integrator {s:?} (scalar or wavefront)")),
         }
     }
 }

@@ -115,7 +115,6 @@
 
 pub mod curves;
 pub mod instanced;
-pub mod packet;
 pub mod ray;
 pub mod traverse;
 
@@ -215,33 +214,6 @@ impl<'a> Accel<'a> {
         any_hit_simd(self, origin, direction, tmax, blocks)
     }
 
-    /// The instance level of [`Accel::closest_hit`]: `best`, the closest hit among the top-level
-    /// triangles (found by any traversal of the world BVH, e.g. a packet), or a nearer instance hit.
-    pub(crate) fn closest_in_instances(
-        &self,
-        origin: Vec3,
-        direction: Vec3,
-        tmax: f32,
-        best: Option<Hit>,
-    ) -> Option<Hit> {
-        if self.instances.is_empty() {
-            return best;
-        }
-        closest_in_instances_simd(self, origin, direction, tmax, best)
-    }
-
-    /// The instance level of [`Accel::any_hit`]: whether a prototype triangle for which
-    /// `blocks(triangle, instance)` holds is hit.
-    pub(crate) fn any_in_instances(
-        &self,
-        origin: Vec3,
-        direction: Vec3,
-        tmax: f32,
-        blocks: impl FnMut(u32, u32) -> bool,
-    ) -> bool {
-        !self.instances.is_empty() && any_in_instances_simd(self, origin, direction, tmax, blocks)
-    }
-
     /// [`Accel::closest_hit`] with the scalar reference kernels (for tests).
     pub fn closest_hit_scalar(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
         if self.is_empty() {
@@ -333,7 +305,6 @@ macro_rules! lane_kernels {
         kernels
     }};
 }
-pub(crate) use lane_kernels;
 
 // The multiversioned entry points: one clone per target, the CPU checked once per query.
 #[multiversion(targets("x86_64+avx2+fma"))]
@@ -352,30 +323,6 @@ fn any_hit_simd<F: FnMut(u32, u32) -> bool>(
 ) -> bool {
     let (node, block) = lane_kernels!();
     two_level_any(accel, origin, direction, tmax, &node, &block, &mut blocks)
-}
-
-#[multiversion(targets("x86_64+avx2+fma"))]
-fn closest_in_instances_simd(
-    accel: &Accel,
-    origin: Vec3,
-    direction: Vec3,
-    tmax: f32,
-    best: Option<Hit>,
-) -> Option<Hit> {
-    let (node, block) = lane_kernels!();
-    accel.instances.closest(origin, direction, tmax, best, &node, &block)
-}
-
-#[multiversion(targets("x86_64+avx2+fma"))]
-fn any_in_instances_simd<F: FnMut(u32, u32) -> bool>(
-    accel: &Accel,
-    origin: Vec3,
-    direction: Vec3,
-    tmax: f32,
-    mut blocks: F,
-) -> bool {
-    let (node, block) = lane_kernels!();
-    accel.instances.any(origin, direction, tmax, &node, &block, &mut blocks)
 }
 
 /// Closest hit over the top-level triangles, then over the instances closer than that hit. A scene

@@ -18,53 +18,6 @@ use crate::film::TileResult;
 use crate::path::{FirstHit, RayCounts};
 use glam::Vec3;
 
-/// What a finished path leaves for its pixel: the film slot of one (pixel, sample) of a chunk.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct FilmSample {
-    /// The path's radiance.
-    pub radiance: Vec3,
-    /// Its first scattering surface, if any.
-    pub first_hit: Option<FirstHit>,
-}
-
-/// A radiance-queue entry: a finished path's [`FilmSample`] and its slot (position in its chunk:
-/// pixel of the tile × samples per chunk + sample, see [`super::generate::camera_paths`]).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Finished {
-    /// Slot in the chunk's film.
-    pub slot: u32,
-    /// What goes there.
-    pub sample: FilmSample,
-}
-
-/// Size of a radiance-queue entry: slot 4, radiance 12, first hit 32 (`Option<FirstHit>`).
-pub const FINISHED_BYTES: usize = 48;
-const _: () = assert!(std::mem::size_of::<Finished>() == FINISHED_BYTES);
-
-/// The radiance queue's handler: writes a batch of finished paths into the chunk's film.
-///
-/// Not sorted by pixel first (as MoonRay's radiance queue is): this film is the worker's own and
-/// indexed by (pixel, sample) slot, so the order of the writes changes nothing but locality, and
-/// sorting did not pay for itself. Cachegrind, tractor at
-/// 120×80, 8 spp, 1 thread, queue driver: with `sort_unstable_by_key(slot)` per batch 388.9 M
-/// instructions and 2.31 M D1 misses, without 381.5 M and 2.34 M (the quicksort took 7 M).
-pub(super) fn write_film(batch: &[Finished], film: &mut [FilmSample]) {
-    for f in batch {
-        film[f.slot as usize] = f.sample;
-    }
-}
-
-/// Adds a finished chunk of `samples` samples per pixel from the film slots the radiance queue
-/// wrote (the queue driver: paths finish in any order, the film restores pixel-then-sample order).
-pub(super) fn film(w: &mut Worker, film: &[FilmSample], samples: usize) {
-    let paths = w.pixels.len() * samples;
-    for (p, slots) in w.pixels.iter_mut().zip(film[..paths].chunks_exact(samples)) {
-        for s in slots {
-            add(p, s.radiance, &s.first_hit);
-        }
-    }
-}
-
 #[inline]
 fn add(p: &mut PixelSum, radiance: Vec3, first_hit: &Option<FirstHit>) {
     if radiance.is_finite() {

@@ -133,16 +133,6 @@ pub(crate) fn both_integrators(
     assert_eq!(scalar.depth, wave.depth);
     assert_eq!(scalar.stats.rays, wave.stats.rays);
     assert_eq!(scalar.stats.shader_evaluations, wave.stats.shader_evaluations);
-    // The queue driver, selected the way `render --integrator wavefront-queues` selects it.
-    let queues =
-        render_image(view, &RenderOptions { integrator: Integrator::WavefrontQueues, ..options.clone() })
-            .unwrap();
-    assert_eq!(scalar.beauty, queues.beauty, "{what}: the queue driver's image differs");
-    assert_eq!(
-        (&scalar.albedo, &scalar.normal, &scalar.depth),
-        (&queues.albedo, &queues.normal, &queues.depth)
-    );
-    assert_eq!(scalar.stats.rays, queues.stats.rays);
     crate::dispatch_tests::record_image(what, &scalar);
     (scalar, wave)
 }
@@ -448,8 +438,8 @@ fn wavefront_equals_scalar_for_every_texture_filter() {
     assert!(images.windows(2).all(|w| w[0] != w[1]));
 }
 
-/// A whole image rendered by the wavefront with a chosen driver, outside `film` (so tests can pick
-/// the queue capacities), with the workers' storage before and after.
+/// A whole image rendered by the wavefront outside `frame` (so tests can choose which tiles share a
+/// worker).
 struct DriverImage {
     beauty: Vec<[f32; 4]>,
     albedo: Vec<[f32; 3]>,
@@ -457,18 +447,12 @@ struct DriverImage {
     depth: Vec<f32>,
     rays: crate::path::RayCounts,
     shader_evaluations: u64,
-    batches: super::queues::QueueBatches,
 }
 
-/// Renders `view` with `driver` on `threads` threads, worker `k` taking every `threads`-th tile
+/// Renders `view` on `threads` threads, worker `k` taking every `threads`-th tile
 /// from the `k`-th (so the thread count changes which tiles share a worker's queues); asserts that
 /// no worker's queues or pools grew.
-fn render_with_driver(
-    view: &blob::SceneView,
-    options: &RenderOptions,
-    driver: super::queues::Driver,
-    threads: usize,
-) -> DriverImage {
+fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads: usize) -> DriverImage {
     let scene = crate::scene::Scene::new(*view);
     let camera_index = scene.camera_index(None).unwrap();
     let [width, height] = scene.resolution(options.resolution, camera_index);
@@ -490,14 +474,13 @@ fn render_with_driver(
         depth: vec![0.0; n],
         rays: Default::default(),
         shader_evaluations: 0,
-        batches: Default::default(),
     };
     let results: Vec<_> = std::thread::scope(|s| {
         let jobs: Vec<_> = (0..threads)
             .map(|k| {
                 let (ctx, tiles) = (&ctx, &tiles);
                 s.spawn(move || {
-                    let mut w = super::Worker::with_driver(options.tile_size, ctx.scene, false, driver);
+                    let mut w = super::Worker::new(options.tile_size, ctx.scene, false);
                     let storage = w.storage();
                     let done: Vec<_> = tiles
                         .iter()
@@ -506,22 +489,19 @@ fn render_with_driver(
                         .step_by(threads)
                         .map(|(t, tile)| {
                             let r = super::render(ctx, &mut w, tile);
-                            assert!(w.is_drained(), "the drain left work in the queues");
+                            assert!(w.occlusion.is_empty(), "a tile left shadow rays queued");
                             (t, r)
                         })
                         .collect();
                     assert_eq!(w.storage(), storage, "rendering grew a queue or pool");
-                    (done, w.clock.shader_evaluations, w.queue_batches().copied())
+                    (done, w.clock.shader_evaluations)
                 })
             })
             .collect();
         jobs.into_iter().map(|j| j.join().unwrap()).collect()
     });
-    for (done, evaluations, batches) in results {
+    for (done, evaluations) in results {
         image.shader_evaluations += evaluations;
-        if let Some(b) = batches {
-            image.batches.add(&b);
-        }
         for (t, r) in done {
             let tile = &tiles[t];
             image.rays.camera += r.rays.camera;
@@ -543,78 +523,42 @@ fn render_with_driver(
     image
 }
 
-/// Queue capacities so small that every queue fills, every flush path runs (a shade queue per
-/// material filling from a ray flush, the occlusion queue filling during shading, the radiance
-/// queue flushing mid-chunk), paths are regenerated into freed slots many times per chunk, and a
-/// tile takes several chunks.
-const TINY: super::queues::QueueConfig =
-    super::queues::QueueConfig { paths: 64, chunk_slots: 100, rays: 8, shade: 16, occlusion: 8, radiance: 8 };
-/// Between the two: a few chunks per tile, regeneration, full 8-lane groups.
-const MEDIUM: super::queues::QueueConfig = super::queues::QueueConfig {
-    paths: 512,
-    chunk_slots: 2048,
-    rays: 128,
-    shade: 32,
-    occlusion: 64,
-    radiance: 32,
-};
-
-/// The queue driver's image equals the scalar integrator's bit for bit (beauty and every AOV, ray
-/// and shader counts), with the default, medium and tiny capacities and on 1 and 3 threads.
-fn queue_driver_equals_scalar(view: &blob::SceneView, options: &RenderOptions, what: &str) {
-    use super::queues::{Driver, QueueConfig};
+/// Workers that render a changing set of tiles give the scalar integrator's image bit for bit (beauty
+/// and every AOV, ray and shader counts) on 1 and 3 threads, and never grow a pool or queue.
+fn workers_equal_scalar(view: &blob::SceneView, options: &RenderOptions, what: &str) {
     let scalar =
         render_image(view, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() }).unwrap();
-    for (name, config) in [("default", QueueConfig::DEFAULT), ("medium", MEDIUM), ("tiny", TINY)] {
-        for threads in [1, 3] {
-            let q = render_with_driver(view, options, Driver::Queues(config), threads);
-            let max = max_abs_diff(&scalar.beauty, &q.beauty);
-            eprintln!("{what}, {name} queues, {threads} threads: max abs diff {max:e}\n{}", q.batches);
-            assert_eq!(max, 0.0, "{what}, {name}, {threads} threads");
-            assert_eq!(scalar.beauty, q.beauty, "{what}, {name}, {threads} threads");
-            assert_eq!(scalar.albedo, q.albedo);
-            assert_eq!(scalar.normal, q.normal);
-            assert_eq!(scalar.depth, q.depth);
-            assert_eq!(scalar.stats.rays, q.rays, "{what}, {name}");
-            assert_eq!(scalar.stats.shader_evaluations, q.shader_evaluations, "{what}, {name}");
-            let b = q.batches;
-            // Every camera path went through the ray handler, and every path reached the film once.
-            assert_eq!(b.generate.entries, q.rays.camera);
-            assert_eq!(b.rays.entries, q.rays.camera + q.rays.bounce);
-            assert_eq!(b.occlusion.entries, q.rays.shadow);
-            assert_eq!(b.radiance.entries, q.rays.camera);
-            if config == TINY {
-                // No handler ever saw more than its queue can hold before the loop flushes it.
-                let largest = |h: &super::queue::BatchHistogram| {
-                    h.buckets.iter().rposition(|&n| n > 0).map_or(0, |b| 1usize << b)
-                };
-                assert!(largest(&b.rays) <= TINY.rays, "{}", b.rays);
-                assert!(largest(&b.radiance) <= TINY.radiance, "{}", b.radiance);
-                assert!(largest(&b.generate) <= TINY.paths, "{}", b.generate);
-                assert!(b.shade.buckets[4] > 0, "full shade queues were flushed: {}", b.shade);
-            }
-        }
+    for threads in [1, 3] {
+        let q = render_with_workers(view, options, threads);
+        let max = max_abs_diff(&scalar.beauty, &q.beauty);
+        assert_eq!(max, 0.0, "{what}, {threads} threads");
+        assert_eq!(scalar.beauty, q.beauty, "{what}, {threads} threads");
+        assert_eq!(scalar.albedo, q.albedo);
+        assert_eq!(scalar.normal, q.normal);
+        assert_eq!(scalar.depth, q.depth);
+        assert_eq!(scalar.stats.rays, q.rays, "{what}");
+        assert_eq!(scalar.stats.shader_evaluations, q.shader_evaluations, "{what}");
     }
 }
 
 #[test]
-fn queue_driver_equals_scalar_with_textures_and_many_area_lights() {
+fn workers_equal_scalar_with_textures_and_many_area_lights() {
     let bytes = testscene::bytes(&scene());
     let view = blob::SceneView::parse(&bytes).expect("valid blob");
-    queue_driver_equals_scalar(&view, &options(), "textures + 12 area lights");
+    workers_equal_scalar(&view, &options(), "textures + 12 area lights");
 }
 
 #[test]
-fn queue_driver_equals_scalar_with_curves_and_points() {
+fn workers_equal_scalar_with_curves_and_points() {
     let bytes = testscene::bytes(&curve_scene());
     let view = blob::SceneView::parse(&bytes).expect("valid blob");
     // Odd tile sizes and sample counts: partial tiles, chunks that split a pixel's samples unevenly.
     let options = RenderOptions { spp: 7, resolution: Some([45, 37]), tile_size: 13, ..options() };
-    queue_driver_equals_scalar(&view, &options, "curves, points, textures + 12 area lights");
+    workers_equal_scalar(&view, &options, "curves, points, textures + 12 area lights");
 }
 
 #[test]
-fn queue_driver_equals_scalar_with_every_light_kind() {
+fn workers_equal_scalar_with_every_light_kind() {
     let mut lit = crate::lights::lanes::every_light_kind();
     lit.textures = scene().textures;
     let bytes = testscene::bytes(&lit);
@@ -626,22 +570,5 @@ fn queue_driver_equals_scalar_with_every_light_kind() {
         max_depth: 5,
         ..RenderOptions::default()
     };
-    queue_driver_equals_scalar(&view, &options, "every light kind");
-}
-
-/// The batch sizes each queue handler sees on the bench scenes (120×80, 8 spp, 1 thread, default
-/// capacities), for the figures in [`super::queues`]' docs; also checks those renders against the
-/// scalar integrator. Needs the bench blobs: `cargo test --release -p render -- --ignored bench_scene`.
-#[test]
-#[ignore]
-fn bench_scene_queue_batches() {
-    for scene in ["tractor", "shading-heavy", "simple"] {
-        let path = std::path::PathBuf::from(format!("/work/bench-blobs/{scene}.blob"));
-        let bytes = crate::read_blob(&path).unwrap();
-        let view = crate::parse_blob(&path, &bytes).unwrap();
-        let options =
-            RenderOptions { spp: 8, resolution: Some([120, 80]), threads: 1, ..RenderOptions::default() };
-        eprintln!("== {scene}");
-        queue_driver_equals_scalar(&view, &options, scene);
-    }
+    workers_equal_scalar(&view, &options, "every light kind");
 }

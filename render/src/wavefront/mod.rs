@@ -204,7 +204,6 @@ mod intersect;
 mod occlusion;
 mod prefetch;
 pub mod queue;
-pub mod queues;
 mod shade;
 mod shade_curves;
 pub mod sort;
@@ -347,10 +346,6 @@ pub struct Worker {
     registers: Box<crate::shading::lanes::RegisterLanes>,
     /// Occlusion queue (path indices with a pending [`ShadowRay`]).
     occlusion: queue::Queue<u32>,
-    /// Which loop renders the tiles.
-    driver: queues::Driver,
-    /// The queue driver's queues, pools and film (`None` for the wave driver).
-    queues: Option<queues::QueueState>,
     /// Per-pixel running sums of the current tile.
     pixels: Vec<accumulate::PixelSum>,
     /// Stage timers.
@@ -361,19 +356,10 @@ pub struct Worker {
     pub clock: crate::stats::PhaseClock,
 }
 
-/// The driver renders use: the wave driver, which ran fewer instructions with fewer L1 data misses
-/// than the queue driver on all three bench scenes (see [`queues`]).
-pub const DEFAULT_DRIVER: queues::Driver = queues::Driver::Wave;
-
 impl Worker {
-    /// Pools for tiles of `tile_size²` pixels of `scene`, for the [`DEFAULT_DRIVER`].
-    /// `phase_stats` times the phases ([`crate::stats::Phase`]).
+    /// Pools for tiles of `tile_size²` pixels of `scene`; `phase_stats` times the phases
+    /// ([`crate::stats::Phase`]).
     pub fn new(tile_size: u32, scene: &Scene, phase_stats: bool) -> Self {
-        Self::with_driver(tile_size, scene, phase_stats, DEFAULT_DRIVER)
-    }
-
-    /// Pools for tiles of `tile_size²` pixels of `scene`, rendered by `driver`.
-    pub fn with_driver(tile_size: u32, scene: &Scene, phase_stats: bool, driver: queues::Driver) -> Self {
         let view = &scene.view;
         let materials = view.materials.len();
         let textured_materials = view
@@ -407,16 +393,7 @@ impl Worker {
             surface_slot: vec![u32::MAX; paths],
             materials: vec![0; paths],
             registers: Box::default(),
-            occlusion: match driver {
-                queues::Driver::Wave => queue::Queue::new(paths, paths),
-                // Each path has at most one shadow ray waiting.
-                queues::Driver::Queues(c) => queue::Queue::new(c.occlusion, paths),
-            },
-            driver,
-            queues: match driver {
-                queues::Driver::Wave => None,
-                queues::Driver::Queues(c) => Some(queues::QueueState::new(c, paths, pixels, materials + 1)),
-            },
+            occlusion: queue::Queue::new(paths, paths),
             pixels: Vec::with_capacity(pixels),
             seconds: StageSeconds::default(),
             counters: Counters::default(),
@@ -449,20 +426,9 @@ fn timed<R>(slot: &mut f64, f: impl FnOnce() -> R) -> R {
 }
 
 impl Worker {
-    /// The queue driver's batch sizes per handler (`None` for the wave driver).
-    pub fn queue_batches(&self) -> Option<&queues::QueueBatches> {
-        self.queues.as_ref().map(|q| &q.batches)
-    }
-
-    /// No queue holds an entry and no path is in flight (the queue driver after each tile; always
-    /// true for the wave driver between tiles).
-    pub fn is_drained(&self) -> bool {
-        self.occlusion.is_empty() && self.queues.as_ref().is_none_or(|q| q.is_drained())
-    }
-
     /// The storage of every queue and pool (to check that rendering allocates nothing).
     pub fn storage(&self) -> Vec<usize> {
-        let mut s = vec![
+        let s = vec![
             self.states.capacity(),
             self.rays.capacity(),
             self.next_rays.capacity(),
@@ -472,23 +438,17 @@ impl Worker {
             self.occlusion.storage(),
             self.pixels.capacity(),
         ];
-        if let Some(q) = &self.queues {
-            s.extend(q.storage());
-        }
         s
     }
 }
 
-/// Renders one tile breadth-first, with the worker's driver.
+/// Renders one tile breadth-first: per chunk of samples, waves of intersect, sort, shade and occlusion
+/// until no path is left.
 pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &Tile) -> TileResult {
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
     let spp = ctx.sampling.spp as usize;
     let mut rays = RayCounts::default();
     accumulate::begin(w, npix);
-    if let queues::Driver::Queues(_) = w.driver {
-        queues::render(ctx, w, tile, &mut rays);
-        return accumulate::finish(w, spp as u32, rays);
-    }
     let per_chunk = (w.states.capacity() / npix).clamp(1, spp);
     let mut s0 = 0;
     while s0 < spp {

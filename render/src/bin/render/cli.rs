@@ -49,9 +49,7 @@ pub struct Args {
     #[arg(long, value_parser = parse_curve_shape)]
     pub curve_shape: Option<render::accel::curves::CurveShape>,
     /// Integrator: wavefront (breadth first, batched, 8-lane kernels; the default: it is faster on
-    /// every bench scene), scalar (depth first, the reference) or wavefront-queues (the wavefront under
-    /// MoonRay-style queues flushed when full; slower on two of the three bench scenes, kept for
-    /// `bench integrators`); same image bit for bit.
+    /// every bench scene) or scalar (depth first, the reference); same image bit for bit.
     #[arg(long, default_value = "wavefront")]
     pub integrator: render::Integrator,
 }
@@ -162,11 +160,6 @@ mod tests {
             Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "scalar"]).unwrap();
         let Command::Render { options, .. } = scalar.into_command().unwrap() else { panic!() };
         assert_eq!(options.integrator, render::Integrator::Scalar);
-        let queues =
-            Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "wavefront-queues"])
-                .unwrap();
-        let Command::Render { options, .. } = queues.into_command().unwrap() else { panic!() };
-        assert_eq!(options.integrator, render::Integrator::WavefrontQueues);
         assert!(Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "gpu"]).is_err());
         assert!(Args::try_parse_from(["render", "s.blob"]).is_err(), "-o is required without --info");
         assert!(matches!(
