@@ -11,7 +11,7 @@
 //! Modules: [`scene`] (the model), [`usd`] (the USD reader), [`alembic`] (the Alembic reader),
 //! [`dicing`] (subdivision levels from the render camera), [`instancing`] (identical instances →
 //! shared prototypes), [`curves`] (basis conversion, NURBS fitting, adaptive splitting), [`pack`]
-//! (scene → blob records; `pack_instances` for prototypes and the top-level BVH), `bvh`,
+//! (scene → blob records; its children split curves, sample the dome and pack instances), `bvh`,
 //! [`pipeline`] (the whole step as one call).
 
 pub mod alembic;
@@ -20,12 +20,14 @@ pub mod curves;
 pub mod dicing;
 pub mod instancing;
 pub mod pack;
-pub mod pack_curves;
-mod pack_dome;
-mod pack_instances;
 pub mod pipeline;
 pub mod scene;
 pub mod usd;
+
+/// The old path of [`pack::curves`], kept while callers outside this crate (render's curve tests)
+/// still name it; new code uses [`pack::curves`] or [`pack::Split`].
+#[doc(hidden)]
+pub use pack::curves as pack_curves;
 
 pub use scene::{
     BezierSegment, Camera, CurveKind, Curves, Light, LightKind, Material, Mesh, PointSphere, Scene,
