@@ -18,6 +18,7 @@ pub mod alembic;
 mod bvh;
 pub mod curves;
 pub mod dicing;
+mod error;
 pub mod instancing;
 pub mod pack;
 pub mod pipeline;
@@ -29,6 +30,7 @@ pub mod usd;
 #[doc(hidden)]
 pub use pack::curves as pack_curves;
 
+pub use error::IngestError;
 pub use scene::{
     BezierSegment, Camera, CurveKind, Curves, Light, LightKind, Material, Mesh, PointSphere, Scene,
     Subdivision, UpAxis, Warning,
