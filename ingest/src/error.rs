@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::alembic::AlembicError;
+use crate::dicing::SubdivOptionsError;
 use crate::pack::PackError;
 use crate::usd::UsdError;
 
@@ -47,6 +48,9 @@ pub enum IngestError {
         /// The I/O error.
         error: std::io::Error,
     },
+    /// The subdivision options are out of range (checked before any file is read).
+    #[error("invalid subdivision options: {0}")]
+    SubdivOptions(SubdivOptionsError),
 }
 
 impl IngestError {
@@ -60,5 +64,11 @@ impl IngestError {
 
     pub(crate) fn write(path: &Path, error: std::io::Error) -> Self {
         IngestError::Write { path: path.to_path_buf(), error }
+    }
+}
+
+impl From<SubdivOptionsError> for IngestError {
+    fn from(error: SubdivOptionsError) -> Self {
+        IngestError::SubdivOptions(error)
     }
 }

@@ -1,6 +1,7 @@
 //! The whole ingest step as one library call, used by the binary and by the end-to-end tests.
 //!
-//! Every function here returns an [`IngestError`] naming the file it was working on.
+//! Every function here checks the options first ([`crate::dicing::SubdivOptions::validate`]) and
+//! returns an [`IngestError`] naming the file it was working on.
 
 use crate::pack::PackOptions;
 use crate::scene::Scene;
@@ -98,12 +99,13 @@ pub fn load_until_exit(input: &Path, options: &LoadOptions) -> Result<Scene, Ing
     read(input, options, usd::load_until_exit)
 }
 
-/// Reads `input` as Alembic or with `read_usd`.
+/// Checks the options, then reads `input` as Alembic or with `read_usd`.
 fn read(
     input: &Path,
     options: &LoadOptions,
     read_usd: fn(&Path, &LoadOptions) -> Result<Scene, usd::UsdError>,
 ) -> Result<Scene, IngestError> {
+    options.subdiv.validate()?;
     let path = input.to_path_buf();
     if crate::alembic::is_alembic(input) {
         crate::alembic::load(input, options).map_err(|error| IngestError::Alembic { path, error })
@@ -198,4 +200,38 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
         "triangles_at_fixed_level": fixed,
         "triangles_saved": fixed as i64 - triangles as i64,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dicing::{SubdivOptions, SubdivOptionsError};
+
+    #[test]
+    fn out_of_range_subdivision_options_are_refused_before_reading() {
+        let above = subdiv::MAX_LEVEL + 1;
+        let options = LoadOptions {
+            subdiv: SubdivOptions { max_level: above, ..SubdivOptions::default() },
+            ..LoadOptions::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let output = dir.path().join("out.blob");
+        // The input does not exist: the options are checked first.
+        let input = dir.path().join("scene.usda");
+        let e = ingest_file(&input, &output, &options).unwrap_err();
+        assert!(
+            matches!(e, IngestError::SubdivOptions(SubdivOptionsError::LevelOutOfRange { option: "max_level", level }) if level == above),
+            "{e:?}"
+        );
+        let message = format!(
+            "invalid subdivision options: max_level is {above}, above the highest subdivision level {}",
+            subdiv::MAX_LEVEL
+        );
+        assert_eq!(e.to_string(), message);
+        assert!(!output.exists());
+        // The USD reader refuses them too, naming the root layer.
+        let e = usd::load(&input, &options).unwrap_err();
+        assert_eq!(e.to_string(), format!("{}: {message}", input.display()));
+        assert!(matches!(e.kind(), usd::UsdErrorKind::Invalid(_)));
+    }
 }

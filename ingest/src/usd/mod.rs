@@ -245,7 +245,11 @@ impl std::error::Error for UsdError {}
 ///
 /// A panic while reading (a bug in the composition engine) is returned as
 /// [`UsdErrorKind::Internal`] naming the root layer; see [`quiet_reader_panics`].
+///
+/// Out-of-range [`LoadOptions::subdiv`] (see [`crate::dicing::SubdivOptions::validate`]) are
+/// [`UsdErrorKind::Invalid`] naming the root layer, before anything is read.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
+    check_options(path, options)?;
     compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::Free))
 }
 
@@ -255,7 +259,18 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
 /// a listing of the shader ball or the teapot scene, measured with perf). Memory is not
 /// returned until the process exits, so a long-lived caller uses [`load`].
 pub fn load_until_exit(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
+    check_options(path, options)?;
     compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::AtExit))
+}
+
+/// The options [`load`] refuses, as an error naming the root layer.
+fn check_options(path: &Path, options: &LoadOptions) -> Result<(), UsdError> {
+    options.subdiv.validate().map_err(|e| {
+        UsdError::new(
+            &path.display().to_string(),
+            UsdErrorKind::Invalid(format!("invalid subdivision options: {e}")),
+        )
+    })
 }
 
 /// What becomes of the composed stage once the scene is read.
