@@ -1,7 +1,8 @@
 //! The whole ingest step as one library call, used by the binary and by the end-to-end tests.
 //!
-//! Every function here checks the options first ([`crate::dicing::SubdivOptions::validate`]) and
-//! returns an [`IngestError`] naming the file it was working on.
+//! The readers here check the options before any file is read
+//! ([`crate::dicing::SubdivOptions::validate`]), and every failure is an [`IngestError`] naming
+//! the file being worked on.
 
 use crate::pack::PackOptions;
 use crate::scene::Scene;
@@ -99,7 +100,7 @@ pub fn load_until_exit(input: &Path, options: &LoadOptions) -> Result<Scene, Ing
     read(input, options, usd::load_until_exit)
 }
 
-/// Checks the options, then reads `input` as Alembic or with `read_usd`.
+/// Checks the options, then reads `input` as Alembic (by extension) or with `read_usd`.
 fn read(
     input: &Path,
     options: &LoadOptions,
