@@ -10,7 +10,7 @@
 //! from the camera to show how many pieces the default split keeps at each distance.
 
 use glam::{Mat4, Vec3};
-use ingest::pack_curves::Split;
+use ingest::pack::Split;
 use plotters::prelude::*;
 use render::accel::curves::CurveAccel;
 use std::path::Path;

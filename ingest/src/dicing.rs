@@ -77,6 +77,45 @@ impl SubdivOptions {
     pub fn adaptive(&self) -> bool {
         self.forced_level.is_none() && self.mode == SubdivMode::Adaptive
     }
+
+    /// Checks the options are in range: levels at most [`subdiv::MAX_LEVEL`] and a finite,
+    /// positive dicing rate. [`crate::pipeline`] and [`crate::usd::load`] call it before reading
+    /// anything; out of range, dicing would silently clamp (a zero rate dices everything at the
+    /// level cap) or the refiner fail mesh by mesh.
+    pub fn validate(&self) -> Result<(), SubdivOptionsError> {
+        let level = |option, level: u32| {
+            if level > subdiv::MAX_LEVEL {
+                Err(SubdivOptionsError::LevelOutOfRange { option, level })
+            } else {
+                Ok(())
+            }
+        };
+        if let Some(forced) = self.forced_level {
+            level("forced_level", forced)?;
+        }
+        level("max_level", self.max_level)?;
+        if !(self.dicing_rate.is_finite() && self.dicing_rate > 0.0) {
+            return Err(SubdivOptionsError::DicingRate(self.dicing_rate));
+        }
+        Ok(())
+    }
+}
+
+/// A [`SubdivOptions`] value out of range (see [`SubdivOptions::validate`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SubdivOptionsError {
+    /// A subdivision level above [`subdiv::MAX_LEVEL`].
+    #[error("{option} is {level}, above the highest subdivision level {max}", max = subdiv::MAX_LEVEL)]
+    LevelOutOfRange {
+        /// The field: `forced_level` or `max_level`.
+        option: &'static str,
+        /// Its value.
+        level: u32,
+    },
+    /// A dicing rate that is not a finite, positive number of pixels.
+    #[error("dicing_rate must be a positive number of pixels, not {0}")]
+    DicingRate(f32),
 }
 
 impl Default for SubdivOptions {
@@ -668,5 +707,31 @@ mod tests {
         assert_eq!(triangles_at_level(Bilinear, [5], false, 0), 3);
         assert_eq!(triangles_at_level(CatmullClark, [3, 4], false, 2), 2 * 3 * 4 + 2 * 16);
         assert_eq!(triangles_at_level(Loop, [3; 4], false, 2), 64);
+    }
+
+    #[test]
+    fn out_of_range_options_are_refused() {
+        assert_eq!(SubdivOptions::default().validate(), Ok(()));
+        let top = SubdivOptions {
+            forced_level: Some(subdiv::MAX_LEVEL),
+            max_level: subdiv::MAX_LEVEL,
+            ..SubdivOptions::default()
+        };
+        assert_eq!(top.validate(), Ok(()), "the highest level is allowed");
+        let above = subdiv::MAX_LEVEL + 1;
+        let forced = SubdivOptions { forced_level: Some(above), ..SubdivOptions::default() };
+        assert_eq!(
+            forced.validate(),
+            Err(SubdivOptionsError::LevelOutOfRange { option: "forced_level", level: above })
+        );
+        let capped = SubdivOptions { max_level: above, ..SubdivOptions::default() };
+        assert_eq!(
+            capped.validate().unwrap_err().to_string(),
+            format!("max_level is {above}, above the highest subdivision level {}", subdiv::MAX_LEVEL)
+        );
+        for rate in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            let options = SubdivOptions { dicing_rate: rate, ..SubdivOptions::default() };
+            assert!(matches!(options.validate(), Err(SubdivOptionsError::DicingRate(_))), "{rate}");
+        }
     }
 }

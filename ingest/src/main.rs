@@ -127,7 +127,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("warning: {}: {w}", args.asset.display());
     }
     if let Some(path) = &args.dump_json {
-        write_dump(&scene, path)?;
+        ingest::pipeline::write_dump(&scene, path)?;
     }
     if !args.quiet {
         eprintln!(
@@ -167,17 +167,12 @@ fn run(args: Args) -> anyhow::Result<()> {
 fn list_only(args: &Args, options: &ingest::usd::LoadOptions) -> anyhow::Result<()> {
     let path = args.dump_json.as_ref().expect("clap requires --dump-json without -o");
     let start = std::time::Instant::now();
-    let scene = if ingest::alembic::is_alembic(&args.asset) {
-        ingest::alembic::load(&args.asset, options).map_err(anyhow::Error::from)
-    } else {
-        ingest::usd::load_until_exit(&args.asset, options).map_err(anyhow::Error::from)
-    }
-    .map_err(|e| e.context(format!("cannot ingest {}", args.asset.display())))?;
+    let scene = ingest::pipeline::load_until_exit(&args.asset, options)?;
     let load_seconds = start.elapsed().as_secs_f64();
     for w in &scene.warnings {
         eprintln!("warning: {}: {}", w.prim, w.message);
     }
-    write_dump(&scene, path)?;
+    ingest::pipeline::write_dump(&scene, path)?;
     // The process ends here: its memory goes back at exit, not one allocation at a time.
     let scene = std::mem::ManuallyDrop::new(scene);
     if !args.quiet {
@@ -193,9 +188,4 @@ fn list_only(args: &Args, options: &ingest::usd::LoadOptions) -> anyhow::Result<
         );
     }
     Ok(())
-}
-
-fn write_dump(scene: &ingest::scene::Scene, path: &std::path::Path) -> anyhow::Result<()> {
-    let text = serde_json::to_string_pretty(&ingest::pipeline::dump_json(scene))?;
-    std::fs::write(path, text).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
 }

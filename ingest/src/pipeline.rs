@@ -1,9 +1,13 @@
 //! The whole ingest step as one library call, used by the binary and by the end-to-end tests.
+//!
+//! The readers here check the options before any file is read
+//! ([`crate::dicing::SubdivOptions::validate`]), and every failure is an [`IngestError`] naming
+//! the file being worked on.
 
 use crate::pack::PackOptions;
 use crate::scene::Scene;
 use crate::usd::{self, LoadOptions};
-use anyhow::Context;
+use crate::IngestError;
 use std::path::Path;
 use std::time::Instant;
 
@@ -46,7 +50,7 @@ pub fn ingest_file(
     input: &Path,
     output: &Path,
     options: &LoadOptions,
-) -> anyhow::Result<(Scene, IngestReport)> {
+) -> Result<(Scene, IngestReport), IngestError> {
     ingest_file_with(input, output, options, &PackOptions::default())
 }
 
@@ -56,21 +60,16 @@ pub fn ingest_file_with(
     output: &Path,
     options: &LoadOptions,
     pack: &PackOptions,
-) -> anyhow::Result<(Scene, IngestReport)> {
+) -> Result<(Scene, IngestReport), IngestError> {
     let start = Instant::now();
-    let scene = if crate::alembic::is_alembic(input) {
-        crate::alembic::load(input, options).map_err(anyhow::Error::from)
-    } else {
-        usd::load(input, options).map_err(anyhow::Error::from)
-    }
-    .with_context(|| format!("cannot ingest {}", input.display()))?;
+    let scene = load(input, options)?;
     let load_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let data =
-        crate::pack::pack_scene(&scene, pack).with_context(|| format!("cannot pack {}", input.display()))?;
+    let data = crate::pack::pack_scene(&scene, pack)
+        .map_err(|error| IngestError::Pack { path: input.to_path_buf(), error })?;
     let bytes = data.encode();
     let pack_seconds = start.elapsed().as_secs_f64();
-    blob::write_atomic(output, &bytes).with_context(|| format!("cannot write {}", output.display()))?;
+    blob::write_atomic(output, &bytes).map_err(|e| IngestError::write(output, e))?;
     let report = IngestReport {
         meshes: scene.meshes.len(),
         triangles: scene.triangle_count(),
@@ -88,6 +87,39 @@ pub fn ingest_file_with(
         triangles_at_fixed_level: triangles_at_fixed_level(&scene),
     };
     Ok((scene, report))
+}
+
+/// Reads `input` (a USD stage, or an Alembic archive by its `.abc` extension) into a [`Scene`].
+pub fn load(input: &Path, options: &LoadOptions) -> Result<Scene, IngestError> {
+    read(input, options, usd::load)
+}
+
+/// [`load`] for a process that exits once it has used the scene (the `ingest` binary's listing):
+/// a USD stage is left for the OS to reclaim, see [`usd::load_until_exit`].
+pub fn load_until_exit(input: &Path, options: &LoadOptions) -> Result<Scene, IngestError> {
+    read(input, options, usd::load_until_exit)
+}
+
+/// Checks the options, then reads `input` as Alembic (by extension) or with `read_usd`.
+fn read(
+    input: &Path,
+    options: &LoadOptions,
+    read_usd: fn(&Path, &LoadOptions) -> Result<Scene, usd::UsdError>,
+) -> Result<Scene, IngestError> {
+    options.subdiv.validate()?;
+    let path = input.to_path_buf();
+    if crate::alembic::is_alembic(input) {
+        crate::alembic::load(input, options).map_err(|error| IngestError::Alembic { path, error })
+    } else {
+        read_usd(input, options).map_err(|error| IngestError::Usd { path, error })
+    }
+}
+
+/// Writes the [`dump_json`] listing of `scene` to `path`.
+pub fn write_dump(scene: &Scene, path: &Path) -> Result<(), IngestError> {
+    let text =
+        serde_json::to_string_pretty(&dump_json(scene)).map_err(|e| IngestError::write(path, e.into()))?;
+    std::fs::write(path, text).map_err(|e| IngestError::write(path, e))
 }
 
 /// Triangles of `scene` if every subdivision mesh were refined to the level cap instead of its
@@ -169,4 +201,38 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
         "triangles_at_fixed_level": fixed,
         "triangles_saved": fixed as i64 - triangles as i64,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dicing::{SubdivOptions, SubdivOptionsError};
+
+    #[test]
+    fn out_of_range_subdivision_options_are_refused_before_reading() {
+        let above = subdiv::MAX_LEVEL + 1;
+        let options = LoadOptions {
+            subdiv: SubdivOptions { max_level: above, ..SubdivOptions::default() },
+            ..LoadOptions::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let output = dir.path().join("out.blob");
+        // The input does not exist: the options are checked first.
+        let input = dir.path().join("scene.usda");
+        let e = ingest_file(&input, &output, &options).unwrap_err();
+        assert!(
+            matches!(e, IngestError::SubdivOptions(SubdivOptionsError::LevelOutOfRange { option: "max_level", level }) if level == above),
+            "{e:?}"
+        );
+        let message = format!(
+            "invalid subdivision options: max_level is {above}, above the highest subdivision level {}",
+            subdiv::MAX_LEVEL
+        );
+        assert_eq!(e.to_string(), message);
+        assert!(!output.exists());
+        // The USD reader refuses them too, naming the root layer.
+        let e = usd::load(&input, &options).unwrap_err();
+        assert_eq!(e.to_string(), format!("{}: {message}", input.display()));
+        assert!(matches!(e.kind(), usd::UsdErrorKind::Invalid(_)));
+    }
 }

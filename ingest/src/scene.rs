@@ -714,16 +714,35 @@ pub struct Light {
 pub enum LightKind {
     /// DomeLight (untextured).
     Dome,
-    /// DomeLight with a lat-long `texture:file`: [`Scene::textures`] index of the baked map.
-    TexturedDome { texture: u32 },
-    /// DistantLight with `angle` in degrees (fallback 0.53).
-    Distant { angle_degrees: f32 },
-    /// SphereLight with `radius` (fallback 0.5) and `treatAsPoint`.
-    Sphere { radius: f32, treat_as_point: bool },
-    /// RectLight `width` × `height` (fallback 1 × 1).
-    Rect { width: f32, height: f32 },
-    /// DiskLight with `radius` (fallback 0.5).
-    Disk { radius: f32 },
+    /// DomeLight with a lat-long `texture:file`.
+    TexturedDome {
+        /// [`Scene::textures`] index of the baked map.
+        texture: u32,
+    },
+    /// DistantLight.
+    Distant {
+        /// `angle`: the angular diameter in degrees (fallback 0.53).
+        angle_degrees: f32,
+    },
+    /// SphereLight.
+    Sphere {
+        /// `radius` (fallback 0.5).
+        radius: f32,
+        /// `treatAsPoint`: rendered as a zero-radius point light.
+        treat_as_point: bool,
+    },
+    /// RectLight, in its local XY plane.
+    Rect {
+        /// `width` along X (fallback 1).
+        width: f32,
+        /// `height` along Y (fallback 1).
+        height: f32,
+    },
+    /// DiskLight, in its local XY plane.
+    Disk {
+        /// `radius` (fallback 0.5).
+        radius: f32,
+    },
 }
 
 /// A UsdGeomCamera.

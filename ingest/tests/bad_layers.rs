@@ -1,9 +1,7 @@
 //! Broken crate files and packages give errors that name the file, the section and the problem,
 //! from the library and from the binary (exit 1, one line, no panic).
 
-#[path = "fuzz_support/zip.rs"]
-mod zip;
-
+use crate::support::zip;
 use ingest::usd::{self, LoadOptions};
 use std::path::{Path, PathBuf};
 

@@ -4,13 +4,13 @@
 //! file.
 //!
 //! cargo-fuzz needs a nightly compiler, which this machine does not have, so the fuzzer is proptest
-//! driving structure-aware mutations (see `fuzz_support/mutate.rs`) of a seed corpus
+//! driving structure-aware mutations (see `support/mutate.rs`) of a seed corpus
 //! (tests/assets/fuzz/corpus, written by make_corpus.py). Each case copies the corpus to a
 //! temporary folder (the seeds reference each other), mutates one file and ingests it.
 //!
 //! - `FUZZ_CASES` sets the number of cases (default 2000, what CI runs: about 15 s).
 //! - `FUZZ_SEED` seeds the generator (default fixed, so CI runs the same cases every time):
-//!   `FUZZ_SEED=7 FUZZ_CASES=5000 cargo test --release -p ingest --test fuzz_layers` is a long run.
+//!   `FUZZ_SEED=7 FUZZ_CASES=5000 cargo test --release -p ingest --test integration fuzz_layers` is a long run.
 //! - `FUZZ_VERBOSE=1` prints every error the mutated inputs give (to review their messages).
 //! - A failing input is written to target/fuzz-failures/ (after an abort, the input it died on is
 //!   the newest `last-case-*` there); copy it to
@@ -22,13 +22,9 @@
 //! count the readers trusted) or when it takes longer than [`SLOWEST_CASE`]; a case still running
 //! after [`HANG`] ends the run with its input saved as `hang-*`.
 
-#[path = "fuzz_support/mutate.rs"]
-mod mutate;
-#[path = "fuzz_support/zip.rs"]
-mod zip;
-
+use crate::support::mutate::{apply, mutation};
+use crate::support::zip::fix_zip_checksums;
 use ingest::usd::{self, LoadOptions, UsdErrorKind};
-use mutate::{apply, mutation};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -36,7 +32,6 @@ use std::panic::{self, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
-use zip::fix_zip_checksums;
 
 /// Largest single allocation a case may make. Corpus files are under 5 KB; the biggest honest
 /// allocations (scene, BVH, blob at subdivision level 1) stay under a few MiB.

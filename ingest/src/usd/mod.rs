@@ -13,6 +13,8 @@
 //!   camera after it.
 //! - `curves`: BasisCurves, NurbsCurves and Points (to cubic Bézier segments and spheres).
 //! - `lux`: UsdLux lights, UsdGeomCamera, UsdRender settings.
+//! - `compat`: the workarounds for openusd 0.6 bugs (crate-file checks and repair, text-layer
+//!   fixes, path syntax, the panic backstop), each with what would make it removable.
 //!
 //! The walk itself (`Reader::visit`) carries the inherited state down the hierarchy: the world
 //! transform, visibility, purpose. Instances are expanded: instanceable prims are walked through
@@ -20,14 +22,11 @@
 //!
 //! Schema fallback values live in [`fallback`], in one place.
 
-mod crate_check;
+mod compat;
 mod curves;
-mod layer_fix;
 mod lux;
 mod material;
 mod mesh;
-mod path_syntax;
-mod reader_panic;
 mod renderman;
 mod resolver;
 mod stage;
@@ -49,7 +48,7 @@ use std::path::Path;
 use glam::{DMat4, DQuat, DVec3};
 
 use crate::scene::{Scene, UpAxis};
-pub use reader_panic::quiet_reader_panics;
+pub use compat::reader_panic::quiet_reader_panics;
 use stage::{Stage, Value};
 
 /// USD schema fallbacks (values used when an attribute is unauthored).
@@ -246,8 +245,12 @@ impl std::error::Error for UsdError {}
 ///
 /// A panic while reading (a bug in the composition engine) is returned as
 /// [`UsdErrorKind::Internal`] naming the root layer; see [`quiet_reader_panics`].
+///
+/// Out-of-range [`LoadOptions::subdiv`] (see [`crate::dicing::SubdivOptions::validate`]) are
+/// [`UsdErrorKind::Invalid`] naming the root layer, before anything is read.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
-    reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::Free))
+    check_options(path, options)?;
+    compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::Free))
 }
 
 /// [`load`] for a process that exits once it has used the scene (the `ingest` binary): the
@@ -256,7 +259,18 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
 /// a listing of the shader ball or the teapot scene, measured with perf). Memory is not
 /// returned until the process exits, so a long-lived caller uses [`load`].
 pub fn load_until_exit(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
-    reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::AtExit))
+    check_options(path, options)?;
+    compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::AtExit))
+}
+
+/// The options [`load`] refuses, as an error naming the root layer.
+fn check_options(path: &Path, options: &LoadOptions) -> Result<(), UsdError> {
+    options.subdiv.validate().map_err(|e| {
+        UsdError::new(
+            &path.display().to_string(),
+            UsdErrorKind::Invalid(format!("invalid subdivision options: {e}")),
+        )
+    })
 }
 
 /// What becomes of the composed stage once the scene is read.

@@ -1,5 +1,5 @@
 //! The asset resolver the stage opens layers through: `openusd`'s filesystem resolver plus
-//! search paths and the text-layer fixes of [`super::layer_fix`].
+//! search paths and the text-layer fixes of [`super::compat::layer_fix`].
 //!
 //! The crate reads every layer's bytes through [`ar::Resolver::open_asset`], so a resolver is
 //! the one place where a `.usda` layer (plain, `.usd` holding text, or inside a `.usdz`) can be
@@ -17,7 +17,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use openusd::ar::{self, Asset, DefaultResolver, ResolvedPath, Resolver};
 
-use super::{crate_check, layer_fix};
+use super::compat::{crate_check, layer_fix};
 
 /// Magic bytes that open every text layer.
 const USDA_MAGIC: &[u8] = b"#usda";
@@ -416,7 +416,7 @@ mod tests {
     #[test]
     fn crate_files_are_read_checked_and_repaired_once_and_ahead_of_need() {
         let dir = tempfile::tempdir().unwrap();
-        let testdata = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/usd/crate_check/testdata");
+        let testdata = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/usd/compat/crate_check/testdata");
         // 0.6.0: a layout `crate_check::repair` rewrites, so the served bytes differ from the file.
         let original = std::fs::read(testdata.join("time_samples_0_6_0.usdc")).unwrap();
         let (root, geo) = (dir.path().join("root.usda"), dir.path().join("geo.usd"));

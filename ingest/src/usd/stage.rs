@@ -13,7 +13,7 @@ use std::path::Path;
 use openusd::ar::{ResolvedPath, Resolver};
 use openusd::{pcp, sdf, usd};
 
-use super::layer_fix::{list_op_field, parse_error_location};
+use super::compat::layer_fix::{list_op_field, parse_error_location};
 use super::resolver::IngestResolver;
 use super::{LoadOptions, UsdError, UsdErrorKind};
 
@@ -496,9 +496,10 @@ impl Stage {
         // Names can come from values (`xformOpOrder`, a primvar reader's `varname`); the crate
         // appends any text and then loops forever on the parents of a malformed path (found by
         // the layer fuzzer: an xformOpOrder entry holding `}` and line breaks).
-        super::path_syntax::check_element(name, super::path_syntax::Element::Property).map_err(|e| {
-            self.attr_err(prim, &name.escape_debug().to_string(), format!("not a property name: {e}"))
-        })?;
+        super::compat::path_syntax::check_element(name, super::compat::path_syntax::Element::Property)
+            .map_err(|e| {
+                self.attr_err(prim, &name.escape_debug().to_string(), format!("not a property name: {e}"))
+            })?;
         let p = self
             .query(prim)
             .append_property(name)
@@ -572,7 +573,7 @@ impl Stage {
     /// applied from the weakest to the strongest opinion.
     ///
     /// A `.usdc` layer holds a real `int64ListOp`; a `.usda` layer holds the explicit items under
-    /// `key` and each operation's items under [`list_op_field`] (see [`super::layer_fix`]).
+    /// `key` and each operation's items under [`list_op_field`] (see [`super::compat::layer_fix`]).
     pub(crate) fn prim_id_list(&self, prim: &str, key: &str) -> Vec<i64> {
         let Ok(stack) = self.inner.prim(self.query(prim)).prim_stack() else { return Vec::new() };
         let mut ids: Vec<i64> = Vec::new();

@@ -3,26 +3,31 @@
 //!
 //! The output depends only on the scene (no hash-map iteration order, no thread timing), so the same scene
 //! always encodes to the same bytes.
+//!
+//! The steps with their own module: `curves` (curve splitting and the curve BVH), `dome` (the
+//! textured dome's sampling distribution), `instances` (prototypes and the top-level BVH); what
+//! they share with this module (the error, the mesh layout, matrix rows) is in `common`, a leaf
+//! module, so that this module only calls its children and none of them imports from it (their
+//! tests excepted).
 
-use crate::scene::{LightKind, PrimvarLayout, Scene, ShaderNode, ShadingInput, TextureData, UpAxis};
+mod common;
+pub mod curves;
+mod dome;
+mod instances;
+
+use crate::scene::{LightKind, Scene, ShaderNode, ShadingInput, TextureData, UpAxis};
 use blob::records as rec;
-use glam::{Mat4, Vec3};
+use common::{affine_rows, MeshLayout};
+use glam::Vec3;
 
-/// A scene that cannot be packed, naming the prim and the problem.
-#[derive(Debug, thiserror::Error)]
-#[error("{prim}: {problem}")]
-pub struct PackError {
-    /// Prim path.
-    pub prim: String,
-    /// What is wrong.
-    pub problem: String,
-}
+pub use common::PackError;
+pub use curves::Split;
 
 /// How a scene is packed.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PackOptions {
     /// Curve splitting policy.
-    pub split: crate::pack_curves::Split,
+    pub split: Split,
     /// Copy every instance into world space instead of sharing prototypes (format 4 behaviour;
     /// `ingest --flatten-instances`).
     pub flatten_instances: bool,
@@ -34,7 +39,7 @@ pub fn pack(scene: &Scene) -> Result<blob::SceneData, PackError> {
 }
 
 /// [`pack`] with an explicit curve-splitting policy.
-pub fn pack_with(scene: &Scene, split: crate::pack_curves::Split) -> Result<blob::SceneData, PackError> {
+pub fn pack_with(scene: &Scene, split: Split) -> Result<blob::SceneData, PackError> {
     pack_scene(scene, &PackOptions { split, ..PackOptions::default() })
 }
 
@@ -93,8 +98,7 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
             }
             LightKind::TexturedDome { texture } => {
                 record.kind = rec::light_kind::TEXTURED_DOME;
-                record.dome_map =
-                    crate::pack_dome::pack_dome_map(scene, &light.path, texture, &texture_refs, &mut data)?;
+                record.dome_map = dome::pack_dome_map(scene, &light.path, texture, &texture_refs, &mut data)?;
                 if dome_light == rec::NONE {
                     dome_light = i as u32;
                 }
@@ -152,10 +156,10 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
     let bvh = crate::bvh::build(&corners);
     data.bvh_nodes = bvh.nodes;
     data.bvh_blocks = bvh.blocks;
-    crate::pack_instances::pack_instances(scene, &plan, &layout, &mut data);
+    instances::pack_instances(scene, &plan, &layout, &mut data);
     let first_group = data.curves.groups.len();
     let (curves_min, curves_max) =
-        crate::pack_curves::pack_curves(scene, &mut data, options.split, (bounds_min, bounds_max))?;
+        curves::pack_curves(scene, &mut data, options.split, (bounds_min, bounds_max))?;
     for group in &mut data.curves.groups[first_group..] {
         group.material = layout.material_slot[group.material as usize];
     }
@@ -178,90 +182,6 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
         reserved: [0; 2],
     };
     Ok(data)
-}
-
-/// Which optional vertex sections the blob has (all meshes share them, so a mesh without normals
-/// or uvs gets filler entries when another mesh has them).
-pub(crate) struct MeshLayout {
-    any_normals: bool,
-    any_uvs: bool,
-    /// Scene-wide id of each primvar name programs read (the `PRIMVAR` op's key).
-    primvar_ids: std::collections::BTreeMap<String, u32>,
-    /// Blob material per scene material (materials equal in value share one record).
-    material_slot: Vec<u32>,
-}
-
-impl MeshLayout {
-    /// Appends one mesh, whose vertices, triangles and primvars are in the space it is stored in
-    /// (world, or its prototype's), and its mesh record.
-    pub(crate) fn push(&self, data: &mut blob::SceneData, mesh: &crate::scene::Mesh) {
-        let (positions, normals, triangles) = (&mesh.positions, &mesh.normals, &mesh.triangles);
-        let mesh_index = data.meshes.len() as u32;
-        let first_vertex = data.positions.len() as u32;
-        let first_triangle = data.triangles.len() as u32;
-        let name = data.add_string(&mesh.path);
-        data.positions.extend(positions.iter().map(|p| p.to_array()));
-        if self.any_normals {
-            if normals.is_empty() {
-                data.normals.extend(std::iter::repeat_n([0.0, 0.0, 1.0], positions.len()));
-            } else {
-                data.normals.extend(normals.iter().map(|n| n.normalize_or(Vec3::Z).to_array()));
-            }
-        }
-        if self.any_uvs {
-            if mesh.uvs.is_empty() {
-                data.uvs.extend(std::iter::repeat_n([0.0, 0.0], positions.len()));
-            } else {
-                data.uvs.extend(mesh.uvs.iter().map(|uv| uv.to_array()));
-            }
-        }
-        for tri in triangles {
-            data.triangles.push(rec::Triangle { vertices: tri.map(|v| v + first_vertex), mesh: mesh_index });
-        }
-        data.triangle_materials
-            .extend(mesh.triangle_materials.iter().map(|&m| self.material_slot[m as usize]));
-        let mut flags = 0;
-        if !normals.is_empty() {
-            flags |= rec::MESH_HAS_NORMALS;
-        }
-        if !mesh.uvs.is_empty() {
-            flags |= rec::MESH_HAS_UVS;
-        }
-        if mesh.double_sided {
-            flags |= rec::MESH_DOUBLE_SIDED;
-        }
-        // Values are in the storage space's winding: corner values follow their triangle's vertex
-        // order (see `LocalGeometry::transformed`).
-        let mut primvars: Vec<_> = mesh.primvars.iter().map(|p| (self.primvar_ids[&p.name], p)).collect();
-        primvars.sort_by_key(|&(id, _)| id);
-        for (name_id, p) in primvars {
-            let name = data.add_string(&p.name);
-            data.primvars.push(rec::PrimvarRecord {
-                name,
-                name_id,
-                mesh: mesh_index,
-                interpolation: match p.layout {
-                    PrimvarLayout::Constant => rec::primvar_interpolation::CONSTANT,
-                    PrimvarLayout::PerTriangle => rec::primvar_interpolation::UNIFORM,
-                    PrimvarLayout::PerVertex => rec::primvar_interpolation::VERTEX,
-                    PrimvarLayout::PerCorner => rec::primvar_interpolation::FACE_VARYING,
-                },
-                components: p.components,
-                first_value: data.primvar_values.len() as u32,
-                value_count: p.values.len() as u32,
-            });
-            data.primvar_values.extend_from_slice(&p.values);
-        }
-        data.meshes.push(rec::Mesh {
-            name,
-            first_triangle,
-            triangle_count: triangles.len() as u32,
-            first_vertex,
-            vertex_count: positions.len() as u32,
-            flags,
-            reserved: 0,
-        });
-    }
 }
 
 /// Converts the materials to blob records, storing each class of materials with the same
@@ -315,12 +235,6 @@ fn pack_materials(
 /// Rec. 709 luminance, the weight of emission in the light distribution.
 fn luminance(e: Vec3) -> f32 {
     e.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
-
-/// Rows 0..3 of a 4×4 affine matrix (column-vector convention), as stored in the blob.
-pub(crate) fn affine_rows(m: &Mat4) -> [[f32; 4]; 3] {
-    let rows = m.transpose().to_cols_array_2d();
-    [rows[0], rows[1], rows[2]]
 }
 
 /// Copies the baked textures into the blob's texture tables; returns, per scene texture, the blob

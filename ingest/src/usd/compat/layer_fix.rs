@@ -1,6 +1,6 @@
 //! Token-level fixes for `.usda` text that usd-core reads but the `openusd` 0.6 parser rejects.
 //!
-//! The resolver ([`super::resolver`]) passes every text layer through [`prepare`] (the structural
+//! The resolver ([`crate::usd::resolver`]) passes every text layer through [`prepare`] (the structural
 //! check and this rewrite in one lexing pass) before the crate parses it. The rewrite works on
 //! tokens of the USDA grammar, so the inside of strings, asset paths (`@...@`), path references
 //! (`<...>`) and comments is never touched, and it never

@@ -15,9 +15,9 @@
 //! quarters or eighths, `blob::curves::slot`) where smaller boxes pay ([`PIECE_SPLIT_AREA`]), and
 //! the records are stored in the order its leaves name them.
 
+use super::common::PackError;
 use crate::curves::{self, Tolerance};
 use crate::dicing::DicingCamera;
-use crate::pack::PackError;
 use crate::scene::{CurveKind, Scene, UpAxis};
 use blob::curves as bc;
 use glam::{Vec2, Vec3, Vec3A, Vec4};
@@ -124,7 +124,7 @@ pub fn segment_bounds(p: &[Vec4; 4]) -> (Vec3, Vec3) {
 /// Appends the scene's curves and points to `data` (strings, groups, segments, spheres, BVH) and
 /// returns their world bounds. `others` are the world bounds of everything else (meshes), which the
 /// framing camera of a camera-less scene also looks at.
-pub(crate) fn pack_curves(
+pub(super) fn pack_curves(
     scene: &Scene,
     data: &mut blob::SceneData,
     split: Split,

@@ -298,7 +298,7 @@ fn a_namespace_deeper_than_the_limit_is_refused() {
 /// written by usd-core as crate `version` (`USD_WRITE_NEW_USDC_FILES_AS_VERSION`).
 fn time_sampled(version: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join(format!("src/usd/crate_check/testdata/time_samples_{}.usdc", version.replace('.', "_")))
+        .join(format!("src/usd/compat/crate_check/testdata/time_samples_{}.usdc", version.replace('.', "_")))
 }
 
 /// The largest x of the triangle's world points, ingested at `frame`.

@@ -2,14 +2,14 @@
 //! prototype in prototype space, instance records with both transforms, and the top-level BVH over
 //! the instances' world bounds (see `blob::instances` for the layout).
 
+use super::common::{affine_rows, MeshLayout};
 use crate::instancing::Instancing;
-use crate::pack::{affine_rows, MeshLayout};
 use crate::scene::Scene;
 use blob::child_ref;
 use glam::{DVec3, Vec3};
 
 /// Appends the prototypes and instances of `plan` to `data` (whose top-level meshes are packed).
-pub(crate) fn pack_instances(
+pub(super) fn pack_instances(
     scene: &Scene,
     plan: &Instancing,
     layout: &MeshLayout,

@@ -10,7 +10,7 @@
 //! reached by BSDF sampling. Maps wider than [`MAX_COLUMNS`] are sampled on the first mip level that
 //! fits: the coarser cells cost a little variance on a small sun but keep the CDFs at 2 MiB or less.
 
-use crate::pack::PackError;
+use super::common::PackError;
 use crate::scene::{Scene, TextureData};
 use glam::Vec3;
 use std::f64::consts::PI;
@@ -20,7 +20,7 @@ pub const MAX_COLUMNS: u32 = 1024;
 
 /// Adds the distribution of scene texture `texture` (once per texture) and returns its dome map
 /// index; `texture_refs` maps scene textures to blob texture records.
-pub(crate) fn pack_dome_map(
+pub(super) fn pack_dome_map(
     scene: &Scene,
     light: &str,
     texture: u32,
@@ -106,7 +106,7 @@ fn cell_weights(luminance: &[f64], w: u32, h: u32) -> Vec<f64> {
 
 /// The marginal CDF over rows, then each row's conditional CDF (see [`blob::DomeMap`]). A row of zero
 /// weight gets a uniform conditional (it is never chosen), an all-zero map a uniform marginal.
-pub(crate) fn distribution(weights: &[f64], w: u32, h: u32) -> Vec<f32> {
+fn distribution(weights: &[f64], w: u32, h: u32) -> Vec<f32> {
     debug_assert_eq!(weights.len(), w as usize * h as usize);
     let rows: Vec<&[f64]> = weights.chunks_exact(w as usize).collect();
     let row_sums: Vec<f64> = rows.iter().map(|r| r.iter().sum()).collect();

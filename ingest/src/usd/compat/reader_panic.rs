@@ -11,7 +11,7 @@ use std::cell::{Cell, RefCell};
 use std::panic::{self, AssertUnwindSafe};
 use std::sync::Once;
 
-use super::{UsdError, UsdErrorKind};
+use crate::usd::{UsdError, UsdErrorKind};
 
 thread_local! {
     /// Nesting depth of [`catch`] on this thread.
@@ -21,7 +21,10 @@ thread_local! {
 }
 
 /// Runs `read` and returns its result, or an error naming `root_layer` if it panics.
-pub(super) fn catch<T>(root_layer: &str, read: impl FnOnce() -> Result<T, UsdError>) -> Result<T, UsdError> {
+pub(in crate::usd) fn catch<T>(
+    root_layer: &str,
+    read: impl FnOnce() -> Result<T, UsdError>,
+) -> Result<T, UsdError> {
     INSIDE.with(|inside| inside.set(inside.get() + 1));
     let outcome = panic::catch_unwind(AssertUnwindSafe(read));
     INSIDE.with(|inside| inside.set(inside.get() - 1));

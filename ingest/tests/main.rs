@@ -1,0 +1,17 @@
+//! ingest's integration tests: one binary (`cargo test --release -p ingest --test integration`),
+//! a module per area.
+//!
+//! - `bad_layers`: broken crate files, packages and text layers give errors naming the file, the
+//!   section and the problem, from the library and from the `ingest` binary.
+//! - `fuzz_layers`: the layer fuzzer (proptest-driven mutations of `tests/assets/fuzz/corpus`)
+//!   and the replay of its regressions; run it alone with `--test integration fuzz_layers`.
+//! - `list_only`: `ingest ASSET --dump-json FILE` without `-o`.
+//! - `support`: the fuzzer's mutations and zip repair, shared by the modules above.
+//!
+//! `fuzz_layers` installs the binary's global allocator (it records the largest allocation); the
+//! other modules run under it too, which costs them nothing.
+
+mod bad_layers;
+mod fuzz_layers;
+mod list_only;
+mod support;
