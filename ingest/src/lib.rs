@@ -73,11 +73,6 @@ pub mod pipeline;
 pub mod scene;
 pub mod usd;
 
-/// The old path of [`pack::curves`], kept while callers outside this crate (render's curve tests)
-/// still name it; new code uses [`pack::curves`] or [`pack::Split`].
-#[doc(hidden)]
-pub use pack::curves as pack_curves;
-
 pub use error::IngestError;
 pub use scene::{
     BezierSegment, Camera, CurveKind, Curves, Light, LightKind, Material, Mesh, PointSphere, Scene,

@@ -661,8 +661,7 @@ mod tests {
             })
             .collect();
         let curves = vec![Curves { path: "/c".into(), segments, curve_count: 1, ..Curves::default() }];
-        let data =
-            ingest::pack::pack_with(&scene_with(curves), ingest::pack_curves::Split::Fixed(2)).unwrap();
+        let data = ingest::pack::pack_with(&scene_with(curves), ingest::pack::Split::Fixed(2)).unwrap();
         let bytes = blob::AlignedBytes::copy_from(&data.encode());
         let view = blob::SceneView::parse(&bytes).unwrap();
         let accel = CurveAccel::new(&view);
@@ -751,7 +750,7 @@ mod tests {
         let eye = Vec3::new(0.0, 0.0, 4.0);
         scene.cameras = vec![testscene::camera_looking_down_z(eye, 20.0)];
         scene.resolution = Some([128, 128]);
-        let image = |split: ingest::pack_curves::Split, refine: u32| {
+        let image = |split: ingest::pack::Split, refine: u32| {
             let data = ingest::pack::pack_with(&scene, split).unwrap();
             let bytes = blob::AlignedBytes::copy_from(&data.encode());
             let view = blob::SceneView::parse(&bytes).unwrap();
@@ -762,7 +761,7 @@ mod tests {
         let rmse = |a: &[f32], b: &[f32]| {
             (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f32>() / a.len() as f32).sqrt()
         };
-        use ingest::pack_curves::Split;
+        use ingest::pack::Split;
         let (reference, _) = image(Split::Fixed(16), DEFAULT_MAX_REFINE);
         let (split, pieces) = image(Split::default(), DEFAULT_MAX_REFINE);
         let (coarse, _) = image(Split::Fixed(1), 0);
