@@ -16,47 +16,12 @@
 //! (`accel::precedes`), so the visiting order, which differs between a packet and a single
 //! ray, never decides a tie; an any-hit answer does not depend on the order at all.
 //!
-//! # Measurements (what lost, and why)
-//! Traversal table of `bench integrators` (320×213, one thread, Mrays per CPU second, packet against
-//! single on the same rays; contended, load average 8–10, ±10 % between runs): primary rays in
-//! packets of 8 neighbouring pixels 1.06 / 1.02 / 0.88× (tractor / shading-heavy / simple; the
-//! packet kernel before the tie rule and the any-hit variant measured 1.27 / 1.14 / 1.28× and
-//! 1.28 / 1.17 / 1.31× in two earlier runs), bounce rays 0.93 / 0.83 / 0.98×, shadow rays
-//! (octant-sorted, from the primary hits) as closest-hit packets 1.02 / 0.95 / 0.98× and as any-hit
-//! packets 0.86 / 0.88 / 0.91×.
-//!
-//! With the `Vec4` triangle kernel and the inlined leaf test of `accel` (single rays ~1.3–1.7×
-//! faster), three runs, load 13–14: primary 1.08–1.29 / 1.02–1.04 / 1.05–1.12×, bounce
-//! 0.76–0.84 / 0.75–0.83 / 0.86–0.90×, shadow as closest hits 0.91–1.13 / 0.92–1.18 / 0.93–1.00×,
-//! as any hits 0.96–1.23 / 0.82–0.94 / 0.85–1.13×: packets still lose on incoherent rays.
-//!
-//! In the wavefront (cachegrind, 120×80, 8 spp, one thread) the camera wave as closest-hit packets
-//! of the eight samples of one pixel, and the occlusion queue as any-hit packets, made the BVH
-//! queries plus the intersect stage run +2.5 / +3.8 / +7.9 % instructions (simple / tractor /
-//! shading-heavy: 122 M against 120 M, 275 M against 265 M, 420 M against 390 M; the whole render
-//! +1.7 / +1.8 / +3.8 %): the shared per-node loop saved a little on camera rays, node and triangle
-//! tests stay one per ray, the gather into packets cost as much again, and shadow rays towards 48
-//! lights from points in shading order share few nodes (shading-heavy any hits 130 M against
-//! 107 M). Wavefront/scalar CPU time with them: 1.10 / 1.01 / 1.17× (tractor / shading-heavy /
-//! simple) against 1.26 / 1.01 / 1.23× without, same load. Two variants also lost:
-//! * an *interval* node test for one-origin packets (one slab test per node for the packet, from
-//!   the range of the rays' reciprocal directions: exactly conservative, as rounding is monotone)
-//!   cut the camera wave's node instructions 5× (simple: 12.4 M → 2.4 M), but every ray of the
-//!   packet then tested every leaf any of them reached: triangle tests +44 % (simple) and +127 %
-//!   (shading-heavy); with per-ray tests at nodes above leaves the queries still ran −2.3 / +4.2 /
-//!   +8.4 % instructions, and the bench's primary packets fell to 0.98 / 0.91 / 1.40×;
-//! * batching the ray queue (64 rays traversed, then their hits recorded) added 7–12 M
-//!   instructions to the intersect stage for no fewer D1 misses.
-//!
-//! Why: the node kernel is already 8-wide across children, so a packet adds no SIMD width, only a
-//! shared node fetch, and these BVHs sit in L2, so the shared fetch is cheap. The wavefront's
-//! traversal is not its L1 problem either: it misses *less* than the scalar integrator's
-//! (shading-heavy, 120×80, 8 spp: node-test D1 misses 197 k against 261 k for closest hits, 314 k
-//! against 410 k for any hits; same instructions, 245 M and 107 M); the wavefront's extra D1 misses
-//! are in the shading stages (`memcpy` 1.36 M, `shade::shade` and `shade::scatter` 1.30 M). Scenes
-//! whose BVH spills out of L2, and a ray-major triangle test (one triangle against 8 rays in AVX2
-//! lanes, which would halve the per-ray triangle instructions of a packet) are where packets should
-//! be measured next.
+//! Kept out of the wavefront: as camera-wave and occlusion packets they ran +2.5 / +3.8 / +7.9 %
+//! instructions in the BVH queries and the intersect stage (simple / tractor / shading-heavy), and
+//! lose on incoherent rays in the bench's traversal table. The node kernel is already 8-wide across
+//! children, so a packet adds no SIMD width, only a shared node fetch, and these BVHs sit in L2.
+//! Where to measure next: scenes whose BVH spills out of L2, and a ray-major triangle test;
+//! measurements: `docs/perf.md#packet-traversal-accelpacketrs`.
 //!
 //! [`Lanes::node`]: crate::accel::Kernels::node
 //! [`Lanes::block`]: crate::accel::Kernels::block

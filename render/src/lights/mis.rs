@@ -4,7 +4,7 @@
 //! Per candidate: `contribution = β · f · Lᵢ · (|cos θ| / p_light)`, kept when its largest channel is
 //! positive, weighted by the power heuristic against the BSDF pdf (1 for delta lights). The lane kernel
 //! performs the same IEEE operations in the same order as [`weigh_scalar`] (and as
-//! [`crate::integrator`]): no FMA contraction happens without fast-math, so lanes equal scalar bit for
+//! [`crate::scalar`]): no FMA contraction happens without fast-math, so lanes equal scalar bit for
 //! bit and the wavefront image stays equal to the scalar one. It is compiled for x86-64 AVX2+FMA with a
 //! generic fallback and chosen at run time ([`multiversion`]).
 //!

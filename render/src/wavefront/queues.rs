@@ -46,50 +46,16 @@
 //! groups, and they do not: a tile's paths already fill them (`--stats`: 99.4–99.9 % lane use with the
 //! wave driver, 98.8–99.8 % with this one), so the queues stay per worker.
 //!
-//! # Measured against the wave driver (not the default: [`super::DEFAULT_DRIVER`])
-//! Both drivers run the same kernels and give the same bytes (EXRs of the three bench scenes
-//! compared with `cmp`; the equivalence tests at tiny, medium and default capacities on 1 and 3
-//! threads). Cachegrind, whole process, 120×80, 8 spp, 1 thread (instructions; D1 misses, read +
-//! write):
-//!
-//! | scene | wave driver | queue driver | queue/wave |
-//! |---|---|---|---|
-//! | tractor | 366.0 M; 1.85 M | 381.0 M; 2.35 M | +4.1 %; +27 % |
-//! | shading-heavy | 612.5 M; 4.21 M | 626.7 M; 4.73 M | +2.3 %; +12 % |
-//! | simple | 136.1 M; 0.76 M | 145.5 M; 1.05 M | +6.9 %; +39 % |
-//!
-//! `bench integrators` (320×213, 16 spp, 2 threads, wavefront speed-up over the scalar integrator
-//! in CPU seconds, drivers alternating, 3 runs each, contended: load average 8–10 on the 2 cores):
-//! tractor wave 1.67–1.78× / queues 1.50–1.63×, shading-heavy 1.13–1.58× / 1.35–1.39×, simple
-//! 1.75–1.81× / 1.43–1.71× (with the radiance batches sorted); a second series without the sort
-//! (below): tractor 1.46–1.73× / 1.34–1.66×, shading-heavy 1.16–1.48× / 1.43–1.60×, simple
-//! 1.54–1.64× / 1.34–1.67×. The noise is as large as the difference; the counts above are not.
-//!
-//! Where the extra work goes (cachegrind, tractor): retiring a path reads its radiance and first
-//! hit when it has gone cold (142 k read misses) and `accumulate::film` reads the film
-//! back (59 k), where the wave driver's accumulation read the path states in place (120 k); the
-//! queues' per-path bookkeeping (free list, film slot, pass-on flags, the material distribution,
-//! ~100 instructions per ray-queue entry: 15 M over 155 k). What the queues could win does not show here: a tile's
-//! samples (16×16 × 16 spp = 4096) fit the wave driver's pool, whose waves keep the 8-lane groups
-//! full to the last bounce (99.7 %), so regeneration has no short waves to fill; smaller queues
-//! and pools (1024 paths, ray queue 256, shade queues 64) took *more* D1 misses (2.60 M on the
-//! tractor), as paths scatter over more flushes. Sorting each radiance batch by film slot before
-//! writing it (as MoonRay sorts its radiance queue by pixel) cost 7.3 M
-//! instructions for 1 % fewer misses, and is left out (`accumulate::write_film`).
-//!
-//! Batch sizes per handler (the ignored test `bench_scene_queue_batches`; tractor, 120×80, 8 spp,
-//! default capacities; batches per power-of-two bucket of size, up to):
-//!
-//! | handler | batches | mean | ≤ 8 | ≤ 64 | ≤ 256 | ≤ 1024 |
-//! |---|---|---|---|---|---|---|
-//! | rays | 317 | 489 | 58 | 55 | 44 | 160 |
-//! | shade (all materials) | 427 | 207 | 147 | 97 | 63 | 120 |
-//! | occlusion | 269 | 235 | 52 | 66 | 64 | 87 |
-//! | radiance | 300 | 256 | | | 300 | |
-//!
-//! The small batches are the drain's (a chunk's last bounces, one flush per material); shading-heavy
-//! has the same shape (rays mean 520, shade 237), the simple scene's two materials take 28 shade
-//! batches of mean 597.
+//! # Against the wave driver (the default: [`super::DEFAULT_DRIVER`])
+//! Both drivers run the same kernels and give the same bytes. The queue driver is slower here:
+//! +4.1 / +2.3 / +6.9 % instructions and +27 / +12 / +39 % D1 misses (tractor / shading-heavy /
+//! simple; cachegrind, 120×80, 8 spp, 1 thread), and timed no faster within the shared machine's
+//! noise. Retiring a path reads its radiance and first hit once they have gone cold, the film is
+//! read back, and the per-path bookkeeping costs ~100 instructions per ray-queue entry; what the
+//! queues could win (regeneration filling short waves) does not arise, because the wave driver's
+//! waves keep the 8-lane groups full to the last bounce (99.7 %). Smaller queues and pools took more
+//! D1 misses, and sorting each radiance batch by film slot cost 7.3 M instructions for 1 % fewer
+//! misses (left out, `accumulate::write_film`); measurements: `docs/perf.md#queue-driver-wavefrontqueuesrs`.
 
 use super::accumulate::{self, FilmSample, Finished};
 use super::queue::{BatchHistogram, Queue};
