@@ -24,6 +24,8 @@
 //! - `bench peers-table PEERS.json`: from `scripts/bench-peers.sh`'s sweeps of ours, Cycles and Mitsuba 3,
 //!   the time each renderer needs to reach one RMSE (markdown) and RMSE against seconds (SVG).
 //!
+//! - `bench perf-record`: the generated part of `docs/perf.md` from the figures above in `out/bench/`.
+//!
 //! Figures go to stdout and to a JSON file.
 
 mod convergence;
@@ -33,6 +35,7 @@ mod instancing;
 mod instancing_ingest;
 mod integrators;
 mod peers_table;
+mod perf_record;
 mod rays;
 mod subdiv;
 mod textures;
@@ -194,6 +197,15 @@ enum Cmd {
         /// Folder for peers.md and peers.svg.
         #[arg(long, default_value = "out/bench/peers")]
         out: PathBuf,
+    },
+    /// Perf record: rewrite the generated part of docs/perf.md from the figures in out/bench/.
+    PerfRecord {
+        /// Folder the other subcommands wrote their figures to.
+        #[arg(long, default_value = "out/bench")]
+        bench: PathBuf,
+        /// The record whose generated part (between its markers) is replaced.
+        #[arg(long, default_value = "docs/perf.md")]
+        doc: PathBuf,
     },
     /// Ingest speed: compose and list a stage, ours against usd-core on the same files.
     Ingest {
@@ -372,6 +384,7 @@ fn main() -> anyhow::Result<()> {
         Cmd::PeersTable { json, target_renderer, target_spp, out } => {
             peers_table::run(&json, &target_renderer, target_spp, &out)?;
         }
+        Cmd::PerfRecord { bench, doc } => perf_record::run(&bench, &doc)?,
         Cmd::Ingest { assets, python, repeat, out } => {
             let assets = if assets.is_empty() {
                 ingest_speed::LARGEST_ASSETS.iter().map(PathBuf::from).collect()

@@ -23,13 +23,17 @@
 //! directly.
 //!
 //! Modules: [`mapped`] (memory map, `unsafe fn` with its
-//! contract), [`accel`] (8-wide BVH traversal, watertight triangle test, ray offsets), [`instanced`]
-//! (the top-level BVH over instances and the move into prototype space), [`curves`] (curve and
-//! point BVH, tube/ribbon/sphere tests), [`hair`] (Chiang et al. hair BSDF for curves), [`camera`],
+//! contract), [`accel`] (8-wide BVH traversal, watertight triangle test, ray offsets;
+//! [`accel::instanced`]: the top-level BVH over instances; [`accel::curves`]: curve and point BVH,
+//! tube/ribbon/sphere tests), [`hair`] (Chiang et al. hair BSDF for curves), [`camera`],
 //! [`sampler`] (stateless Owen-scrambled Sobol), [`bsdf`] (UsdPreviewSurface), [`lights`] (UsdLux +
-//! emissive triangles, MIS), [`integrator`] (the path, depth first), [`wavefront`] (the same paths, breadth first), [`film`] (tiles, options, image), [`output`]
-//! (EXR/PNG), [`stats`] (summary), [`info`] (`--info`), [`scene`] (view + derived data), [`shading`]
-//! (material programs and filtered texture lookups), [`trig`] (the samplers' sine and cosine), [`error`].
+//! emissive triangles, the light tree, MIS), [`surface`] (a hit rebuilt from the blob), [`path`]
+//! (what both integrators share about a path, Russian roulette), [`scalar`] (the path, depth
+//! first), [`wavefront`] (the same paths, breadth first), [`frame`] (the tile loop), [`film`]
+//! (tiles, image), [`options`], [`output`] (EXR/PNG), [`stats`] (summary), [`info`] (`--info`),
+//! [`scene`] (view + derived data), [`shading`] (material programs, sort keys and filtered texture
+//! lookups), [`trig`] (the samplers' sine and cosine), [`error`]. Each lane kernel sits beside its
+//! scalar reference as `lanes.rs` in the domain's folder (see `ARCHITECTURE.md`).
 
 #![deny(missing_docs)]
 

@@ -30,7 +30,7 @@ pub struct RenderOptions {
     pub curve_shape: Option<crate::accel::curves::CurveShape>,
     /// Which integrator traces the paths (`--integrator`); both give the same image.
     pub integrator: Integrator,
-    /// Time every phase of every path ([`RenderStats::phases`]); costs a few percent, so off by
+    /// Time every phase of every path ([`crate::RenderStats::phases`]); costs a few percent, so off by
     /// default (`--stats` turns it on).
     pub phase_stats: bool,
 }

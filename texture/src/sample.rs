@@ -27,18 +27,7 @@
 //!   half floats in one F16C conversion ([`crate::half_float`]), and skips the level-0 bilinear
 //!   coordinates when no lane magnifies.
 //!
-//! Callgrind, shading-heavy bench scene (512² sRGB texture, MoonRay filter), 120×80, 8 spp, 1 thread,
-//! instructions before → after: scalar `Sampler::filter` (inclusive) 56.7 M → 50.5 M (−11 %), lane
-//! `moonray_lanes` 68.2 M → 52.8 M (−23 %); the libm `floorf` (18.4 M, 1.95 % of the wavefront's
-//! instructions) is gone. Whole renders: scalar 1,109.0 M → 1,097.0 M (−1.1 %), wavefront 943.3 M →
-//! 923.6 M (−2.1 %), images byte-identical to before and to each other. The scene has no half-float texture, so F16C does not
-//! show in these figures.
-//!
-//! Later, the lane filter's addressing went branch-free and, on AVX2 CPUs, to intrinsics with
-//! hardware texel gathers: `moonray_lanes` 52.8 M → 18.7 M on the same scene (figures and the
-//! portable path in the docs of `sample/lanes.rs`); then the mip level's `log2` became ours
-//! ([`log2`], correctly rounded on every input tested, in `sample/log2.rs`) so the lanes compute it
-//! in registers, and the AVX2 gather and blend became one pass: `moonray_lanes` 18.7 M → 9.5 M.
+//! Measurements: `docs/perf.md#texture-lookups-texturesrcsamplers`.
 
 use crate::error::Error;
 use crate::float::{floor, round};

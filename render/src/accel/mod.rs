@@ -24,9 +24,8 @@
 //! * **Ties**: the closest hit is the least `(t, triangle index)` (`precedes`), and once a hit at
 //!   `t` is known the walk goes on with the limit `tie_limit(t)`, 256 ulps beyond it, so no
 //!   rounding of a limit equal to `t` culls a triangle met at exactly `t`. The answer is then
-//!   independent of the order leaves are visited in: the wavefront's packets
-//!   ([`crate::accel::packet`]) and a tree with every node's children reversed give the same
-//!   hit (tested on a stack of identical triangles). Cost: within ±1 % of the traversal's
+//!   independent of the order leaves are visited in: a tree with every node's children reversed
+//!   gives the same hit (tested on a stack of identical triangles). Cost: within ±1 % of the traversal's
 //!   instructions (cachegrind, the three `bench integrators` scenes).
 //! * **Scalar reference**: [`Scalar`] implements the same two kernels child by child and triangle by
 //!   triangle (the latter with [`WatertightRay::intersect`]); the tests check that both kernels and
@@ -36,82 +35,12 @@
 //! bench rays of the three test scenes) spills into a heap vector rather than fail, so no blob,
 //! however adversarial, can make a query index out of bounds, and ordinary rays never allocate.
 //!
-//! # Experiments (chess set, 1.43 M triangles; 2 shared cores, load average 4–8 during all of them)
-//!
-//! Wall-clock timings were too noisy on this machine (the same binary varied by ±20 %), so variants
-//! were compared in Mrays per CPU-second of the tracing thread (`CLOCK_THREAD_CPUTIME_ID`) against
-//! Embree 4 measured the same way on the same rays: Embree primary 19.4, incoherent 1.66.
-//!
-//! * Format 1 (obvhs CWBVH, 80-byte compressed nodes, `obvhs::traverse!`): `bench rays` wall clock
-//!   incoherent 0.39 vs Embree 1.63 (ratio 0.24), primary 6.7 vs 13.5 (0.50).
-//! * This layout with the kernels inlined into the traversal loop: primary 13.7, incoherent ~0.8. The
-//!   generated code was poor: the slab test's far half was split into 4-wide pieces with shuffles and
-//!   no `vmovmskps`, and the triangle test was mostly scalar `ss` code (register pressure in the big
-//!   loop; the same lane loops compiled alone were perfect). Kernels as out-of-line `inherit_target`
-//!   functions: primary 14.3–14.6, and the slab test is 6 sub, 6 mul, 3 max, 3 min, 1 cmp, 1 movmsk.
-//!   A profile then shows the node kernel at 42 % and the block kernel at 29 % of the time, both
-//!   dominated by cache misses on the node and block loads.
-//! * Triangle kernel: the per-lane `if det > 0 { … } else { … }` and a branchy zero-edge check were
-//!   scalarized; rewritten as masks (`&`/`|` on lane booleans, zero lanes collected as a bit mask).
-//! * Tree shape (ingest `BuildParams`): leaves of ≤ 4 vs ≤ 8 vs ≤ 12 triangles, SAH node cost 0.3–2.0,
-//!   with and without obvhs' spatial pre-splits: all within the noise (12–17 primary, 0.75–1.08
-//!   incoherent). The plain largest-area-first collapse gave only 4.2 children per 8-wide node; opening
-//!   first the children whose whole subtree fits in the remaining slots raised it to 5.5 and cut the
-//!   node count from 89 k to 65 k (leaves ≤ 8, node cost 1.0), which is the default now.
-//!
-//! # Per-ray and per-block costs (tractor / shading-heavy / simple blobs of `bench integrators`)
-//!
-//! Measured on the bench scenes (none has instances: the `any_in_instances_simd::…` and `call_mut`
-//! frames of earlier profiles were identical kernels merged under another clone's name and the
-//! render-tile closure, not instance traversal).
-//! * The triangle kernel as `[f32; 4]` lane loops compiled to 436 instructions in the AVX2 clone,
-//!   125 of them scalar `ss` ops and 48 stack accesses: LLVM unrolls four-iteration loops and its SLP
-//!   vectorizer then packed the arithmetic only partly, scalarized every comparison and mask, and
-//!   the in-line zero-edge retry (indexing the lane arrays by a runtime lane) kept those arrays on
-//!   the stack. Moving the retry out of line alone gave 360 instructions, and masks written as
-//!   `u32` lanes changed nothing; as `Vec4` arithmetic with `cmp*`/`bitmask` it is 156 (97 packed
-//!   ops, one `movmskps` per mask), 134 instructions per call instead of 454 (callgrind, tractor).
-//! * `WatertightRay::new` (5.6 % of the tractor's scalar samples, 2 % of its instructions) was an
-//!   out-of-line `if` chain and swap that mispredict on incoherent rays, a store-forwarding stall
-//!   on the direction and three divisions; it is now branch-free (index arithmetic and a table),
-//!   inlined, with one `divps`: bit-identical fields (tested against the old construction).
-//! * The closest-hit leaf test was a closure LLVM kept out of line, compiled for the baseline target
-//!   (the closure belongs to the generic walk, not to the AVX2 clone), with a `vzeroupper` before
-//!   each call: 1.5 % of the tractor's instructions, 2–3 % of its samples. As `ClosestLeaf` on a
-//!   struct with an `#[inline(always)]` method it is part of the clone's loop: −4 M instructions
-//!   (−0.7 %) on the tractor's scalar render, the same traversal rates within the noise.
-//! * Result, same rays, same hits, the images unchanged bit for bit: `bench integrators`
-//!   traversal table, single-ray Mrays per CPU second, three runs each, contended (load 8–10
-//!   before, 13–14 after):
-//!
-//!   | scene | queue | before | after |
-//!   |---|---|---|---|
-//!   | tractor | primary | 7.9–8.4 | 10.7–12.4 |
-//!   | tractor | bounce | 7.9 | 12.1–12.3 |
-//!   | tractor | shadow (closest) | 7.4–8.1 | 10.1–11.8 |
-//!   | tractor | shadow (any hit) | 13.5–13.7 | 12.6–17.2 |
-//!   | shading-heavy | primary | 5.6–6.0 | 7.7–7.7 |
-//!   | shading-heavy | bounce | 3.6–4.0 | 4.5–5.0 |
-//!   | shading-heavy | shadow (closest) | 4.7–4.8 | 5.0–6.2 |
-//!   | shading-heavy | shadow (any hit) | 5.2–5.3 | 6.5–6.7 |
-//!   | simple | primary | 12.3–12.6 | 17.0–18.5 |
-//!   | simple | bounce | 4.2–5.4 | 8.5–8.9 |
-//!   | simple | shadow (closest) | 5.3–5.5 | 7.5–8.1 |
-//!   | simple | shadow (any hit) | 5.3–5.4 | 6.1–8.4 |
-//!
-//!   Whole renders (callgrind, 120×80, 8 spp, one thread), instructions before → after: tractor
-//!   scalar 642.9 M → 540.6 M (−15.9 %), wavefront 556.5 M → 454.2 M (−18.4 %); shading-heavy
-//!   scalar 1109.0 M → 972.5 M (−12.3 %), wavefront 943.3 M → 806.9 M (−14.5 %). Share of the
-//!   traversal in perf samples (320×213, 16 spp, one thread): tractor scalar ~35 % → 26 %,
-//!   wavefront ~41 % → 33 %. `bench instancing` (1,000 instanced spheres, one run each, wall
-//!   clock): primary 1.98 → 2.50 Mrays/s, incoherent 0.63 → 0.73 (the instance entry builds its
-//!   rays with the same, now inlined, constructors).
-//! * Not tried (an instance entry still builds both rays from the transformed ray): transforming
-//!   the world ray's shear constants per instance instead; the dominant axis changes under a
-//!   rotation, so it would not be the same arithmetic as a fresh [`WatertightRay`].
-//! * Not tried for lack of time: BVH4 (half the node bytes; nodes are 45 % empty at 5.5 children),
-//!   8-wide triangle blocks, Möller–Trumbore on precomputed edges (not watertight), AVX-512, prefetching
-//!   the second-nearest child, and processing leaf children at once instead of through the stack.
+//! The layout, the out-of-line `inherit_target` kernels, the masks in the triangle kernel, the
+//! subtree-fits-first collapse (5.5 children per node), the branch-free `WatertightRay::new` and the
+//! inlined `ClosestLeaf` were each measured against what they replaced; measurements: `docs/perf.md#bvh-traversal-accelmodrs`.
+//! Not tried for lack of time: BVH4 (half the node bytes; nodes are 45 % empty at 5.5 children),
+//! 8-wide triangle blocks, Möller–Trumbore on precomputed edges (not watertight), AVX-512, prefetching
+//! the second-nearest child, and processing leaf children at once instead of through the stack.
 
 pub mod curves;
 pub mod instanced;
@@ -268,8 +197,8 @@ impl<'a> Accel<'a> {
 
 /// The two lane kernels ([`Lanes::node`], [`Lanes::block`]) compiled for the target of the
 /// `#[multiversion]` clone this is expanded in, as a pair of closures `(node, block)` to hand to a
-/// traversal. Every multiversioned traversal entry point (closest and any hit here, packets in
-/// [`crate::accel::packet`]) takes its kernels from here.
+/// traversal. Every multiversioned traversal entry point (closest and any hit, one and two levels)
+/// takes its kernels from here.
 ///
 /// The kernels are nested `inherit_target` functions, deliberately not inlined: inlined into the
 /// traversal loop, LLVM's SLP vectorizer split the 8-wide slab test into 4-wide halves with shuffles

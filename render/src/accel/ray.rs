@@ -4,7 +4,7 @@
 use glam::Vec3;
 use lanekit::{saturating_i32, LANES};
 
-/// A ray for the batch query [`Accel::trace_closest`].
+/// A ray for the batch query [`crate::Accel::trace_closest`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
     /// Origin, world space.

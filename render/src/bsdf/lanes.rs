@@ -12,33 +12,12 @@
 //! under [`multiversion`] (chosen at run time, generic fallback elsewhere).
 //!
 //! Groups where no lane has a clearcoat lobe (`clearcoat > 0`; most groups of the bench scenes) run
-//! a variant without its terms (a second GGX D, G₂ and pdf per lane), and the sampler keeps the
-//! lobe probabilities and the local `wo` of its first loop for its last (LLVM does not reuse them
-//! across the libm calls). Callgrind, instructions (libm's `sincosf` included), 120×80, 8 spp, 1
-//! thread: [`sample_lanes`] tractor 10.03 → 9.35 M, shading-heavy 10.42 → 9.85 M, simple 1.85 →
-//! 1.72 M; [`eval_lanes`] 3.67 → 3.01 M, 3.76 → 3.22 M, 0.69 → 0.57 M. Tried and left out: the
-//! local `wo` and lobe probabilities as [`BsdfLanes`] columns written once by
-//! [`from_inputs_lanes`] for both kernels (eval −0.8 M, but construction +1.0 M and the sampler
-//! +0.8 M: the whole process ran 0.3–0.5 % more instructions, a bigger scatter group to stream).
-//! Then libm's `sincosf` per lane (~45 instructions each, the kernel's largest single cost) gave
-//! way to [`crate::trig::sin_cos`] in both integrators, 8-wide here: [`sample_lanes`] tractor 9.35
-//! → 5.26 M, shading-heavy 9.85 → 5.53 M, simple 1.72 → 0.99 M (the polynomial itself 0.64 M on
-//! the tractor, where `sincosf` took 4.0 M).
-//!
-//! The kernels are bound by the divider, not by the instruction count: the coatless sampler runs
-//! fifteen `vdivps` and eight `vsqrtps` per group, every one needed for the scalar code's bits
-//! (a product by a reciprocal rounds differently). Selecting operands before a division or
-//! square root taken by one lobe or the other (the disk's `b / a` or `a / b`, the disk's height or
-//! the cap's sine) changes nothing: LLVM already folds the two into one. What went: the clearcoat
-//! probability's division in coatless groups, which [`any_coat`] now defines by a zero weight on
-//! every lane (see there why the sum test then needs no `p_c`). One-process timing against the
-//! frozen old kernel (2048 groups, min of 60 alternating rounds, contended): [`sample_lanes`]
-//! 92.4 → 91.0 ns per group (−1.5 %); callgrind shading-heavy 120×80 8 spp 5.53 → 5.47 M
-//! instructions. Tried and dropped: an AVX-512VL clone of the three kernels (mask registers for
-//! the selects): 2–3 % faster, not worth a second clone per kernel; a variant for groups where
-//! every lane draws the diffuse lobe (no spherical caps: −8 % on such groups, +1 % on the others)
-//! — they are 1.6–3.4 % of the groups (material-heavy, tractor, shading-heavy; 11 % of
-//! shading-heavy's are all GGX).
+//! a variant without its terms, and the sampler keeps the lobe probabilities and the local `wo` of
+//! its first loop for its last. The kernels are bound by the divider, not by the instruction count:
+//! every `vdivps` and `vsqrtps` is needed for the scalar code's bits (a product by a reciprocal rounds
+//! differently); [`any_coat`] defines coatless groups by a zero weight on every lane. Tried and
+//! dropped: `wo` and the lobe probabilities as [`BsdfLanes`] columns, an AVX-512VL clone, a variant
+//! for all-diffuse groups; measurements: `docs/perf.md#bsdf-lanes-bsdflanesrs`.
 
 use crate::bsdf::Bsdf;
 use crate::shading::ShadingInputs;

@@ -26,19 +26,7 @@
 //! [`crate::trig::sin_cos`] replaced `sincosf`) and a branch-free lobe loop are the next step; they
 //! change the hair image of both integrators, so they were left for a separate change.
 //!
-//! Callgrind, instructions, 1 thread, a 20 000-strand groom (cubic Béziers on a sphere, a sun and a
-//! sky; 80×54, 4 spp; every image below is byte-identical to the first):
-//!
-//! | step | scalar process | wavefront process | wavefront shade stage | hair kernels (sample + eval) |
-//! |---|---|---|---|---|
-//! | before: fibre hits shaded one by one, hair BSDF inside `Surface` | 1617.2 M | 1592.7 M | 308.8 M | (scalar calls) |
-//! | these lane kernels, fibre hits in groups of eight | 1611.0 M | 1597.5 M | 313.7 M | 117.4 + 82.3 M |
-//! | + lobe normalizations once per roughness | 1527.4 M | 1509.4 M | 267.4 M | 93.3 + 61.2 M |
-//! | + view terms once per hit | 1474.7 M | 1460.5 M | 230.0 M | 52.2 + 41.5 M |
-//!
-//! The lanes alone gained nothing (the libm calls are the same calls); the two reductions took
-//! the shade stage 25 % down. The curve traversal, untouched, moved by up to −37 M between these
-//! builds (code placement), so compare the stage columns rather than the process ones.
+//! Measurements: `docs/perf.md#hair-lanes-hairlanesrs`.
 
 use crate::bsdf::lanes::{EvalLanes, SampleInputs, SampleLanes};
 use crate::hair::{HairBsdf, Lobes, View};

@@ -30,68 +30,18 @@
 //!    AVX2 under [`multiversion`]. Only the kinds the group picked: lights at infinity alone (the
 //!    tractor's dome and sun: no shading-point arithmetic), spheres and points without the patches'
 //!    points (groups of sphere lights alone), or every kind.
-//!
-//! Callgrind, instructions in this kernel (libm's `sincosf` included), 120×80, 8 spp, 1 thread,
-//! wavefront; the scalar `Lights::sample` beside it:
-//!
-//! | scene (lights) | before | after | scalar |
-//! |---|---|---|---|
-//! | tractor (dome, sun) | 15.47 M | 11.48 M | 15.97 M |
-//! | shading-heavy (48 spheres, dome, sun) | 20.70 M | 15.59 M | 26.61 M |
-//! | simple | 2.92 M | 2.10 M | 2.33 M |
-//!
-//! Of the tractor's 3.99 M: the gather of unused columns and per-lane record copies, the disk angle
-//! and the saturating `as usize` cast (scalar per lane; `lanes::saturating_i32` is 8-wide) 3.5 M,
-//! the blended gather another 0.5 M (its first form, `if hit { mine } else { column }`, compiled
-//! to a per-lane choice of load address: scalar). Of the 11.48 M left, 4.03 M are `sincosf`
-//! (88,904 calls, one per dome or cone lane, as the scalar code made them). With
-//! [`crate::trig::sin_cos`] in both integrators instead of libm (8-wide here, 0.63 M on the
-//! tractor): tractor 11.48 → 6.03 M, shading-heavy 15.59 → 9.92 M, simple 2.10 → 1.07 M.
-//!
-//! With the light tree (callgrind, same settings, this kernel inclusive): shading-heavy 9.92 →
-//! 50.82 M (the per-lane scalar descent: about six levels of two importance evaluations for its 48
-//! sphere lights), the whole render 609.5 → 634.9 M (+4.2 %); tractor 6.03 → 6.11 M and simple
-//! unchanged (lights at infinity only: the 8-wide uniform pick stays). The descent is left scalar.
-//! Tried and kept out (branch `treelanes`): the descent 8 lanes at a time, both children's 64-byte
-//! node records gathered into columns per level, the importance 8-wide with the scalar operations
-//! (bit-exact on 23 k random lanes), the last two lanes finished by the scalar descent: the kernel
-//! took 50.52 M against 50.82 M (−0.6 %). Only about a third of a group's lanes descend at all (the
-//! first choice has three slots here: dome, sun, tree), and the per-lane gathers of records at random
-//! indices cost about 60 % of a level, eating what the 8-wide arithmetic saves; it would also have
-//! kept a second copy of the importance arithmetic in step with the scalar one. Next to try:
-//! collecting the descending lanes of several groups before descending, or hardware gathers.
-//! Done instead: the tree is 8-wide, its nodes' child bounds in columns, so each lane's scalar
-//! descent is about two nodes of one 8-lane importance pass each (see [`crate::lights::tree`]):
-//! this kernel 50.82 → 26.09 M (the descent itself 11.7 M), the render 636.8 → 611.2 M. Then the
-//! group's descents interleaved (`select_lanes`, see `lights/tree/lanes.rs`): more instructions
-//! (selection 14.92 → 18.67 M) but about a quarter less time; perf share of the selection and this
-//! kernel on shading-heavy, one thread, 7.9–8.3 → 5.3–6.1 % (contended). Then the descents' node
-//! step in AVX2 intrinsics with a short importance for nodes of omnidirectional children, the
-//! first choice 8-wide (see `lights/tree/lanes.rs`), and the records' kind, radiance and centre
-//! gathered by one 8×8 transposition (`heads_avx`): this kernel (inclusive) 28.32 → 17.64 →
-//! 16.57 M instructions on shading-heavy (callgrind 120×80, 8 spp; the render 526.99 → 515.45
-//! M), bytes unchanged; perf share of the selection and this kernel 6.15–6.39 → 4.68–4.79 % (this
-//! kernel's own 2.86–3.07 → 2.47–2.52 %; one thread, 320×213, 16 spp, `-F 20000`, 3 runs each,
-//! alternated, contended). `perf stat` task-clock of that render (5 runs each, alternated, load
-//! average 4 on 2 cores) 888–1168 ms (median 1011) → 935–1151 ms (median 1017): the expected
-//! 1.5 % is below that noise.
-//!
-//! Then (session 2026-11-23 #3) a fourth form of step 4, `cones`, for groups whose lanes all
-//! picked lights at infinity or sphere lights seen from outside (the shading-heavy bench scene's
-//! groups, save a lane inside a sphere): every result is then a direction in a cone, the dome's or
-//! the delta direction, so the point on a light, its distance and cosine, the area pdf and the
-//! point light's `radiance / d²` (eight divisions and a square root a lane, all 8-wide) are not
-//! computed. With the root pass of the selection (`lights/tree/lanes.rs`), measured on the
-//! shading-heavy bench scene: timed in one process, 10⁵ groups, this kernel without its selection
-//! 146.7 → 91.3 ns a group (−38 %; with it about 292 → 183 ns); callgrind (120×80, 8 spp, one
-//! thread) this kernel inclusive 16.57 → 14.34 M instructions, the render 469.23 → 466.71 M; perf
-//! (one thread, 320×213, 16 spp, 2 runs each, alternated, contended) `sample_lanes` + `select_in`
-//! 5.13 / 5.18 % → 3.51 / 3.69 % of the samples. Images byte-identical.
+//!    Groups whose lanes all picked lights at infinity or sphere lights seen from outside take a
+//!    fourth form, `cones`: every result is a direction in a cone, so the point on a light, its
+//!    distance, cosine and area pdf are not computed.
 //!
 //! Each lane equals `Lights::sample` bit for bit (the tests check it on random points and samples for
 //! every light kind). Textured emitters stay scalar: [`crate::scene::Scene::emission_at`] per lane
 //! that sampled an emissive triangle, as the scalar integrator calls it, and `Lights::sample` itself
 //! per lane that picked a textured dome (its map's CDF search and lookup).
+//!
+//! The descent stays one lane at a time (interleaved, [`crate::lights::tree`]): a lane-parallel
+//! descent with gathered node records saved 0.6 % and would have kept a second copy of the
+//! importance arithmetic; measurements: `docs/perf.md#light-sampling-lanes-lightslanesrs`.
 
 use crate::lights::tree::LightSelector;
 use crate::lights::{Lights, Shape};

@@ -12,7 +12,7 @@ pub enum Shape {
     Dome,
     /// A lat-long map ([`crate::lights::dome_map`]): `radiance` times the map's value in each direction.
     TexturedDome {
-        /// Index into the scene's dome maps (in [`Lights`]).
+        /// Index into the scene's dome maps (in [`crate::lights::Lights`]).
         map: u32,
     },
     /// A cone of directions around `to_light`; `one_minus_cos_max == 0` is a delta direction.

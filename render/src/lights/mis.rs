@@ -4,14 +4,14 @@
 //! Per candidate: `contribution = β · f · Lᵢ · (|cos θ| / p_light)`, kept when its largest channel is
 //! positive, weighted by the power heuristic against the BSDF pdf (1 for delta lights). The lane kernel
 //! performs the same IEEE operations in the same order as [`weigh_scalar`] (and as
-//! [`crate::integrator`]): no FMA contraction happens without fast-math, so lanes equal scalar bit for
+//! [`crate::scalar`]): no FMA contraction happens without fast-math, so lanes equal scalar bit for
 //! bit and the wavefront image stays equal to the scalar one. It is compiled for x86-64 AVX2+FMA with a
 //! generic fallback and chosen at run time ([`multiversion`]).
 //!
 //! Both kernels here are branch-free so that they run 8-wide: [`weigh_lanes`] took 4.08 M
 //! instructions on the tractor (callgrind, 120×80, 8 spp), its power heuristic a scalar loop with a
 //! branch and a `divss` per lane, and now takes 0.67 M (shading-heavy 4.19 → 0.68 M);
-//! [`offset_origin_lanes`] 2.41 → 0.78 M (2.47 → 0.80 M), its saturating `f32 as i32` casts now
+//! [`crate::accel::ray::offset_origin_lanes`] 2.41 → 0.78 M (2.47 → 0.80 M), its saturating `f32 as i32` casts now
 //! `saturating_i32`'s clamp, one `cvttps2dq` and integer selects instead of a `cvttss2si` and
 //! compares per lane.
 //!

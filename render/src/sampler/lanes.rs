@@ -18,29 +18,9 @@
 //! the scalar sampler too. The opacity dimension is not drawn: phase 1 draws it per hit,
 //! before the lanes run.
 //!
-//! `vertex_lanes`, callgrind (instructions, wavefront, 120×80, 8 spp, 1 thread) and perf (share of
-//! the samples, 320×213, 16 spp, 1 thread, contended):
-//!
-//! | scene | instructions before → after | perf share before → after |
-//! |---|---|---|
-//! | tractor | 20.33 M → 5.21 M | 4.26 % → 1.68 % |
-//! | shading-heavy | 20.85 M → 5.35 M | 2.01 % → 0.60 % |
-//! | simple | 3.83 M → 0.98 M | |
-//!
-//! Then `reverse_bits`, twelve per group (the sample index, and each shuffled index and
-//! coordinate), became the largest share of the kernel's instructions: seven each as AVX2 nibble
-//! tables (`vpshufb`, `vpand`, `vpsrlw`, `vpshufb`, `vpshufb`, `vpor` after the byte swap). With
-//! GFNI (Zen 4, Ice Lake and later) LLVM lowers it to a byte swap and one `vgf2p8affineqb`, so the
-//! kernels that reverse ([`vertex_lanes`], [`pair_lanes`]) have a GFNI clone ahead of the AVX2
-//! one (same integer operations, same bits). The pairs 1–3 are also written out in the lane loop
-//! instead of a loop over pairs: one straight block with the four pairs' independent hash chains
-//! side by side, and the sample index reversed once instead of twice (callgrind, AVX2 clone,
-//! shading-heavy 120×80 8 spp: 5.35 M → 5.18 M instructions; valgrind hides GFNI). Timing in one
-//! process against a frozen copy of the old kernel (2048 groups × 20, min of 60 alternating
-//! rounds, contended): 62.8 ns → 61.5 ns per call unrolled (AVX2), → 50.8 ns with GFNI (−19 %).
-//! Tried and dropped: stage by stage over the four pairs (all pair seeds, then all indices, then
-//! the coordinates): LLVM scalarised part of it, 78 ns; an AVX-512VL clone (ternary logic for the
-//! Sobol shift-and-XOR steps): 49.0 ns, 3 % more for a third clone.
+//! The kernels that reverse bits ([`vertex_lanes`], [`pair_lanes`]) have a GFNI clone ahead of the
+//! AVX2 one (a byte swap and one `vgf2p8affineqb` per reversal; same integer operations, same bits);
+//! an AVX-512VL clone was dropped (3 % for a third clone); measurements: `docs/perf.md#sampler-lanes-samplerlanesrs`.
 
 use crate::sampler::{dim, hash_combine, pair_index, sobol1_reversed, unit_from_reversed, PairSeeds};
 use lanekit::LANES;

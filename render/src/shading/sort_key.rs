@@ -13,21 +13,8 @@
 //! once. Materials whose first texture is a UDIM set read through the uv, or whose coordinates
 //! come from a primvar, keep the scalar key.
 //!
-//! Measured (callgrind, wavefront, 120×80, 8 spp, 1 thread): `Shading::sort_key` took 25.5 M
-//! instructions inclusive on shading-heavy (~280 a key), the lane kernel takes 9.2 M (~100 a key,
-//! most of it the per-lane plan gather); the tractor's 9.7 M of keys are all constant keys now
-//! (its textures read constant coordinates). Whole process with the surfaces in lanes: 621.0 M →
-//! 602.2 M on shading-heavy, 359.4 M → 345.7 M on the tractor (see [`crate::surface::lanes`]).
-//! The quantisation is written so that it vectorises ([`morton`]): with `texture::float::floor`
-//! and the saturating `as u32` per lane the kernel compiled to a compare, a branch and a
-//! `cvttss2si` per lane (10.6 M against 9.2 M).
-//!
-//! Second round: the per-lane plan gather (`t[j][c][k] = …`, 2.2 M, and the plan `match`, 1.7 M)
-//! is skipped for groups on one material (~70 % of the groups on shading-heavy: hits of one
-//! material often come in runs in the queue); the plan is read once and
-//! the lane loop takes it as loop-invariant scalars. Callgrind, shading-heavy as above: `keys`
-//! 9.15 M → 5.53 M inclusive (~61 instructions a key, from ~101), whole process 499.6 M → 496.0 M, image
-//! byte-identical. Passing each mixed lane's plan with `array::map` kept the loop scalar (12.0 M).
+//! The quantisation is written so that it vectorises ([`morton`]), and groups on one material read
+//! the plan once as loop-invariant scalars; measurements: `docs/perf.md#sort-key-lanes-shadingsortkeyrs`.
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]

@@ -8,7 +8,7 @@
 //! fallback axis `Frame::new(d).t` computed in lanes too). Every branch of the scalar code is a
 //! per-lane select, and each part only runs when some lane of the group needs it (no uvs, no
 //! normals, no instance: skipped). The arithmetic is the scalar code's (`triangle_surface` in
-//! [`crate::integrator`]) IEEE operation for IEEE operation, in the same order, using glam 0.34's
+//! [`crate::surface`]) IEEE operation for IEEE operation, in the same order, using glam 0.34's
 //! formulas: `dot` is `(x·x' + y·y') + z·z'`, `cross` is `(y·z' − y'·z, z·x' − z'·x, x·y' − x'·y)`,
 //! `try_normalize` multiplies by `1 / sqrt(v·v)` when that is finite and positive, `Vec3 / f32`
 //! divides each component; Rust never contracts into FMAs. So every lane equals [`Scene::surface`]
@@ -23,64 +23,14 @@
 //! groups of [`MIN_LANES`]` − 1` hits or fewer to the scalar function.
 //!
 //! Used by the sort-key pass (textured hits, whose surfaces are kept for shading;
-//! [`super::intersect`]) and by shading's runs for the hits it did not keep ([`super::shade`]).
+//! `wavefront/intersect.rs`) and by shading's runs for the hits it did not keep (`wavefront/shade.rs`).
 //! The kernel's columns live in the worker (one [`HitGroup`], ~2.5 KiB), not on the stack: zeroed
 //! per call they were two `memset`s per group, and per stage ~1 M instructions on shading-heavy.
 //!
-//! Measured (callgrind, whole process, wavefront, 120×80, 8 spp, 1 thread, instructions; images
-//! byte-identical before and after on all three bench blobs). "Surfaces" is `triangle_surface`
-//! inclusive before, the lane kernel inclusive after (gather included; the callers' per-lane
-//! `Surface` writes are in `sort_keys`/`shade`):
-//!
-//! | scene | process | surfaces | `sort_keys` inclusive | `shade` inclusive |
-//! |---|---|---|---|---|
-//! | tractor | 365.5 M → 345.7 M (−5.4 %) | 34.0 M → 17.1 M | 38.0 M → 19.4 M | 104.5 M → 103.1 M |
-//! | shading-heavy | 636.8 M → 602.2 M (−5.4 %) | 45.5 M → 19.2 M | 85.6 M → 51.8 M | 176.8 M → 175.9 M |
-//! | simple | 135.6 M → 132.1 M (−2.6 %) | 9.1 M → 3.8 M | 1.0 M → 0.9 M | 21.8 M → 18.2 M |
-//!
-//! The process figures include the sort keys in lanes ([`crate::shading::sort_key`]); the surfaces alone
-//! took the processes to 359.4 / 621.0 / 132.9 M (−1.7 / −2.5 / −2.1 %). The kernel runs ~190
-//! instructions per hit on shading-heavy (the scalar function ~500), about half of them the
-//! gather's scalar loads and stores.
-//!
-//! `perf` (contended, load ~6 on the 2 cores; shading-heavy, wavefront, 320×213, 16 spp, 1 thread,
-//! % of samples): `triangle_surface` 8.7 + `Shading::sort_key` 2.8 + `sort_keys` 1.7 + `memmove`
-//! 1.2 = 14.5 % before; `surface_columns` 3.9 + `keep_surfaces` 1.9 + `sort_keys` 1.3 + the key
-//! kernel 1.1 + `memmove` 0.2 = 8.3 % after (`shade::shade`'s own 3.8 → 4.6 %). Task clock of that
-//! render (ms, 5 runs alternating with the old binary, sorted): shading-heavy 1181 / 1185 / 1378 /
-//! 1461 / 1554 before, 1110 / 1177 / 1221 / 1287 / 1328 after; tractor 529 / 556 / 643 / 666 /
-//! 666 → 494 / 512 / 539 / 579 / 711; simple 192 / 195 / 215 / 219 / 240 → 173 / 181 / 216 /
-//! 227 / 241. `bench integrators` (same load, 3 runs alternating, wavefront speed-up over scalar
-//! in CPU s): tractor 1.76 / 1.67 / 1.74× before, 1.65 / 2.11 / 1.57× after; shading-heavy
-//! 1.42 / 1.44 / 1.39× → 1.30 / 1.36 / 1.49×; simple 1.75 / 2.04 / 1.80× → 1.96 / 1.54 / 2.08×:
-//! the ±15 % run-to-run noise of that machine hides a 5 % change; the instruction counts above
-//! are the deterministic measure.
-//!
-//! Second round: the gather in AVX2 ([`avx2::gather`], chosen at run time; the portable gather is
-//! kept as the fallback and both are tested against the scalar function). The per-lane gather
-//! was ~105 of the kernel's ~200 instructions per hit (scalar loads and stores of 3 × 3 positions,
-//! normals, 3 × 2 uvs, hit fields, material and mesh flags by triangle index); as 31 eight-lane
-//! gathers by byte offset (optional attributes masked by the lanes' mesh flags, index checks
-//! against the arrays' lengths as vector compares) it takes ~360 instructions per group (~45 per
-//! hit). Callgrind, same settings, images byte-identical (with the key change of
-//! [`crate::shading::sort_key`]'s second round in the process figures):
-//!
-//! | scene | process | `surface_columns` | `keep_surfaces` inclusive |
-//! |---|---|---|---|
-//! | shading-heavy | 499.6 M → 487.2 M (−2.5 %) | 19.19 M → 10.14 M (gather 4.08 M) | 44.8 M → 32.2 M |
-//! | tractor | 336.75 M → 327.94 M (−2.6 %) | 17.10 M → 8.01 M | 14.2 M → 10.2 M |
-//! | simple | 133.1 M → 131.3 M (−1.3 %) | 3.84 M → 2.01 M | — |
-//!
-//! Instance transforms are still read per instanced lane (`gather_instance`).
-//!
-//! In time the gather is about even: the loads wait on the triangle records and vertices missing
-//! the cache whichever way they are issued (perf annotate: the hot spot is the first use of the
-//! triangle-record gather). `perf` (contended, shading-heavy, wavefront, 320×213, 16 spp,
-//! 1 thread, % of samples): `surface_columns` 5.04 before, `avx2::gather` 4.16 + `surface_columns`
-//! 1.00 after; `keys` 1.33 → 0.87. Task clock of that render (ms, 8 runs alternating three
-//! binaries, sorted): before 944 / 1117 / 1134 / 1135 / 1159 / 1161 / 1169 / 1171, with the key
-//! change only 912 / 1068 / 1089 / 1102 / 1119 / 1128 / 1129 / 1149, with both 964 / 1059 / 1059 /
-//! 1074 / 1122 / 1124 / 1137 / 1165 (medians 1147 / 1110 / 1098: within the machine's noise).
+//! The gather runs in AVX2 ([`avx2::gather`], chosen at run time: 31 eight-lane gathers by byte
+//! offset, optional attributes masked by the lanes' mesh flags); the portable gather is the fallback,
+//! and both are tested against the scalar function. Instance transforms are still read per instanced
+//! lane (`gather_instance`). measurements: `docs/perf.md#surface-lanes-surfacelanesrs`.
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]

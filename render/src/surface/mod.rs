@@ -9,14 +9,7 @@
 //! out-of-line `array::map` closure calls), no `array::map` left (its instantiation stayed out of line
 //! and the call spilled every live register), vertex indices bounds-checked once, and an AVX2 clone
 //! (`multiversion`; baseline SSE2 spent a quarter of the ~590 instructions per hit on `movaps` copies).
-//! Callgrind, 1 thread, 120×80, 8 spp, instructions in `surface` (self, inlined code included) and of
-//! the whole process:
-//!
-//! | scene | `surface` | scalar process | wavefront process |
-//! |---|---|---|---|
-//! | tractor | 41.6 M → 33.7 M (−19 %) | 538.5 M → 530.5 M (−1.5 %) | 409.2 M → 401.2 M (−2.0 %) |
-//! | shading-heavy | 54.2 M → 45.2 M (−17 %) | 970.3 M → 961.1 M (−0.9 %) | 760.5 M → 751.5 M (−1.2 %) |
-//! | simple | 10.9 M → 9.0 M (−17 %) | 191.7 M → 188.9 M (−1.5 %) | 147.6 M → 144.8 M (−1.9 %) |
+//! Measurements: `docs/perf.md#surface-reconstruction-surfacemodrs`.
 //!
 //! Kept out: `0 < 1/|v| < ∞` in place of glam's `is_finite() && > 0` in the three normalizations
 //! (the same answer, but LLVM compiled it to 0.9 M more instructions on shading-heavy); a shared

@@ -5,60 +5,16 @@
 //! the pool is already ordered by pixel and then sample: accumulation reads it front to back.
 //!
 //! Eight paths at a time: their keys are laid out in lanes, the pixel jitter comes from
-//! [`sampler_lanes::pair_lanes`] (from seeds hashed once per pixel) and the rays and cones from [`camera::camera_ray_lanes`], both
+//! [`crate::sampler::lanes::pair_lanes`] (from seeds hashed once per pixel) and the rays and cones from [`camera::camera_ray_lanes`], both
 //! bit-exact against the scalar film loop's `sample_2d`, `generate_ray` and `pixel_cone` (tested in
 //! their modules on random inputs; the equivalence tests compare whole images).
 //!
-//! Before, each path ran the scalar film loop's code: `sample_2d` (hashing the pair seed's (seed,
-//! pixel, vertex) prefix, the Sobol table lookups and three Owen scrambles), `generate_ray` and
-//! `pixel_cone`, one path at a time: ~350 instructions per camera ray. Now (instructions per ray,
-//! tractor): jitter lanes 21, ray and cone lanes 18, key walk 20, the 92-byte [`RayState`] writes
-//! 40. The camera has no lens and no pixel filter, so there is no trigonometry here: the `sincosf`
-//! of the profiles is called by the light and BSDF sampling kernels (callgrind callers, tractor:
-//! `light_lanes::sample_lanes` 4.0 M, `bsdf_lanes::sample_lanes` 3.6 M instructions inside it).
-//!
-//! | measure (wavefront, 1 thread) | tractor | shading-heavy | simple |
-//! |---|---|---|---|
-//! | `camera_rays` instructions, inclusive (callgrind, 120×80, 8 spp: 76 800 rays) | 26.87 M → 7.65 M | 26.87 M → 7.65 M | 26.87 M → 7.65 M |
-//! | whole process instructions, this and the vertex lanes ([`sampler_lanes`]) | 556.5 M → 521.8 M (−6.2 %) | 943.3 M → 908.2 M (−3.7 %) | 213.2 M → 191.1 M (−10.4 %) |
-//! | perf share of the camera stage (320×213, 16 spp; contended) | 5.95 % → 2.1 % | 2.83 % → 1.2 % | |
-//!
-//! `bench integrators` (wavefront speed-up over scalar, CPU s, 3 runs each, contended):
-//! tractor 1.25–1.31× → 1.31–1.44×, shading-heavy 1.00–1.04× → 1.02–1.16×, simple 1.22–1.23× →
-//! 1.32–1.58×.
-//!
-//! The perf share after is the sum of `sample_2d_lanes`, `camera_ray_lanes`, `camera_rays` and its
-//! state writes.
-//!
-//! # The jitter's seeds once per pixel, keys a batch ahead
-//! `sample_2d_lanes` still took more of the simple scene's samples than `vertex_lanes` (perf,
-//! 320×213, 16 spp, 1 thread: 3.4 % against 1.6 %) although it ran 21 instructions a ray: a third
-//! of its samples sat on its first vector load. The keys were written lane by lane (scalar stores)
-//! just before; a vector load cannot be forwarded from eight pending stores and waits for them to
-//! reach the cache. Now the keys of [`BATCH`] groups are written before the first group runs, and
-//! the jitter's pair seeds (five of its seven hashes, a chain of ten dependent `vpmulld`s) are
-//! hashed once per pixel, eight pixels of a tile row at a time
-//! ([`sampler_lanes::pair_seed_lanes`]), and carried in lanes to [`sampler_lanes::pair_lanes`].
-//! Hashing them per pixel in scalar code instead (first version) took more instructions than it
-//! saved at 8 spp (+0.4 M on the simple scene) and no time at 16 spp.
-//!
-//! | measure (wavefront, 1 thread) | tractor | shading-heavy | simple |
-//! |---|---|---|---|
-//! | `camera_rays` instructions, inclusive (callgrind, 120×80, 8 spp) | 7.65 M → 7.83 M | 7.65 M → 7.83 M | 7.65 M → 7.83 M |
-//! | jitter kernel instructions (`sample_2d_lanes` → `pair_lanes`) | 1.63 M → 0.87 M | 1.63 M → 0.87 M | 1.63 M → 0.87 M |
-//! | whole process instructions (with [`super::accumulate`]'s changes) | 391.67 M → 390.65 M | 644.38 M → 643.35 M | 143.10 M → 141.85 M (−0.9 %) |
-//!
-//! Perf, simple, 1280×852, 16 spp, 1 thread, two runs each (contended): jitter kernel 3.02 / 2.91 %
-//! → 1.77 / 1.62 %; the camera stage (jitter, ray lanes, state writes, `camera_rays`) 7.65 / 7.39 %
-//! → 7.15 / 6.91 % (the per-pixel hashing and the batch bookkeeping moved into `camera_rays`: 0.8
-//! → 1.5 %). Every image is the same bytes as before (EXRs of all three bench scenes, both
-//! integrators, compared with `cmp`).
-//!
-//! Left as they are: the 92-byte [`RayState`] writes (~37 instructions a ray, ten scalar
-//! load-store pairs and six constant stores: already tight, and bound by the stores into the
-//! 377 KB pool rather than by instructions; 1.6–1.8 % of the simple scene's samples), and
-//! `camera_ray_lanes` (2.1–2.4 %: its three `vdivps` must stay divisions to equal the scalar
-//! `generate_ray` bit for bit).
+//! The keys of [`BATCH`] groups are written before the first group runs (a vector load cannot be
+//! forwarded from eight pending scalar stores), and the jitter's pair seeds are hashed once per
+//! pixel, eight pixels of a tile row at a time ([`crate::sampler::lanes::pair_seed_lanes`]). Left as
+//! they are: the 92-byte [`RayState`] writes (bound by the stores into the pool, not by
+//! instructions) and `camera_ray_lanes`' three divisions (needed to equal `generate_ray` bit for
+//! bit); measurements: `docs/perf.md#camera-stage-wavefrontgeneraters`.
 
 use super::{Context, RayState, Worker};
 use crate::camera::{self, CameraLanes, RayLanes};

@@ -24,7 +24,7 @@ use texture::Touch;
 /// nothing measurable; the batch is what the area-light kernel tests eight rays at a time.
 const BATCH: usize = emission_lanes::MAX_RAYS;
 
-/// Intersects every queued ray, one ray at a time: packets ([`crate::accel::packet`]) did not pay here.
+/// Intersects every queued ray, one ray at a time: packets did not pay here (ARCHITECTURE.md).
 /// Then adds the emission each ray found ([`emission`]), batch by batch, so that `--stats` charges
 /// that to shading as the scalar integrator does (timing each ray's two parts would put two clock
 /// reads per ray into the figures: they inflated the simple scene's shading share from 5 % to 33 %;

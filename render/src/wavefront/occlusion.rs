@@ -1,6 +1,6 @@
 //! Stage 5: occlusion. Reads the occlusion queue and the shadow-ray side table; adds the contribution of
 //! every unoccluded light sample to its path. One ray at a time: any-hit packets
-//! ([`crate::accel::packet::any_packet`]) lost here (see [`crate::accel::packet`]).
+//! lost here (ARCHITECTURE.md).
 
 use super::{prefetch, Context, Worker};
 use crate::path::RayCounts;

@@ -1,6 +1,6 @@
 //! Software prefetch of side-table entries read by queue order: the stages walk their queue in
 //! sorted (shade) or shading (intersect, occlusion) order, so each path's state, hit and shadow ray
-//! is a random access into a 4096-entry table (`RayState` alone is 368 KiB), a miss the hardware
+//! is a random access into a [`super::POOL_PATHS`]-entry table (2048: `RayState` alone is 184 KiB), a miss the hardware
 //! prefetchers cannot predict. The queue tells us which entries come next, so a stage asks for them
 //! a few queue positions ahead and the loads of the entry it works on find them in cache.
 //!

@@ -6,181 +6,36 @@
 //! material (the queue is grouped by material), in these phases:
 //! 1a. the run's surfaces (the ones the sort key kept, else built together in lanes,
 //!    [`crate::surface::lanes`]), then the
-//!    material program over the run in lanes ([`material_lanes::evaluate_lanes`]; a lone hit runs
+//!    material program over the run in lanes ([`crate::shading::lanes::evaluate_lanes`]; a lone hit runs
 //!    the scalar program);
 //! 1. per hit: stochastic transparency, the normal map, emission at the hit (the depth limit ends
 //!    paths here), then its shading inputs, normals and sampler keys written straight into lane `k`
 //!    of the AoSoA [`ScatterGroup`];
 //! 2. as soon as the group holds eight points (and for the queue's last ones), its lane kernels:
-//!    the vertex's random numbers ([`sampler_lanes`]), the BSDFs ([`bsdf_lanes::from_inputs_lanes`])
-//!    and the first-hit albedos, the ray origins off the surfaces ([`lanes::offset_origin_lanes`]),
-//!    the light sample ([`light_lanes::sample_lanes`]; textured emitters per lane), the BSDF towards
-//!    it ([`bsdf_lanes::eval_lanes`]), the MIS weight ([`lanes::weigh_lanes`]; kept samples enter
-//!    the occlusion queue), the BSDF sample ([`bsdf_lanes::sample_lanes`]) and the throughput update
-//!    with Russian roulette ([`roulette::continue_lanes`]); surviving paths enter the next ray queue.
+//!    the vertex's random numbers ([`crate::sampler::lanes`]), the BSDFs ([`crate::bsdf::lanes::from_inputs_lanes`])
+//!    and the first-hit albedos, the ray origins off the surfaces ([`crate::accel::ray::offset_origin_lanes`]),
+//!    the light sample ([`crate::lights::lanes::sample_lanes`]; textured emitters per lane), the BSDF towards
+//!    it ([`crate::bsdf::lanes::eval_lanes`]), the MIS weight ([`crate::lights::mis::weigh_lanes`]; kept samples enter
+//!    the occlusion queue), the BSDF sample ([`crate::bsdf::lanes::sample_lanes`]) and the throughput update
+//!    with Russian roulette ([`crate::path::roulette::continue_lanes`]); surviving paths enter the next ray queue.
 //!
 //! Nothing is transposed between phases 1 and 2: phase 1 writes each hit's values into its lane
 //! (they are at hand there), and the group (~3.5 KiB with its kernels' outputs) is consumed while
-//! it is still in L1. See the module docs of [`super`] for what each step saved.
+//! it is still in L1.
 //!
-//! # Phase 1 run by run (was: chunks of 256 hits)
-//! Phase 1 used to take the queue in chunks of 256 hits, one pass per step over the chunk: every
-//! surface built and pushed as an `Option<Surface>` (~250 bytes) into the worker's surface table,
-//! then the programs into a per-chunk `Vec<Option<ShadingInputs>>` (resized and rewritten per
-//! chunk), then per hit. A chunk's surfaces (~64 KiB) left L1 between the passes, and each path's
-//! state, hit and first-hit record were fetched again by sorted index in each pass. Now each run
-//! of at most eight hits goes through every step before the next starts: its surfaces live on the
-//! stack, its inputs in an 8-entry array, its path states stay in L1 from the surface to the
-//! scatter group. The material bucketing and the runs read a per-path material table the sort-key
-//! pass fills ([`super::sort::group_by_material`]) instead of the hit and the triangle's material
-//! by sorted index. Phase 2's kernel outputs live with the group instead of being zeroed on the
-//! stack per group, and the first-hit test reads the first-hit table only at bounce 0.
-//!
-//! Cachegrind, whole process, wavefront, 120×80, 8 spp, 1 thread (instructions; L1 data misses,
-//! read + write):
-//!
-//! | step | shading-heavy | tractor | simple |
-//! |---|---|---|---|
-//! | before | 945.9 M; 4.66 M | 558.3 M; 2.83 M | 214.0 M; 0.98 M |
-//! | phase 1 run by run + per-path material table | 939.2 M; 4.40 M | 551.7 M; 1.99 M | 212.9 M; 0.76 M |
-//! | + kernel outputs kept with the group, first-hit read at bounce 0 only | 937.3 M; 4.40 M | 549.8 M; 1.95 M | 212.6 M; 0.76 M |
-//!
-//! Phase 1's own lines (`shade::shade` in this file) went from 548 k to 230 k L1 read misses on
-//! the tractor (shading-heavy 551 k → 374 k, simple 101 k → 27 k) and from 114 k to 14 k write
-//! misses; `memcpy`'s write misses fell from 354 k to 181 k (tractor; simple 93 k → 32 k): what
-//! it still copies are the run's surfaces and inputs onto the stack (L1) and the sort key's kept
-//! surfaces (below). `memset` fell 5.18 M → 3.95 M instructions (tractor).
-//!
-//! Timed (contended: load average ~15 on the 2 cores; `bench integrators`, 320×213, 16 spp, before
-//! and after alternating, 3 runs each), the wavefront's CPU-time speed-up over the scalar
-//! integrator: tractor 1.29 / 1.29 / 1.34× before, 1.44 / 1.27 / 1.29× after; shading-heavy
-//! 1.16 / 0.96 / 1.01× before, 1.13 / 1.07 / 1.09× after; simple 1.20 / 1.22 / 1.13× before,
-//! 1.28 / 1.30 / 1.13× after. `perf` (1 thread, 320×213, 16 spp, one run each): `shade::shade`'s
-//! own samples 7.5 % → 4.0 % of the tractor's wavefront render, 6.7 % → 5.8 % on shading-heavy;
-//! `memset` 0.78 % → 0.28 % and 0.72 % → 0.26 %; `memmove` 2.2 % → 2.7 % and 1.0 % → 1.5 % (the
-//! stack copies below, L1 hits).
-//!
-//! What is left: the shading-heavy scene keeps a surface per textured hit from the sort-key pass
-//! (~90 k surfaces of ~250 bytes, ~140 of them curve-hit fields a triangle never uses),
-//! written in one stage and read back by sorted index in this one: ~414 k write and ~370 k read
-//! misses. Rebuilding those surfaces here (onto the stack, like the others) instead of keeping
-//! them was measured again and lost: L1 data misses −12 % (shading-heavy 4.40 M → 3.87 M, tractor
-//! 1.95 M → 1.72 M) for +5.6 % and +4.1 % instructions (937.3 M → 989.9 M, 549.8 M → 572.2 M):
-//! a surface costs ~500 instructions there (instance transforms, uv footprint). What `memcpy`
-//! still costs in this stage are the copies of each built surface and of the run's inputs onto
-//! the stack (`Scene::surface` and `evaluate_lanes` return by value; L1-resident, ~30
-//! instructions each). `Shading::sort_key` clears its register file per call (`memset`, 4.4 M
-//! instructions on shading-heavy; `shading.rs`).
-//!
-//! # Written in place (was: returned by value)
-//! The run's built surfaces and shading inputs now live in [`RunSlots`], one set per stage:
-//! [`material_lanes::evaluate_lanes`] writes each lane's inputs where [`prepare`] reads them
-//! (it returned a 640-byte array, copied by a `memcpy` call per group), a lone hit's scalar
-//! program writes lane 0 only (it was broadcast into all eight lanes), and each surface is
-//! assigned straight into its slot (the per-run array of surfaces is no longer cleared per run).
-//! Together with the escaped rays' dome and distant lights walked once per batch
-//! ([`super::intersect`]), callgrind (whole process, wavefront, 120×80, 8 spp, 1 thread):
-//!
-//! | scene | instructions | `memcpy` instructions | escaped emission (inclusive) |
-//! |---|---|---|---|
-//! | tractor | 391.7 M → 383.4 M (−2.1 %) | 9.07 M → 5.42 M | 8.02 M → 3.33 M |
-//! | shading-heavy | 644.5 M → 635.4 M (−1.4 %) | 11.25 M → 7.51 M | 7.82 M → 3.24 M |
-//! | simple | 143.1 M → 138.8 M (−3.0 %) | 2.42 M → 1.75 M | 6.06 M → 1.73 M |
-//!
-//! `memcpy` calls from this stage fell from 141 k to 51 k on the tractor (from 92 k to none on
-//! shading-heavy); what is left are the surfaces `Scene::surface` returns by value (the compiler
-//! does not build them in their slot) and the sort key's kept surfaces (pushed into the worker's
-//! table, [`super::intersect::sort_keys`]). `perf` (1 thread, 320×213, 16 spp, contended, % of
-//! the wavefront's samples): `memmove` 3.09 → 2.17 % (tractor), 1.91 → 1.15 % (shading-heavy),
-//! 3.31 → 2.41 % (simple); escaped emission 1.98 → 0.37 %, 0.80 → 0.32 %, 3.10 → 0.80 %.
-//! `bench integrators` (contended, 3 runs each, alternating), best wavefront CPU s: tractor
-//! 0.546 → 0.536, shading-heavy 1.082 → 0.999, simple 0.180 → 0.168; speed-up over scalar
-//! 1.78 / 1.52 / 1.48× → 1.44 / 1.69 / 1.56× (tractor), 1.28 / 1.45 / 1.48× → 1.36 / 1.51 /
-//! 1.47× (shading-heavy), 1.49 / 1.77 / 1.69× → 1.75 / 1.59 / 1.77× (simple): within the noise
-//! of the loaded machine. Images unchanged (EXR bytes equal before and after on all three blobs).
-//! With the sort key's level from the footprint's exponent as well (`shading.rs`), a second
-//! alternating set (contended): best wavefront CPU s 0.535 → 0.516 (tractor), 0.981 → 0.993
-//! (shading-heavy), 0.185 → 0.172 (simple); speed-up over scalar 1.61 / 1.69 / 1.65× → 1.73 /
-//! 1.65 / 1.67×, 1.48 / 1.45 / 1.36× → 1.42 / 1.56 / 1.51×, 1.62 / 1.56 / 1.62× → 1.75 / 1.77 /
-//! 1.67×.
-//!
-//! Lost (kept out): putting the next ray queue and the occlusion queue back in pool order after
-//! shading (a bitmap over the pool, [`u32::trailing_zeros`] walk), so the intersect and occlusion
-//! stages read path states and shadow rays in memory order and neighbouring pixels' rays traverse
-//! together: +0.3 / +0.9 / +0.2 % instructions (shading-heavy / tractor / simple), L1 data misses
-//! −2.1 / +0.1 / +0.4 %; the BVH traversal missed L1 slightly *more* (closest-hit blocks 224 k →
-//! 232 k on shading-heavy): bounce rays of neighbouring pixels are not coherent enough to share
-//! nodes.
-//!
-//! # Memory stalls: prefetch by queue order, and the first-hit store
-//! `perf` (1 thread, 320×213, 16 spp, contended; % of the wavefront's samples) put this stage's own
-//! samples (`shade::shade`, [`prepare`] inlined) at 4.9 % on shading-heavy and 7.5 % on the
-//! tractor, on two kinds of line. (1) The first reads of `w.hits[i]` / `w.states[i]` by sorted
-//! index: cache misses. [`Lookahead`] now prefetches ([`super::prefetch`]) the path states, hits
-//! and surface slots 24 queue positions ahead and the kept surfaces and (at a first bounce) the
-//! first-hit records 16 ahead; the same is done one traversal ahead in `intersect::closest` and
-//! `occlusion::any_hit` (inlined into `wavefront::render`, where its read of the shadow ray and the
-//! radiance update were most of that function's 2.8 %). (2) On the tractor, 20–30 % of the stage's
-//! samples sat on the store of the first-hit record: the `Option<FirstHit>` was built on the stack
-//! with 4- and 8-byte stores and copied out with 16-byte loads, which store forwarding cannot
-//! serve; it is now written field by field. After: `shade::shade` 2.7 % (shading-heavy), 6.1 %
-//! (tractor); `intersect::closest` 3.15 → 1.5 % and `wavefront::render` 2.84 → 0.87 % (+
-//! `occlusion::any_hit` out of line, 0.45 %) on shading-heavy. Images unchanged (EXR bytes equal on
-//! all three bench blobs). Cachegrind does not model prefetches, so it sees only their cost: +1.7 /
-//! +2.6 / +1.9 % instructions (shading-heavy / tractor / simple, 120×80, 8 spp: 543.7 M → 552.9 M,
-//! 334.5 M → 343.2 M, 132.5 M → 135.0 M) and D1 misses +3.3 / +1.5 / +0.4 % (the look-ahead's own
-//! loads of the surface slots and bounce counts). Timed (`perf stat` task-clock, 1 thread, 320×213,
-//! 16 spp, contended, alternating runs; ms): all prefetches on / all off in one build, 6 runs each,
-//! shading-heavy median 918 / 961 (−4.5 %, min 910 / 923), tractor 468 / 467, simple 179 / 182;
-//! each of the three sites alone came out between the two on shading-heavy. Before / after builds,
-//! 8 runs: shading-heavy median 890 / 864 (min 843 / 826), tractor 465 / 468, simple 167 / 169. A
-//! search over the distances (8/16 to 32/64) drowned in the machine's noise.
-//!
-//! # The glue between the path states and the lanes
-//! What moves each hit's data between the AoS path states and the lanes, cut where callgrind showed
-//! it (`--dump-instr=yes`, line level): [`prepare`] checks its lane once (`assert!(k < LANES)`)
-//! instead of once per column store; [`scatter`] clamps its point count to `LANES` so its lane
-//! loops index the group's columns unchecked, runs the first-hit albedo loop only when the group
-//! holds a first hit (`ScatterGroup::firsts`), asks whether the scene has a textured dome once per
-//! group instead of per lane, and hashes the shadow rays' pass-through seeds eight at a time
-//! ([`shadow_seed_lanes`], AVX2; two scalar `hash_combine` chains per kept shadow ray were
-//! 1.78 M instructions on shading-heavy); [`run`] resolves each member's surface (kept or built)
-//! once instead of per use; [`super::prefetch::entry`] asks for one line for an entry no larger
-//! than its alignment (the surface slots). Callgrind, wavefront, 120×80, 8 spp, 1 thread, before →
-//! after (images byte-equal on all three blobs):
-//!
-//! | scene | whole process | `shade` inclusive | `scatter` inclusive | `shade` + `scatter` self |
-//! |---|---|---|---|---|
-//! | shading-heavy | 499.6 M → 496.7 M (−0.58 %) | 110.6 M → 107.7 M | 64.06 M → 61.52 M | 22.93 M → 20.99 M |
-//! | tractor | 336.8 M → 333.7 M (−0.92 %) | 92.2 M → 89.1 M | 41.27 M → 38.79 M | 26.19 M → 24.19 M |
-//! | simple | 133.1 M → 132.7 M (−0.34 %) | 19.01 M → 18.56 M | 7.50 M → 7.18 M | 5.40 M → 5.02 M |
-//!
-//! Then [`super::intersect::sort_keys`] with the per-path tables sliced to the pool's length (one
-//! bounds check per path index instead of one per table; [`super::intersect::keep_surfaces`]
-//! borrows only the fields it writes): whole process 496.7 M → 495.1 M (shading-heavy), 333.7 M →
-//! 332.6 M (tractor), 132.65 M → 132.45 M (simple); images byte-equal. Then
-//! [`super::prefetch::entry`] without its bounds check (a prefetch past a table is harmless):
-//! 495.1 M → 493.2 M, 332.6 M → 330.7 M ([`Lookahead`] 4.34 M → 3.46 M), 132.45 M → 131.90 M.
-//! In all, this section: shading-heavy 499.6 M → 493.2 M (−1.3 %), tractor 336.8 M → 330.7 M
-//! (−1.8 %), simple 133.1 M → 131.9 M (−0.9 %). Task-clock of the whole section (shading-heavy,
-//! 320×213, 16 spp, 1 thread, 10 alternating runs, contended): median 1016 → 997 ms, min 854 →
-//! 814 ms.
-//!
-//! Timed (`perf stat` task-clock, shading-heavy, 320×213, 16 spp, 1 thread, 10 alternating runs,
-//! contended, ms): before median 987 (min 845), after median 946 (min 899): inside the noise.
-//! `bench integrators` (2 threads, contended, 3 runs each, alternating), wavefront speed-up over
-//! scalar, before / after: shading-heavy 2.06 / 2.08 / 1.77× and 1.95 / 1.87 / 2.20× (shading +
-//! integration 2.46 / 2.50 / 2.01× and 2.33 / 2.28 / 2.60×), tractor 1.84 / 2.03 / 1.58× and 1.97 /
-//! 2.26 / 2.23×, simple 1.82 / 1.67 / 1.77× and 1.86 / 1.68 / 1.73×: also inside the noise.
-//!
-//! Measured and kept out: counting the light lanes in the light loop instead of over `has_light`
-//! afterwards (+0.6 M instructions in `scatter`: the count over the array vectorises); prefetching
-//! each path's shadow-ray slot in [`Lookahead`] (its store in `scatter` is the function's hottest
-//! `perf` line, a store miss): task-clock medians 1064 (without) / 1030 (with) ms, minima 834 /
-//! 868, 10 runs each: no win the machine could show, for two more prefetches per hit. The
-//! [`Lookahead`] itself (4.8 M instructions on shading-heavy, 1 % of the process) against none:
-//! medians 1064 / 1093 ms, minima 834 / 843 (10 alternating runs, contended): kept, as in the
-//! earlier measurement above (−4.5 %).
+//! Design points, each measured (`docs/perf.md#shade-stage-wavefrontshaders`):
+//! - Run by run, not in chunks of 256 hits: a run's surfaces, inputs and path states stay in L1 from
+//!   the surface to the scatter group; the material bucketing reads the per-path material table the
+//!   sort-key pass fills ([`super::sort::group_by_material`]).
+//! - Written in place: a run's surfaces and shading inputs live in [`RunSlots`], where
+//!   [`crate::shading::lanes::evaluate_lanes`] writes and [`prepare`] reads (no by-value returns).
+//! - [`Lookahead`] prefetches ([`super::prefetch`]) path states, hits and surface slots 24 queue
+//!   positions ahead and kept surfaces and first-hit records 16 ahead; the first-hit record is
+//!   written field by field (a stack-built `Option<FirstHit>` copied out defeated store forwarding).
+//! - The shadow rays' pass-through seeds are hashed eight at a time ([`shadow_seed_lanes`]).
+//! - Kept out: rebuilding the sort key's kept surfaces here (−12 % L1 misses, +4–6 % instructions);
+//!   putting the next ray and occlusion queues back in pool order (no coherence to win); a prefetch
+//!   of each path's shadow-ray slot (no measurable win).
 
 use super::{prefetch, sort, Context, ShadowRay, Worker};
 use crate::accel::offset_ray_origin;

@@ -24,52 +24,10 @@
 //! tests under `qemu-x86_64 -cpu Nehalem`/`SandyBridge`, where the dispatch test asserts the portable
 //! path was picked.
 //!
-//! # Where the instructions went, and what cut them
-//! Callgrind, wavefront render, 120×80, 8 spp, 1 thread, shading-heavy (512² sRGB texture,
-//! power of two, MoonRay filter; 11,443 calls of eight lanes): `moonray_lanes` took 52.8 M
-//! instructions inclusive (≈ 4,600 a call), `levels` 10.3 M of them. Per tap per lane the old loop
-//! looked up a two-entry layout cache, matched the wrap mode twice, floored twice through branches,
-//! tested ranges and multiplied out the tile address (`float.rs` 7.2 M, `layout.rs` 4.4 M,
-//! `sample.rs` 16.2 M), then decoded each texel through a `match` on the channel count.
-//! - The addressing as branch-free lane loops (wrap mode matched once per call, power-of-two
-//!   remainders as masks, every lane's level geometry computed, no cache) compiled for AVX2: 46.5 M.
-//!   LLVM vectorized little of it (the `floor`s stayed scalar: `float.rs` 8.3 M), and on the
-//!   baseline target the same loops took 8 % more instructions than the per-lane addressing (a
-//!   probe of 20,000 groups, 512² RGBA sRGB, mostly minifying: 105.0 M → 113.7 M), so they were
-//!   dropped for the intrinsics below. The same probe after this change: portable 104.4 M, AVX2
-//!   35.1 M (−67 %).
-//! - The addressing in AVX2 intrinsics (`vroundps` floors, variable shifts for the level sizes, one
-//!   gather of the level bases) and the 8-bit texel reads as `vpgatherdd` plus one `vgatherdps` from
-//!   the sRGB table per colour channel: 20.3 M (addresses 4.3 M, texel gather 2.6 M, `levels` with
-//!   its eight libm `log2f` calls ≈ 5.4 M, the blend and the rest ≈ 8 M); without the offset copy on
-//!   the AVX2 path 19.8 M; with the footprint lengths of `levels` in intrinsics (LLVM had left the
-//!   sixteen square roots scalar) 18.7 M (−65 %). Whole wavefront render: 636.8 M → 602.6 M
-//!   (−5.4 %); tractor 365.5 M → 353.2 M (−3.4 %, `moonray_lanes` 20.4 M → 8.2 M); simple
-//!   (untextured) 135.6 M either way. Images byte-identical to before on all three. Callgrind
-//!   counts a gather as one instruction, so time it too: `bench integrators` (320×213, 16 spp,
-//!   2 threads, contended: load 3–5, three runs each, before and after alternating), texturing phase
-//!   of the wavefront on shading-heavy 0.149/0.118/0.120 CPU s before against 0.084/0.082/0.088 s
-//!   after (the 19.8 M build), texturing speed-up over the scalar integrator 1.14/1.76/1.53× against
-//!   1.82/2.23/1.97×; whole-render speed-ups moved within their noise (1.28–1.42× against 1.37–1.40×).
-//!
-//! Then the levels and the blend (callgrind, same scene and settings, 11,443 calls): `levels` called
-//! glibc's `log2f` per lane (`__log2f_fma` 2.9 M) and floored, clamped and converted lane by lane
-//! (≈ 1.2 M); the decoded taps went through a 512-byte `[tap][channel][lane]` array returned in an
-//! `Option` (a `memcpy` call, 0.87 M) into the lane-loop `blend` (≈ 1.7 M).
-//! - The mip level's `log2` is now ours ([`super::log2`], correctly rounded on every input
-//!   tested), used by the scalar `mip_level` too, so the AVX2 `levels` computes it in registers
-//!   (`f64` series on two halves) with the level pair: `levels` 1.46 M; `moonray_lanes` 18.7 M →
-//!   14.2 M. The scalar images change where glibc's `log2f` was an ulp off (bench scenes,
-//!   320×213, 16 spp, scalar integrator: shading-heavy 35 of 272,640 beauty samples, max
-//!   |diff| 1.2e-7, mean 3.2e-12; tractor and simple byte-identical).
-//! - On the AVX2 path the gather, the decode and the blend are one function
-//!   (`lanes_avx2::gather_blend_u8`): the taps stay in registers and a group with no magnifying
-//!   lane skips the bilinear half: `moonray_lanes` 14.2 M → 9.5 M (−49 % from 18.7 M).
-//!
-//! Left as they are: the sort key's mip level (`Shading::sort_key`) is the rounded level read off
-//! the exponent, not the fraction the blend needs, so it cannot stand in for `levels`; and the
-//! bench scenes' programs make one texture lookup per group, so there is no second lookup to share
-//! a level computation with.
+//! The mip level's `log2` is ours ([`super::log2`], used by the scalar `mip_level` too), so the AVX2
+//! `levels` computes it in registers; on the AVX2 path the gather, the decode and the blend are one
+//! function (`lanes_avx2::gather_blend_u8`). The sort key's mip level cannot stand in for `levels`
+//! (it is the rounded level, not the fraction the blend needs); measurements: `docs/perf.md#texture-lane-lookups-texturesrcsamplelanesrs`.
 
 // Lane loops index several columns by the same lane number.
 #![allow(clippy::needless_range_loop)]

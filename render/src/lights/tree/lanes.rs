@@ -16,57 +16,11 @@
 //! [`node::choose`], `pmf *= w / sum`, `u` rescaled and clamped): the result equals `select` bit
 //! for bit (the tests check it for 1 to 300 lights; the bench renders are byte-identical).
 //!
-//! Measured on the shading-heavy bench scene (48 sphere lights, dome, sun; AMD EPYC, contended),
-//! against eight scalar `select` calls per group:
-//! - timed in one process, interleaved, 10⁵ groups of random points over the scene, 7 rounds:
-//!   eight `select` calls 292–311 ns a group; one loop per level (each body a whole node step)
-//!   243–312 ns; the two loops per level 202–250 ns (about −25 %);
-//! - perf, wavefront, one thread, 320×213, 16 spp, share of samples, 3 runs each, alternated:
-//!   `descend` + `select` 4.85 / 5.19 / 5.35 % → `descend_interleaved` + `select_lanes` 2.79 /
-//!   3.42 / 3.36 %; with the kernel around them (`light_lanes::sample_lanes`) 7.9–8.3 → 5.3–6.1 %;
-//! - task-clock of that render, 5 runs each, alternated (load average 5–6 on 2 cores, so noisy):
-//!   1214–1389 ms (median 1307) → 986–1334 ms (median 1216);
-//! - callgrind (120×80, 8 spp, one thread): the selection (inclusive) 14.92 → 18.67 M
-//!   instructions (the weights' round trip through memory and the compaction), the render 542.67 →
-//!   544.92 M (+0.4 %): more instructions, less time.
-//!
-//! Then the node step in AVX2 intrinsics (`tree/avx.rs`), the short importance of nodes whose
-//! children all emit in every direction ([`node::omni_importances`]: every node of the bench
-//! scene), and the first choice 8-wide (`first_choice`, `pick`: the slot's `as usize` had taken
-//! about 40 scalar instructions a lane, 4.2 M in all). Callgrind, same settings: the selection
-//! 18.67 → 7.98 M instructions (descents 64,167 node steps: about 226 → 95 instructions a step),
-//! `light_lanes::sample_lanes` inclusive 28.32 → 17.64 M, the render 526.99 → 516.53 M; images
-//! byte-identical. perf, same render, share of samples, 3 runs each, alternated, `-F 20000`:
-//! selection (`descend_interleaved` + `select_lanes` → `select_in`) 3.52 / 3.44 / 3.45 % → 2.10 /
-//! 2.13 / 2.07 %. Tried and dropped: two passes a level again (every lane's weights, then every
-//! lane's choice): 1.90 / 2.13 / 2.00 % against 2.16 / 2.28 / 2.05 % for one pass, within the
-//! noise, and +0.75 M instructions (the weights' round trip through the stack).
-//!
-//! Then (session 2026-11-23 #3) the root for all eight points at once where its children all emit
-//! in every direction (`avx::root_lanes`: the points in the register's lanes, one pass per child,
-//! eight `vdivps` for the group where the per-lane steps made one chain each; the running sums, the
-//! choice and the rescaled `u` vertical, branch-free), the lanes' list from a 256-entry table (mask →
-//! lane bytes) instead of a compare-and-count loop, and in the per-lane step (`avx::step`) the sum
-//! by three swap-and-add steps and the target 8-wide (a shorter chain to the choice) and the
-//! running sum below the choice without the branch on `chosen == 0` (it mispredicted). The root pass
-//! had been left out earlier for its divider cost (eight child passes for about three descending
-//! lanes); it wins because it removes the longest dependent chain and the loop's mispredicted exit
-//! for the level every descending lane visits. Measured, shading-heavy bench scene:
-//! - timed in one process, the frozen 7165985 selection against this one, 10⁵ groups of random
-//!   points in the lights' box grown to twice its size (contended, best of 15 rounds, 4 runs):
-//!   145.5–171.9 → 92.6–132.4 ns a group (best 145.5 → 92.6: −36 %; root pass and table alone
-//!   −19 %);
-//! - callgrind (120×80, 8 spp, one thread): the selection 7.98 → 7.84 M instructions (the gain is
-//!   in latency and mispredictions, not instructions);
-//! - perf, one thread, 320×213, 16 spp, `-F 20000`, 2 runs each, alternated (contended):
-//!   `select_in` 2.37 / 2.53 % → 1.78 / 2.00 %.
-//!
-//! Tried and dropped: the levels below the root vertical as well, while every lane's node is
-//! omnidirectional. Every lane is then at its own node, so each level transposed the centres,
-//! squared radii and powers of the eight lanes' nodes (five 8×8 transpositions, 120 shuffles) and
-//! read each lane's child by its chosen slot: bit-exact, but in the same timing (one process,
-//! 5 runs) the selection took 0.81–0.86 of the frozen 7165985 one's time, against 0.54–0.77 with
-//! the root pass alone.
+//! Kept because measured faster than eight scalar `select` calls: the interleaved levels (more
+//! instructions, less time), the node step in AVX2 intrinsics with the short importance of
+//! omnidirectional nodes ([`node::omni_importances`]), the first choice 8-wide, and the root for all
+//! eight points at once (`avx::root_lanes`: it removes the longest dependent chain). Tried and
+//! dropped: two passes a level, and the levels below the root vertical as well; measurements: `docs/perf.md#light-tree-lanes-lightstreelanesrs`.
 
 #[cfg(doc)]
 use super::node;

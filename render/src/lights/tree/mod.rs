@@ -7,12 +7,9 @@
 //! [`LightBounds`] — box, power φ, emission cone (axis, θ_o, θ_e), two-sidedness — and
 //! [`LightSelector::new`] builds the tree over them once. Lights at infinity (domes, distant lights)
 //! have no bounds: each takes one slot of a uniform first choice, the tree (when it is not empty)
-//! one more slot, as PBRT does. Scenes with lights at infinity only therefore select exactly as the
-//! uniform selection did. Measured on the shading-heavy bench scene (dome, sun, 48 spheres; RMSE at
-//! 160×107 against a 1024-spp reference): one tree slot 0.201 at 16 spp and 0.073 at 64 spp; ⌈√48⌉
-//! tree slots 0.200 and 0.078; one slot per bounded light (the uniform selection's share) 0.295
-//! and 0.134, no better than uniform selection (0.298, 0.136): the sun then gets 1/50 of the
-//! samples. [`LightSelector::select`] turns one uniform number into a light and its
+//! one more slot, as PBRT does (one slot per bounded light instead measured no better than uniform
+//! selection). Scenes with lights at infinity only therefore select exactly as the uniform selection
+//! did. [`LightSelector::select`] turns one uniform number into a light and its
 //! probability at a shading point; [`LightSelector::pmf`] gives the probability any light would
 //! have had there. The scalar integrator and the MIS weights of emission found by BSDF rays go
 //! through these two functions; the wavefront's lane kernel calls [`LightSelector::select_lanes`]
@@ -63,40 +60,7 @@
 //! (`tree/avx.rs`: the weights stay in a register from the importance to the choice, the running
 //! sums are three shuffle-and-add steps, each bit mask of the choice one `vmovmskps`); the
 //! baseline clone and the scalar `descend` and `replay` run the portable functions in
-//! `tree/node.rs`, and the tests hold the two to the same bits. Callgrind (120×80, 8 spp, one
-//! thread, shading-heavy), before → after the intrinsics, the short path and the 8-wide first
-//! choice: wavefront selection 18.67 → 7.98 M instructions; scalar integrator `Lights::sample`
-//! (inclusive, the descent inlined) 33.11 → 30.56 M. Images of both integrators byte-identical.
-//!
-//! Measured (contended machine). RMSE over RGB at 160×107 against a 1024-spp render of the same
-//! build (`bench convergence`, shading-heavy): uniform selection 0.298 at 16 spp and 0.136 at 64
-//! spp; the binary tree 0.2025 and 0.0739; the 8-wide tree 0.2015 and 0.0733 (no worse: the dome and
-//! the sun hold two of the three first-choice slots). Irradiance under 128 floor lights (the
-//! variance test): RMSE 3.65× below uniform selection, the binary tree's 2.37×: the wide node
-//! ranks eight subtrees by their own bounds where the binary tree multiplied looser ones.
-//!
-//! Cost, callgrind instructions (120×80, 8 spp, one thread), binary tree → 8-wide tree:
-//!
-//! | scene | scalar | wavefront |
-//! |---|---|---|
-//! | shading-heavy (48 spheres, dome, sun) | 982.22 → 955.70 M (−2.7 %) | 636.82 → 611.24 M (−4.0 %) |
-//! | tractor (dome, sun: no tree) | 534.42 → 533.95 M | 365.54 → 365.55 M |
-//! | simple (no tree) | 191.61 → 191.53 M | 135.64 → 135.65 M |
-//!
-//! Tractor and simple render the same bytes as before. On shading-heavy the wavefront's
-//! `sample_lanes` (inclusive) went 50.82 → 26.12 M and the scalar `Lights::sample` 58.69 → 33.11
-//! M; the descent itself is 11.7 M for 30 k descents, 64 k node passes. The first form of the
-//! choice (probabilities, then a scan with `if u < cdf { break }`) took 1.6 M fewer instructions
-//! but mispredicted about once a node (callgrind's branch simulator: 82 k mispredictions in the
-//! descent against 18 k; 2.75 → 2.44 M in the whole render). Timed in one process, interleaved,
-//! 10⁶ descents over the ring (contended): the branch-free choice by probabilities took the time of
-//! the scan (170 against 172 ns a descent), the choice by weights 13 % less. perf, shading-heavy, one thread, 320×213, 16 spp, share of samples
-//! (contended, one run each): wavefront `child_probabilities` 5.1 % + `sample_lanes` 4.5–5.2 % (the
-//! descent inlined) → `descend` 2.8 % + `select` 0.9 % + `sample_lanes` 2.0 %; scalar
-//! `child_probabilities` 3.6–4.0 % + `Lights::sample` 3.3–3.5 % → `descend` 2.1 % +
-//! `Lights::sample` 2.1 %. `bench integrators` (CPU s, 320×213, 16 spp, 2 threads, 3 runs each,
-//! before and after interleaved, load average 7 on 2 cores): shading-heavy wavefront 1.20–1.48 →
-//! 1.12–1.34, scalar 1.67–1.98 → 1.68–1.86, speed-up 1.34–1.40× → 1.25–1.51×: within the noise.
+//! `tree/node.rs`, and the tests hold the two to the same bits. measurements: `docs/perf.md#light-tree-lightstreemodrs`.
 
 #[cfg(target_arch = "x86_64")]
 mod avx;
