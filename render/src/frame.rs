@@ -114,9 +114,9 @@ fn render_with_touch<T: texture::Touch + Sync>(
             impl Drop for Merge<'_> {
                 fn drop(&mut self) {
                     if let Ok(mut s) = self.1.lock() {
-                        s.0.add(&self.0.seconds);
-                        s.1.add(&self.0.counters);
-                        s.2.merge(&self.0.clock);
+                        s.0.add(&self.0.stats.seconds);
+                        s.1.add(&self.0.stats.counters);
+                        s.2.merge(&self.0.stats.clock);
                     }
                 }
             }

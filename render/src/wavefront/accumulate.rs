@@ -13,7 +13,7 @@
 //! and tiles are squares, not row bands, so writing them in place from parallel jobs would need
 //! `unsafe` aliasing of the image buffers for that.
 
-use super::Worker;
+use super::PathPool;
 use crate::film::TileResult;
 use crate::path::{FirstHit, RayCounts};
 use glam::Vec3;
@@ -45,9 +45,9 @@ pub struct PixelSum {
 }
 
 /// Resets the sums for a tile of `npix` pixels.
-pub(super) fn begin(w: &mut Worker, npix: usize) {
-    w.pixels.clear();
-    w.pixels.resize(npix, PixelSum::default());
+pub(super) fn begin(film: &mut Vec<PixelSum>, npix: usize) {
+    film.clear();
+    film.resize(npix, PixelSum::default());
 }
 
 /// Adds a finished chunk of `samples` samples per pixel.
@@ -55,10 +55,10 @@ pub(super) fn begin(w: &mut Worker, npix: usize) {
 /// Pixel by pixel over the chunk's runs of `samples` paths (the pool's order), where it first
 /// looked up each path's pixel by a division and two bounds checks (49 instructions a path on the
 /// simple scene).
-pub(super) fn chunk(w: &mut Worker, samples: usize) {
-    let paths = w.states.len();
-    let runs = w.states.chunks_exact(samples).zip(w.first_hits[..paths].chunks_exact(samples));
-    for (p, (states, first_hits)) in w.pixels.iter_mut().zip(runs) {
+pub(super) fn chunk(film: &mut [PixelSum], pool: &PathPool, samples: usize) {
+    let paths = pool.states.len();
+    let runs = pool.states.chunks_exact(samples).zip(pool.first_hits[..paths].chunks_exact(samples));
+    for (p, (states, first_hits)) in film.iter_mut().zip(runs) {
         for (st, first_hit) in states.iter().zip(first_hits) {
             add(p, st.radiance, first_hit);
         }
@@ -69,9 +69,8 @@ pub(super) fn chunk(w: &mut Worker, samples: usize) {
 ///
 /// One pass per output array: collected from a sized iterator, each array is allocated once and
 /// written without the capacity check of a `push` per pixel and array.
-pub(super) fn finish(w: &mut Worker, spp: u32, rays: RayCounts) -> TileResult {
+pub(super) fn finish(pixels: &[PixelSum], spp: u32, rays: RayCounts) -> TileResult {
     let inv = 1.0 / spp as f32;
-    let pixels = &w.pixels;
     TileResult {
         beauty: pixels
             .iter()

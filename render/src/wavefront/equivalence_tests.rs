@@ -489,12 +489,12 @@ fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads:
                         .step_by(threads)
                         .map(|(t, tile)| {
                             let r = super::render(ctx, &mut w, tile);
-                            assert!(w.occlusion.is_empty(), "a tile left shadow rays queued");
+                            assert!(w.queues.occlusion.is_empty(), "a tile left shadow rays queued");
                             (t, r)
                         })
                         .collect();
                     assert_eq!(w.storage(), storage, "rendering grew a queue or pool");
-                    (done, w.clock.shader_evaluations)
+                    (done, w.stats.clock.shader_evaluations)
                 })
             })
             .collect();

@@ -16,7 +16,7 @@
 //! instructions) and `camera_ray_lanes`' three divisions (needed to equal `generate_ray` bit for
 //! bit); measurements: `docs/perf.md#camera-stage-wavefrontgeneraters`.
 
-use super::{Context, RayState, Worker};
+use super::{Context, PathPool, RayState};
 use crate::camera::{self, CameraLanes, RayLanes};
 use crate::film::Tile;
 use crate::path::RayCounts;
@@ -32,17 +32,18 @@ pub(super) fn camera_rays<T>(
     tile: &Tile,
     s0: u32,
     samples: u32,
-    w: &mut Worker,
-    rays: &mut RayCounts,
+    pool: &mut PathPool,
+    queue: &mut Vec<u32>,
+    counts: &mut RayCounts,
 ) {
-    w.states.clear();
-    w.rays.clear();
+    pool.states.clear();
+    queue.clear();
     let n = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0) * samples) as usize;
-    let states = &mut w.states;
+    let states = &mut pool.states;
     camera_paths(ctx, tile, s0, samples, 0..n, |_, st| states.push(st));
-    w.rays.extend(0..w.states.len() as u32);
-    w.first_hits[..w.states.len()].fill(None);
-    rays.camera += w.states.len() as u64;
+    queue.extend(0..pool.states.len() as u32);
+    pool.first_hits[..pool.states.len()].fill(None);
+    counts.camera += pool.states.len() as u64;
 }
 
 /// The camera paths at positions `paths` of the chunk of samples `s0 .. s0 + samples` of `tile`,
@@ -210,17 +211,17 @@ mod tests {
                 touch: &texture::NoTouch,
                 textured: false,
             };
-            let mut w = Worker::new(16, &scene, false);
+            let mut w = crate::wavefront::Worker::new(16, &scene, false);
             for (tile, s0, samples) in [
                 (Tile { x0: 0, y0: 0, x1: 16, y1: 16 }, 0, POOL_PATHS as u32 / 256),
                 (Tile { x0: 32, y0: 16, x1: 37, y1: 23 }, 5, 3),
                 (Tile { x0: 16, y0: 16, x1: 32, y1: 23 }, 7, 1),
             ] {
                 let mut rays = RayCounts::default();
-                camera_rays(&ctx, &tile, s0, samples, &mut w, &mut rays);
+                camera_rays(&ctx, &tile, s0, samples, &mut w.paths, &mut w.queues.rays, &mut rays);
                 let n = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0) * samples) as usize;
-                assert_eq!((w.states.len(), rays.camera), (n, n as u64));
-                assert!(w.rays.iter().copied().eq(0..n as u32));
+                assert_eq!((w.paths.states.len(), rays.camera), (n, n as u64));
+                assert!(w.queues.rays.iter().copied().eq(0..n as u32));
                 let mut i = 0;
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
@@ -236,7 +237,7 @@ mod tests {
                             let mut cone = cam.pixel_cone(d.dot(ctx.sampling.forward));
                             cone.width *= scale;
                             cone.spread *= scale;
-                            let st = &w.states[i];
+                            let st = &w.paths.states[i];
                             assert_eq!((st.pixel, st.sample, st.vertex, st.bounces), (pixel, sample, 0, 0));
                             let bits = |v: Vec3| v.to_array().map(f32::to_bits);
                             assert_eq!(bits(st.origin), bits(o));
@@ -244,7 +245,7 @@ mod tests {
                             assert_eq!(st.cone_width.to_bits(), cone.width.to_bits());
                             assert_eq!(st.cone_spread.to_bits(), cone.spread.to_bits());
                             assert_eq!((st.beta, st.radiance, st.prev_pdf), (Vec3::ONE, Vec3::ZERO, -1.0));
-                            assert!(w.first_hits[i].is_none());
+                            assert!(w.paths.first_hits[i].is_none());
                             i += 1;
                             cases += 1;
                         }

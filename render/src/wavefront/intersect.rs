@@ -8,13 +8,13 @@
 //! and is recorded in `curve_hits`, with [`blob::NONE`] as the triangle of its [`Hit`] (whose `t` is
 //! the curve's, so the cone footprint is taken at the right distance).
 
-use super::{prefetch, sort, Context, Worker};
+use super::{prefetch, sort, Context, KernelScratch, PathPool, WorkerTables};
 use crate::accel::curves::CurveHit;
 use crate::accel::Hit;
 use crate::lights::emission_lanes;
 use crate::scene::Scene;
 use crate::shading::sort_key::{self as key_lanes, KeyInputs, KeyPlan};
-use crate::stats::Phase;
+use crate::stats::{Phase, PhaseClock};
 use crate::surface::lanes as surface_lanes;
 use lanekit::LANES;
 use texture::Touch;
@@ -41,34 +41,39 @@ const BATCH: usize = emission_lanes::MAX_RAYS;
 /// 469 k), but the key pass and the sort added 16 M instructions and 200 k D1 misses (the path
 /// states are then read out of order), so the render ran +2.7 / +4.8 / +6.1 % instructions
 /// (shading-heavy / tractor / simple) and +3 / +7 / +13 % D1 misses.
-pub(super) fn closest<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
+pub(super) fn closest<T: Touch>(
+    ctx: &Context<'_, '_, T>,
+    pool: &mut PathPool,
+    rays: &[u32],
+    shade: &mut Vec<u64>,
+    area_lights: &mut emission_lanes::AreaLightLanes,
+    clock: &mut PhaseClock,
+) {
     let scene = ctx.scene;
-    w.shade.clear();
-    let rays = std::mem::take(&mut w.rays);
+    shade.clear();
     for (b, batch) in rays.chunks(BATCH).enumerate() {
         for (j, &i) in batch.iter().enumerate() {
             // The state and hit slot of the ray after next: one traversal hides their misses.
             if let Some(&next) = rays.get(b * BATCH + j + RAY_LOOKAHEAD) {
-                prefetch::entry(&w.states, next as usize);
-                prefetch::entry(&w.hits, next as usize);
+                prefetch::entry(&pool.states, next as usize);
+                prefetch::entry(&pool.hits, next as usize);
             }
-            let st = &w.states[i as usize];
+            let st = &pool.states[i as usize];
             let hit = scene.accel.closest_hit(st.origin, st.dir, f32::INFINITY);
             let curve = scene.curves.closest_hit(st.origin, st.dir, hit.map_or(f32::INFINITY, |h| h.t));
-            w.hits[i as usize] = match (curve, hit) {
+            pool.hits[i as usize] = match (curve, hit) {
                 (Some(c), _) => {
-                    w.curve_hits[i as usize] = c;
+                    pool.curve_hits[i as usize] = c;
                     Hit { t: c.t, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE }
                 }
                 (None, Some(h)) => h,
                 (None, None) => MISS,
             };
         }
-        w.clock.lap(Phase::Intersect);
-        emission(scene, w, batch);
-        w.clock.lap(Phase::Shading);
+        clock.lap(Phase::Intersect);
+        emission(scene, pool, shade, area_lights, batch);
+        clock.lap(Phase::Shading);
     }
-    w.rays = rays;
 }
 
 /// Queue positions ahead of the ray being traversed whose state and hit slot are prefetched.
@@ -80,17 +85,23 @@ const MISS: Hit = Hit { t: f32::INFINITY, triangle: blob::NONE, b1: 0.0, b2: 0.0
 
 /// The emission each ray of `batch` found: the area lights it crosses before its hit and, when it
 /// escaped, the dome and distant lights. Hits enter the shade queue; escaped paths leave the wave.
-fn emission(scene: &Scene, w: &mut Worker, batch: &[u32]) {
+fn emission(
+    scene: &Scene,
+    pool: &mut PathPool,
+    shade: &mut Vec<u64>,
+    area_lights: &mut emission_lanes::AreaLightLanes,
+    batch: &[u32],
+) {
     // Slices, copied into the closure: their lengths for the bounds checks stay in registers
     // rather than being reloaded through the `Vec`s for every ray.
-    let (states, hits) = (&w.states[..], &w.hits[..]);
+    let (states, hits) = (&pool.states[..], &pool.hits[..]);
     // The kernel reads each ray straight from its path state and hit (no transposed copy).
     let ray = move |j: usize| {
         let i = batch[j] as usize;
         let st = &states[i];
         emission_lanes::Ray { o: st.origin.to_array(), d: st.dir.to_array(), tmax: hits[i].t }
     };
-    let area = w.area_lights.emission(&scene.lights, batch.len(), ray, |j| states[batch[j] as usize].prev());
+    let area = area_lights.emission(&scene.lights, batch.len(), ray, |j| states[batch[j] as usize].prev());
     // One pass over the batch: each path adds its area emission; hits enter the shade queue, and
     // escaped rays are gathered for their dome and distant lights (a second pass that picked them
     // out cost 2.1 M instructions on shading-heavy at 120×80, 8 spp).
@@ -99,13 +110,13 @@ fn emission(scene: &Scene, w: &mut Worker, batch: &[u32]) {
     let mut paths = [0u32; BATCH];
     let mut n = 0;
     for (&i, &area) in batch.iter().zip(area) {
-        let st = &mut w.states[i as usize];
+        let st = &mut pool.states[i as usize];
         st.radiance += st.beta * area;
-        if w.hits[i as usize].t == f32::INFINITY {
+        if pool.hits[i as usize].t == f32::INFINITY {
             (dirs[n], pdfs[n], paths[n]) = (st.dir, st.prev().map(|p| p.1), i);
             n += 1;
         } else {
-            w.shade.push(sort::entry(0, i));
+            shade.push(sort::entry(0, i));
         }
     }
     // The escaped rays' dome and distant lights in a pass of their own, each light once for all of
@@ -120,7 +131,7 @@ fn emission(scene: &Scene, w: &mut Worker, batch: &[u32]) {
         let mut sums = [glam::Vec3::ZERO; BATCH];
         scene.lights.escaped_emission_rays(&dirs[..n], &pdfs[..n], &mut sums[..n]);
         for (&i, &sum) in paths[..n].iter().zip(&sums[..n]) {
-            let st = &mut w.states[i as usize];
+            let st = &mut pool.states[i as usize];
             st.radiance += st.beta * sum;
         }
     }
@@ -150,21 +161,17 @@ pub(super) fn hit_material(scene: &Scene, hit: &Hit, curve: &CurveHit) -> u32 {
 ///
 /// The textured hits' surfaces are built eight at a time ([`surface_lanes`]), in queue order, and
 /// pushed to the kept-surface table in that order.
-pub(super) fn sort_keys<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker) {
+pub(super) fn sort_keys<T: Touch>(
+    ctx: &Context<'_, '_, T>,
+    pool: &mut PathPool,
+    shade: &mut [u64],
+    kernels: &mut KernelScratch,
+    tables: &WorkerTables,
+) {
     let scene = ctx.scene;
-    let Worker {
-        shade,
-        states,
-        hits,
-        curve_hits,
-        materials,
-        surface_slot,
-        textured_materials,
-        surfaces,
-        key_plans,
-        surface_group: group,
-        ..
-    } = w;
+    let PathPool { states, hits, curve_hits, materials, surface_slot, surfaces, .. } = pool;
+    let WorkerTables { textured_materials, key_plans, .. } = tables;
+    let group = &mut *kernels.surface_group;
     // The per-path tables cut to the pool's length: one bounds check of a path index covers them
     // all (each was checked on its own: 1.36 M instructions of checks on shading-heavy).
     let paths = states.len();

@@ -150,48 +150,87 @@ pub struct ShadowRay {
     pub seed: u32,
 }
 
-/// One worker's pools and queues, allocated once (before its first tile) and reused.
+/// One worker's pools and queues, allocated once (before its first tile) and reused. Each stage
+/// takes the parts it reads and writes, never the whole worker.
 pub struct Worker {
+    paths: PathPool,
+    queues: StageQueues,
+    kernels: KernelScratch,
+    tables: WorkerTables,
+    /// Per-pixel running sums of the current tile.
+    film: Vec<accumulate::PixelSum>,
+    /// Stage timers, lane counters and the phase clock.
+    pub stats: WorkerStats,
+}
+
+/// Per-path records, indexed by path (its index in `states`).
+pub(crate) struct PathPool {
     states: Vec<RayState>,
     hits: Vec<Hit>,
     /// Curve and point hits, valid where `hits` holds [`blob::NONE`] as the triangle.
     curve_hits: Vec<crate::accel::curves::CurveHit>,
     first_hits: Vec<Option<FirstHit>>,
+    /// The shadow ray a path waits on (valid while the path is in the occlusion queue).
     shadow: Vec<ShadowRay>,
-    /// Incoherent ray queue being intersected, and the one shade fills for the next wave.
-    rays: Vec<u32>,
-    next_rays: Vec<u32>,
-    /// Shade queue (`key << 32 | index`), its radix scratch, and the per-material buckets.
-    shade: Vec<u64>,
-    scratch: Vec<u64>,
-    material_starts: Vec<u32>,
-    /// Shaded hits waiting for the lane kernels; the first `scatter_points` lanes are in use.
-    scatter: Box<shade::ScatterGroup>,
-    scatter_points: usize,
-    /// The area lights, eight per group, for the emission rays pick up.
-    area_lights: crate::lights::emission_lanes::AreaLightLanes,
-    /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
-    textured_materials: Vec<bool>,
-    /// Per material: how its sort key is computed ([`key_lanes`]).
-    key_plans: Vec<crate::shading::sort_key::KeyPlan>,
-    /// Hits waiting for their surfaces ([`surface_lanes`]), with the kernel's columns (~2.5 KiB,
-    /// allocated once rather than cleared per stage).
-    surface_group: Box<crate::surface::lanes::HitGroup>,
+    /// The material of the path's current hit (written by the sort-key pass in queue order): the
+    /// material bucketing and shading's runs read these 4 bytes (16 KiB for the pool, in L1)
+    /// instead of the 20-byte hit and the triangle's material record, by sorted index.
+    materials: Vec<u32>,
     /// Surfaces reconstructed by the sort-key pass for textured hits (their sort key needs the uv
     /// footprint), used by shading instead of being rebuilt (`surface_slot` indexes it per path,
     /// `u32::MAX`: none kept). Shading builds the other hits' surfaces run by run on its stack.
     surfaces: Vec<crate::surface::Surface>,
     surface_slot: Vec<u32>,
-    /// Per path: the material of its current hit (written by the sort-key pass in queue order):
-    /// the material bucketing and shading's runs read these 4 bytes (16 KiB for the pool, in L1)
-    /// instead of the 20-byte hit and the triangle's material record, by sorted index.
-    materials: Vec<u32>,
+}
+
+/// The queues between the stages: path indices (the shade queue `key << 32 | index`).
+pub(crate) struct StageQueues {
+    /// Incoherent ray queue being intersected, and the one shade fills for the next wave.
+    rays: Vec<u32>,
+    next_rays: Vec<u32>,
+    /// Shade queue, its radix scratch, and the per-material buckets.
+    shade: Vec<u64>,
+    scratch: Vec<u64>,
+    material_starts: Vec<u32>,
+    /// Paths with a pending [`ShadowRay`].
+    occlusion: Vec<u32>,
+}
+
+/// The columns the lane kernels fill and drain, allocated once rather than cleared per stage.
+pub(crate) struct KernelScratch {
+    /// Shaded hits waiting for the lane kernels; the first `scatter_points` lanes are in use.
+    scatter: Box<shade::ScatterGroup>,
+    scatter_points: usize,
+    /// Hits waiting for their surfaces ([`crate::surface::lanes`]), with the kernel's columns
+    /// (~2.5 KiB).
+    surface_group: Box<crate::surface::lanes::HitGroup>,
     /// Register file of the material-program lanes.
     registers: Box<crate::shading::lanes::RegisterLanes>,
-    /// Occlusion queue (path indices with a pending [`ShadowRay`]).
-    occlusion: Vec<u32>,
-    /// Per-pixel running sums of the current tile.
-    pixels: Vec<accumulate::PixelSum>,
+    /// The area lights, eight per group, and the emission kernel's columns.
+    area_lights: crate::lights::emission_lanes::AreaLightLanes,
+}
+
+/// What the worker derives from the scene once, read by the stages.
+pub(crate) struct WorkerTables {
+    /// Per material: its program reads a texture (else its sort key is 0 and is not computed).
+    textured_materials: Vec<bool>,
+    /// Per material: how its sort key is computed ([`crate::shading::sort_key`]).
+    key_plans: Vec<crate::shading::sort_key::KeyPlan>,
+}
+
+/// The parts of a worker the shading stage reads and writes, borrowed apart: the path pool, the
+/// queues (the sorted shade queue in, the next ray queue and the occlusion queue out), the kernel
+/// scratch, the worker's tables and its figures.
+pub(crate) struct StageParts<'w> {
+    paths: &'w mut PathPool,
+    queues: &'w mut StageQueues,
+    kernels: &'w mut KernelScratch,
+    tables: &'w WorkerTables,
+    stats: &'w mut WorkerStats,
+}
+
+/// A worker's figures, merged into the render's statistics when the worker is dropped.
+pub struct WorkerStats {
     /// Stage timers.
     pub seconds: StageSeconds,
     /// Work and lane counters.
@@ -217,32 +256,42 @@ impl Worker {
         let pixels = (tile_size * tile_size) as usize;
         let paths = POOL_PATHS.max(pixels);
         Worker {
-            states: Vec::with_capacity(paths),
-            hits: vec![Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: blob::NONE }; paths],
-            curve_hits: vec![crate::accel::curves::CurveHit::default(); paths],
-            first_hits: vec![None; paths],
-            shadow: vec![ShadowRay::default(); paths],
-            rays: Vec::with_capacity(paths),
-            next_rays: Vec::with_capacity(paths),
-            shade: Vec::with_capacity(paths),
-            scratch: vec![0; paths],
-            material_starts: vec![0; materials + 2],
-            scatter: Box::default(),
-            scatter_points: 0,
-            textured_materials,
-            key_plans: crate::shading::sort_key::plans(&scene.shading, materials),
-            surface_group: Box::default(),
-            area_lights: crate::lights::emission_lanes::AreaLightLanes::new(&scene.lights),
-            surfaces: Vec::with_capacity(paths),
-            surface_slot: vec![u32::MAX; paths],
-            materials: vec![0; paths],
-            registers: Box::default(),
-            // Each path has at most one shadow ray waiting, so pushes never reallocate.
-            occlusion: Vec::with_capacity(paths),
-            pixels: Vec::with_capacity(pixels),
-            seconds: StageSeconds::default(),
-            counters: Counters::default(),
-            clock: crate::stats::PhaseClock::new(phase_stats),
+            paths: PathPool {
+                states: Vec::with_capacity(paths),
+                hits: vec![Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: blob::NONE }; paths],
+                curve_hits: vec![crate::accel::curves::CurveHit::default(); paths],
+                first_hits: vec![None; paths],
+                shadow: vec![ShadowRay::default(); paths],
+                materials: vec![0; paths],
+                surfaces: Vec::with_capacity(paths),
+                surface_slot: vec![u32::MAX; paths],
+            },
+            queues: StageQueues {
+                rays: Vec::with_capacity(paths),
+                next_rays: Vec::with_capacity(paths),
+                shade: Vec::with_capacity(paths),
+                scratch: vec![0; paths],
+                material_starts: vec![0; materials + 2],
+                // Each path has at most one shadow ray waiting, so pushes never reallocate.
+                occlusion: Vec::with_capacity(paths),
+            },
+            kernels: KernelScratch {
+                scatter: Box::default(),
+                scatter_points: 0,
+                surface_group: Box::default(),
+                registers: Box::default(),
+                area_lights: crate::lights::emission_lanes::AreaLightLanes::new(&scene.lights),
+            },
+            tables: WorkerTables {
+                textured_materials,
+                key_plans: crate::shading::sort_key::plans(&scene.shading, materials),
+            },
+            film: Vec::with_capacity(pixels),
+            stats: WorkerStats {
+                seconds: StageSeconds::default(),
+                counters: Counters::default(),
+                clock: crate::stats::PhaseClock::new(phase_stats),
+            },
         }
     }
 }
@@ -273,53 +322,67 @@ fn timed<R>(slot: &mut f64, f: impl FnOnce() -> R) -> R {
 impl Worker {
     /// The storage of every queue and pool (to check that rendering allocates nothing).
     pub fn storage(&self) -> Vec<usize> {
-        let s = vec![
-            self.states.capacity(),
-            self.rays.capacity(),
-            self.next_rays.capacity(),
-            self.shade.capacity(),
-            self.scratch.capacity(),
-            self.surfaces.capacity(),
-            self.occlusion.capacity(),
-            self.pixels.capacity(),
-        ];
-        s
+        let (p, q) = (&self.paths, &self.queues);
+        vec![
+            p.states.capacity(),
+            q.rays.capacity(),
+            q.next_rays.capacity(),
+            q.shade.capacity(),
+            q.scratch.capacity(),
+            p.surfaces.capacity(),
+            q.occlusion.capacity(),
+            self.film.capacity(),
+        ]
     }
 }
 
 /// Renders one tile breadth-first: per chunk of samples, waves of intersect, sort, shade and occlusion
 /// until no path is left.
 pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &Tile) -> TileResult {
+    let Worker { paths, queues, kernels, tables, film, stats } = w;
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
     let spp = ctx.sampling.spp as usize;
     let mut rays = RayCounts::default();
-    accumulate::begin(w, npix);
-    let per_chunk = (w.states.capacity() / npix).clamp(1, spp);
+    accumulate::begin(film, npix);
+    let per_chunk = (paths.states.capacity() / npix).clamp(1, spp);
     let mut s0 = 0;
     while s0 < spp {
         let samples = per_chunk.min(spp - s0);
-        let mut secs = w.seconds;
-        w.clock.lap(Phase::Overhead);
+        let mut secs = stats.seconds;
+        stats.clock.lap(Phase::Overhead);
         timed(&mut secs.generate, || {
-            generate::camera_rays(ctx, tile, s0 as u32, samples as u32, w, &mut rays)
+            generate::camera_rays(ctx, tile, s0 as u32, samples as u32, paths, &mut queues.rays, &mut rays)
         });
-        w.clock.lap(Phase::Overhead);
-        while !w.rays.is_empty() {
-            timed(&mut secs.intersect, || intersect::closest(ctx, w));
-            timed(&mut secs.sort, || intersect::sort_keys(ctx, w));
-            w.clock.lap(Phase::Shading);
-            timed(&mut secs.sort, || sort::shade_queue(w));
-            w.clock.lap(Phase::Overhead);
-            w.occlusion.clear();
-            timed(&mut secs.shade, || shade::shade(ctx, w, &mut rays));
-            timed(&mut secs.occlusion, || occlusion::any_hit(ctx, w, &mut rays));
-            w.clock.lap(Phase::Intersect);
-            std::mem::swap(&mut w.rays, &mut w.next_rays);
+        stats.clock.lap(Phase::Overhead);
+        while !queues.rays.is_empty() {
+            timed(&mut secs.intersect, || {
+                intersect::closest(
+                    ctx,
+                    paths,
+                    &queues.rays,
+                    &mut queues.shade,
+                    &mut kernels.area_lights,
+                    &mut stats.clock,
+                )
+            });
+            timed(&mut secs.sort, || intersect::sort_keys(ctx, paths, &mut queues.shade, kernels, tables));
+            stats.clock.lap(Phase::Shading);
+            timed(&mut secs.sort, || sort::shade_queue(queues, &paths.materials));
+            stats.clock.lap(Phase::Overhead);
+            queues.occlusion.clear();
+            timed(&mut secs.shade, || {
+                shade::shade(ctx, &mut StageParts { paths, queues, kernels, tables, stats }, &mut rays)
+            });
+            timed(&mut secs.occlusion, || {
+                occlusion::any_hit(ctx, &mut paths.states, &paths.shadow, &mut queues.occlusion)
+            });
+            stats.clock.lap(Phase::Intersect);
+            std::mem::swap(&mut queues.rays, &mut queues.next_rays);
         }
-        timed(&mut secs.accumulate, || accumulate::chunk(w, samples));
-        w.clock.lap(Phase::Overhead);
-        w.seconds = secs;
+        timed(&mut secs.accumulate, || accumulate::chunk(film, paths, samples));
+        stats.clock.lap(Phase::Overhead);
+        stats.seconds = secs;
         s0 += samples;
     }
-    accumulate::finish(w, spp as u32, rays)
+    accumulate::finish(film, spp as u32, rays)
 }

@@ -2,30 +2,34 @@
 //! every unoccluded light sample to its path. One ray at a time: any-hit packets
 //! lost here (ARCHITECTURE.md).
 
-use super::{prefetch, Context, Worker};
-use crate::path::RayCounts;
+use super::{prefetch, Context, RayState, ShadowRay};
 use texture::Touch;
 
 /// Traces every queued shadow ray and empties the queue: any hit among the triangles (with
 /// stochastic pass-through, as in the scalar path), then among the curves and points, which always
 /// block.
-pub(super) fn any_hit<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, _rays: &mut RayCounts) {
+pub(super) fn any_hit<T: Touch>(
+    ctx: &Context<'_, '_, T>,
+    states: &mut [RayState],
+    shadow: &[ShadowRay],
+    occlusion: &mut Vec<u32>,
+) {
     let filter = ctx.settings.filter;
     let scene = ctx.scene;
-    let queue = w.occlusion.as_slice();
+    let queue = occlusion.as_slice();
     for (j, &i) in queue.iter().enumerate() {
         // The shadow ray and radiance of the ray after next, read by shading order (random in the
         // pool): one any-hit query hides their misses ([`super::prefetch`]).
         if let Some(&next) = queue.get(j + 2) {
-            prefetch::entry(&w.shadow, next as usize);
-            prefetch::field(&w.states[next as usize].radiance);
+            prefetch::entry(shadow, next as usize);
+            prefetch::field(&states[next as usize].radiance);
         }
-        let r = &w.shadow[i as usize];
+        let r = &shadow[i as usize];
         if scene.shadow_transmits(r.origin, r.dir, r.tmax, r.seed, filter, ctx.touch)
             && !scene.curves.any_hit(r.origin, r.dir, r.tmax)
         {
-            w.states[i as usize].radiance += r.contribution;
+            states[i as usize].radiance += r.contribution;
         }
     }
-    w.occlusion.clear();
+    occlusion.clear();
 }

@@ -37,7 +37,9 @@
 //!   putting the next ray and occlusion queues back in pool order (no coherence to win); a prefetch
 //!   of each path's shadow-ray slot (no measurable win).
 
-use super::{prefetch, sort, Context, ShadowRay, Worker};
+use super::{
+    prefetch, sort, Context, KernelScratch, PathPool, ShadowRay, StageParts, StageQueues, WorkerStats,
+};
 use crate::accel::offset_ray_origin;
 use crate::bsdf::lanes::{self as bsdf_lanes, BsdfLanes, EvalLanes, InputLanes, SampleInputs, SampleLanes};
 use crate::bsdf::Bsdf;
@@ -116,28 +118,30 @@ pub struct KernelLanes {
     pub origin: Lanes3,
 }
 
-/// Shades every hit of the shade queue (`w.shade`): curve and point hits one by one, the others run
-/// by run. The continuations go to `w.next_rays` (cleared first), the shadow rays are appended to the
+/// Shades every hit of the shade queue (`w.queues.shade`): curve and point hits one by one, the others run
+/// by run. The continuations go to `w.queues.next_rays` (cleared first), the shadow rays are appended to the
 /// occlusion queue.
-pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
-    w.next_rays.clear();
-    let shadow_rays_before = w.occlusion.len();
+pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mut RayCounts) {
+    w.queues.next_rays.clear();
+    let shadow_rays_before = w.queues.occlusion.len();
     // The surfaces the sort kept, out of the worker while the runs borrow it mutably (a move of
     // the vector, no copy; put back below so its memory serves the next wave).
-    let kept = std::mem::take(&mut w.surfaces);
+    let kept = std::mem::take(&mut w.paths.surfaces);
     let mut slots = RunSlots {
         built: [const { None }; LANES],
         inputs: [ShadingInputs::constant(&blob::Material::default()); LANES],
     };
     let mut fibres = super::shade_curves::CurveGroup::default();
-    let n = w.shade.len();
+    let n = w.queues.shade.len();
     let mut ahead = Lookahead::default();
     let mut start = 0;
     while start < n {
         ahead.advance(w, &kept, start, ctx.textured);
-        let end = run_end(&w.shade, start, &w.materials, |i| super::intersect::is_curve(&w.hits[i]));
-        let first = sort::index(w.shade[start]);
-        if super::intersect::is_curve(&w.hits[first as usize]) {
+        let end = run_end(&w.queues.shade, start, &w.paths.materials, |i| {
+            super::intersect::is_curve(&w.paths.hits[i])
+        });
+        let first = sort::index(w.queues.shade[start]);
+        if super::intersect::is_curve(&w.paths.hits[first as usize]) {
             super::shade_curves::vertex(ctx, w, &mut fibres, first, rays);
         } else {
             run(ctx, w, &kept, &mut slots, start, end, rays);
@@ -145,17 +149,17 @@ pub(super) fn shade<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &m
         start = end;
     }
     super::shade_curves::flush(ctx, w, &mut fibres, rays);
-    if w.scatter_points > 0 {
+    if w.kernels.scatter_points > 0 {
         scatter(ctx, w, rays);
     }
-    w.surfaces = kept;
-    rays.shadow += (w.occlusion.len() - shadow_rays_before) as u64;
+    w.paths.surfaces = kept;
+    rays.shadow += (w.queues.occlusion.len() - shadow_rays_before) as u64;
 }
 
 /// Software prefetch of what shading reads by sorted index, in two steps ([`super::prefetch`]): the
 /// path states, hits and surface slots [`FAR`] queue positions ahead, then, [`NEAR`] positions
 /// ahead (those states now in cache), each path's kept surface and, at its first bounce, its
-/// first-hit record. Without it the first reads of `w.hits[i]` / `w.states[i]` in [`run_end`] and
+/// first-hit record. Without it the first reads of `w.paths.hits[i]` / `w.paths.states[i]` in [`run_end`] and
 /// [`prepare`] were the stage's hottest lines (misses: a wave holds 4096 paths).
 #[derive(Default)]
 struct Lookahead {
@@ -170,15 +174,15 @@ const NEAR: usize = 2 * LANES;
 const FAR: usize = NEAR + LANES;
 
 impl Lookahead {
-    fn advance(&mut self, w: &Worker, kept: &[Surface], start: usize, textured: bool) {
-        let queue = &w.shade;
+    fn advance(&mut self, w: &StageParts<'_>, kept: &[Surface], start: usize, textured: bool) {
+        let queue = &w.queues.shade;
         let far_end = (start + FAR).min(queue.len());
         for &e in &queue[self.far.min(far_end)..far_end] {
             let i = sort::index(e) as usize;
-            prefetch::entry(&w.states, i);
-            prefetch::entry(&w.hits, i);
+            prefetch::entry(&w.paths.states, i);
+            prefetch::entry(&w.paths.hits, i);
             if textured {
-                prefetch::entry(&w.surface_slot, i);
+                prefetch::entry(&w.paths.surface_slot, i);
             }
         }
         self.far = self.far.max(far_end);
@@ -186,13 +190,13 @@ impl Lookahead {
         for &e in &queue[self.near.min(near_end)..near_end] {
             let i = sort::index(e) as usize;
             if textured {
-                let slot = w.surface_slot[i];
+                let slot = w.paths.surface_slot[i];
                 if slot != NO_SURFACE {
                     prefetch::entry(kept, slot as usize);
                 }
             }
-            if w.states[i].bounces == 0 {
-                prefetch::entry(&w.first_hits, i);
+            if w.paths.states[i].bounces == 0 {
+                prefetch::entry(&w.paths.first_hits, i);
             }
         }
         self.near = self.near.max(near_end);
@@ -232,7 +236,7 @@ pub(super) fn run_end(
 /// the figures.
 fn run<T: Touch>(
     ctx: &Context<'_, '_, T>,
-    w: &mut Worker,
+    w: &mut StageParts<'_>,
     kept: &[Surface],
     run_slots: &mut RunSlots,
     start: usize,
@@ -242,18 +246,18 @@ fn run<T: Touch>(
     let scene: &Scene = ctx.scene;
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let RunSlots { built, inputs } = run_slots;
-    let group = &mut *w.surface_group;
+    let group = &mut *w.kernels.surface_group;
     // The members the sort key kept no surface for are built together, eight lanes at a time
     // ([`surface_lanes`]), into `built` in member order.
     let (mut paths, mut slots, mut built_at) = ([0u32; LANES], [NO_SURFACE; LANES], [0usize; LANES]);
     let mut count = end - start;
     group.clear();
-    for (m, &e) in w.shade[start..end].iter().enumerate() {
+    for (m, &e) in w.queues.shade[start..end].iter().enumerate() {
         let i = sort::index(e);
-        let slot = if ctx.textured { w.surface_slot[i as usize] } else { NO_SURFACE };
+        let slot = if ctx.textured { w.paths.surface_slot[i as usize] } else { NO_SURFACE };
         (paths[m], slots[m]) = (i, slot);
         if slot == NO_SURFACE {
-            let (hit, st) = (&w.hits[i as usize], &w.states[i as usize]);
+            let (hit, st) = (&w.paths.hits[i as usize], &w.paths.states[i as usize]);
             group.push(hit, -st.dir, st.cone().width_at(hit.t));
         }
     }
@@ -276,7 +280,7 @@ fn run<T: Touch>(
         }
         count = with_surface;
     }
-    w.clock.lap(Phase::Shading);
+    w.stats.clock.lap(Phase::Shading);
     if count == 0 {
         return;
     }
@@ -306,21 +310,25 @@ fn run<T: Touch>(
             &at[..count],
             filter,
             touch,
-            &mut w.registers,
+            &mut w.kernels.registers,
             inputs,
         );
     }
-    w.clock.shader_evaluations += count as u64;
-    if w.clock.enabled() {
-        w.clock.lap(if w.textured_materials[material as usize] { Phase::Texturing } else { Phase::Shading });
+    w.stats.clock.shader_evaluations += count as u64;
+    if w.stats.clock.enabled() {
+        w.stats.clock.lap(if w.tables.textured_materials[material as usize] {
+            Phase::Texturing
+        } else {
+            Phase::Shading
+        });
     }
     for ((&path, &s), inputs) in paths.iter().zip(&surfaces).zip(inputs.iter()).take(count) {
         prepare(ctx, w, path, s, inputs, rays);
-        if w.scatter_points == LANES {
+        if w.kernels.scatter_points == LANES {
             scatter(ctx, w, rays);
         }
     }
-    w.clock.lap(Phase::Integration);
+    w.stats.clock.lap(Phase::Integration);
 }
 
 /// Where a run's surfaces (those the sort key did not keep) and shading inputs are written: one set
@@ -337,13 +345,13 @@ struct RunSlots {
     inputs: [ShadingInputs; LANES],
 }
 
-/// A run member whose surface is not kept by the sort key (`Worker::surface_slot`).
+/// A run member whose surface is not kept by the sort key (`PathPool::surface_slot`).
 const NO_SURFACE: u32 = u32::MAX;
 
 /// Phase 1 for one hit `i` on surface `s` with shading inputs `inputs`.
 fn prepare<T: Touch>(
     ctx: &Context<'_, '_, T>,
-    w: &mut Worker,
+    w: &mut StageParts<'_>,
     i: u32,
     s: &Surface,
     inputs: &ShadingInputs,
@@ -351,8 +359,8 @@ fn prepare<T: Touch>(
 ) {
     let scene: &Scene = ctx.scene;
     let max_depth = ctx.settings.max_depth;
-    let hit = &w.hits[i as usize];
-    let st = &mut w.states[i as usize];
+    let hit = &w.paths.hits[i as usize];
+    let st = &mut w.paths.states[i as usize];
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
 
@@ -363,7 +371,7 @@ fn prepare<T: Touch>(
         let origin = offset_ray_origin(s.p, -s.ng);
         if st.pass_through(hit.t, footprint, origin, max_depth) {
             rays.bounce += 1;
-            w.next_rays.push(i);
+            w.queues.next_rays.push(i);
         }
         return;
     }
@@ -373,7 +381,7 @@ fn prepare<T: Touch>(
     };
     // The first hit's albedo comes from the BSDF, built in lanes in phase 2 (here only when the
     // path ends at this hit).
-    let first = &mut w.first_hits[i as usize];
+    let first = &mut w.paths.first_hits[i as usize];
     // (`bounces` first: most hits are past the first bounce, and the first-hit table is read by
     // sorted index.)
     let is_first = st.bounces == 0 && first.is_none();
@@ -402,7 +410,7 @@ fn prepare<T: Touch>(
     }
 
     let (beta, play) = (st.beta, (st.bounces + 1 >= RR_START_BOUNCE) as u32);
-    let (g, k) = (&mut *w.scatter, w.scatter_points);
+    let (g, k) = (&mut *w.kernels.scatter, w.kernels.scatter_points);
     // One check for the lane instead of one per column store below (the compiler cannot see that
     // `scatter` runs as soon as the group is full).
     assert!(k < LANES, "the scatter group runs when full");
@@ -416,7 +424,7 @@ fn prepare<T: Touch>(
     (g.beta[0][k], g.beta[1][k], g.beta[2][k]) = (beta.x, beta.y, beta.z);
     g.footprint[k] = footprint;
     g.play[k] = play;
-    w.scatter_points += 1;
+    w.kernels.scatter_points += 1;
 }
 
 /// `out[k]` = the pass-through seed of lane `k`'s shadow ray, `hash_combine(hash_combine(seed_hash,
@@ -445,23 +453,15 @@ fn abs_cos_lanes(n: &Lanes3, w: &Lanes3, out: &mut Lanes) {
 /// weight (kept samples enter the occlusion queue), then the BSDF sample, throughput and roulette.
 // Lane loops index several columns by the same lane number.
 #[allow(clippy::needless_range_loop)]
-fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut Worker, rays: &mut RayCounts) {
+fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mut RayCounts) {
     let scene: &Scene = ctx.scene;
     let table = (!scene.lights.is_empty()).then(|| scene.light_table());
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let seed_hash = hash_u32(ctx.sampling.seed);
-    let Worker {
-        scatter,
-        scatter_points,
-        states,
-        first_hits,
-        shadow,
-        occlusion,
-        next_rays,
-        counters,
-        clock,
-        ..
-    } = w;
+    let KernelScratch { scatter, scatter_points, .. } = &mut *w.kernels;
+    let PathPool { states, first_hits, shadow, .. } = &mut *w.paths;
+    let StageQueues { occlusion, next_rays, .. } = &mut *w.queues;
+    let WorkerStats { counters, clock, .. } = &mut *w.stats;
     // `min`: the lane loops below then index the group's columns without bounds checks
     // (`scatter_points` never exceeds `LANES`).
     let (g, len) = (&mut **scatter, std::mem::take(scatter_points).min(LANES));

@@ -20,7 +20,7 @@
 //! wavefront's D1 misses on shading-heavy from 4.20 M to 4.07 M (writes 1.03 M → 0.94 M; cachegrind,
 //! same settings: the sort stage keeps a `Surface` per textured hit).
 
-use super::{Context, ShadowRay, Worker};
+use super::{Context, ShadowRay, StageParts};
 use crate::bsdf::lanes::{EvalLanes, SampleInputs, SampleLanes};
 use crate::bsdf::BsdfSample;
 use crate::hair::lanes::{eval_lanes, sample_lanes, HairLanes};
@@ -72,15 +72,15 @@ impl Default for CurveGroup {
 /// run when the group is full ([`flush`]).
 pub(super) fn vertex<T: Touch>(
     ctx: &Context<'_, '_, T>,
-    w: &mut Worker,
+    w: &mut StageParts<'_>,
     group: &mut CurveGroup,
     i: u32,
     rays: &mut RayCounts,
 ) {
     let scene = ctx.scene;
     let (max_depth, filter, touch) = (ctx.settings.max_depth, ctx.settings.filter, ctx.touch);
-    let hit = w.curve_hits[i as usize];
-    let st = &mut w.states[i as usize];
+    let hit = w.paths.curve_hits[i as usize];
+    let st = &mut w.paths.states[i as usize];
     // The scalar sampler (equal to the lanes bit for bit): curve hits are not in scatter groups.
     let (key, vertex) =
         (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed }, st.vertex);
@@ -88,11 +88,11 @@ pub(super) fn vertex<T: Touch>(
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
     let mut s = scene.curve_surface(&hit, wo);
-    w.clock.lap(Phase::Shading);
+    w.stats.clock.lap(Phase::Shading);
     let inputs = scene.shade(&s, filter, touch);
-    w.clock.shader_evaluations += 1;
-    if w.clock.enabled() {
-        w.clock.lap(if w.textured_materials[s.material as usize] {
+    w.stats.clock.shader_evaluations += 1;
+    if w.stats.clock.enabled() {
+        w.stats.clock.lap(if w.tables.textured_materials[s.material as usize] {
             Phase::Texturing
         } else {
             Phase::Shading
@@ -105,7 +105,7 @@ pub(super) fn vertex<T: Touch>(
         let origin = s.spawn(st.dir);
         if st.pass_through(hit.t, footprint, origin, max_depth) {
             rays.bounce += 1;
-            w.next_rays.push(i);
+            w.queues.next_rays.push(i);
         }
         return;
     }
@@ -113,7 +113,7 @@ pub(super) fn vertex<T: Touch>(
         s.ns = crate::scene::Scene::mapped_normal(&s, n, wo);
     }
     let bsdf = scene.bsdf(&s, &inputs, wo);
-    let first = &mut w.first_hits[i as usize];
+    let first = &mut w.paths.first_hits[i as usize];
     if first.is_none() && st.bounces == 0 {
         *first = Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: st.travelled + hit.t });
     }
@@ -154,7 +154,7 @@ pub(super) fn vertex<T: Touch>(
     (group.u.u_lobe[k], group.u.u0[k], group.u.u1[k]) = (u_lobe, u[0], u[1]);
     group.parked[k] = Some(Parked { path: i, surface: s, footprint, light });
     group.len += 1;
-    w.clock.lap(Phase::Integration);
+    w.stats.clock.lap(Phase::Integration);
     if group.len == LANES {
         flush(ctx, w, group, rays);
     }
@@ -164,7 +164,7 @@ pub(super) fn vertex<T: Touch>(
 /// group.
 pub(super) fn flush<T: Touch>(
     ctx: &Context<'_, '_, T>,
-    w: &mut Worker,
+    w: &mut StageParts<'_>,
     group: &mut CurveGroup,
     rays: &mut RayCounts,
 ) {
@@ -198,14 +198,14 @@ pub(super) fn flush<T: Touch>(
 /// queue.
 fn finish<T: Touch>(
     ctx: &Context<'_, '_, T>,
-    w: &mut Worker,
+    w: &mut StageParts<'_>,
     parked: Parked,
     eval: Option<(Vec3, f32)>,
     sample: Option<BsdfSample>,
     rays: &mut RayCounts,
 ) {
     let Parked { path: i, surface: s, footprint, light } = parked;
-    let st = &mut w.states[i as usize];
+    let st = &mut w.paths.states[i as usize];
     let (key, vertex) =
         (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed }, st.vertex);
 
@@ -217,9 +217,9 @@ fn finish<T: Touch>(
             let origin = s.spawn(ls.wi);
             let tmax = shadow_tmax(ls.distance, origin, s.p);
             let seed = hash_combine(hash_combine(hash_u32(ctx.sampling.seed), st.pixel), st.sample) ^ vertex;
-            w.shadow[i as usize] =
+            w.paths.shadow[i as usize] =
                 ShadowRay { origin, dir: ls.wi, tmax, contribution: contribution * mis, seed };
-            w.occlusion.push(i);
+            w.queues.occlusion.push(i);
         }
     }
 
@@ -243,6 +243,6 @@ fn finish<T: Touch>(
     st.cone_width = footprint;
     st.cone_spread += CONE_WIDEN_PER_ALPHA * bs.lobe_alpha;
     rays.bounce += 1;
-    w.next_rays.push(i);
-    w.clock.lap(Phase::Integration);
+    w.queues.next_rays.push(i);
+    w.stats.clock.lap(Phase::Integration);
 }

@@ -20,7 +20,7 @@
 //! untextured hits (all keys 0) is not sorted at all, and a textured one costs one pass per byte that
 //! varies (usually the Morton bytes and the mip level: 2–3 passes).
 
-use super::Worker;
+use super::StageQueues;
 
 /// A shade-queue entry: 32-bit sort key above a 32-bit [`super::RayState`] index.
 pub type ShadeEntry = u64;
@@ -96,10 +96,12 @@ pub fn radix_sort_by_key(entries: &mut [ShadeEntry], scratch: &mut [ShadeEntry])
 }
 
 /// Sorts the shade queue by key, then groups it by material (a stable counting pass), recording the
-/// start of each material's segment in `w.material_starts`.
-pub(super) fn shade_queue(w: &mut Worker) {
-    radix_sort_by_key(&mut w.shade, &mut w.scratch);
-    group_by_material(&mut w.shade, &mut w.scratch, &w.materials, &mut w.material_starts);
+/// start of each material's segment in `queues.material_starts`; `materials` is each path's hit
+/// material.
+pub(super) fn shade_queue(queues: &mut StageQueues, materials: &[u32]) {
+    let StageQueues { shade, scratch, material_starts, .. } = queues;
+    radix_sort_by_key(shade, scratch);
+    group_by_material(shade, scratch, materials, material_starts);
 }
 
 /// Stable counting sort of `entries` by the material of their path (`materials[index]`, clamped to
