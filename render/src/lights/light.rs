@@ -91,6 +91,7 @@ pub struct LightSample {
     pub emitter: Option<(u32, [f32; 2])>,
 }
 
+#[inline]
 pub(crate) fn uniform_sphere(u: [f32; 2]) -> Vec3 {
     let z = 1.0 - 2.0 * u[0];
     let r = (1.0 - z * z).max(0.0).sqrt();
@@ -99,6 +100,7 @@ pub(crate) fn uniform_sphere(u: [f32; 2]) -> Vec3 {
 }
 
 /// Direction inside the cone around `axis` with 1 − cos θ = `u0 · one_minus_cos_max`.
+#[inline]
 pub(crate) fn sample_cone(axis: Vec3, one_minus_cos_max: f32, u: [f32; 2]) -> Vec3 {
     let one_minus_cos = u[0] * one_minus_cos_max;
     let cos = 1.0 - one_minus_cos;
@@ -108,6 +110,7 @@ pub(crate) fn sample_cone(axis: Vec3, one_minus_cos_max: f32, u: [f32; 2]) -> Ve
 }
 
 /// Nearest positive hit of a ray (unit `d`) with a sphere.
+#[inline]
 pub(crate) fn ray_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32) -> Option<f32> {
     let oc = o - center;
     let b = oc.dot(d);
@@ -219,6 +222,7 @@ impl Light {
         }
     }
 
+    #[inline]
     pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, Vec3)> {
         match self.shape {
             Shape::Sphere { center, radius } => {
@@ -247,6 +251,7 @@ impl Light {
     }
 
     /// Solid-angle pdf (without selection) of sampling point `x` on this area light from `p`.
+    #[inline]
     pub(crate) fn pdf_area_light(&self, p: Vec3, x: Vec3) -> f32 {
         let to = x - p;
         let d2 = to.length_squared();
