@@ -142,7 +142,7 @@ impl Camera {
     }
 }
 
-pub use lanekit::LANES;
+use lanekit::{Lanes, Lanes3, U32Lanes, LANES};
 
 /// What [`camera_ray_lanes`] needs of a camera and an image, constant over a render.
 #[derive(Clone, Copy, Debug)]
@@ -205,13 +205,13 @@ impl CameraLanes {
 #[repr(C, align(32))]
 pub struct RayLanes {
     /// World-space origins.
-    pub origin: [[f32; LANES]; 3],
+    pub origin: Lanes3,
     /// Unit world-space directions.
-    pub dir: [[f32; LANES]; 3],
+    pub dir: Lanes3,
     /// Scaled cone widths at the origin.
-    pub cone_width: [f32; LANES],
+    pub cone_width: Lanes,
     /// Scaled cone spreads.
-    pub cone_spread: [f32; LANES],
+    pub cone_spread: Lanes,
 }
 
 /// The camera rays through pixels (`x[k]`, `y[k]`) jittered by (`jx[k]`, `jy[k]`) ∈ [0, 1)²: lane
@@ -221,10 +221,10 @@ pub struct RayLanes {
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn camera_ray_lanes(
     c: &CameraLanes,
-    x: &[u32; LANES],
-    y: &[u32; LANES],
-    jx: &[f32; LANES],
-    jy: &[f32; LANES],
+    x: &U32Lanes,
+    y: &U32Lanes,
+    jx: &Lanes,
+    jy: &Lanes,
     out: &mut RayLanes,
 ) {
     // Film-plane position, as `generate_ray` computes it from the film loop's fractions.
@@ -392,7 +392,7 @@ mod tests {
                         let mut cone = cam.pixel_cone(d.dot(forward));
                         cone.width *= scale;
                         cone.spread *= scale;
-                        let at = |c: &[[f32; LANES]; 3]| [c[0][k], c[1][k], c[2][k]].map(f32::to_bits);
+                        let at = |c: &Lanes3| [c[0][k], c[1][k], c[2][k]].map(f32::to_bits);
                         assert_eq!(at(&out.origin), o.to_array().map(f32::to_bits), "origin, lane {k}");
                         assert_eq!(at(&out.dir), d.to_array().map(f32::to_bits), "direction, lane {k}");
                         assert_eq!(out.cone_width[k].to_bits(), cone.width.to_bits());

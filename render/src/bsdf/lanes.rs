@@ -22,11 +22,10 @@
 use crate::bsdf::Bsdf;
 use crate::shading::ShadingInputs;
 use glam::Vec3;
-use lanekit::LANES;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
 use std::ops::{Add, Mul, Sub};
 
-pub use lanekit::{Lanes, Lanes3, V};
+use lanekit::{Lanes, Lanes3, U32Lanes, LANES, V};
 
 const CLEARCOAT_F0: f32 = 0.04;
 
@@ -88,7 +87,7 @@ pub struct InputLanes {
     /// `specularColor`.
     pub specular_color: Lanes3,
     /// 1 for `useSpecularWorkflow`.
-    pub use_specular_workflow: [u32; LANES],
+    pub use_specular_workflow: U32Lanes,
     /// `roughness`.
     pub roughness: Lanes,
     /// `metallic`.
@@ -198,7 +197,7 @@ pub struct SampleLanes {
     /// α of the sampled lobe.
     pub lobe_alpha: Lanes,
     /// 1 where the sample exists.
-    pub ok: [u32; LANES],
+    pub ok: U32Lanes,
 }
 
 /// The random numbers of eight samples.

@@ -46,9 +46,7 @@
 use crate::lights::tree::LightSelector;
 use crate::lights::{Lights, Shape};
 use lanekit::saturating_i32;
-use lanekit::LANES;
-use lanekit::V;
-use lanekit::{Lanes, Lanes3};
+use lanekit::{Lanes, Lanes3, U32Lanes, LANES, V};
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 use std::ops::{Add, Div, Sub};
 
@@ -221,7 +219,7 @@ pub struct LightInputs {
 #[repr(C, align(32))]
 pub struct LightSampleLanes {
     /// 1 where the sample exists.
-    pub ok: [u32; LANES],
+    pub ok: U32Lanes,
     /// Unit direction towards the light.
     pub wi: Lanes3,
     /// Distance to the sampled point (infinite for dome and distant lights).
@@ -231,9 +229,9 @@ pub struct LightSampleLanes {
     /// Solid-angle pdf with the selection probability.
     pub pdf: Lanes,
     /// 1 for a delta light.
-    pub delta: [u32; LANES],
+    pub delta: U32Lanes,
     /// The emissive triangle sampled, or [`blob::NONE`].
-    pub triangle: [u32; LANES],
+    pub triangle: U32Lanes,
     /// Barycentric weights of the triangle's vertices 1 and 2 at the sampled point.
     pub b: [Lanes; 2],
 }
@@ -242,7 +240,7 @@ pub struct LightSampleLanes {
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(32))]
 struct Gathered {
-    kind: [u32; LANES],
+    kind: U32Lanes,
     radiance: Lanes3,
     /// Centre / position / direction, or a triangle's first vertex.
     center: Lanes3,
@@ -257,7 +255,7 @@ struct Gathered {
     sel: Lanes,
     /// `u[0]`, or for a triangle its value stretched within the chosen CDF bucket.
     u0: Lanes,
-    triangle: [u32; LANES],
+    triangle: U32Lanes,
 }
 
 /// `Frame::new(n).to_world(v)` (Duff et al. 2017), in its operation order.
@@ -330,7 +328,7 @@ fn gather(
     table: &LightTable,
     inp: &LightInputs,
     g: &mut Gathered,
-    heads: impl Fn(&[LaneLight], &[u32; LANES], &mut Gathered),
+    heads: impl Fn(&[LaneLight], &U32Lanes, &mut Gathered),
 ) {
     let count = table.lights.len();
     let mut index = [0u32; LANES];
@@ -391,7 +389,7 @@ fn gather(
 
 /// Each lane's record's kind, radiance and centre into the columns, copied per lane.
 #[inline(always)]
-fn heads(lights: &[LaneLight], index: &[u32; LANES], g: &mut Gathered) {
+fn heads(lights: &[LaneLight], index: &U32Lanes, g: &mut Gathered) {
     for k in 0..LANES {
         let r = &lights[index[k] as usize];
         g.kind[k] = r.kind;
@@ -411,7 +409,7 @@ fn heads(lights: &[LaneLight], index: &[u32; LANES], g: &mut Gathered) {
 #[cfg(target_arch = "x86_64")]
 #[inline]
 #[target_feature(enable = "avx")]
-fn heads_avx(lights: &[LaneLight], index: &[u32; LANES], g: &mut Gathered) {
+fn heads_avx(lights: &[LaneLight], index: &U32Lanes, g: &mut Gathered) {
     use std::arch::x86_64::*;
     const _: () =
         assert!(std::mem::offset_of!(LaneLight, center) == 16 && std::mem::size_of::<LaneLight>() >= 32);
@@ -447,7 +445,7 @@ fn heads_avx(lights: &[LaneLight], index: &[u32; LANES], g: &mut Gathered) {
             _mm256_permute2f128_ps::<0x31>(tt[j - 4], tt[j])
         }
     };
-    let store = |out: &mut [f32; LANES], v: __m256| {
+    let store = |out: &mut Lanes, v: __m256| {
         // SAFETY: `out` is eight writable `f32`s; the store is unaligned.
         unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) }
     };
@@ -814,7 +812,7 @@ mod tests {
             })
             .collect();
         for _ in 0..2_000 {
-            let index: [u32; LANES] = std::array::from_fn(|_| next() % lights.len() as u32);
+            let index: U32Lanes = std::array::from_fn(|_| next() % lights.len() as u32);
             let (mut want, mut got) = (Gathered::default(), Gathered::default());
             heads(&lights, &index, &mut want);
             // SAFETY: the CPU has AVX (checked above).

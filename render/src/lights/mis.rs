@@ -33,7 +33,7 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     }
 }
 
-pub use lanekit::LANES;
+use lanekit::{Lanes, Lanes3, U32Lanes, LANES};
 
 /// A next-event candidate from shading (AoS, indexed by its path).
 #[derive(Clone, Copy, Debug, Default)]
@@ -69,19 +69,19 @@ pub struct NeeCandidate {
 #[repr(C, align(32))]
 pub struct NeeLanes {
     /// Throughput, per channel.
-    pub beta: [[f32; LANES]; 3],
+    pub beta: Lanes3,
     /// BSDF value, per channel.
-    pub f: [[f32; LANES]; 3],
+    pub f: Lanes3,
     /// Light radiance, per channel.
-    pub li: [[f32; LANES]; 3],
+    pub li: Lanes3,
     /// Cosines.
-    pub cos: [f32; LANES],
+    pub cos: Lanes,
     /// Light pdfs.
-    pub light_pdf: [f32; LANES],
+    pub light_pdf: Lanes,
     /// BSDF pdfs.
-    pub bsdf_pdf: [f32; LANES],
+    pub bsdf_pdf: Lanes,
     /// Delta-light flags (0/1).
-    pub delta: [u32; LANES],
+    pub delta: U32Lanes,
 }
 
 /// Eight weighed contributions (`visible == 0`: dropped, no shadow ray).
@@ -89,9 +89,9 @@ pub struct NeeLanes {
 #[repr(C, align(32))]
 pub struct NeeOut {
     /// MIS-weighted contribution per channel.
-    pub contribution: [[f32; LANES]; 3],
+    pub contribution: Lanes3,
     /// 1 where the contribution is positive somewhere.
-    pub keep: [u32; LANES],
+    pub keep: U32Lanes,
 }
 
 /// The scalar reference: the weighted contribution, or `None` when it is black.

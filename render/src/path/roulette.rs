@@ -13,8 +13,7 @@
 //! an out-of-line call in the two-variant kernel).
 
 use glam::Vec3;
-use lanekit::LANES;
-use lanekit::{Lanes, Lanes3};
+use lanekit::{Lanes, Lanes3, U32Lanes, LANES};
 
 /// Eight paths' inputs.
 #[derive(Clone, Copy, Debug, Default)]
@@ -31,7 +30,7 @@ pub struct RouletteLanes {
     /// The roulette's random number.
     pub u: Lanes,
     /// 1 where roulette is played (enough bounces).
-    pub play: [u32; LANES],
+    pub play: U32Lanes,
 }
 
 /// Eight updated throughputs; `alive == 0` where roulette ended the path.
@@ -41,7 +40,7 @@ pub struct RouletteOut {
     /// New throughput.
     pub beta: Lanes3,
     /// 1 where the path continues.
-    pub alive: [u32; LANES],
+    pub alive: U32Lanes,
 }
 
 /// The scalar reference: the new throughput, or `None` when roulette ends the path.

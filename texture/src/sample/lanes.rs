@@ -41,11 +41,8 @@ use crate::format::{Filter, TexelFormat, Wrap};
 use crate::layout::LevelLayout;
 use crate::stats::Touch;
 
-/// Lookups per call.
-pub const LANES: usize = 8;
-
-/// One scalar per lane.
-pub type Lanes = [f32; LANES];
+/// Lookups per call and one scalar per lane: the workspace's one lane width and column.
+pub use lanekit::{Lanes, LANES};
 
 /// Eight lookups' coordinates and footprints (one column per component), sharing filter and wraps.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -1,6 +1,7 @@
 use super::*;
 use crate::lights::Lights;
 use crate::testscene::{area_light_records, lights_only, Rng};
+use lanekit::Lanes;
 use std::f32::consts::{FRAC_PI_2, PI};
 
 /// A translation-only light record.
@@ -217,7 +218,7 @@ fn textbook_importance(n: &node::Node, k: usize, p: Vec3) -> f32 {
 }
 
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
-fn eight_lanes(n: &node::Node, p: [f32; 3]) -> [f32; 8] {
+fn eight_lanes(n: &node::Node, p: [f32; 3]) -> Lanes {
     node::importances(n, p)
 }
 
@@ -302,7 +303,7 @@ fn eight_lane_importance_equals_the_scalar_formula_bit_for_bit() {
 fn prefix_sums_are_the_pairwise_running_sums() {
     let mut rng = Rng(37);
     for case in 0..20_000 {
-        let w: [f32; 8] = std::array::from_fn(|k| match (case + k) % 5 {
+        let w: Lanes = std::array::from_fn(|k| match (case + k) % 5 {
             0 => 0.0,
             1 => rng.range(0.0, 1e-30),
             _ => rng.range(0.0, 1e6),
@@ -397,7 +398,7 @@ fn the_lanes_first_choice_equals_the_scalar_slot() {
             let table: Vec<u32> = (0..infinite).map(|i| 100 + 3 * i).collect();
             let padded = lanes::padded(&table);
             for round in 0..500 {
-                let u_select: [f32; 8] = std::array::from_fn(|k| match (round * 8 + k) % 23 {
+                let u_select: Lanes = std::array::from_fn(|k| match (round * 8 + k) % 23 {
                     0 => 0.0,
                     1 => ONE_MINUS_EPSILON,
                     2 => -0.25,
