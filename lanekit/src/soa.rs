@@ -253,7 +253,7 @@ mod tests {
             v: [f, -f, f * 0.5],
             x: f32::from_bits(0x7fc0_0001 + k as u32), // a NaN payload must survive
             n: u32::MAX - k as u32,
-            flag: k % 3 == 0,
+            flag: k.is_multiple_of(3),
             uv: [f + 0.25, f - 0.25],
             p: P(f, 2.0 * f, -0.0),
         }

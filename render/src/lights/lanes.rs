@@ -45,6 +45,7 @@
 
 use crate::lights::tree::LightSelector;
 use crate::lights::{Lights, Shape};
+use glam::Vec3;
 use lanekit::saturating_i32;
 use lanekit::{Lanes, Lanes3, U32Lanes, LANES, V};
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
@@ -202,38 +203,42 @@ impl LightTable {
     }
 }
 
-/// Eight shading points and their light-sample random numbers.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct LightInputs {
-    /// Shading point.
-    pub p: Lanes3,
-    /// Light choice.
-    pub u_select: Lanes,
-    /// Position (or direction) sample on the light.
-    pub u: [Lanes; 2],
+lanekit::soa! {
+    /// Eight shading points and their light-sample random numbers.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct LightInputs for struct LightInput {
+        /// Shading point.
+        pub p: Vec3 as [f32; 3],
+        /// Light choice.
+        pub u_select: f32,
+        /// Position (or direction) sample on the light.
+        pub u: [f32; 2],
+    }
 }
 
-/// Eight light samples; lanes with `ok == 0` have none (`Lights::sample` returned `None`).
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct LightSampleLanes {
-    /// 1 where the sample exists.
-    pub ok: U32Lanes,
-    /// Unit direction towards the light.
-    pub wi: Lanes3,
-    /// Distance to the sampled point (infinite for dome and distant lights).
-    pub distance: Lanes,
-    /// Incident radiance (irradiance or intensity over d² for delta lights).
-    pub li: Lanes3,
-    /// Solid-angle pdf with the selection probability.
-    pub pdf: Lanes,
-    /// 1 for a delta light.
-    pub delta: U32Lanes,
-    /// The emissive triangle sampled, or [`blob::NONE`].
-    pub triangle: U32Lanes,
-    /// Barycentric weights of the triangle's vertices 1 and 2 at the sampled point.
-    pub b: [Lanes; 2],
+lanekit::soa! {
+    /// Eight light samples; lanes with `ok == 0` have none (`Lights::sample` returned `None`).
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct LightSampleLanes for struct LightSampleLane {
+        /// 1 where the sample exists.
+        pub ok: bool,
+        /// Unit direction towards the light.
+        pub wi: Vec3 as [f32; 3],
+        /// Distance to the sampled point (infinite for dome and distant lights).
+        pub distance: f32,
+        /// Incident radiance (irradiance or intensity over d² for delta lights).
+        pub li: Vec3 as [f32; 3],
+        /// Solid-angle pdf with the selection probability.
+        pub pdf: f32,
+        /// 1 for a delta light.
+        pub delta: bool,
+        /// The emissive triangle sampled, or [`blob::NONE`].
+        pub triangle: u32,
+        /// Barycentric weights of the triangle's vertices 1 and 2 at the sampled point.
+        pub b: [f32; 2],
+    }
 }
 
 /// Each lane's light record, gathered by the selection step.

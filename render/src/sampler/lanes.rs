@@ -28,16 +28,18 @@ use lanekit::{Lanes, U32Lanes, LANES};
 /// Dimensions of a vertex: `vertex_lanes` writes `out[d]` for `d < DIMS`, except `dim::OPACITY`.
 pub const DIMS: usize = 8;
 
-/// Eight paths' keys at their current vertex.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct KeyLanes {
-    /// Linear pixel index.
-    pub pixel: U32Lanes,
-    /// Sample index.
-    pub sample: U32Lanes,
-    /// Vertex counter.
-    pub vertex: U32Lanes,
+lanekit::soa! {
+    /// Eight paths' keys at their current vertex.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct KeyLanes for struct KeyLane {
+        /// Linear pixel index.
+        pub pixel: u32,
+        /// Sample index.
+        pub sample: u32,
+        /// Vertex counter.
+        pub vertex: u32,
+    }
 }
 
 /// Dimension `2·pair` of a path whose pair-seed prefix is `prefix`.
@@ -77,23 +79,17 @@ pub fn vertex_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [Lanes; DIMS]) {
     }
 }
 
-/// Eight paths' [`PairSeeds`], one field per array.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct PairSeedLanes {
-    /// [`PairSeeds::index`] per lane.
-    pub index: U32Lanes,
-    /// [`PairSeeds::first`] per lane.
-    pub first: U32Lanes,
-    /// [`PairSeeds::second`] per lane.
-    pub second: U32Lanes,
-}
-
-impl PairSeedLanes {
-    /// Puts `seeds` in lane `k`.
-    #[inline(always)]
-    pub fn set(&mut self, k: usize, seeds: PairSeeds) {
-        (self.index[k], self.first[k], self.second[k]) = (seeds.index, seeds.first, seeds.second);
+lanekit::soa! {
+    /// Eight paths' [`PairSeeds`], one field per array.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct PairSeedLanes for PairSeeds {
+        /// [`PairSeeds::index`] per lane.
+        pub index: u32,
+        /// [`PairSeeds::first`] per lane.
+        pub first: u32,
+        /// [`PairSeeds::second`] per lane.
+        pub second: u32,
     }
 }
 
@@ -179,7 +175,7 @@ mod tests {
                     // Small pixels and samples, and the full 32-bit range (every Sobol index bit).
                     pixel[k] = if round % 2 == 0 { x % 1_000_000 } else { x };
                     sample[k] = if round % 3 == 0 { hash_u32(x) } else { (x >> 11) % 65_536 };
-                    seeds.set(k, PairSeeds::new(hash_u32(seed), pixel[k], vertex, dimension));
+                    seeds.set(k, &PairSeeds::new(hash_u32(seed), pixel[k], vertex, dimension));
                 }
                 let mut hashed = PairSeedLanes::default();
                 pair_seed_lanes(hash_u32(seed), &pixel, vertex, dimension, &mut hashed);
