@@ -26,10 +26,12 @@
 //! assert_eq!(lanes.beta[2], [0.0, 0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
 //! ```
 //!
-//! Modules: [`soa`] (the declaration macro and the [`Lane`] column of each scalar type).
+//! Modules: [`soa`] (the declaration macro and the [`Lane`] column of each scalar type), [`cpu`]
+//! (the run-time feature tests of the hand-written intrinsics paths).
 
 #![deny(missing_docs)]
 
+pub mod cpu;
 pub mod soa;
 
 pub use soa::{Column, Lane};

@@ -798,7 +798,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn transposed_heads_equal_the_per_lane_copy() {
-        if !std::arch::is_x86_feature_detected!("avx") {
+        if !lanekit::cpu::has_avx() {
             eprintln!("no AVX: nothing to compare");
             return;
         }

@@ -135,7 +135,7 @@ impl Gather {
     #[inline]
     fn detect() -> Gather {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if lanekit::cpu::has_avx2() {
             return Gather::Avx2;
         }
         Gather::Portable

@@ -324,7 +324,7 @@ fn prefix_sums_are_the_pairwise_running_sums() {
         assert_eq!(cdf.map(f32::to_bits), written.map(f32::to_bits), "{w:?}");
         assert!(cdf.windows(2).all(|c| c[0] <= c[1]), "{w:?}: {cdf:?}");
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if lanekit::cpu::has_avx2() {
             let mut vector = [0.0f32; 8];
             // SAFETY: the CPU has AVX and AVX2 (checked above); `vector` is eight writable `f32`s.
             unsafe {
@@ -342,7 +342,7 @@ fn prefix_sums_are_the_pairwise_running_sums() {
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn the_avx_node_step_equals_the_portable_one() {
-    if !std::arch::is_x86_feature_detected!("avx2") {
+    if !lanekit::cpu::has_avx2() {
         eprintln!("no AVX2: nothing to compare");
         return;
     }
@@ -427,7 +427,7 @@ fn the_lanes_first_choice_equals_the_scalar_slot() {
                     }
                 }
                 #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
+                if lanekit::cpu::has_avx2() {
                     let (mut vector_slot, mut vector_u) = ([0i32; 8], [0.0f32; 8]);
                     // SAFETY: the CPU has AVX and AVX2 (checked above).
                     let vector_light = unsafe {
