@@ -6,7 +6,35 @@
 //! Every kernel in the workspace uses this one width and these types, so a column filled by one
 //! kernel is the input of the next without a transpose.
 
+//!
+//! Lane structs are declared once with [`soa!`] (their columns and transposes are generated):
+//!
+//! ```
+//! lanekit::soa! {
+//!     /// Eight throughput updates.
+//!     #[derive(Clone, Copy, Debug)]
+//!     #[repr(C, align(32))]
+//!     pub struct UpdateLanes for struct Update {
+//!         /// Throughput.
+//!         pub beta: [f32; 3],
+//!         /// Probability of going on.
+//!         pub q: f32,
+//!     }
+//! }
+//! let mut lanes = UpdateLanes::default();
+//! lanes.set(1, &Update { beta: [1.0, 0.5, 0.25], q: 0.9 });
+//! assert_eq!(lanes.beta[2], [0.0, 0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+//! ```
+//!
+//! Modules: [`soa`] (the declaration macro and the [`Lane`] column of each scalar type), [`cpu`]
+//! (the run-time feature tests of the hand-written intrinsics paths).
+
 #![deny(missing_docs)]
+
+pub mod cpu;
+pub mod soa;
+
+pub use soa::{Column, Lane};
 
 /// Items per lane group: eight `f32`s fill one AVX2 register.
 pub const LANES: usize = 8;

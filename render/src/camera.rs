@@ -142,7 +142,7 @@ impl Camera {
     }
 }
 
-pub use lanekit::LANES;
+use lanekit::{Lanes, U32Lanes, LANES};
 
 /// What [`camera_ray_lanes`] needs of a camera and an image, constant over a render.
 #[derive(Clone, Copy, Debug)]
@@ -200,18 +200,20 @@ impl CameraLanes {
     }
 }
 
-/// Eight camera rays, one column per scalar.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct RayLanes {
-    /// World-space origins.
-    pub origin: [[f32; LANES]; 3],
-    /// Unit world-space directions.
-    pub dir: [[f32; LANES]; 3],
-    /// Scaled cone widths at the origin.
-    pub cone_width: [f32; LANES],
-    /// Scaled cone spreads.
-    pub cone_spread: [f32; LANES],
+lanekit::soa! {
+    /// Eight camera rays, one column per scalar.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct RayLanes for struct CameraRay {
+        /// World-space origins.
+        pub origin: Vec3 as [f32; 3],
+        /// Unit world-space directions.
+        pub dir: Vec3 as [f32; 3],
+        /// Scaled cone widths at the origin.
+        pub cone_width: f32,
+        /// Scaled cone spreads.
+        pub cone_spread: f32,
+    }
 }
 
 /// The camera rays through pixels (`x[k]`, `y[k]`) jittered by (`jx[k]`, `jy[k]`) ∈ [0, 1)²: lane
@@ -221,10 +223,10 @@ pub struct RayLanes {
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn camera_ray_lanes(
     c: &CameraLanes,
-    x: &[u32; LANES],
-    y: &[u32; LANES],
-    jx: &[f32; LANES],
-    jy: &[f32; LANES],
+    x: &U32Lanes,
+    y: &U32Lanes,
+    jx: &Lanes,
+    jy: &Lanes,
     out: &mut RayLanes,
 ) {
     // Film-plane position, as `generate_ray` computes it from the film loop's fractions.
@@ -392,11 +394,12 @@ mod tests {
                         let mut cone = cam.pixel_cone(d.dot(forward));
                         cone.width *= scale;
                         cone.spread *= scale;
-                        let at = |c: &[[f32; LANES]; 3]| [c[0][k], c[1][k], c[2][k]].map(f32::to_bits);
-                        assert_eq!(at(&out.origin), o.to_array().map(f32::to_bits), "origin, lane {k}");
-                        assert_eq!(at(&out.dir), d.to_array().map(f32::to_bits), "direction, lane {k}");
-                        assert_eq!(out.cone_width[k].to_bits(), cone.width.to_bits());
-                        assert_eq!(out.cone_spread[k].to_bits(), cone.spread.to_bits());
+                        let ray = out.get(k);
+                        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                        assert_eq!(bits(ray.origin), bits(o), "origin, lane {k}");
+                        assert_eq!(bits(ray.dir), bits(d), "direction, lane {k}");
+                        assert_eq!(ray.cone_width.to_bits(), cone.width.to_bits());
+                        assert_eq!(ray.cone_spread.to_bits(), cone.spread.to_bits());
                         cases += 1;
                     }
                 }

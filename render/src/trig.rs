@@ -89,6 +89,7 @@ pub fn sin_cos_lanes<const N: usize>(x: &[f32; N], sin: &mut [f32; N], cos: &mut
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lanekit::Lanes;
     use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
     /// Distance of `got` from `exact` in units of the `f32` ulp at `exact`.
@@ -196,7 +197,7 @@ mod tests {
     }
 
     #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
-    fn eight_lanes(x: &[f32; 8], sin: &mut [f32; 8], cos: &mut [f32; 8]) {
+    fn eight_lanes(x: &Lanes, sin: &mut Lanes, cos: &mut Lanes) {
         sin_cos_lanes(x, sin, cos);
     }
 
@@ -209,7 +210,7 @@ mod tests {
             (state >> 8) as f32 / 16_777_216.0
         };
         for _ in 0..200_000 {
-            let x: [f32; 8] = std::array::from_fn(|k| match k {
+            let x: Lanes = std::array::from_fn(|k| match k {
                 0 => TAU * next(),
                 1 => FRAC_PI_4 * (2.0 * next() - 1.0) + FRAC_PI_2 * (next() < 0.5) as u32 as f32,
                 _ => 20.0 * PI * (next() - 0.5),

@@ -2,7 +2,7 @@
 //! new ray off the surface it leaves.
 
 use glam::Vec3;
-use lanekit::{saturating_i32, LANES};
+use lanekit::{saturating_i32, Lanes3, LANES};
 
 /// A ray for the batch query [`crate::Accel::trace_closest`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,7 +58,7 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
 /// float offset near it), the same integer and IEEE operations per component.
 #[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
-pub fn offset_origin_lanes(p: &[[f32; LANES]; 3], n: &[[f32; LANES]; 3], out: &mut [[f32; LANES]; 3]) {
+pub fn offset_origin_lanes(p: &Lanes3, n: &Lanes3, out: &mut Lanes3) {
     // The constants of `offset_ray_origin`.
     const ORIGIN: f32 = 1.0 / 32.0;
     const FLOAT_SCALE: f32 = 1.0 / 65536.0;
@@ -101,7 +101,7 @@ mod tests {
             let mut out = [[0.0f32; LANES]; 3];
             offset_origin_lanes(&p, &n, &mut out);
             for k in 0..LANES {
-                let at = |c: &[[f32; LANES]; 3]| Vec3::new(c[0][k], c[1][k], c[2][k]);
+                let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
                 let expected = offset_ray_origin(at(&p), at(&n));
                 assert_eq!(at(&out).to_array().map(f32::to_bits), expected.to_array().map(f32::to_bits));
                 for axis in &p {

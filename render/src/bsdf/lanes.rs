@@ -22,104 +22,100 @@
 use crate::bsdf::Bsdf;
 use crate::shading::ShadingInputs;
 use glam::Vec3;
-use lanekit::LANES;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
 use std::ops::{Add, Mul, Sub};
 
-pub use lanekit::{Lanes, Lanes3, V};
+use lanekit::{Lanes3, LANES, V};
 
 const CLEARCOAT_F0: f32 = 0.04;
 
-/// Eight BSDFs and their outgoing directions, transposed.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct BsdfLanes {
-    /// Shading frame tangent.
-    pub t: Lanes3,
-    /// Shading frame bitangent.
-    pub b: Lanes3,
-    /// Shading normal.
-    pub n: Lanes3,
-    /// Geometric normal on the side of `wo`.
-    pub ng: Lanes3,
-    /// Diffuse colour.
-    pub diffuse: Lanes3,
-    /// Specular F0.
-    pub f0: Lanes3,
-    /// GGX α of the specular lobe.
-    pub alpha: Lanes,
-    /// Clearcoat weight.
-    pub clearcoat: Lanes,
-    /// GGX α of the clearcoat.
-    pub clearcoat_alpha: Lanes,
-    /// World-space direction towards the viewer.
-    pub wo: Lanes3,
-}
-
-impl BsdfLanes {
-    /// Writes `bsdf` seen from `wo` into lane `k`.
-    #[inline]
-    pub fn set(&mut self, k: usize, bsdf: &Bsdf, wo: Vec3) {
-        let put = |dst: &mut Lanes3, v: Vec3| {
-            dst[0][k] = v.x;
-            dst[1][k] = v.y;
-            dst[2][k] = v.z;
-        };
-        put(&mut self.t, bsdf.frame.t);
-        put(&mut self.b, bsdf.frame.b);
-        put(&mut self.n, bsdf.frame.n);
-        put(&mut self.ng, bsdf.ng);
-        put(&mut self.diffuse, bsdf.diffuse);
-        put(&mut self.f0, bsdf.f0);
-        put(&mut self.wo, wo);
-        self.alpha[k] = bsdf.alpha;
-        self.clearcoat[k] = bsdf.clearcoat;
-        self.clearcoat_alpha[k] = bsdf.clearcoat_alpha;
+lanekit::soa! {
+    /// Eight BSDFs and their outgoing directions, transposed.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct BsdfLanes for struct BsdfLane {
+        /// Shading frame tangent.
+        pub t: Vec3 as [f32; 3],
+        /// Shading frame bitangent.
+        pub b: Vec3 as [f32; 3],
+        /// Shading normal.
+        pub n: Vec3 as [f32; 3],
+        /// Geometric normal on the side of `wo`.
+        pub ng: Vec3 as [f32; 3],
+        /// Diffuse colour.
+        pub diffuse: Vec3 as [f32; 3],
+        /// Specular F0.
+        pub f0: Vec3 as [f32; 3],
+        /// GGX α of the specular lobe.
+        pub alpha: f32,
+        /// Clearcoat weight.
+        pub clearcoat: f32,
+        /// GGX α of the clearcoat.
+        pub clearcoat_alpha: f32,
+        /// World-space direction towards the viewer.
+        pub wo: Vec3 as [f32; 3],
     }
 }
 
-/// Eight shading points' resolved UsdPreviewSurface inputs and normals: what
-/// [`Bsdf::from_inputs`] reads, transposed.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct InputLanes {
-    /// `diffuseColor`.
-    pub diffuse_color: Lanes3,
-    /// `specularColor`.
-    pub specular_color: Lanes3,
-    /// 1 for `useSpecularWorkflow`.
-    pub use_specular_workflow: [u32; LANES],
-    /// `roughness`.
-    pub roughness: Lanes,
-    /// `metallic`.
-    pub metallic: Lanes,
-    /// `ior`.
-    pub ior: Lanes,
-    /// `clearcoat`.
-    pub clearcoat: Lanes,
-    /// `clearcoatRoughness`.
-    pub clearcoat_roughness: Lanes,
-    /// Unit shading normal on the side of the viewer.
-    pub ns: Lanes3,
-    /// Unit geometric normal on the side of the viewer.
-    pub ng: Lanes3,
+impl BsdfLanes {
+    /// Writes `bsdf` seen from `wo` into lane `k` (the frame flattened into its three axes).
+    #[inline]
+    pub fn set_bsdf(&mut self, k: usize, bsdf: &Bsdf, wo: Vec3) {
+        let Bsdf { frame, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha } = *bsdf;
+        let (t, b, n) = (frame.t, frame.b, frame.n);
+        self.set(k, &BsdfLane { t, b, n, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha, wo });
+    }
+}
+
+lanekit::soa! {
+    /// Eight shading points' resolved UsdPreviewSurface inputs and normals: what
+    /// [`Bsdf::from_inputs`] reads, transposed.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct InputLanes for struct InputLane {
+        /// `diffuseColor`.
+        pub diffuse_color: Vec3 as [f32; 3],
+        /// `specularColor`.
+        pub specular_color: Vec3 as [f32; 3],
+        /// 1 for `useSpecularWorkflow`.
+        pub use_specular_workflow: bool,
+        /// `roughness`.
+        pub roughness: f32,
+        /// `metallic`.
+        pub metallic: f32,
+        /// `ior`.
+        pub ior: f32,
+        /// `clearcoat`.
+        pub clearcoat: f32,
+        /// `clearcoatRoughness`.
+        pub clearcoat_roughness: f32,
+        /// Unit shading normal on the side of the viewer.
+        pub ns: Vec3 as [f32; 3],
+        /// Unit geometric normal on the side of the viewer.
+        pub ng: Vec3 as [f32; 3],
+    }
 }
 
 impl InputLanes {
-    /// Writes `inputs` at a point with normals `ns` and `ng` into lane `k`.
+    /// Writes `inputs` at a point with normals `ns` and `ng` into lane `k` (the inputs the BSDF
+    /// reads: not emission, opacity or the normal map, which phase 1 has applied).
     #[inline]
-    pub fn set(&mut self, k: usize, inputs: &ShadingInputs, ns: Vec3, ng: Vec3) {
-        let put = |dst: &mut Lanes3, v: Vec3| (dst[0][k], dst[1][k], dst[2][k]) = (v.x, v.y, v.z);
-        put(&mut self.diffuse_color, inputs.diffuse_color);
-        put(&mut self.specular_color, inputs.specular_color);
-        put(&mut self.ns, ns);
-        put(&mut self.ng, ng);
-        self.use_specular_workflow[k] = inputs.use_specular_workflow as u32;
-        self.roughness[k] = inputs.roughness;
-        self.metallic[k] = inputs.metallic;
-        self.ior[k] = inputs.ior;
-        self.clearcoat[k] = inputs.clearcoat;
-        self.clearcoat_roughness[k] = inputs.clearcoat_roughness;
+    pub fn set_inputs(&mut self, k: usize, inputs: &ShadingInputs, ns: Vec3, ng: Vec3) {
+        self.set(
+            k,
+            &InputLane {
+                diffuse_color: inputs.diffuse_color,
+                specular_color: inputs.specular_color,
+                use_specular_workflow: inputs.use_specular_workflow,
+                roughness: inputs.roughness,
+                metallic: inputs.metallic,
+                ior: inputs.ior,
+                clearcoat: inputs.clearcoat,
+                clearcoat_roughness: inputs.clearcoat_roughness,
+                ns,
+                ng,
+            },
+        );
     }
 }
 
@@ -175,42 +171,48 @@ pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
     }
 }
 
-/// Values and pdfs of eight evaluations.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct EvalLanes {
-    /// BSDF value (no cosine).
-    pub f: Lanes3,
-    /// Combined pdf.
-    pub pdf: Lanes,
+lanekit::soa! {
+    /// Values and pdfs of eight evaluations.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct EvalLanes for struct EvalLane {
+        /// BSDF value (no cosine).
+        pub f: Vec3 as [f32; 3],
+        /// Combined pdf.
+        pub pdf: f32,
+    }
 }
 
-/// Eight BSDF samples; lanes with `ok == 0` were absorbed (the scalar `sample` returned `None`).
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct SampleLanes {
-    /// World-space incident direction.
-    pub wi: Lanes3,
-    /// BSDF value.
-    pub f: Lanes3,
-    /// Combined pdf.
-    pub pdf: Lanes,
-    /// α of the sampled lobe.
-    pub lobe_alpha: Lanes,
-    /// 1 where the sample exists.
-    pub ok: [u32; LANES],
+lanekit::soa! {
+    /// Eight BSDF samples; lanes with `ok == 0` were absorbed (the scalar `sample` returned `None`).
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct SampleLanes for struct SampleLane {
+        /// World-space incident direction.
+        pub wi: Vec3 as [f32; 3],
+        /// BSDF value.
+        pub f: Vec3 as [f32; 3],
+        /// Combined pdf.
+        pub pdf: f32,
+        /// α of the sampled lobe.
+        pub lobe_alpha: f32,
+        /// 1 where the sample exists.
+        pub ok: bool,
+    }
 }
 
-/// The random numbers of eight samples.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct SampleInputs {
-    /// Lobe choice.
-    pub u_lobe: Lanes,
-    /// First direction coordinate.
-    pub u0: Lanes,
-    /// Second direction coordinate.
-    pub u1: Lanes,
+lanekit::soa! {
+    /// The random numbers of eight samples.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct SampleInputs for struct SampleInput {
+        /// Lobe choice.
+        pub u_lobe: f32,
+        /// First direction coordinate.
+        pub u0: f32,
+        /// Second direction coordinate.
+        pub u1: f32,
+    }
 }
 
 #[inline(always)]
@@ -526,7 +528,7 @@ mod tests {
             let mut expected = Vec::new();
             for k in 0..LANES {
                 let (inputs, ns, ng) = random_inputs(&mut rng);
-                inp.set(k, &inputs, ns, ng);
+                inp.set_inputs(k, &inputs, ns, ng);
                 expected.push(Bsdf::from_inputs(&inputs, ns, ng));
                 specular += inputs.use_specular_workflow as u32;
                 metallic += !inputs.use_specular_workflow as u32;
@@ -575,7 +577,7 @@ mod tests {
                 if coatless {
                     bsdf.clearcoat = if rng.f() < 0.1 { -0.0 } else { 0.0 };
                 }
-                l.set(k, &bsdf, wo);
+                l.set_bsdf(k, &bsdf, wo);
                 let w = if rng.f() < 0.5 { rng.dir() } else { (bsdf.ng + rng.dir()).normalize_or(bsdf.ng) };
                 (wi[0][k], wi[1][k], wi[2][k]) = (w.x, w.y, w.z);
                 u.u_lobe[k] = rng.f();

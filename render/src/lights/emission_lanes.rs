@@ -179,10 +179,7 @@ impl AreaLightLanes {
         debug_assert_eq!(shapes.len(), all.len());
         let boxes = lights.area_boxes().to_vec();
         debug_assert_eq!(boxes.len(), all.len().div_ceil(area_groups::GROUP), "one box per group of eight");
-        #[cfg(target_arch = "x86_64")]
-        let avx = std::arch::is_x86_feature_detected!("avx");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx = false;
+        let avx = lanekit::cpu::has_avx();
         AreaLightLanes {
             lights: all,
             #[cfg(target_arch = "x86_64")]
@@ -384,7 +381,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_avx_kernel_equals_the_portable_one() {
-        if !std::arch::is_x86_feature_detected!("avx") {
+        if !lanekit::cpu::has_avx() {
             return;
         }
         // Mixed shapes, then spheres only and rects and disks only (groups skip the test of the

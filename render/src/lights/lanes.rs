@@ -45,10 +45,9 @@
 
 use crate::lights::tree::LightSelector;
 use crate::lights::{Lights, Shape};
+use glam::Vec3;
 use lanekit::saturating_i32;
-use lanekit::LANES;
-use lanekit::V;
-use lanekit::{Lanes, Lanes3};
+use lanekit::{Lanes, Lanes3, U32Lanes, LANES, V};
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 use std::ops::{Add, Div, Sub};
 
@@ -204,45 +203,49 @@ impl LightTable {
     }
 }
 
-/// Eight shading points and their light-sample random numbers.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct LightInputs {
-    /// Shading point.
-    pub p: Lanes3,
-    /// Light choice.
-    pub u_select: Lanes,
-    /// Position (or direction) sample on the light.
-    pub u: [Lanes; 2],
+lanekit::soa! {
+    /// Eight shading points and their light-sample random numbers.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct LightInputs for struct LightInput {
+        /// Shading point.
+        pub p: Vec3 as [f32; 3],
+        /// Light choice.
+        pub u_select: f32,
+        /// Position (or direction) sample on the light.
+        pub u: [f32; 2],
+    }
 }
 
-/// Eight light samples; lanes with `ok == 0` have none (`Lights::sample` returned `None`).
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct LightSampleLanes {
-    /// 1 where the sample exists.
-    pub ok: [u32; LANES],
-    /// Unit direction towards the light.
-    pub wi: Lanes3,
-    /// Distance to the sampled point (infinite for dome and distant lights).
-    pub distance: Lanes,
-    /// Incident radiance (irradiance or intensity over d² for delta lights).
-    pub li: Lanes3,
-    /// Solid-angle pdf with the selection probability.
-    pub pdf: Lanes,
-    /// 1 for a delta light.
-    pub delta: [u32; LANES],
-    /// The emissive triangle sampled, or [`blob::NONE`].
-    pub triangle: [u32; LANES],
-    /// Barycentric weights of the triangle's vertices 1 and 2 at the sampled point.
-    pub b: [Lanes; 2],
+lanekit::soa! {
+    /// Eight light samples; lanes with `ok == 0` have none (`Lights::sample` returned `None`).
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct LightSampleLanes for struct LightSampleLane {
+        /// 1 where the sample exists.
+        pub ok: bool,
+        /// Unit direction towards the light.
+        pub wi: Vec3 as [f32; 3],
+        /// Distance to the sampled point (infinite for dome and distant lights).
+        pub distance: f32,
+        /// Incident radiance (irradiance or intensity over d² for delta lights).
+        pub li: Vec3 as [f32; 3],
+        /// Solid-angle pdf with the selection probability.
+        pub pdf: f32,
+        /// 1 for a delta light.
+        pub delta: bool,
+        /// The emissive triangle sampled, or [`blob::NONE`].
+        pub triangle: u32,
+        /// Barycentric weights of the triangle's vertices 1 and 2 at the sampled point.
+        pub b: [f32; 2],
+    }
 }
 
 /// Each lane's light record, gathered by the selection step.
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(32))]
 struct Gathered {
-    kind: [u32; LANES],
+    kind: U32Lanes,
     radiance: Lanes3,
     /// Centre / position / direction, or a triangle's first vertex.
     center: Lanes3,
@@ -257,7 +260,7 @@ struct Gathered {
     sel: Lanes,
     /// `u[0]`, or for a triangle its value stretched within the chosen CDF bucket.
     u0: Lanes,
-    triangle: [u32; LANES],
+    triangle: U32Lanes,
 }
 
 /// `Frame::new(n).to_world(v)` (Duff et al. 2017), in its operation order.
@@ -330,7 +333,7 @@ fn gather(
     table: &LightTable,
     inp: &LightInputs,
     g: &mut Gathered,
-    heads: impl Fn(&[LaneLight], &[u32; LANES], &mut Gathered),
+    heads: impl Fn(&[LaneLight], &U32Lanes, &mut Gathered),
 ) {
     let count = table.lights.len();
     let mut index = [0u32; LANES];
@@ -391,7 +394,7 @@ fn gather(
 
 /// Each lane's record's kind, radiance and centre into the columns, copied per lane.
 #[inline(always)]
-fn heads(lights: &[LaneLight], index: &[u32; LANES], g: &mut Gathered) {
+fn heads(lights: &[LaneLight], index: &U32Lanes, g: &mut Gathered) {
     for k in 0..LANES {
         let r = &lights[index[k] as usize];
         g.kind[k] = r.kind;
@@ -411,7 +414,7 @@ fn heads(lights: &[LaneLight], index: &[u32; LANES], g: &mut Gathered) {
 #[cfg(target_arch = "x86_64")]
 #[inline]
 #[target_feature(enable = "avx")]
-fn heads_avx(lights: &[LaneLight], index: &[u32; LANES], g: &mut Gathered) {
+fn heads_avx(lights: &[LaneLight], index: &U32Lanes, g: &mut Gathered) {
     use std::arch::x86_64::*;
     const _: () =
         assert!(std::mem::offset_of!(LaneLight, center) == 16 && std::mem::size_of::<LaneLight>() >= 32);
@@ -447,7 +450,7 @@ fn heads_avx(lights: &[LaneLight], index: &[u32; LANES], g: &mut Gathered) {
             _mm256_permute2f128_ps::<0x31>(tt[j - 4], tt[j])
         }
     };
-    let store = |out: &mut [f32; LANES], v: __m256| {
+    let store = |out: &mut Lanes, v: __m256| {
         // SAFETY: `out` is eight writable `f32`s; the store is unaligned.
         unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) }
     };
@@ -795,7 +798,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn transposed_heads_equal_the_per_lane_copy() {
-        if !std::arch::is_x86_feature_detected!("avx") {
+        if !lanekit::cpu::has_avx() {
             eprintln!("no AVX: nothing to compare");
             return;
         }
@@ -814,7 +817,7 @@ mod tests {
             })
             .collect();
         for _ in 0..2_000 {
-            let index: [u32; LANES] = std::array::from_fn(|_| next() % lights.len() as u32);
+            let index: U32Lanes = std::array::from_fn(|_| next() % lights.len() as u32);
             let (mut want, mut got) = (Gathered::default(), Gathered::default());
             heads(&lights, &index, &mut want);
             // SAFETY: the CPU has AVX (checked above).

@@ -33,7 +33,7 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     }
 }
 
-pub use lanekit::LANES;
+use lanekit::LANES;
 
 /// A next-event candidate from shading (AoS, indexed by its path).
 #[derive(Clone, Copy, Debug, Default)]
@@ -64,34 +64,38 @@ pub struct NeeCandidate {
     pub seed: u32,
 }
 
-/// Eight candidates' inputs, one column per scalar.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct NeeLanes {
-    /// Throughput, per channel.
-    pub beta: [[f32; LANES]; 3],
-    /// BSDF value, per channel.
-    pub f: [[f32; LANES]; 3],
-    /// Light radiance, per channel.
-    pub li: [[f32; LANES]; 3],
-    /// Cosines.
-    pub cos: [f32; LANES],
-    /// Light pdfs.
-    pub light_pdf: [f32; LANES],
-    /// BSDF pdfs.
-    pub bsdf_pdf: [f32; LANES],
-    /// Delta-light flags (0/1).
-    pub delta: [u32; LANES],
+lanekit::soa! {
+    /// Eight candidates' inputs, one column per scalar.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct NeeLanes for struct NeeLane {
+        /// Throughput, per channel.
+        pub beta: Vec3 as [f32; 3],
+        /// BSDF value, per channel.
+        pub f: Vec3 as [f32; 3],
+        /// Light radiance, per channel.
+        pub li: Vec3 as [f32; 3],
+        /// Cosines.
+        pub cos: f32,
+        /// Light pdfs.
+        pub light_pdf: f32,
+        /// BSDF pdfs.
+        pub bsdf_pdf: f32,
+        /// Delta-light flags (0/1).
+        pub delta: u32,
+    }
 }
 
-/// Eight weighed contributions (`visible == 0`: dropped, no shadow ray).
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct NeeOut {
-    /// MIS-weighted contribution per channel.
-    pub contribution: [[f32; LANES]; 3],
-    /// 1 where the contribution is positive somewhere.
-    pub keep: [u32; LANES],
+lanekit::soa! {
+    /// Eight weighed contributions (`visible == 0`: dropped, no shadow ray).
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct NeeOut for struct NeeWeighed {
+        /// MIS-weighted contribution per channel.
+        pub contribution: Vec3 as [f32; 3],
+        /// 1 where the contribution is positive somewhere.
+        pub keep: bool,
+    }
 }
 
 /// The scalar reference: the weighted contribution, or `None` when it is black.
@@ -110,15 +114,8 @@ pub fn weigh_scalar(c: &NeeCandidate) -> Option<Vec3> {
 pub fn transpose(cands: &[NeeCandidate]) -> NeeLanes {
     let mut l = NeeLanes::default();
     for (k, c) in cands.iter().take(LANES).enumerate() {
-        for ch in 0..3 {
-            l.beta[ch][k] = c.beta[ch];
-            l.f[ch][k] = c.f[ch];
-            l.li[ch][k] = c.li[ch];
-        }
-        l.cos[k] = c.cos;
-        l.light_pdf[k] = c.light_pdf;
-        l.bsdf_pdf[k] = c.bsdf_pdf;
-        l.delta[k] = c.delta;
+        let NeeCandidate { beta, f, li, cos, light_pdf, bsdf_pdf, delta, .. } = *c;
+        l.set(k, &NeeLane { beta, f, li, cos, light_pdf, bsdf_pdf, delta });
     }
     l
 }
@@ -162,8 +159,9 @@ pub fn weigh_all(cands: &[NeeCandidate], mut emit: impl FnMut(&NeeCandidate, Vec
     for chunk in cands.chunks(LANES) {
         weigh_lanes(&transpose(chunk), &mut out);
         for (k, c) in chunk.iter().enumerate() {
-            if out.keep[k] != 0 {
-                emit(c, Vec3::new(out.contribution[0][k], out.contribution[1][k], out.contribution[2][k]));
+            let NeeWeighed { contribution, keep } = out.get(k);
+            if keep {
+                emit(c, contribution);
             }
         }
     }

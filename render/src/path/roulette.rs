@@ -14,34 +14,37 @@
 
 use glam::Vec3;
 use lanekit::LANES;
-use lanekit::{Lanes, Lanes3};
 
-/// Eight paths' inputs.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct RouletteLanes {
-    /// Throughput before the bounce.
-    pub beta: Lanes3,
-    /// Sampled BSDF value.
-    pub f: Lanes3,
-    /// `|n_s · ω_i|`.
-    pub cos: Lanes,
-    /// Sampled pdf.
-    pub pdf: Lanes,
-    /// The roulette's random number.
-    pub u: Lanes,
-    /// 1 where roulette is played (enough bounces).
-    pub play: [u32; LANES],
+lanekit::soa! {
+    /// Eight paths' inputs.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct RouletteLanes for struct RouletteLane {
+        /// Throughput before the bounce.
+        pub beta: Vec3 as [f32; 3],
+        /// Sampled BSDF value.
+        pub f: Vec3 as [f32; 3],
+        /// `|n_s · ω_i|`.
+        pub cos: f32,
+        /// Sampled pdf.
+        pub pdf: f32,
+        /// The roulette's random number.
+        pub u: f32,
+        /// 1 where roulette is played (enough bounces).
+        pub play: bool,
+    }
 }
 
-/// Eight updated throughputs; `alive == 0` where roulette ended the path.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct RouletteOut {
-    /// New throughput.
-    pub beta: Lanes3,
-    /// 1 where the path continues.
-    pub alive: [u32; LANES],
+lanekit::soa! {
+    /// Eight updated throughputs; `alive == 0` where roulette ended the path.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct RouletteOut for struct RouletteResult {
+        /// New throughput.
+        pub beta: Vec3 as [f32; 3],
+        /// 1 where the path continues.
+        pub alive: bool,
+    }
 }
 
 /// The scalar reference: the new throughput, or `None` when roulette ends the path.
@@ -118,27 +121,28 @@ mod tests {
             // One group in three plays no roulette on any lane (the kernel's variant without it).
             let no_play_group = round % 3 == 0;
             for k in 0..LANES {
+                let (mut beta, mut f) = (Vec3::ZERO, Vec3::ZERO);
                 for c in 0..3 {
-                    l.beta[c][k] = if u() < 0.03 { special[(u() * 5.0) as usize % 5] } else { 2.0 * u() };
-                    l.f[c][k] = u();
+                    beta[c] = if u() < 0.03 { special[(u() * 5.0) as usize % 5] } else { 2.0 * u() };
+                    f[c] = u();
                 }
-                l.cos[k] = u();
-                l.pdf[k] = if u() < 0.03 { 0.0 } else { 4.0 * u() };
-                l.u[k] = u();
-                l.play[k] = (!no_play_group && u() < 0.7) as u32;
+                let cos = u();
+                let pdf = if u() < 0.03 { 0.0 } else { 4.0 * u() };
+                let u_rr = u();
+                let play = !no_play_group && u() < 0.7;
+                l.set(k, &RouletteLane { beta, f, cos, pdf, u: u_rr, play });
             }
             no_play_groups += l.play.iter().all(|&p| p == 0) as u32;
             let mut out = RouletteOut::default();
             continue_lanes(&l, &mut out);
             for k in 0..LANES {
-                let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
-                let expected =
-                    continue_scalar(at(&l.beta), at(&l.f), l.cos[k], l.pdf[k], l.play[k] != 0, l.u[k]);
-                assert_eq!(out.alive[k] != 0, expected.is_some(), "lane {k}");
+                let (i, o) = (l.get(k), out.get(k));
+                let expected = continue_scalar(i.beta, i.f, i.cos, i.pdf, i.play, i.u);
+                assert_eq!(o.alive, expected.is_some(), "lane {k}");
                 if let Some(b) = expected {
                     let bits =
                         |v: Vec3| v.to_array().map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() });
-                    assert_eq!(bits(at(&out.beta)), bits(b), "lane {k}");
+                    assert_eq!(bits(o.beta), bits(b), "lane {k}");
                     alive += 1;
                 }
                 total += 1;

@@ -23,21 +23,23 @@
 //! an AVX-512VL clone was dropped (3 % for a third clone); measurements: `docs/perf.md#sampler-lanes-samplerlanesrs`.
 
 use crate::sampler::{dim, hash_combine, pair_index, sobol1_reversed, unit_from_reversed, PairSeeds};
-use lanekit::LANES;
+use lanekit::{Lanes, U32Lanes, LANES};
 
 /// Dimensions of a vertex: `vertex_lanes` writes `out[d]` for `d < DIMS`, except `dim::OPACITY`.
 pub const DIMS: usize = 8;
 
-/// Eight paths' keys at their current vertex.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct KeyLanes {
-    /// Linear pixel index.
-    pub pixel: [u32; LANES],
-    /// Sample index.
-    pub sample: [u32; LANES],
-    /// Vertex counter.
-    pub vertex: [u32; LANES],
+lanekit::soa! {
+    /// Eight paths' keys at their current vertex.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct KeyLanes for struct KeyLane {
+        /// Linear pixel index.
+        pub pixel: u32,
+        /// Sample index.
+        pub sample: u32,
+        /// Vertex counter.
+        pub vertex: u32,
+    }
 }
 
 /// Dimension `2·pair` of a path whose pair-seed prefix is `prefix`.
@@ -63,7 +65,7 @@ fn both_of_pair(prefix: u32, pair: u32, sample: u32) -> [f32; 2] {
 /// was); `seed_hash` is `hash_u32(seed)`.
 #[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma+gfni", "x86_64+avx+avx2+fma"))]
-pub fn vertex_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [[f32; LANES]; DIMS]) {
+pub fn vertex_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [Lanes; DIMS]) {
     let mut prefix = [0u32; LANES];
     for k in 0..LANES {
         prefix[k] = hash_combine(hash_combine(seed_hash, keys.pixel[k]), keys.vertex[k]);
@@ -77,23 +79,17 @@ pub fn vertex_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [[f32; LANES]; DI
     }
 }
 
-/// Eight paths' [`PairSeeds`], one field per array.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct PairSeedLanes {
-    /// [`PairSeeds::index`] per lane.
-    pub index: [u32; LANES],
-    /// [`PairSeeds::first`] per lane.
-    pub first: [u32; LANES],
-    /// [`PairSeeds::second`] per lane.
-    pub second: [u32; LANES],
-}
-
-impl PairSeedLanes {
-    /// Puts `seeds` in lane `k`.
-    #[inline(always)]
-    pub fn set(&mut self, k: usize, seeds: PairSeeds) {
-        (self.index[k], self.first[k], self.second[k]) = (seeds.index, seeds.first, seeds.second);
+lanekit::soa! {
+    /// Eight paths' [`PairSeeds`], one field per array.
+    #[derive(Clone, Copy, Debug)]
+    #[repr(C, align(32))]
+    pub struct PairSeedLanes for PairSeeds {
+        /// [`PairSeeds::index`] per lane.
+        pub index: u32,
+        /// [`PairSeeds::first`] per lane.
+        pub first: u32,
+        /// [`PairSeeds::second`] per lane.
+        pub second: u32,
     }
 }
 
@@ -103,7 +99,7 @@ impl PairSeedLanes {
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn pair_seed_lanes(
     seed_hash: u32,
-    pixel: &[u32; LANES],
+    pixel: &U32Lanes,
     vertex: u32,
     dimension: u32,
     out: &mut PairSeedLanes,
@@ -125,7 +121,7 @@ pub fn pair_seed_lanes(
 /// latency-bound (perf, simple, 320×213, 16 spp: 3.4 % of the samples, above `vertex_lanes`).
 #[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma+gfni", "x86_64+avx+avx2+fma"))]
-pub fn pair_lanes(seeds: &PairSeedLanes, sample: &[u32; LANES], out: &mut [[f32; LANES]; 2]) {
+pub fn pair_lanes(seeds: &PairSeedLanes, sample: &U32Lanes, out: &mut [Lanes; 2]) {
     for k in 0..LANES {
         let index = pair_index(sample[k], seeds.index[k]);
         out[0][k] = unit_from_reversed(index, seeds.first[k]);
@@ -179,7 +175,7 @@ mod tests {
                     // Small pixels and samples, and the full 32-bit range (every Sobol index bit).
                     pixel[k] = if round % 2 == 0 { x % 1_000_000 } else { x };
                     sample[k] = if round % 3 == 0 { hash_u32(x) } else { (x >> 11) % 65_536 };
-                    seeds.set(k, PairSeeds::new(hash_u32(seed), pixel[k], vertex, dimension));
+                    seeds.set(k, &PairSeeds::new(hash_u32(seed), pixel[k], vertex, dimension));
                 }
                 let mut hashed = PairSeedLanes::default();
                 pair_seed_lanes(hash_u32(seed), &pixel, vertex, dimension, &mut hashed);

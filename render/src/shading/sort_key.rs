@@ -21,7 +21,7 @@
 
 use crate::shading::{reg, Shading, UvFootprint};
 use blob::{op_kind, MAX_REGISTERS};
-use lanekit::LANES;
+use lanekit::{Lanes, U32Lanes, LANES};
 use texture::sort_key::{MAX_SORT_MIP, MIP_SHIFT};
 
 /// UsdTransform2d ops a [`KeyPlan::Uv`] follows between the uv reader and the texture read.
@@ -128,11 +128,11 @@ fn plan(shading: &Shading, material: u32) -> KeyPlan {
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(32))]
 pub struct KeyInputs {
-    material: [u32; LANES],
-    uv: [[f32; LANES]; 2],
-    duv_dx: [[f32; LANES]; 2],
-    duv_dy: [[f32; LANES]; 2],
-    has_uv: [u32; LANES],
+    material: U32Lanes,
+    uv: [Lanes; 2],
+    duv_dx: [Lanes; 2],
+    duv_dy: [Lanes; 2],
+    has_uv: U32Lanes,
     len: usize,
 }
 
@@ -175,7 +175,7 @@ impl KeyInputs {
 /// one material reads its plan once (the lane loop then takes it as loop-invariant scalars), a
 /// mixed group gathers each lane's plan into columns first.
 #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
-pub fn keys(shading: &Shading, plans: &[KeyPlan], input: &KeyInputs, keys: &mut [u32; LANES]) {
+pub fn keys(shading: &Shading, plans: &[KeyPlan], input: &KeyInputs, keys: &mut U32Lanes) {
     let first = input.material[0];
     if !input.material[..input.len].iter().all(|&m| m == first) {
         return gathered_keys(shading, plans, input, keys);
@@ -210,7 +210,7 @@ struct LanePlan {
 
 /// [`keys`] for a group on several materials: each lane's plan gathered into columns.
 #[inline(always)]
-fn gathered_keys(shading: &Shading, plans: &[KeyPlan], input: &KeyInputs, keys: &mut [u32; LANES]) {
+fn gathered_keys(shading: &Shading, plans: &[KeyPlan], input: &KeyInputs, keys: &mut U32Lanes) {
     // Lanes on a scalar plan are keyed after the lane loop.
     let mut t = [[[0.0f32; LANES]; 6]; MAX_TRANSFORMS];
     let (mut count, mut no_uv_key, mut use_uv) = ([0u32; LANES], [0u32; LANES], [0u32; LANES]);
@@ -252,7 +252,7 @@ fn gathered_keys(shading: &Shading, plans: &[KeyPlan], input: &KeyInputs, keys: 
 
 /// The lane loop: every lane's key from its uv footprint and `plan(lane)`.
 #[inline(always)]
-fn lane_keys(input: &KeyInputs, keys: &mut [u32; LANES], plan: impl Fn(usize) -> LanePlan) {
+fn lane_keys(input: &KeyInputs, keys: &mut U32Lanes, plan: impl Fn(usize) -> LanePlan) {
     for k in 0..LANES {
         let LanePlan { transforms: t, count, width, height, has_texture, no_uv_key, use_uv } = plan(k);
         let (mut x, mut y) = (input.uv[0][k], input.uv[1][k]);
@@ -277,7 +277,7 @@ fn lane_keys(input: &KeyInputs, keys: &mut [u32; LANES], plan: impl Fn(usize) ->
 
 /// `keys[k]` by [`Shading::sort_key`] for the pushed lanes on a scalar plan.
 #[inline(never)]
-fn scalar_keys(shading: &Shading, plans: &[KeyPlan], input: &KeyInputs, keys: &mut [u32; LANES]) {
+fn scalar_keys(shading: &Shading, plans: &[KeyPlan], input: &KeyInputs, keys: &mut U32Lanes) {
     for k in 0..input.len {
         if plans[input.material[k] as usize] == KeyPlan::Scalar {
             let at = UvFootprint {

@@ -40,9 +40,8 @@ use crate::scene::Scene;
 use crate::shading::{MeshPoint, UvFootprint};
 use crate::surface::Surface;
 use glam::Vec3;
-use lanekit::LANES;
+use lanekit::{Lanes, Lanes3, U32Lanes, LANES};
 
-use lanekit::{Lanes, Lanes3};
 type Lanes2 = [Lanes; 2];
 
 /// Groups smaller than this are built by the scalar [`Scene::surface`], one call per hit: the
@@ -136,7 +135,7 @@ impl Gather {
     #[inline]
     fn detect() -> Gather {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if lanekit::cpu::has_avx2() {
             return Gather::Avx2;
         }
         Gather::Portable
@@ -176,10 +175,10 @@ struct Columns {
     dpdu: Lanes3,
     dpdv: Lanes3,
     /// Non-zero where the triangle is not degenerate.
-    valid: [u32; LANES],
+    valid: U32Lanes,
     /// Non-zero where the mesh has uvs.
-    has_uv: [u32; LANES],
-    material: [u32; LANES],
+    has_uv: U32Lanes,
+    material: U32Lanes,
 }
 
 impl Columns {
@@ -238,9 +237,9 @@ struct Gathered {
     /// `normal_from_object[r][c]` = the instance's `object_from_world[c][r]` (its transpose).
     normal_from_object: [Lanes3; 3],
     /// Non-zero where the mesh has normals, has uvs, the hit is on an instance.
-    has_normals: [u32; LANES],
-    has_uvs: [u32; LANES],
-    instanced: [u32; LANES],
+    has_normals: U32Lanes,
+    has_uvs: U32Lanes,
+    instanced: U32Lanes,
 }
 
 /// `(a·b)` in glam's order: `(x·x' + y·y') + z·z'`.
@@ -528,7 +527,7 @@ fn texture_coordinates(g: &Gathered, out: &mut Columns) {
 /// std::arch rather than a crate: no well-kept portable-SIMD crate exposes gathers on stable.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{gather_instance, HitGroup, Present, LANES};
+    use super::{gather_instance, HitGroup, Lanes, Present};
     use crate::accel::Hit;
     use crate::scene::Scene;
     use glam::Vec3;
@@ -579,7 +578,7 @@ mod avx2 {
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn corner_attribute<const C: usize>(
-        columns: &mut [[[f32; LANES]; C]; 3],
+        columns: &mut [[Lanes; C]; 3],
         data: &[[f32; C]],
         v: &[__m256i; 3],
         mask: __m256i,

@@ -133,7 +133,7 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
         let (keys, k) = (&mut batch[len / LANES], len % LANES);
         (keys.pixel[k], keys.sample[k], keys.x[k], keys.y[k]) = (pixel, s0 + sample as u32, x, y);
         keys.position[k] = position as u32;
-        keys.jitter_seeds.set(k, jitter_seeds);
+        keys.jitter_seeds.set(k, &jitter_seeds);
         len += 1;
         if len == BATCH * LANES {
             run(&batch, len, &mut put);

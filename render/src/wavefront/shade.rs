@@ -417,7 +417,7 @@ fn prepare<T: Touch>(
     g.index[k] = i;
     g.first[k] = is_first as u32;
     g.firsts += is_first as u32;
-    g.inputs.set(k, inputs, ns, s.ng);
+    g.inputs.set_inputs(k, inputs, ns, s.ng);
     (g.bsdf.wo[0][k], g.bsdf.wo[1][k], g.bsdf.wo[2][k]) = (wo.x, wo.y, wo.z);
     (g.light.p[0][k], g.light.p[1][k], g.light.p[2][k]) = (s.p.x, s.p.y, s.p.z);
     (g.keys.pixel[k], g.keys.sample[k], g.keys.vertex[k]) = (st.pixel, st.sample, st.vertex);

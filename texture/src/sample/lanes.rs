@@ -11,7 +11,7 @@
 //! Lanes at or past `count` are not read (no texel touched) and come back zero.
 //!
 //! # Two code paths, chosen at run time
-//! [`LanePath::detect`] picks, per call, from `is_x86_feature_detected!` (a cached flag):
+//! [`LanePath::detect`] picks, per call, from [`lanekit::cpu::has_avx2`] (std's cached flag):
 //! - **AVX2**: the lane filter compiled for AVX2; for power-of-two textures in a texel array under
 //!   2 GiB (the bench scenes' and most assets') the tap addresses are AVX2 intrinsics and 8-bit texels
 //!   are read by hardware gathers (`super::lanes_avx2`); other textures run the portable lane loops
@@ -41,11 +41,8 @@ use crate::format::{Filter, TexelFormat, Wrap};
 use crate::layout::LevelLayout;
 use crate::stats::Touch;
 
-/// Lookups per call.
-pub const LANES: usize = 8;
-
-/// One scalar per lane.
-pub type Lanes = [f32; LANES];
+/// Lookups per call and one scalar per lane: the workspace's one lane width and column.
+pub use lanekit::{Lanes, LANES};
 
 /// Eight lookups' coordinates and footprints (one column per component), sharing filter and wraps.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -93,7 +90,7 @@ impl LanePath {
     #[inline(always)]
     pub(crate) fn detect() -> Self {
         #[cfg(target_arch = "x86_64")]
-        if is_x86_feature_detected!("avx2") {
+        if lanekit::cpu::has_avx2() {
             return LanePath::Avx2;
         }
         LanePath::Portable

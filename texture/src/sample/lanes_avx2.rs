@@ -405,7 +405,7 @@ mod tests {
     /// sign, and the special inputs.
     #[test]
     fn log2_lanes_equal_scalar() {
-        if !is_x86_feature_detected!("avx2") {
+        if !lanekit::cpu::has_avx2() {
             return; // the portable path calls the scalar `log2` itself
         }
         let specials = [
@@ -446,7 +446,7 @@ mod tests {
     /// that fits is read, and decodes as the scalar texel decode does.
     #[test]
     fn gathers_stop_short_of_the_array_end() {
-        if !is_x86_feature_detected!("avx2") {
+        if !lanekit::cpu::has_avx2() {
             return; // nothing to run; the portable path is tested on its own
         }
         let texels: Vec<u8> = (0..64u8).map(|i| i.wrapping_mul(37)).collect();

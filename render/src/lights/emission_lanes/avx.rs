@@ -17,15 +17,16 @@
 
 use super::{LightShape, Ray, RayHit, LANES};
 use crate::lights::area_groups::{self, GroupBox};
+use lanekit::{Lanes, Lanes3};
 use std::arch::x86_64::*;
 
 /// Eight rays, transposed (lanes past a batch's end hold stale rays and are masked out).
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(32))]
 struct RayLanes {
-    o: [[f32; LANES]; 3],
-    d: [[f32; LANES]; 3],
-    tmax: [f32; LANES],
+    o: Lanes3,
+    d: Lanes3,
+    tmax: Lanes,
 }
 
 /// A group's eight lights, transposed, with the constants of the scalar tests (`r²` computed as
@@ -33,11 +34,11 @@ struct RayLanes {
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(32))]
 struct GroupLanes {
-    center: [[f32; LANES]; 3],
+    center: Lanes3,
     /// Sphere lanes: `radius * radius`.
-    radius2: [f32; LANES],
+    radius2: Lanes,
     /// Rect and disk lanes: the emission normal.
-    normal: [[f32; LANES]; 3],
+    normal: Lanes3,
     /// The lanes that hold a sphere light.
     spheres: u32,
     /// The lanes that hold a rect or disk light.
@@ -88,7 +89,7 @@ impl Kernel {
 
 #[inline]
 #[target_feature(enable = "avx")]
-fn load(lanes: &[f32; LANES]) -> __m256 {
+fn load(lanes: &Lanes) -> __m256 {
     // SAFETY: `lanes` is eight readable `f32`s, 32-byte aligned (`RayLanes`, `GroupLanes`).
     unsafe { _mm256_load_ps(lanes.as_ptr()) }
 }

@@ -28,19 +28,13 @@ use super::node::{step, Node, Step, LEAF};
 use super::{LightSelector, ONE_MINUS_EPSILON};
 use lanekit::saturating_i32;
 
-pub use lanekit::LANES;
+use lanekit::{Lanes, Lanes3, U32Lanes, LANES};
 
 impl LightSelector {
     /// [`LightSelector::select`] at the eight points `p` (x, y, z columns) with `u_select`: each
     /// lane's light index (selection-list) into `light` and its probability into `pmf`, bit for
     /// bit the scalar results. Must not be empty.
-    pub fn select_lanes(
-        &self,
-        p: &[[f32; LANES]; 3],
-        u_select: &[f32; LANES],
-        light: &mut [u32; LANES],
-        pmf: &mut [f32; LANES],
-    ) {
+    pub fn select_lanes(&self, p: &Lanes3, u_select: &Lanes, light: &mut U32Lanes, pmf: &mut Lanes) {
         select_in(self, p, u_select, light, pmf);
     }
 }
@@ -53,13 +47,7 @@ impl LightSelector {
 /// lanes that did not reach a light interleaved level by level.
 #[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
-fn select_in(
-    selector: &LightSelector,
-    p: &[[f32; LANES]; 3],
-    u_select: &[f32; LANES],
-    light: &mut [u32; LANES],
-    pmf: &mut [f32; LANES],
-) {
+fn select_in(selector: &LightSelector, p: &Lanes3, u_select: &Lanes, light: &mut U32Lanes, pmf: &mut Lanes) {
     let infinite = &selector.infinite[..];
     let (mut slot, mut u) = ([0i32; LANES], [0.0f32; LANES]);
     multiversion::target::match_target! {
@@ -104,11 +92,11 @@ fn select_in(
 /// `infinite` slots come before it).
 #[inline(always)]
 pub(super) fn first_choice(
-    u_select: &[f32; LANES],
+    u_select: &Lanes,
     slots: u32,
     infinite: usize,
     slot: &mut [i32; LANES],
-    u: &mut [f32; LANES],
+    u: &mut Lanes,
 ) {
     for k in 0..LANES {
         let scaled = u_select[k] * slots as f32;
@@ -119,12 +107,12 @@ pub(super) fn first_choice(
 
 /// `table[min(slot, 7)]` in each lane.
 #[inline(always)]
-pub(super) fn pick(table: &[u32; LANES], slot: &[i32; LANES]) -> [u32; LANES] {
+pub(super) fn pick(table: &U32Lanes, slot: &[i32; LANES]) -> U32Lanes {
     std::array::from_fn(|k| table[(slot[k] as usize).min(LANES - 1)])
 }
 
 /// [`LightSelector::infinite_lanes`] for the lights at infinity `infinite`.
-pub(super) fn padded(infinite: &[u32]) -> [u32; LANES] {
+pub(super) fn padded(infinite: &[u32]) -> U32Lanes {
     std::array::from_fn(|i| infinite.get(i.min(infinite.len().saturating_sub(1))).copied().unwrap_or(0))
 }
 
@@ -153,11 +141,11 @@ const LANE_LISTS: [u64; 256] = {
 /// rescaled at each node: at the end `light[k]` is lane `k`'s light and `pmf[k]` the product of
 /// its choices' probabilities (from 1), as [`super::descend`] returns them.
 struct Descents<'a> {
-    u: [f32; LANES],
+    u: Lanes,
     /// Each lane's current node.
-    at: [u32; LANES],
-    light: &'a mut [u32; LANES],
-    pmf: &'a mut [f32; LANES],
+    at: U32Lanes,
+    light: &'a mut U32Lanes,
+    pmf: &'a mut Lanes,
 }
 
 impl Descents<'_> {
@@ -165,13 +153,7 @@ impl Descents<'_> {
     /// step (`step`: [`node::step`] or `avx::step`, the same bits), `pmf` and `u` updated with the
     /// scalar descent's operations, and its child.
     #[inline(always)]
-    fn run(
-        &mut self,
-        nodes: &[Node],
-        p: &[[f32; LANES]; 3],
-        lanes: u32,
-        step: impl Fn(&Node, [f32; 3], f32) -> Step,
-    ) {
+    fn run(&mut self, nodes: &[Node], p: &Lanes3, lanes: u32, step: impl Fn(&Node, [f32; 3], f32) -> Step) {
         let mut descending = LANE_LISTS[lanes as usize & 0xff].to_le_bytes();
         let mut count = lanes.count_ones() as usize;
         while count > 0 {

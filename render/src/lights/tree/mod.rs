@@ -270,7 +270,7 @@ pub struct LightSelector {
     infinite: Vec<u32>,
     /// `infinite[min(i, len − 1)]` in lane `i` (0 if there is none): the lanes' first choice picks
     /// from it with one permutation when there are at most eight (`tree/lanes.rs`).
-    infinite_lanes: [u32; lanes::LANES],
+    infinite_lanes: lanekit::U32Lanes,
     tree: LightTree,
     /// Slots of the first choice: one per light at infinity, one for the tree if it has lights.
     slots: u32,

@@ -1,6 +1,7 @@
 use super::*;
 use crate::lights::Lights;
 use crate::testscene::{area_light_records, lights_only, Rng};
+use lanekit::Lanes;
 use std::f32::consts::{FRAC_PI_2, PI};
 
 /// A translation-only light record.
@@ -217,7 +218,7 @@ fn textbook_importance(n: &node::Node, k: usize, p: Vec3) -> f32 {
 }
 
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
-fn eight_lanes(n: &node::Node, p: [f32; 3]) -> [f32; 8] {
+fn eight_lanes(n: &node::Node, p: [f32; 3]) -> Lanes {
     node::importances(n, p)
 }
 
@@ -302,7 +303,7 @@ fn eight_lane_importance_equals_the_scalar_formula_bit_for_bit() {
 fn prefix_sums_are_the_pairwise_running_sums() {
     let mut rng = Rng(37);
     for case in 0..20_000 {
-        let w: [f32; 8] = std::array::from_fn(|k| match (case + k) % 5 {
+        let w: Lanes = std::array::from_fn(|k| match (case + k) % 5 {
             0 => 0.0,
             1 => rng.range(0.0, 1e-30),
             _ => rng.range(0.0, 1e6),
@@ -323,7 +324,7 @@ fn prefix_sums_are_the_pairwise_running_sums() {
         assert_eq!(cdf.map(f32::to_bits), written.map(f32::to_bits), "{w:?}");
         assert!(cdf.windows(2).all(|c| c[0] <= c[1]), "{w:?}: {cdf:?}");
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if lanekit::cpu::has_avx2() {
             let mut vector = [0.0f32; 8];
             // SAFETY: the CPU has AVX and AVX2 (checked above); `vector` is eight writable `f32`s.
             unsafe {
@@ -341,7 +342,7 @@ fn prefix_sums_are_the_pairwise_running_sums() {
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn the_avx_node_step_equals_the_portable_one() {
-    if !std::arch::is_x86_feature_detected!("avx2") {
+    if !lanekit::cpu::has_avx2() {
         eprintln!("no AVX2: nothing to compare");
         return;
     }
@@ -397,7 +398,7 @@ fn the_lanes_first_choice_equals_the_scalar_slot() {
             let table: Vec<u32> = (0..infinite).map(|i| 100 + 3 * i).collect();
             let padded = lanes::padded(&table);
             for round in 0..500 {
-                let u_select: [f32; 8] = std::array::from_fn(|k| match (round * 8 + k) % 23 {
+                let u_select: Lanes = std::array::from_fn(|k| match (round * 8 + k) % 23 {
                     0 => 0.0,
                     1 => ONE_MINUS_EPSILON,
                     2 => -0.25,
@@ -426,7 +427,7 @@ fn the_lanes_first_choice_equals_the_scalar_slot() {
                     }
                 }
                 #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
+                if lanekit::cpu::has_avx2() {
                     let (mut vector_slot, mut vector_u) = ([0i32; 8], [0.0f32; 8]);
                     // SAFETY: the CPU has AVX and AVX2 (checked above).
                     let vector_light = unsafe {
