@@ -46,15 +46,20 @@
 //! # }
 //! ```
 //!
+//! The model ([`scene`]) and the packer ([`pack`], with [`curves`] and [`instancing`]) live in the
+//! `scene-pack` crate, which knows neither USD nor OpenSubdiv, so that render's tests can build and
+//! pack scenes without either; they are re-exported here under their old paths.
+//!
 //! Modules:
-//! - [`scene`]: the model between reading and packing (re-exported below).
+//! - [`scene`]: the model between reading and packing (re-exported below; from `scene-pack`).
 //! - [`usd`]: the USD reader, its [`usd::UsdError`] and the openusd workarounds.
 //! - [`alembic`]: the Alembic reader (Ogawa archives → a USD layer).
-//! - [`dicing`]: subdivision levels and edge rates from the render camera; [`dicing::SubdivOptions`].
-//! - [`curves`]: curve basis conversion, NURBS fitting, adaptive splitting.
-//! - [`instancing`]: identical instances → shared prototypes.
+//! - [`dicing`]: subdivision levels and edge rates from the render camera; [`dicing::SubdivOptions`]
+//!   ([`dicing::DicingCamera`] is `scene-pack`'s, re-exported).
+//! - [`curves`]: curve basis conversion, NURBS fitting, adaptive splitting (from `scene-pack`).
+//! - [`instancing`]: identical instances → shared prototypes (from `scene-pack`).
 //! - [`pack`]: scene → blob records ([`pack::curves`] for curve splitting; private children for
-//!   the dome distribution and instances); `bvh` (private) builds the BVHs.
+//!   the dome distribution and instances; the BVH build is private), from `scene-pack`.
 //! - [`pipeline`]: the whole step as one call, and the `--dump-json` listing.
 //!
 //! The `ingest` binary (`src/main.rs`) only parses its arguments into [`usd::LoadOptions`] and
@@ -63,15 +68,12 @@
 #![deny(missing_docs)]
 
 pub mod alembic;
-mod bvh;
-pub mod curves;
 pub mod dicing;
 mod error;
-pub mod instancing;
-pub mod pack;
 pub mod pipeline;
-pub mod scene;
 pub mod usd;
+
+pub use scene_pack::{curves, instancing, pack, scene};
 
 pub use error::IngestError;
 pub use scene::{

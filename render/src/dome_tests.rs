@@ -7,8 +7,8 @@ use crate::lights::Lights;
 use crate::testscene::{self, camera_looking_down_z, card, lambert, sphere, Rng};
 use crate::{render_image, Image, Integrator, RenderOptions};
 use glam::{Mat3, Mat4, Quat, Vec3};
-use ingest::scene::{SceneTexture, TextureData};
-use ingest::{Light, LightKind, Scene};
+use scene_pack::scene::{SceneTexture, TextureData};
+use scene_pack::{Light, LightKind, Scene};
 use std::f64::consts::PI;
 
 /// A lat-long map, top row first, RGB.
@@ -107,7 +107,7 @@ fn dome_light(radiance: Vec3, world_from_light: Mat4) -> Light {
     }
 }
 
-fn scene_with(map: &Map, light: Light, meshes: Vec<ingest::Mesh>, albedo: f32) -> Scene {
+fn scene_with(map: &Map, light: Light, meshes: Vec<scene_pack::Mesh>, albedo: f32) -> Scene {
     Scene {
         meshes,
         materials: vec![lambert(albedo)],

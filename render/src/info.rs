@@ -140,9 +140,9 @@ mod tests {
         assert_eq!((summary.prototypes, summary.instanced), (1, 30));
         assert_eq!(summary.triangles, scene.triangle_count(), "rendered = the flattened count");
         assert_eq!(summary.triangles_stored, sphere + 60, "one sphere plus the world-space cloud");
-        let flat = ingest::pack::pack_scene(
+        let flat = scene_pack::pack::pack_scene(
             &scene,
-            &ingest::pack::PackOptions { flatten_instances: true, ..Default::default() },
+            &scene_pack::pack::PackOptions { flatten_instances: true, ..Default::default() },
         )
         .unwrap()
         .encode();

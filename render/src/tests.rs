@@ -4,7 +4,7 @@
 use crate::testscene::{self, camera_looking_down_z, card, dome, lambert, sphere};
 use crate::{render_image, Image, RenderOptions};
 use glam::{Mat4, Vec3};
-use ingest::{Light, LightKind, Scene};
+use scene_pack::{Light, LightKind, Scene};
 use std::f32::consts::PI;
 
 fn render(scene: &Scene, options: &RenderOptions) -> Image {

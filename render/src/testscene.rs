@@ -1,10 +1,12 @@
-//! Test scenes built in code as `ingest::Scene` values and packed into blob bytes.
+//! Test scenes built in code as `scene_pack::Scene` values (what ingest calls `scene_pack::Scene`) and
+//! packed into blob bytes.
 //!
-//! Packing goes through `ingest::pack::pack`, so these tests also cover the blob ingest writes.
+//! Packing goes through `scene_pack::pack::pack`, ingest's packer, so these tests also cover the
+//! blob ingest writes (without compiling USD or OpenSubdiv).
 
 use blob::{AlignedBytes, SceneData};
 use glam::{Mat4, Vec2, Vec3};
-use ingest::{Camera, Light, LightKind, Material, Mesh, Scene};
+use scene_pack::{Camera, Light, LightKind, Material, Mesh, Scene};
 
 /// A small deterministic generator for test inputs (SplitMix64).
 pub struct Rng(pub u64);
@@ -200,7 +202,9 @@ pub fn instanced_spheres(count: usize, seed: u64) -> Scene {
         if m.determinant() < 0.0 {
             triangles.iter_mut().for_each(|t| t.swap(1, 2));
         }
-        scene.instances.push(ingest::scene::SceneInstance { path: format!("/S{i}"), world_from_instance: m });
+        scene
+            .instances
+            .push(scene_pack::scene::SceneInstance { path: format!("/S{i}"), world_from_instance: m });
         scene.meshes.push(Mesh {
             path: format!("/S{i}/Mesh"),
             positions: local.positions.iter().map(|p| m.transform_point3(p.as_dvec3()).as_vec3()).collect(),
@@ -211,7 +215,7 @@ pub fn instanced_spheres(count: usize, seed: u64) -> Scene {
                 .collect(),
             triangles,
             primvars: Vec::new(),
-            instance: Some(ingest::scene::InstancedMesh {
+            instance: Some(scene_pack::scene::InstancedMesh {
                 instance: i as u32,
                 positions: local.positions.clone(),
                 normals: local.normals.clone(),
@@ -227,7 +231,7 @@ pub fn instanced_spheres(count: usize, seed: u64) -> Scene {
 
 /// Scene → blob records through ingest's packer (the same path as the `ingest` binary).
 pub fn pack(scene: &Scene) -> SceneData {
-    ingest::pack::pack(scene).expect("test scenes are valid")
+    scene_pack::pack::pack(scene).expect("test scenes are valid")
 }
 
 /// Randomly placed and turned area lights (sphere, rect, disk in turn) for the emission tests:

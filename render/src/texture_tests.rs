@@ -4,8 +4,8 @@ use crate::camera::Camera;
 use crate::testscene::{self, camera_looking_down_z, lambert};
 use crate::Scene;
 use glam::{Vec2, Vec3};
-use ingest::scene::{SceneTexture, ShaderNode, TextureData};
-use ingest::Mesh;
+use scene_pack::scene::{SceneTexture, ShaderNode, TextureData};
+use scene_pack::Mesh;
 
 /// A 1024² checker (8-texel squares) baked in memory.
 fn checker() -> SceneTexture {
@@ -23,7 +23,7 @@ fn checker() -> SceneTexture {
 }
 
 /// A material whose diffuse colour is the checker read through the mesh's uvs.
-fn textured_material() -> ingest::Material {
+fn textured_material() -> scene_pack::Material {
     let mut m = lambert(0.5);
     m.program = ShaderNode::diffuse_texture_program(0, [0.0, 0.0, 0.0, 1.0]);
     m
@@ -74,7 +74,7 @@ fn level_at(scene: &Scene, camera: &Camera, fx: f32, fy: f32) -> (f32, f32, u32)
 #[test]
 fn mip_level_rises_by_one_per_doubling_of_distance() {
     // Fronto-parallel 2 × 2 cards at z = −d, one texel per 1/512 unit.
-    let camera_scene = |d: f32| ingest::Scene {
+    let camera_scene = |d: f32| scene_pack::Scene {
         meshes: vec![quad(
             [
                 Vec3::new(-1.0, -1.0, -d),
@@ -88,7 +88,7 @@ fn mip_level_rises_by_one_per_doubling_of_distance() {
         cameras: vec![camera_looking_down_z(Vec3::ZERO, 20.0)],
         default_camera: Some(0),
         textures: vec![checker()],
-        ..ingest::Scene::default()
+        ..scene_pack::Scene::default()
     };
     let mut previous: Option<f32> = None;
     for d in [1.0f32, 2.0, 4.0, 8.0, 16.0] {
@@ -114,13 +114,13 @@ fn receding_plane_minor_axis_level_rises_by_one_per_doubling() {
     // down −z. Rows nearer the horizon see farther points; the footprint's minor axis (across the view,
     // what EWA picks its level from) grows linearly with distance, the major axis with distance².
     let far = 400.0;
-    let scene_data = ingest::Scene {
+    let scene_data = scene_pack::Scene {
         meshes: vec![ground_plane(far)],
         materials: vec![textured_material()],
         cameras: vec![camera_looking_down_z(Vec3::ZERO, 20.0)],
         default_camera: Some(0),
         textures: vec![checker()],
-        ..ingest::Scene::default()
+        ..scene_pack::Scene::default()
     };
     let bytes = testscene::bytes(&scene_data);
     let scene = Scene::new(blob::SceneView::parse(&bytes).unwrap());
@@ -177,7 +177,7 @@ fn ewa_error_on_a_receding_plane_is_at_most_the_anisotropic_filters() {
     let far = 200.0;
     let mut material = textured_material();
     material.ior = 1.0;
-    let scene_data = ingest::Scene {
+    let scene_data = scene_pack::Scene {
         meshes: vec![ground_plane(far)],
         materials: vec![material],
         lights: vec![testscene::dome(1.0)],
@@ -188,7 +188,7 @@ fn ewa_error_on_a_receding_plane_is_at_most_the_anisotropic_filters() {
             color_space: texture::ColorSpace::Auto,
             data: TextureData::Image(baked),
         }],
-        ..ingest::Scene::default()
+        ..scene_pack::Scene::default()
     };
     let bytes = testscene::bytes(&scene_data);
     let view = blob::SceneView::parse(&bytes).unwrap();

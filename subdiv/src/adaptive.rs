@@ -14,11 +14,11 @@
 use std::ffi::c_int;
 use std::ptr::{self, NonNull};
 
-use crate::error::{Error, Result};
 use crate::ffi;
 use crate::refine::{check, to_c_int, Refiner};
 use crate::tessellate::{oriented_normals, Tessellation, UvSource};
-use crate::topology::{Scheme, Topology};
+use crate::{Error, Result};
+use crate::{Scheme, Topology};
 
 /// Highest rate (segments per cage edge) accepted: the rate of [`crate::MAX_LEVEL`].
 pub const MAX_RATE: u32 = 1 << crate::MAX_LEVEL;
@@ -83,7 +83,7 @@ impl AdaptiveRefiner {
         // SAFETY: `base.raw()` is a live refiner; `count` a valid out-pointer.
         check(unsafe { ffi::osd_base_edge_count(base.raw(), &mut count) })?;
         let mut edge_vertices = vec![0 as c_int; 2 * count as usize];
-        let mut face_edges = vec![0 as c_int; topology.face_vertex_indices.len()];
+        let mut face_edges = vec![0 as c_int; topology.face_vertex_indices().len()];
         // SAFETY: the buffers hold 2 ints per base edge and one per face-vertex, as the shim
         // writes.
         check(unsafe {
@@ -91,18 +91,18 @@ impl AdaptiveRefiner {
         })?;
         let mut face_start = Vec::with_capacity(topology.face_count() + 1);
         face_start.push(0);
-        for &n in &topology.face_vertex_counts {
+        for &n in topology.face_vertex_counts() {
             face_start.push(face_start.last().unwrap() + n as usize);
         }
         let mut is_hole = vec![false; topology.face_count()];
-        for &h in &topology.hole_indices {
+        for &h in topology.hole_indices() {
             is_hole[h as usize] = true;
         }
         Ok(Self {
             base,
-            scheme: topology.options.scheme,
+            scheme: topology.options().scheme,
             edges: edge_vertices.chunks_exact(2).map(|e| [e[0] as u32, e[1] as u32]).collect(),
-            face_vertices: topology.face_vertex_indices.iter().map(|&v| v as u32).collect(),
+            face_vertices: topology.face_vertex_indices().iter().map(|&v| v as u32).collect(),
             face_edges: face_edges.into_iter().map(|e| e as u32).collect(),
             face_start,
             is_hole,

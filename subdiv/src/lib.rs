@@ -67,7 +67,10 @@
 //! Listings that need only triangle counts plan them instead ([`UniformPlan`],
 //! [`AdaptiveRefiner::planned_face_triangles`]): same counts, per cage face, no limit evaluation.
 //!
-//! Modules: `topology` (cage and validation), `refine` (the refiner and primvar refinement),
+//! The cage types and the error are the `cage` crate's (OpenSubdiv-free, so the scene model can
+//! hold a [`Topology`]), re-exported here.
+//!
+//! Modules: `refine` (the refiner and primvar refinement),
 //! `limit` (limit positions and tangents), `tessellate` (triangles and the dicing-rate level),
 //! `adaptive` (per-face Bfr tessellation with per-edge rates), `plan` (triangle counts without
 //! evaluation), `ffi` (private declarations of the shim in `shim/osd_shim.cpp`).
@@ -75,26 +78,24 @@
 #![deny(missing_docs)]
 
 mod adaptive;
-mod error;
 mod ffi;
 mod limit;
 mod plan;
 mod refine;
 mod tessellate;
-mod topology;
 
 pub use adaptive::{
     level_for_rate, rate_for_dicing_rate, AdaptiveRefiner, AdaptiveTessellation, AdaptiveUv, MAX_RATE,
 };
-pub use error::{Error, Result};
+pub use cage::{
+    BoundaryInterpolation, Cage, FaceVaryingChannel, FaceVaryingInterpolation, Options, Scheme, Topology,
+    TriangleSubdivision, UnknownToken,
+};
+pub use cage::{Error, Result};
 pub use limit::{normal_from_tangents, LimitSurface};
 pub use plan::{uniform_face_triangles, UniformPlan};
 pub use refine::{Evaluation, RefinedFaces, Refiner, MAX_LEVEL};
 pub use tessellate::{level_for_dicing_rate, tessellate, Tessellation, UvSource};
-pub use topology::{
-    BoundaryInterpolation, Cage, FaceVaryingChannel, FaceVaryingInterpolation, Options, Scheme, Topology,
-    TriangleSubdivision, UnknownToken,
-};
 
 #[cfg(test)]
 mod adaptive_tests;

@@ -4,8 +4,8 @@
 //! so a vertex's limit point does not depend on the level it is evaluated at; only the density
 //! of sample points does.
 
-use crate::error::{Error, Result};
 use crate::refine::{Evaluation, Refiner};
+use crate::{Error, Result};
 
 /// Limit surface samples at the last level's vertices, in f64: tangents at extraordinary
 /// vertices can be short, and the cross product loses precision in f32.

@@ -16,10 +16,10 @@
 //!   without building a surface.
 
 use crate::adaptive::AdaptiveRefiner;
-use crate::error::Result;
 use crate::ffi;
 use crate::refine::{check, Refiner};
-use crate::topology::{Scheme, Topology};
+use crate::Result;
+use crate::{Scheme, Topology};
 
 /// Triangles [`crate::tessellate`] makes of one face of `size` vertices at (effective) uniform
 /// `level` ([`Refiner::level_for`]), unless the face is a hole.
@@ -72,9 +72,9 @@ impl UniformPlan {
                 got: holes.len(),
             });
         }
-        let scheme = topology.options.scheme;
+        let scheme = topology.options().scheme;
         let face_triangles = topology
-            .face_vertex_counts
+            .face_vertex_counts()
             .iter()
             .zip(holes)
             .map(|(&n, &hole)| if hole { 0 } else { uniform_face_triangles(scheme, n as usize, level) })

@@ -4,11 +4,9 @@
 use std::ffi::c_int;
 use std::ptr::{self, NonNull};
 
-use crate::error::{Error, Result};
 use crate::ffi;
-use crate::topology::{
-    BoundaryInterpolation, FaceVaryingInterpolation, Scheme, Topology, TriangleSubdivision,
-};
+use crate::{BoundaryInterpolation, FaceVaryingInterpolation, Scheme, Topology, TriangleSubdivision};
+use crate::{Error, Result};
 
 /// Highest uniform level accepted. OpenSubdiv stores the level in 4 bits (15), but a cube at
 /// level 10 is already 6.3 M quads; anything finer belongs to adaptive tessellation.
@@ -87,8 +85,8 @@ impl Refiner {
 
     /// The level [`Refiner::new`] refines `topology` to when asked for `level`.
     pub fn level_for(topology: &Topology, level: u32) -> u32 {
-        let all_quads = topology.face_vertex_counts.iter().all(|&n| n == 4);
-        let bump = level == 0 && topology.options.scheme == Scheme::CatmullClark && !all_quads;
+        let all_quads = topology.face_vertex_counts().iter().all(|&n| n == 4);
+        let bump = level == 0 && topology.options().scheme == Scheme::CatmullClark && !all_quads;
         if bump {
             1
         } else {
@@ -99,7 +97,7 @@ impl Refiner {
     /// The finest level `topology` can be refined to: each level multiplies the face-vertex
     /// count by 4 (for every scheme after level 1), and OpenSubdiv counts them in `int`.
     pub fn highest_level(topology: &Topology) -> u32 {
-        let fv = topology.face_vertex_indices.len() as u64;
+        let fv = topology.face_vertex_indices().len() as u64;
         (0..=MAX_LEVEL).take_while(|&l| fv << (2 * l) <= i32::MAX as u64).last().unwrap_or(0)
     }
 
@@ -123,26 +121,26 @@ impl Refiner {
     }
 
     fn refined_to(topology: &Topology, level: u32) -> Result<Self> {
-        let scheme = topology.options.scheme;
+        let scheme = topology.options().scheme;
         let max = Self::highest_level(topology);
         if level > max {
             return Err(Error::LevelTooHigh { level, max });
         }
 
-        let fvar_counts: Vec<c_int> = topology.face_varying.iter().map(|c| to_c_int(c.1)).collect();
-        let fvar_ptrs: Vec<*const c_int> = topology.face_varying.iter().map(|c| c.0.as_ptr()).collect();
+        let fvar_counts: Vec<c_int> = topology.face_varying().iter().map(|c| to_c_int(c.1)).collect();
+        let fvar_ptrs: Vec<*const c_int> = topology.face_varying().iter().map(|c| c.0.as_ptr()).collect();
         let desc = ffi::OsdDesc {
             scheme: match scheme {
                 Scheme::Bilinear => 0,
                 Scheme::CatmullClark => 1,
                 Scheme::Loop => 2,
             },
-            boundary: match topology.options.boundary {
+            boundary: match topology.options().boundary {
                 BoundaryInterpolation::None => 0,
                 BoundaryInterpolation::EdgeOnly => 1,
                 BoundaryInterpolation::EdgeAndCorner => 2,
             },
-            fvar_linear: match topology.options.face_varying {
+            fvar_linear: match topology.options().face_varying {
                 FaceVaryingInterpolation::None => 0,
                 FaceVaryingInterpolation::CornersOnly => 1,
                 FaceVaryingInterpolation::CornersPlus1 => 2,
@@ -150,22 +148,22 @@ impl Refiner {
                 FaceVaryingInterpolation::Boundaries => 4,
                 FaceVaryingInterpolation::All => 5,
             },
-            triangle_subdivision: match topology.options.triangle_subdivision {
+            triangle_subdivision: match topology.options().triangle_subdivision {
                 TriangleSubdivision::CatmullClark => 0,
                 TriangleSubdivision::Smooth => 1,
             },
-            num_vertices: to_c_int(topology.vertex_count),
-            num_faces: to_c_int(topology.face_vertex_counts.len()),
-            face_vertex_counts: topology.face_vertex_counts.as_ptr(),
-            face_vertex_indices: topology.face_vertex_indices.as_ptr(),
-            num_creases: to_c_int(topology.crease_sharpnesses.len()),
-            crease_vertex_pairs: topology.crease_pairs.as_ptr(),
-            crease_sharpnesses: topology.crease_sharpnesses.as_ptr(),
-            num_corners: to_c_int(topology.corner_indices.len()),
-            corner_indices: topology.corner_indices.as_ptr(),
-            corner_sharpnesses: topology.corner_sharpnesses.as_ptr(),
-            num_holes: to_c_int(topology.hole_indices.len()),
-            hole_indices: topology.hole_indices.as_ptr(),
+            num_vertices: to_c_int(topology.vertex_count()),
+            num_faces: to_c_int(topology.face_vertex_counts().len()),
+            face_vertex_counts: topology.face_vertex_counts().as_ptr(),
+            face_vertex_indices: topology.face_vertex_indices().as_ptr(),
+            num_creases: to_c_int(topology.crease_sharpnesses().len()),
+            crease_vertex_pairs: topology.crease_pairs().as_ptr(),
+            crease_sharpnesses: topology.crease_sharpnesses().as_ptr(),
+            num_corners: to_c_int(topology.corner_indices().len()),
+            corner_indices: topology.corner_indices().as_ptr(),
+            corner_sharpnesses: topology.corner_sharpnesses().as_ptr(),
+            num_holes: to_c_int(topology.hole_indices().len()),
+            hole_indices: topology.hole_indices().as_ptr(),
             num_fvar_channels: to_c_int(fvar_ptrs.len()),
             fvar_value_counts: fvar_counts.as_ptr(),
             fvar_value_indices: fvar_ptrs.as_ptr(),
@@ -181,9 +179,9 @@ impl Refiner {
             raw,
             level,
             scheme,
-            base_vertices: topology.vertex_count,
-            base_faces: topology.face_vertex_counts.len(),
-            base_fvar_values: topology.face_varying.iter().map(|c| c.1).collect(),
+            base_vertices: topology.vertex_count(),
+            base_faces: topology.face_vertex_counts().len(),
+            base_fvar_values: topology.face_varying().iter().map(|c| c.1).collect(),
         })
     }
 

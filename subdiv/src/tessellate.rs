@@ -1,9 +1,9 @@
 //! Triangles for the renderer: limit positions and normals at the last level's vertices, faces
 //! split into triangles, hole faces dropped, vertices split along UV seams.
 
-use crate::error::{Error, Result};
 use crate::limit::{cross, dot, length, normal_from_tangents, sub};
 use crate::refine::{Evaluation, Refiner};
+use crate::{Error, Result};
 
 /// A face-varying UV primvar: the channel holding its indices and its values.
 #[derive(Debug, Clone, Copy)]

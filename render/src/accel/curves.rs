@@ -571,7 +571,7 @@ mod tests {
     use crate::testscene::{self, Rng};
     use crate::{render_image, RenderOptions};
     use glam::Vec4;
-    use ingest::{BezierSegment, CurveKind, Curves, Scene};
+    use scene_pack::{BezierSegment, CurveKind, Curves, Scene};
 
     /// A straight tube from `a` to `b` of constant `radius` as one Bézier segment.
     fn straight(a: Vec3, b: Vec3, radius: f32, kind: CurveKind) -> Curves {
@@ -661,7 +661,8 @@ mod tests {
             })
             .collect();
         let curves = vec![Curves { path: "/c".into(), segments, curve_count: 1, ..Curves::default() }];
-        let data = ingest::pack::pack_with(&scene_with(curves), ingest::pack::Split::Fixed(2)).unwrap();
+        let data =
+            scene_pack::pack::pack_with(&scene_with(curves), scene_pack::pack::Split::Fixed(2)).unwrap();
         let bytes = blob::AlignedBytes::copy_from(&data.encode());
         let view = blob::SceneView::parse(&bytes).unwrap();
         let accel = CurveAccel::new(&view);
@@ -750,8 +751,8 @@ mod tests {
         let eye = Vec3::new(0.0, 0.0, 4.0);
         scene.cameras = vec![testscene::camera_looking_down_z(eye, 20.0)];
         scene.resolution = Some([128, 128]);
-        let image = |split: ingest::pack::Split, refine: u32| {
-            let data = ingest::pack::pack_with(&scene, split).unwrap();
+        let image = |split: scene_pack::pack::Split, refine: u32| {
+            let data = scene_pack::pack::pack_with(&scene, split).unwrap();
             let bytes = blob::AlignedBytes::copy_from(&data.encode());
             let view = blob::SceneView::parse(&bytes).unwrap();
             let mut accel = CurveAccel::new(&view);
@@ -761,7 +762,7 @@ mod tests {
         let rmse = |a: &[f32], b: &[f32]| {
             (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f32>() / a.len() as f32).sqrt()
         };
-        use ingest::pack::Split;
+        use scene_pack::pack::Split;
         let (reference, _) = image(Split::Fixed(16), DEFAULT_MAX_REFINE);
         let (split, pieces) = image(Split::default(), DEFAULT_MAX_REFINE);
         let (coarse, _) = image(Split::Fixed(1), 0);
@@ -793,7 +794,7 @@ mod tests {
             path: "/points".into(),
             kind: CurveKind::Points,
             spheres: (0..40)
-                .map(|_| ingest::PointSphere {
+                .map(|_| scene_pack::PointSphere {
                     center: Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0)),
                     radius: rng.range(0.02, 0.3),
                     color: Vec3::ONE,
@@ -883,9 +884,9 @@ mod tests {
             0.3,
             CurveKind::Tube,
         )]);
-        scene.lights = vec![ingest::Light {
+        scene.lights = vec![scene_pack::Light {
             path: "/sun".into(),
-            kind: ingest::LightKind::Distant { angle_degrees: 0.53 },
+            kind: scene_pack::LightKind::Distant { angle_degrees: 0.53 },
             radiance: Vec3::splat(3.0),
             normalize: true,
             world_from_light: glam::Mat4::from_rotation_x(-0.5),
@@ -907,7 +908,11 @@ mod tests {
         let curves = vec![Curves {
             path: "/points".into(),
             kind: CurveKind::Points,
-            spheres: vec![ingest::PointSphere { center: Vec3::ZERO, radius: 1.5, color: Vec3::splat(0.8) }],
+            spheres: vec![scene_pack::PointSphere {
+                center: Vec3::ZERO,
+                radius: 1.5,
+                color: Vec3::splat(0.8),
+            }],
             material: 0,
             curve_count: 1,
             ..Curves::default()

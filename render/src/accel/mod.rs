@@ -2,7 +2,7 @@
 //!
 //! The blob stores an 8-wide BVH with uncompressed f32 child bounds, SoA per node ([`blob::BvhNode`]),
 //! and leaves of four-triangle SoA blocks ([`blob::TriangleBlock`]), built at ingest from obvhs' PLOC
-//! BVH2 (see `ingest::bvh`). A query walks it with an explicit stack, nearest child first:
+//! BVH2 (see scene-pack's `bvh`). A query walks it with an explicit stack, nearest child first:
 //!
 //! * **Node kernel** ([`Lanes::node`]): the eight slab tests as `[f32; 8]` lane loops. The near and far
 //!   plane of each axis are picked once per ray from the direction's signs, so each lane needs one
@@ -629,53 +629,6 @@ mod tests {
             (p[kx] - ray.sx * p[kz], p[ky] - ray.sy * p[kz])
         });
         [c.0 * b.1 - c.1 * b.0, a.0 * c.1 - a.1 * c.0, b.0 * a.1 - b.1 * a.0].contains(&0.0)
-    }
-
-    #[test]
-    fn bvh_agrees_with_brute_force_on_the_bundled_tractor() {
-        let dir = tempfile::tempdir().unwrap();
-        let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/tractor.usda");
-        let out = dir.path().join("tractor.blob");
-        ingest::pipeline::ingest_file(&example, &out, &Default::default()).expect("ingest the example");
-        let bytes = blob::AlignedBytes::copy_from(&std::fs::read(&out).unwrap());
-        let view = blob::SceneView::parse(&bytes).unwrap();
-        let accel = Accel::new(&view);
-        let lo = Vec3::from(view.info.bounds_min);
-        let hi = Vec3::from(view.info.bounds_max);
-        let mut rng = testscene::Rng(4242);
-        let mut hits = 0;
-        for i in 0..3000 {
-            // Rays from outside towards points inside the bounds, and rays leaving surface points.
-            let pick = |rng: &mut testscene::Rng| {
-                lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32())
-            };
-            let (origin, dir) = if i % 2 == 0 {
-                let target = pick(&mut rng);
-                let origin = target + (hi - lo).length() * (pick(&mut rng) - target).normalize();
-                (origin, (target - origin).normalize())
-            } else {
-                let t = (rng.next_f32() * view.triangles.len() as f32) as u32 % view.triangles.len() as u32;
-                let [a, b, c] = accel.triangle_vertices(t);
-                let n = (b - a).cross(c - a).normalize_or_zero();
-                let p = (a + b + c) / 3.0;
-                let d = (pick(&mut rng) - p).normalize_or_zero();
-                (offset_ray_origin(p, if d.dot(n) >= 0.0 { n } else { -n }), d)
-            };
-            if dir == Vec3::ZERO || !dir.is_finite() {
-                continue;
-            }
-            let fast = accel.closest_hit(origin, dir, f32::INFINITY);
-            let slow = accel.closest_hit_brute_force(origin, dir, f32::INFINITY);
-            hits += slow.is_some() as usize;
-            assert_same_closest(fast, slow, "tractor");
-            assert_eq!(
-                fast,
-                accel.closest_hit_scalar(origin, dir, f32::INFINITY),
-                "SIMD vs scalar traversal"
-            );
-            assert_eq!(accel.any_hit(origin, dir, f32::INFINITY, |_, _| true), slow.is_some());
-        }
-        assert!(hits > 1000, "the test should exercise many hits, got {hits}");
     }
 
     #[test]

@@ -737,10 +737,10 @@ fn every_kind<const PATCHES: bool>(
 #[cfg(test)]
 /// A scene with every light kind: dome, delta and cone distant lights, point, sphere, rect and disk
 /// lights, and emissive triangles of three powers.
-pub(crate) fn every_light_kind() -> ingest::Scene {
+pub(crate) fn every_light_kind() -> scene_pack::Scene {
     use crate::testscene::{self, card, sphere};
     use glam::{Mat4, Vec3};
-    use ingest::{Light as SceneLight, LightKind, Material, Scene};
+    use scene_pack::{Light as SceneLight, LightKind, Material, Scene};
     let at = |x: f32, y: f32, z: f32| Mat4::from_translation(Vec3::new(x, y, z));
     let light = |name: &str, kind: LightKind, radiance: f32, m: Mat4| SceneLight {
         path: format!("/{name}"),
@@ -849,7 +849,7 @@ mod tests {
 
     /// `every_light_kind` with only the lights named in `keep`, and without its emissive
     /// triangles unless `emitters`.
-    fn some_light_kinds(keep: &[&str], emitters: bool) -> ingest::Scene {
+    fn some_light_kinds(keep: &[&str], emitters: bool) -> scene_pack::Scene {
         let mut scene = every_light_kind();
         scene.lights.retain(|l| keep.contains(&&l.path[1..]));
         if !emitters {
@@ -862,7 +862,7 @@ mod tests {
     /// samples, one round in five with every lane on the same light, and asserts every lane equals
     /// `Lights::sample` bit for bit. Returns the samples per light and the uniform rounds per light.
     fn assert_lanes_equal_scalar(
-        scene: &ingest::Scene,
+        scene: &scene_pack::Scene,
         special: &[Vec3],
         rounds: usize,
         on_sample: &mut dyn FnMut(usize, Vec3),
@@ -980,8 +980,8 @@ mod tests {
     }
 
     /// `every_light_kind` plus 120 sphere, rect, disk and point lights around the scene.
-    fn many_lights() -> ingest::Scene {
-        use ingest::{Light as SceneLight, LightKind};
+    fn many_lights() -> scene_pack::Scene {
+        use scene_pack::{Light as SceneLight, LightKind};
         let mut scene = every_light_kind();
         let mut rng = Rng(99);
         for i in 0..120 {

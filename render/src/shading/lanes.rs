@@ -244,8 +244,10 @@ mod tests {
     use super::*;
     use crate::testscene::{self, card, Rng};
     use glam::{Vec2, Vec3};
-    use ingest::scene::{MeshPrimvar, PrimvarLayout, SceneTexture, ShaderNode, ShadingInput, TextureData};
-    use ingest::{Material, Scene};
+    use scene_pack::scene::{
+        MeshPrimvar, PrimvarLayout, SceneTexture, ShaderNode, ShadingInput, TextureData,
+    };
+    use scene_pack::{Material, Scene};
     use texture::Wrap;
 
     fn image(seed: u32, w: u32, h: u32, channels: u32) -> texture::BakedTexture {

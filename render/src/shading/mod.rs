@@ -577,7 +577,7 @@ mod tests {
     #[test]
     fn small_register_file_equals_the_full_one() {
         use crate::testscene::{self, card, Rng};
-        use ingest::scene::{SceneTexture, ShaderNode, ShadingInput, TextureData};
+        use scene_pack::scene::{SceneTexture, ShaderNode, ShadingInput, TextureData};
         let texels = (0..16 * 8 * 4).map(|i| (crate::sampler::hash_u32(i) >> 13) as u8).collect();
         let src =
             texture::SourceImage { width: 16, height: 8, channels: 4, samples: texture::Samples::U8(texels) };
@@ -600,18 +600,18 @@ mod tests {
         let mut large = small.clone();
         large.push(ShaderNode::Const { dst: 9, value: [0.25; 4] });
         large.push(ShaderNode::Output { input: ShadingInput::Metallic, src: 9, swizzle: [0; 4] });
-        let scene = ingest::Scene {
+        let scene = scene_pack::Scene {
             meshes: vec![card(0.0, 1.0, 0)],
             materials: vec![
-                ingest::Material { program: small, ..ingest::Material::default() },
-                ingest::Material { program: large, ..ingest::Material::default() },
+                scene_pack::Material { program: small, ..scene_pack::Material::default() },
+                scene_pack::Material { program: large, ..scene_pack::Material::default() },
             ],
             textures: vec![SceneTexture {
                 path: "t".into(),
                 color_space: texture::ColorSpace::Auto,
                 data: TextureData::Image(baked),
             }],
-            ..ingest::Scene::default()
+            ..scene_pack::Scene::default()
         };
         let bytes = testscene::bytes(&scene);
         let view = blob::SceneView::parse(&bytes).expect("valid blob");

@@ -342,7 +342,7 @@ fn spread7(x: u32) -> u32 {
 mod tests {
     use super::*;
     use crate::testscene::{self, card, Rng};
-    use ingest::scene::{SceneTexture, ShaderNode, TextureData};
+    use scene_pack::scene::{SceneTexture, ShaderNode, TextureData};
 
     /// Materials of every plan shape: uv → texture, uv → transform → texture, two transforms,
     /// three (scalar), a texture read from a constant (constant), one from a missing file (level 0),
@@ -394,18 +394,18 @@ mod tests {
             ),
             with(vec![transform(3, 2, 10.0)], 3, Some(0)),
         ];
-        let scene = ingest::Scene {
+        let scene = scene_pack::Scene {
             meshes: vec![card(0.0, 1.0, 0)],
             materials: programs
                 .into_iter()
-                .map(|program| ingest::Material { program, ..ingest::Material::default() })
+                .map(|program| scene_pack::Material { program, ..scene_pack::Material::default() })
                 .collect(),
             textures: vec![SceneTexture {
                 path: "t".into(),
                 color_space: texture::ColorSpace::Auto,
                 data: TextureData::Image(baked),
             }],
-            ..ingest::Scene::default()
+            ..scene_pack::Scene::default()
         };
         testscene::bytes(&scene)
     }

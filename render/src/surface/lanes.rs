@@ -732,7 +732,7 @@ mod tests {
     fn scene_bytes() -> blob::AlignedBytes {
         let mut scene = testscene::instanced_spheres(10, 0x5eed);
         scene.meshes.push(testscene::sphere(Vec3::new(1.0, 0.5, -1.0), 0.8, 6, 9, 0, false));
-        scene.meshes.push(ingest::Mesh {
+        scene.meshes.push(scene_pack::Mesh {
             normals: Vec::new(),
             ..testscene::sphere(Vec3::new(-1.5, -0.5, 1.0), 0.7, 5, 8, 0, true)
         });

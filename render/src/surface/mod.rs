@@ -543,7 +543,7 @@ pub(crate) mod surface_tests {
     fn tuned_surface_equals_reference_bit_for_bit() {
         let mut ingest_scene = testscene::instanced_spheres(12, 0x5eed);
         ingest_scene.meshes.push(testscene::sphere(Vec3::new(1.0, 0.5, -1.0), 0.8, 7, 11, 0, false));
-        ingest_scene.meshes.push(ingest::Mesh {
+        ingest_scene.meshes.push(scene_pack::Mesh {
             normals: Vec::new(),
             ..testscene::sphere(Vec3::new(-1.5, -0.5, 1.0), 0.7, 5, 9, 0, true)
         });

@@ -8,8 +8,8 @@
 use crate::testscene::{self, camera_looking_down_z, card, sphere};
 use crate::{render_image, Image, Integrator, RenderOptions};
 use glam::{Mat4, Vec3};
-use ingest::scene::{SceneTexture, ShaderNode, ShadingInput, TextureData};
-use ingest::{BezierSegment, CurveKind, Curves, Light, LightKind, Material, PointSphere, Scene};
+use scene_pack::scene::{SceneTexture, ShaderNode, ShadingInput, TextureData};
+use scene_pack::{BezierSegment, CurveKind, Curves, Light, LightKind, Material, PointSphere, Scene};
 
 fn textured(metallic: f32, clearcoat: f32) -> Material {
     let mut m = Material { ior: 1.5, metallic, clearcoat, clearcoat_roughness: 0.2, ..Material::default() };

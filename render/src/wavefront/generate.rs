@@ -187,13 +187,13 @@ mod tests {
         let mut camera = camera_looking_down_z(glam::Vec3::new(0.3, -0.2, 4.0), 18.0);
         camera.world_from_camera *= glam::Mat4::from_rotation_y(0.3) * glam::Mat4::from_rotation_x(-0.2);
         camera.horizontal_aperture_offset = 1.5;
-        let ingest_scene = ingest::Scene {
+        let ingest_scene = scene_pack::Scene {
             meshes: vec![card(0.0, 1.0, 0)],
             materials: vec![testscene::lambert(0.5)],
             cameras: vec![camera],
             default_camera: Some(0),
             meters_per_unit: 1.0,
-            ..ingest::Scene::default()
+            ..scene_pack::Scene::default()
         };
         let bytes = testscene::bytes(&ingest_scene);
         let view = blob::SceneView::parse(&bytes).expect("valid blob");

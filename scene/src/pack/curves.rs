@@ -16,8 +16,8 @@
 //! the records are stored in the order its leaves name them.
 
 use super::common::PackError;
+use crate::camera::DicingCamera;
 use crate::curves::{self, Tolerance};
-use crate::dicing::DicingCamera;
 use crate::scene::{CurveKind, Scene, UpAxis};
 use blob::curves as bc;
 use glam::{Vec2, Vec3, Vec3A, Vec4};

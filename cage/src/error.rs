@@ -1,4 +1,4 @@
-//! The crate's error type.
+//! The error type of cage validation and of `subdiv`'s refinement (one type for both).
 
 /// Why a cage could not be subdivided or a primvar could not be refined.
 ///
@@ -47,7 +47,7 @@ pub enum Error {
         /// What is wrong with it.
         reason: String,
     },
-    /// The requested refinement level is above [`crate::MAX_LEVEL`] or would overflow
+    /// The requested refinement level is above `subdiv::MAX_LEVEL` or would overflow
     /// OpenSubdiv's 32-bit indices.
     #[error("refinement level {level} is too high for this cage (limit {max})")]
     LevelTooHigh {

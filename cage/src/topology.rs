@@ -2,12 +2,12 @@
 //!
 //! Everything OpenSubdiv could trip over is checked here, in Rust, so that the C++ side only ever
 //! sees in-range indices and consistent lengths. USD's crease chains are flattened to the edge
-//! pairs `Far::TopologyDescriptor` expects.
+//! pairs `Far::TopologyDescriptor` expects; the accessors hand `subdiv` those arrays as they are.
 
 use std::collections::HashSet;
 use std::str::FromStr;
 
-use crate::error::{Error, Result};
+use crate::{Error, Result};
 
 /// Subdivision scheme (`UsdGeomMesh.subdivisionScheme`; USD's `none` is a polygon mesh, not ours).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -159,19 +159,19 @@ pub struct Cage<'a> {
 /// A validated cage, owned, in the layout `Far::TopologyDescriptor` takes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Topology {
-    pub(crate) options: Options,
-    pub(crate) vertex_count: usize,
-    pub(crate) face_vertex_counts: Vec<i32>,
-    pub(crate) face_vertex_indices: Vec<i32>,
+    options: Options,
+    vertex_count: usize,
+    face_vertex_counts: Vec<i32>,
+    face_vertex_indices: Vec<i32>,
     /// Crease edges as vertex pairs, flattened from USD's chains.
-    pub(crate) crease_pairs: Vec<i32>,
+    crease_pairs: Vec<i32>,
     /// One sharpness per crease edge.
-    pub(crate) crease_sharpnesses: Vec<f32>,
-    pub(crate) corner_indices: Vec<i32>,
-    pub(crate) corner_sharpnesses: Vec<f32>,
-    pub(crate) hole_indices: Vec<i32>,
+    crease_sharpnesses: Vec<f32>,
+    corner_indices: Vec<i32>,
+    corner_sharpnesses: Vec<f32>,
+    hole_indices: Vec<i32>,
     /// Per channel: value indices and value count.
-    pub(crate) face_varying: Vec<(Vec<i32>, usize)>,
+    face_varying: Vec<(Vec<i32>, usize)>,
 }
 
 /// OpenSubdiv indexes with `int`.
@@ -281,6 +281,46 @@ impl Topology {
         self.vertex_count
     }
 
+    /// Vertices per face, as authored (left-handed faces already reversed).
+    pub fn face_vertex_counts(&self) -> &[i32] {
+        &self.face_vertex_counts
+    }
+
+    /// The faces' vertex indices, face after face.
+    pub fn face_vertex_indices(&self) -> &[i32] {
+        &self.face_vertex_indices
+    }
+
+    /// Crease edges as vertex pairs, flattened from USD's chains.
+    pub fn crease_pairs(&self) -> &[i32] {
+        &self.crease_pairs
+    }
+
+    /// One sharpness per crease edge.
+    pub fn crease_sharpnesses(&self) -> &[f32] {
+        &self.crease_sharpnesses
+    }
+
+    /// Sharp corner vertices.
+    pub fn corner_indices(&self) -> &[i32] {
+        &self.corner_indices
+    }
+
+    /// One sharpness per corner.
+    pub fn corner_sharpnesses(&self) -> &[f32] {
+        &self.corner_sharpnesses
+    }
+
+    /// Faces that are holes.
+    pub fn hole_indices(&self) -> &[i32] {
+        &self.hole_indices
+    }
+
+    /// Per face-varying channel: value indices and value count.
+    pub fn face_varying(&self) -> &[(Vec<i32>, usize)] {
+        &self.face_varying
+    }
+
     /// Number of cage faces.
     pub fn face_count(&self) -> usize {
         self.face_vertex_counts.len()
@@ -311,7 +351,7 @@ impl Topology {
     }
 
     /// Faces as slices of vertex indices.
-    pub(crate) fn faces(&self) -> impl Iterator<Item = &[i32]> + '_ {
+    pub fn faces(&self) -> impl Iterator<Item = &[i32]> + '_ {
         let mut start = 0;
         self.face_vertex_counts.iter().map(move |&n| {
             let face = &self.face_vertex_indices[start..start + n as usize];
@@ -321,7 +361,7 @@ impl Topology {
     }
 
     /// Length of the longest cage edge, measured with `positions` transformed by the caller (e.g.
-    /// to raster space), for [`crate::level_for_dicing_rate`].
+    /// to raster space), for `subdiv::level_for_dicing_rate`.
     pub fn longest_edge(&self, positions: &[[f32; 3]]) -> Result<f32> {
         if positions.len() != self.vertex_count {
             return Err(Error::PrimvarSize {

@@ -20,7 +20,7 @@
 //! deterministic.
 //!
 //! Subdivision surfaces inside instances are diced once per distinct cage, at the finest rate any
-//! instance needs (`crate::usd` subdivision), so their instances share a prototype too.
+//! instance needs (ingest's subdivision reader), so their instances share a prototype too.
 
 use crate::scene::{Mesh, Scene};
 use glam::DMat4;

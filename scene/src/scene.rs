@@ -1,7 +1,7 @@
 //! The validated scene model between USD and the blob.
 //!
 //! Everything here is already composed, flattened to world space and triangulated: the USD reader
-//! (`crate::usd`) produces it, `crate::pack` turns it into blob records. Gprims inside instances are
+//! (ingest's `usd` module) produces it, `crate::pack` turns it into blob records. Gprims inside instances are
 //! kept as a reference to local-space geometry shared by every identical instance plus their
 //! transforms ([`PlacedMesh`]): 1,000 instances of a mesh hold one mesh through ingest, and world
 //! copies are made only where one is packed in world space (`--flatten-instances`, singletons).
@@ -533,7 +533,7 @@ impl MeshPrimvar {
 }
 
 /// A subdivision surface as diced: `Scene::meshes[mesh]` holds its triangles (none when the
-/// scene was read for a listing, [`crate::dicing::SubdivOptions::tessellate`] off).
+/// scene was read for a listing, ingest's `SubdivOptions::tessellate` off).
 ///
 /// The cage is kept (validated, wound counter-clockwise) so that reports and benchmarks can
 /// re-refine it, e.g. to measure the tessellation error against the limit surface. What a
@@ -546,7 +546,7 @@ pub struct Subdivision {
     /// Index into `Scene::meshes`.
     pub mesh: usize,
     /// The validated cage (left-handed faces already reversed).
-    pub topology: subdiv::Topology,
+    pub topology: cage::Topology,
     /// Cage points in the gprim's local space.
     pub points: Vec<[f32; 3]>,
     /// Local-to-world transform of the gprim.
