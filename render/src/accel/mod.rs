@@ -59,9 +59,8 @@ use multiversion::multiversion;
 /// triangles and, when the scene has instances, the two-level structure of [`crate::accel::instanced`].
 #[derive(Clone, Copy, Debug)]
 pub struct Accel<'a> {
-    // Crate-visible for the wavefront's packet-traversal experiment (`wavefront::packet`).
-    pub(crate) nodes: &'a [BvhNode],
-    pub(crate) blocks: &'a [TriangleBlock],
+    nodes: &'a [BvhNode],
+    blocks: &'a [TriangleBlock],
     positions: &'a [[f32; 3]],
     triangles: &'a [blob::Triangle],
     instances: crate::accel::instanced::Instances<'a>,

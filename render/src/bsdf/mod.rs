@@ -77,7 +77,7 @@ pub struct BsdfSample {
 /// Material parameters resolved for one shading point.
 #[derive(Clone, Copy, Debug)]
 pub struct Bsdf {
-    // Crate-visible so the wavefront's 8-lane kernels (`wavefront::bsdf_lanes`) can transpose them.
+    // Crate-visible so the wavefront's 8-lane kernels (`bsdf::lanes`) can transpose them.
     pub(crate) frame: Frame,
     /// Geometric normal on the side of `wo`.
     pub(crate) ng: Vec3,

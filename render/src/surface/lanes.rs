@@ -466,7 +466,7 @@ fn shading_normals(g: &Gathered, instanced: bool, out: &mut Columns) {
 }
 
 /// uv, `dp/du`, `dp/dv` (zero where the uv triangle's determinant is zero or not finite) and the
-/// ray cone's uv footprint (`uv_footprint` in [`crate::integrator`]).
+/// ray cone's uv footprint (`uv_footprint` in [`crate::surface`]).
 #[inline(always)]
 fn texture_coordinates(g: &Gathered, out: &mut Columns) {
     for k in 0..LANES {

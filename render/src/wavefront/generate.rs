@@ -227,7 +227,7 @@ mod tests {
                     for x in tile.x0..tile.x1 {
                         let pixel = y * width + x;
                         for sample in s0..s0 + samples {
-                            // The scalar film loop (`film::render_with_touch`).
+                            // The scalar tile loop (`scalar::render_tile`).
                             let key = SampleKey { pixel, sample, seed };
                             let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
                             let (o, d) = cam.generate_ray(
