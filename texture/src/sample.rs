@@ -41,6 +41,7 @@ use crate::stats::{NoTouch, Touch};
 mod lanes;
 #[cfg(target_arch = "x86_64")]
 mod lanes_avx2;
+mod level_lanes;
 mod log2;
 #[cfg(test)]
 pub(crate) use lanes::{sample_lanes_on, LanePath};

@@ -34,6 +34,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::lanes_avx2;
+use super::level_lanes::LevelLanes;
 use super::log2::log2;
 use super::{sample_with, Decode, Lookup, Sampler, Srgb8, TextureView, Unorm8, F16, NO_TEXEL};
 use crate::float::floor;
@@ -135,21 +136,6 @@ pub(crate) fn sample_lanes_on<T: Touch>(
         }
         TexelFormat::F16 => Sampler::<F16, T>::new(tex, &q.lane(0), touch).moonray_lanes(q, count, path),
     }
-}
-
-/// The per-lane levels of [`Sampler::moonray_lanes`]: `mip_level` and `level_pair`, in lanes. Masks
-/// and levels are `i32` so that the AVX2 path loads them as vectors as they are. Where a lane
-/// magnifies, its `l0`, `l1` and `t` are not read.
-#[derive(Default)]
-pub(super) struct LevelLanes {
-    /// `-1` where the lane magnifies (level ≤ 0 or NaN: bilinear on level 0), else `0`.
-    pub(super) magnify: [i32; LANES],
-    /// Nearer level.
-    pub(super) l0: [i32; LANES],
-    /// Coarser level.
-    pub(super) l1: [i32; LANES],
-    /// Weight of the coarser level.
-    pub(super) t: Lanes,
 }
 
 /// `mip_level` and `level_pair` for eight footprints. `AVX2`: all of it in intrinsics, the `log2`

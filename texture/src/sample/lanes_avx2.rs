@@ -21,11 +21,12 @@
 // Tap loops index several tables by the same tap number.
 #![allow(clippy::needless_range_loop)]
 
-use super::lanes::{Lanes, LevelLanes, LANES};
+use super::level_lanes::LevelLanes;
 use super::log2::{SERIES, SQRT_HALF_BITS, TWO_POW_23};
 use crate::format::Wrap;
 use crate::record::TextureRecord;
 use crate::srgb::SRGB_TO_LINEAR;
+use lanekit::{Lanes, LANES};
 use std::arch::x86_64::*;
 
 /// Byte offsets of the four taps of eight lanes, in 32-bit lanes, with the lanes that read.
