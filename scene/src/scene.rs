@@ -643,56 +643,60 @@ pub struct Curves {
     pub has_uvs: bool,
 }
 
-/// UsdPreviewSurface with constant inputs (fallbacks from the UsdPreviewSurface spec when unauthored).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Material {
-    /// Material prim path, or `<gprim path>.displayColor` for a gprim without a bound material.
-    pub path: String,
-    /// `diffuseColor` (fallback 0.18).
-    pub diffuse_color: Vec3,
-    /// `emissiveColor` (fallback 0).
-    pub emissive_color: Vec3,
-    /// `specularColor` (fallback 0).
-    pub specular_color: Vec3,
-    /// `useSpecularWorkflow` (fallback false).
-    pub use_specular_workflow: bool,
-    /// `roughness` (fallback 0.5).
-    pub roughness: f32,
-    /// `metallic` (fallback 0).
-    pub metallic: f32,
-    /// `ior` (fallback 1.5).
-    pub ior: f32,
-    /// `opacity` (fallback 1).
-    pub opacity: f32,
-    /// `opacityThreshold` (fallback 0).
-    pub opacity_threshold: f32,
-    /// `clearcoat` (fallback 0).
-    pub clearcoat: f32,
-    /// `clearcoatRoughness` (fallback 0.01).
-    pub clearcoat_roughness: f32,
-    /// Inputs connected to shading networks, compiled; empty when every input is a constant.
-    pub program: Vec<ShaderNode>,
+/// The scene model's type of an input kind of [`blob::preview_surface_constants!`].
+macro_rules! model_input_type {
+    (color) => {
+        Vec3
+    };
+    (float) => {
+        f32
+    };
+    (flag) => {
+        bool
+    };
 }
 
-impl Default for Material {
-    fn default() -> Self {
-        Material {
-            path: String::new(),
-            diffuse_color: Vec3::splat(0.18),
-            emissive_color: Vec3::ZERO,
-            specular_color: Vec3::ZERO,
-            use_specular_workflow: false,
-            roughness: 0.5,
-            metallic: 0.0,
-            ior: 1.5,
-            opacity: 1.0,
-            opacity_threshold: 0.0,
-            clearcoat: 0.0,
-            clearcoat_roughness: 0.01,
-            program: Vec::new(),
-        }
-    }
+/// An input's fallback in the scene model's type.
+macro_rules! model_fallback {
+    (color, $v:expr) => {
+        Vec3::from_array($v)
+    };
+    (float, $v:expr) => {
+        $v
+    };
+    (flag, $v:expr) => {
+        $v
+    };
 }
+
+macro_rules! scene_material {
+    ($($field:ident: $kind:ident = $fallback:expr, $usd:literal;)*) => {
+        /// UsdPreviewSurface with constant inputs (fallbacks from the UsdPreviewSurface spec when
+        /// unauthored); the inputs are [`blob::preview_surface_constants!`]'s.
+        #[derive(Clone, Debug, PartialEq)]
+        pub struct Material {
+            /// Material prim path, or `<gprim path>.displayColor` for a gprim without a bound material.
+            pub path: String,
+            $(
+                #[doc = concat!("`", $usd, "` (fallback ", stringify!($fallback), ").")]
+                pub $field: model_input_type!($kind),
+            )*
+            /// Inputs connected to shading networks, compiled; empty when every input is a constant.
+            pub program: Vec<ShaderNode>,
+        }
+
+        impl Default for Material {
+            fn default() -> Self {
+                Material {
+                    path: String::new(),
+                    $($field: model_fallback!($kind, $fallback),)*
+                    program: Vec::new(),
+                }
+            }
+        }
+    };
+}
+blob::preview_surface_constants!(scene_material);
 
 /// A UsdLux light.
 #[derive(Clone, Debug, PartialEq)]

@@ -32,6 +32,7 @@ pub mod instances;
 mod io;
 pub mod records;
 mod scene;
+pub mod surface_inputs;
 
 pub use checksum::checksum;
 pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};

@@ -92,44 +92,32 @@ pub struct Mesh {
 }
 const _: () = assert!(std::mem::size_of::<Mesh>() == 32);
 
-/// UsdPreviewSurface inputs as constants, plus the material's shading program. 96 bytes.
-///
-/// The constants are the values of inputs that no program op writes; a textured input's constant is
-/// the value the scene authored on the input itself (or the spec fallback) and is never read.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct Material {
-    /// Material prim path (or the gprim path for a displayColor material).
-    pub name: StrRef,
-    /// `diffuseColor`, linear.
-    pub diffuse_color: [f32; 3],
-    /// `emissiveColor`, linear radiance.
-    pub emissive_color: [f32; 3],
-    /// `specularColor` (used when `use_specular_workflow != 0`).
-    pub specular_color: [f32; 3],
-    /// `roughness` (perceptual; α = roughness²).
-    pub roughness: f32,
-    /// `metallic`.
-    pub metallic: f32,
-    /// `ior`.
-    pub ior: f32,
-    /// `opacity`.
-    pub opacity: f32,
-    /// `opacityThreshold`.
-    pub opacity_threshold: f32,
-    /// `clearcoat` weight.
-    pub clearcoat: f32,
-    /// `clearcoatRoughness`.
-    pub clearcoat_roughness: f32,
-    /// `useSpecularWorkflow` (0 or 1).
-    pub use_specular_workflow: u32,
-    /// First op of the material's program in the [`crate::SectionKind::ShaderOps`] section.
-    pub program_start: u32,
-    /// Ops in the program; 0 for a material whose inputs are all constants.
-    pub program_len: u32,
-    /// Reserved, zero.
-    pub reserved: [u32; 3],
+macro_rules! material_record {
+    ($($field:ident: $kind:ident = $fallback:expr, $usd:literal;)*) => {
+        /// UsdPreviewSurface inputs as constants, plus the material's shading program. 96 bytes.
+        ///
+        /// The constants are the values of inputs that no program op writes; a textured input's
+        /// constant is the value the scene authored on the input itself (or the spec fallback) and is
+        /// never read. The inputs are those of [`crate::preview_surface_constants!`], in its order.
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+        pub struct Material {
+            /// Material prim path (or the gprim path for a displayColor material).
+            pub name: StrRef,
+            $(
+                #[doc = concat!("`", $usd, "`.")]
+                pub $field: $crate::blob_input_type!($kind),
+            )*
+            /// First op of the material's program in the [`crate::SectionKind::ShaderOps`] section.
+            pub program_start: u32,
+            /// Ops in the program; 0 for a material whose inputs are all constants.
+            pub program_len: u32,
+            /// Reserved, zero.
+            pub reserved: [u32; 3],
+        }
+    };
 }
+crate::preview_surface_constants!(material_record);
 const _: () = assert!(std::mem::size_of::<Material>() == 96);
 
 /// Light kinds stored in [`Light::kind`].

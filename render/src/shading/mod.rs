@@ -61,54 +61,57 @@ pub struct UvFootprint {
     pub point: Option<MeshPoint>,
 }
 
-/// The UsdPreviewSurface inputs at one shading point, after the program ran.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ShadingInputs {
-    /// `diffuseColor`.
-    pub diffuse_color: Vec3,
-    /// `emissiveColor`.
-    pub emissive_color: Vec3,
-    /// `specularColor`.
-    pub specular_color: Vec3,
-    /// `useSpecularWorkflow`.
-    pub use_specular_workflow: bool,
-    /// `roughness`.
-    pub roughness: f32,
-    /// `metallic`.
-    pub metallic: f32,
-    /// `ior`.
-    pub ior: f32,
-    /// `opacity`.
-    pub opacity: f32,
-    /// `opacityThreshold`.
-    pub opacity_threshold: f32,
-    /// `clearcoat`.
-    pub clearcoat: f32,
-    /// `clearcoatRoughness`.
-    pub clearcoat_roughness: f32,
-    /// Tangent-space `normal` when a program drives it (`None`: the interpolated normal).
-    pub normal: Option<Vec3>,
+/// Render's type of an input kind of [`blob::preview_surface_constants!`].
+macro_rules! shading_input_type {
+    (color) => {
+        Vec3
+    };
+    (float) => {
+        f32
+    };
+    (flag) => {
+        bool
+    };
 }
 
-impl ShadingInputs {
-    /// The constants of a material (what a material without a program shades with).
-    pub fn constant(m: &blob::Material) -> Self {
-        ShadingInputs {
-            diffuse_color: Vec3::from(m.diffuse_color),
-            emissive_color: Vec3::from(m.emissive_color),
-            specular_color: Vec3::from(m.specular_color),
-            use_specular_workflow: m.use_specular_workflow != 0,
-            roughness: m.roughness,
-            metallic: m.metallic,
-            ior: m.ior,
-            opacity: m.opacity,
-            opacity_threshold: m.opacity_threshold,
-            clearcoat: m.clearcoat,
-            clearcoat_roughness: m.clearcoat_roughness,
-            normal: None,
-        }
-    }
+/// A blob record's input in render's type.
+macro_rules! shading_input {
+    (color, $v:expr) => {
+        Vec3::from($v)
+    };
+    (float, $v:expr) => {
+        $v
+    };
+    (flag, $v:expr) => {
+        $v != 0
+    };
+}
 
+macro_rules! shading_inputs {
+    ($($field:ident: $kind:ident = $fallback:expr, $usd:literal;)*) => {
+        /// The UsdPreviewSurface inputs at one shading point, after the program ran: the constants
+        /// of [`blob::preview_surface_constants!`] and the tangent-space normal.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct ShadingInputs {
+            $(
+                #[doc = concat!("`", $usd, "`.")]
+                pub $field: shading_input_type!($kind),
+            )*
+            /// Tangent-space `normal` when a program drives it (`None`: the interpolated normal).
+            pub normal: Option<Vec3>,
+        }
+
+        impl ShadingInputs {
+            /// The constants of a material (what a material without a program shades with).
+            pub fn constant(m: &blob::Material) -> Self {
+                ShadingInputs { $($field: shading_input!($kind, m.$field),)* normal: None }
+            }
+        }
+    };
+}
+blob::preview_surface_constants!(shading_inputs);
+
+impl ShadingInputs {
     /// UsdPreviewSurface opacity as a pass-through probability: `opacityThreshold > 0` makes it a
     /// cut-out (below the threshold fully transparent, else opaque).
     #[inline]

@@ -200,23 +200,7 @@ fn pack_materials(
     for m in &scene.materials {
         let ops: Vec<rec::ShaderOp> =
             m.program.iter().map(|node| shader_op(node, texture_refs, primvar_ids)).collect();
-        let record = rec::Material {
-            name: rec::StrRef::default(),
-            diffuse_color: m.diffuse_color.to_array(),
-            emissive_color: m.emissive_color.to_array(),
-            specular_color: m.specular_color.to_array(),
-            roughness: m.roughness,
-            metallic: m.metallic,
-            ior: m.ior,
-            opacity: m.opacity,
-            opacity_threshold: m.opacity_threshold,
-            clearcoat: m.clearcoat,
-            clearcoat_roughness: m.clearcoat_roughness,
-            use_specular_workflow: m.use_specular_workflow as u32,
-            program_start: 0,
-            program_len: ops.len() as u32,
-            reserved: [0; 3],
-        };
+        let record = rec::Material { program_len: ops.len() as u32, ..material_constants(m) };
         // Equal bytes: the same constants and the same program (floats compared bit for bit).
         let key = (bytemuck::bytes_of(&record).to_vec(), bytemuck::cast_slice::<_, u8>(&ops).to_vec());
         let next = data.materials.len() as u32;
@@ -231,6 +215,30 @@ fn pack_materials(
     }
     slots
 }
+
+/// An input of the scene model in the blob's type.
+macro_rules! blob_input {
+    (color, $v:expr) => {
+        $v.to_array()
+    };
+    (float, $v:expr) => {
+        $v
+    };
+    (flag, $v:expr) => {
+        $v as u32
+    };
+}
+
+macro_rules! material_constants {
+    ($($field:ident: $kind:ident = $fallback:expr, $usd:literal;)*) => {
+        /// The blob record of `m`'s constants ([`blob::preview_surface_constants!`]), with no name and
+        /// no program yet.
+        fn material_constants(m: &crate::scene::Material) -> rec::Material {
+            rec::Material { $($field: blob_input!($kind, m.$field),)* ..rec::Material::default() }
+        }
+    };
+}
+blob::preview_surface_constants!(material_constants);
 
 /// Rec. 709 luminance, the weight of emission in the light distribution.
 fn luminance(e: Vec3) -> f32 {

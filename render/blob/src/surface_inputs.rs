@@ -1,0 +1,47 @@
+//! The UsdPreviewSurface inputs a material keeps as constants, listed once for every crate.
+//!
+//! [`crate::preview_surface_constants!`] hands the list to a macro of the caller's, which turns it into
+//! that crate's form: the blob record ([`crate::Material`]), the scene model's material and its
+//! fallbacks (scene-pack), the packer's conversion between the two, and render's shading inputs.
+//! Adding an input here adds it everywhere at once (and the blob's format version goes up, since
+//! the record grows).
+//!
+//! Each entry is `field: kind = fallback, "usdName";`, in the blob record's field order. Kinds:
+//! `color` (`[f32; 3]` in the blob, `Vec3` elsewhere), `float` (`f32`), `flag` (`u32` 0 or 1 in the
+//! blob, `bool` elsewhere). Fallbacks are the UsdPreviewSurface specification's.
+
+/// Calls `$callback! { field: kind = fallback, "usdName"; … }` with the UsdPreviewSurface inputs a
+/// material keeps as constants (see the [module docs](crate::surface_inputs)).
+#[macro_export]
+macro_rules! preview_surface_constants {
+    ($callback:ident) => {
+        $callback! {
+            diffuse_color: color = [0.18, 0.18, 0.18], "diffuseColor";
+            emissive_color: color = [0.0, 0.0, 0.0], "emissiveColor";
+            specular_color: color = [0.0, 0.0, 0.0], "specularColor";
+            roughness: float = 0.5, "roughness";
+            metallic: float = 0.0, "metallic";
+            ior: float = 1.5, "ior";
+            opacity: float = 1.0, "opacity";
+            opacity_threshold: float = 0.0, "opacityThreshold";
+            clearcoat: float = 0.0, "clearcoat";
+            clearcoat_roughness: float = 0.01, "clearcoatRoughness";
+            use_specular_workflow: flag = false, "useSpecularWorkflow";
+        }
+    };
+}
+
+/// The blob type of an input kind (`color`, `float`, `flag`).
+#[macro_export]
+#[doc(hidden)]
+macro_rules! blob_input_type {
+    (color) => {
+        [f32; 3]
+    };
+    (float) => {
+        f32
+    };
+    (flag) => {
+        u32
+    };
+}
