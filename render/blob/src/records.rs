@@ -340,8 +340,9 @@ pub const MAX_MIP_LEVELS: usize = 16;
 pub const MAX_TEXTURE_DIMENSION: u32 = 1 << (MAX_MIP_LEVELS - 1);
 
 /// A UDIM set: a `u_count × v_count` window of the UDIM grid in the [`crate::SectionKind::UdimTiles`]
-/// section, whose cells are texture indices or [`NONE`] (a missing tile). 16 bytes; bit-identical to
-/// `texture::UdimSetRecord`.
+/// section, whose cells are texture indices or [`NONE`] (a missing tile). 16 bytes; `texture` uses this
+/// record as its `UdimSetRecord`. Tile `(u, v)` (UDIM number `1001 + u + 10 v`) is
+/// `udim_tiles[first_tile + v * u_count + u]`; `u_count <= 10`; `v_count` covers the highest row found.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct UdimSet {

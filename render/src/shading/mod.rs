@@ -216,13 +216,9 @@ impl<'a> Shading<'a> {
     pub fn new(view: &blob::SceneView<'a>) -> Self {
         // The blob validated every record the way `TextureSetView::new` does (same checks, repeated in
         // the blob crate), so this cannot fail; an empty view would only make lookups return fallbacks.
-        let textures = TextureSetView::new(
-            view.texture_records,
-            bytemuck::cast_slice(view.udim_sets),
-            view.udim_tiles,
-            view.texels,
-        )
-        .unwrap_or_else(|_| TextureSetView::new(&[], &[], &[], &[]).expect("empty tables are valid"));
+        let textures =
+            TextureSetView::new(view.texture_records, view.udim_sets, view.udim_tiles, view.texels)
+                .unwrap_or_else(|_| TextureSetView::new(&[], &[], &[], &[]).expect("empty tables are valid"));
         let flags: Vec<ProgramFlags> = view
             .materials
             .iter()
