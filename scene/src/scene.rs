@@ -643,19 +643,6 @@ pub struct Curves {
     pub has_uvs: bool,
 }
 
-/// The scene model's type of an input kind of [`blob::preview_surface_constants!`].
-macro_rules! model_input_type {
-    (color) => {
-        Vec3
-    };
-    (float) => {
-        f32
-    };
-    (flag) => {
-        bool
-    };
-}
-
 /// An input's fallback in the scene model's type.
 macro_rules! model_fallback {
     (color, $v:expr) => {
@@ -679,7 +666,7 @@ macro_rules! scene_material {
             pub path: String,
             $(
                 #[doc = concat!("`", $usd, "` (fallback ", stringify!($fallback), ").")]
-                pub $field: model_input_type!($kind),
+                pub $field: blob::model_input_type!($kind, Vec3),
             )*
             /// Inputs connected to shading networks, compiled; empty when every input is a constant.
             pub program: Vec<ShaderNode>,

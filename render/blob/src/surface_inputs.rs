@@ -31,6 +31,22 @@ macro_rules! preview_surface_constants {
     };
 }
 
+/// The type of an input kind outside the blob, given the caller's 3-vector type: `color` → `$vec3`,
+/// `float` → `f32`, `flag` → `bool`.
+#[macro_export]
+#[doc(hidden)]
+macro_rules! model_input_type {
+    (color, $vec3:ty) => {
+        $vec3
+    };
+    (float, $vec3:ty) => {
+        f32
+    };
+    (flag, $vec3:ty) => {
+        bool
+    };
+}
+
 /// The blob type of an input kind (`color`, `float`, `flag`).
 #[macro_export]
 #[doc(hidden)]

@@ -61,19 +61,6 @@ pub struct UvFootprint {
     pub point: Option<MeshPoint>,
 }
 
-/// Render's type of an input kind of [`blob::preview_surface_constants!`].
-macro_rules! shading_input_type {
-    (color) => {
-        Vec3
-    };
-    (float) => {
-        f32
-    };
-    (flag) => {
-        bool
-    };
-}
-
 /// A blob record's input in render's type.
 macro_rules! shading_input {
     (color, $v:expr) => {
@@ -95,7 +82,7 @@ macro_rules! shading_inputs {
         pub struct ShadingInputs {
             $(
                 #[doc = concat!("`", $usd, "`.")]
-                pub $field: shading_input_type!($kind),
+                pub $field: blob::model_input_type!($kind, Vec3),
             )*
             /// Tangent-space `normal` when a program drives it (`None`: the interpolated normal).
             pub normal: Option<Vec3>,
