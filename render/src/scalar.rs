@@ -108,9 +108,13 @@ impl Scene<'_> {
             let textured = clock.enabled() && crate::stats::reads_textures(&self.view, s.material);
             clock.lap(if textured { Phase::Texturing } else { Phase::Shading });
 
-            // Stochastic transparency: continue straight with probability 1 − opacity.
+            // Stochastic transparency: with probability 1 − opacity the hit is the surface's
+            // refracting part (glass) or, where that is not a dielectric, a hole the path goes
+            // straight through.
             let opacity = inputs.effective_opacity();
-            if opacity < 1.0 && sample_1d(key, vertex, dim::OPACITY) >= opacity {
+            let see_through = opacity < 1.0 && sample_1d(key, vertex, dim::OPACITY) >= opacity;
+            let glass = see_through && inputs.refracts() && s.curve.is_none();
+            if see_through && !glass {
                 vertex += 1;
                 if vertex > max_depth + MAX_NULL_EVENTS {
                     break;
@@ -126,7 +130,10 @@ impl Scene<'_> {
                 s.ns = Self::mapped_normal(&s, n, wo);
             }
 
-            let bsdf = self.bsdf(&s, &inputs, wo);
+            let bsdf = match hit {
+                Some(h) if glass => self.glass_bsdf(&h, &s, &inputs),
+                _ => self.bsdf(&s, &inputs, wo),
+            };
             if result.first_hit.is_none() && bounces == 0 {
                 result.first_hit =
                     Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });
@@ -162,17 +169,21 @@ impl Scene<'_> {
                     let tmax = shadow_tmax(ls.distance, shadow_origin, s.p);
                     rays.shadow += 1;
                     clock.lap(Phase::Integration);
-                    let transmits = self.shadow_transmits(
+                    let mut kept = self.shadow_transmittance(
                         shadow_origin,
                         ls.wi,
                         tmax,
                         shadow_seed ^ vertex,
+                        ls.delta,
                         filter,
                         touch,
-                    ) && !self.curves.any_hit(shadow_origin, ls.wi, tmax);
+                    );
+                    if kept > 0.0 && self.curves.any_hit(shadow_origin, ls.wi, tmax) {
+                        kept = 0.0;
+                    }
                     clock.lap(Phase::Intersect);
-                    if transmits {
-                        radiance += contribution * w;
+                    if kept > 0.0 {
+                        radiance += contribution * w * kept;
                     }
                 }
             }

@@ -17,6 +17,7 @@
 //! accepted only if it is above both the shading and the geometric hemispheres of the side facing `v`, so
 //! a shading normal can never let light leak through the surface.
 
+pub mod dielectric;
 pub mod lanes;
 
 use glam::Vec3;
@@ -115,7 +116,7 @@ const CLEARCOAT_F0: f32 = 0.04;
 
 /// GGX normal distribution for a local half vector.
 #[inline]
-fn ggx_d(h: Vec3, alpha: f32) -> f32 {
+pub(crate) fn ggx_d(h: Vec3, alpha: f32) -> f32 {
     let a2 = alpha * alpha;
     let c2 = h.z * h.z;
     let d = c2 * (a2 - 1.0) + 1.0;
@@ -124,7 +125,7 @@ fn ggx_d(h: Vec3, alpha: f32) -> f32 {
 
 /// Smith Λ for GGX.
 #[inline]
-fn ggx_lambda(w: Vec3, alpha: f32) -> f32 {
+pub(crate) fn ggx_lambda(w: Vec3, alpha: f32) -> f32 {
     let c2 = w.z * w.z;
     if c2 <= 0.0 {
         return f32::INFINITY;
@@ -135,20 +136,20 @@ fn ggx_lambda(w: Vec3, alpha: f32) -> f32 {
 
 /// Height-correlated Smith masking-shadowing.
 #[inline]
-fn ggx_g2(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
+pub(crate) fn ggx_g2(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
     1.0 / (1.0 + ggx_lambda(wo, alpha) + ggx_lambda(wi, alpha))
 }
 
 /// Solid-angle pdf of `wi` when sampling visible normals from `wo`: G₁(wo)·D(h) / (4 wo.z).
 #[inline]
-fn ggx_pdf(wo: Vec3, h: Vec3, alpha: f32) -> f32 {
+pub(crate) fn ggx_pdf(wo: Vec3, h: Vec3, alpha: f32) -> f32 {
     let g1 = 1.0 / (1.0 + ggx_lambda(wo, alpha));
     g1 * ggx_d(h, alpha) / (4.0 * wo.z)
 }
 
 /// Samples a GGX visible normal (spherical caps, Dupuy & Benyoub 2023).
 #[inline]
-fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: [f32; 2]) -> Vec3 {
+pub(crate) fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: [f32; 2]) -> Vec3 {
     let wi_std = Vec3::new(wo.x * alpha, wo.y * alpha, wo.z).normalize();
     let phi = TAU * u[0];
     let z = (1.0 - u[1]) * (1.0 + wi_std.z) - wi_std.z;

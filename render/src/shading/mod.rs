@@ -114,6 +114,15 @@ impl ShadingInputs {
         }
     }
 
+    /// The `1 − opacity` part of the surface is a refracting dielectric of index `ior`
+    /// ([`crate::bsdf::dielectric`]) rather than a hole: the UsdPreviewSurface reading of `opacity`
+    /// when it is not a cut-out (`opacityThreshold = 0`), for any `ior` but 1 (an interface of index 1
+    /// neither reflects nor bends, so it stays the cheaper pass-through).
+    #[inline]
+    pub fn refracts(&self) -> bool {
+        self.opacity_threshold <= 0.0 && self.ior != 1.0 && self.ior > 0.0 && self.ior.is_finite()
+    }
+
     /// Binds `v` (an `OUTPUT` op's swizzled register) to shading input `input`.
     pub(crate) fn set(&mut self, input: u32, v: [f32; 4]) {
         Self::set_each(std::slice::from_mut(self), input, |_| [v[0], v[1], v[2]]);

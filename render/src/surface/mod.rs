@@ -26,6 +26,7 @@ pub mod lanes;
 
 use crate::accel::curves::CurveHit;
 use crate::accel::offset_ray_origin;
+use crate::bsdf::dielectric::{normal_transmittance, Dielectric};
 use crate::bsdf::{Bsdf, BsdfSample, Frame};
 use crate::hair::HairBsdf;
 use crate::path::MAX_NULL_EVENTS;
@@ -36,6 +37,7 @@ use glam::Vec3;
 use texture::{Filter, Touch};
 
 /// Surface data at a hit.
+#[derive(Clone, Copy)]
 pub struct Surface {
     /// Hit point.
     pub p: Vec3,
@@ -100,10 +102,12 @@ impl Surface {
     }
 }
 
-/// The BSDF at a hit: UsdPreviewSurface (triangles, points) or hair (curves).
+/// The BSDF at a hit: UsdPreviewSurface (triangles, points), hair (curves), or the dielectric of a
+/// transmissive UsdPreviewSurface's `1 − opacity` part (triangles).
 pub(crate) enum SurfaceBsdf {
     Preview(Bsdf),
     Hair(HairBsdf),
+    Glass(Dielectric),
 }
 
 impl SurfaceBsdf {
@@ -112,18 +116,22 @@ impl SurfaceBsdf {
         match self {
             SurfaceBsdf::Preview(b) => b.eval(wo, wi),
             SurfaceBsdf::Hair(h) => h.eval(wi),
+            SurfaceBsdf::Glass(g) => g.eval(wo, wi),
         }
     }
     pub(crate) fn sample(&self, wo: Vec3, u_lobe: f32, u: [f32; 2]) -> Option<BsdfSample> {
         match self {
             SurfaceBsdf::Preview(b) => b.sample(wo, u_lobe, u),
             SurfaceBsdf::Hair(h) => h.sample(u_lobe, u),
+            SurfaceBsdf::Glass(g) => g.sample(wo, u_lobe, u),
         }
     }
     pub(crate) fn albedo(&self) -> Vec3 {
         match self {
             SurfaceBsdf::Preview(b) => b.diffuse_albedo(),
             SurfaceBsdf::Hair(h) => h.color(),
+            // Clear glass: what is seen through it keeps its colour.
+            SurfaceBsdf::Glass(_) => Vec3::ONE,
         }
     }
 }
@@ -327,6 +335,15 @@ impl<'a> Scene<'a> {
         }
     }
 
+    /// The dielectric BSDF of a transmissive hit `hit` on triangle surface `s` (normal map applied to
+    /// `s.ns`): entering where the ray meets the triangle's front (its winding's normal faces `wo`,
+    /// which `s.ng` was flipped towards).
+    pub(crate) fn glass_bsdf(&self, hit: &crate::accel::Hit, s: &Surface, inputs: &ShadingInputs) -> SurfaceBsdf {
+        let [p0, p1, p2] = self.accel.hit_vertices(hit);
+        let entering = (p1 - p0).cross(p2 - p0).dot(s.ng) > 0.0;
+        SurfaceBsdf::Glass(Dielectric::new(inputs.ior, inputs.roughness, s.ns, s.ng, entering))
+    }
+
     /// The shading sort key of `hit` (UDIM tile, mip level and uv of its material's first texture;
     /// see [`crate::shading::Shading::sort_key`]) for a ray cone of width `footprint` there: what a
     /// wavefront integrator sorts its shade queue by.
@@ -355,53 +372,81 @@ impl<'a> Scene<'a> {
         self.shading.evaluate(s.material, &s.uv, filter, touch)
     }
 
-    /// Whether a shadow ray from `origin` along unit `dir` reaches distance `tmax` through transparent
-    /// surfaces. Pass-through odds are decided once per triangle by a hash of `seed` (the same odds as
-    /// camera and BSDF rays). When some material's opacity is textured, the ray walks closest hits
-    /// and evaluates opacity at each; otherwise one any-hit query answers.
-    pub(crate) fn shadow_transmits<T: Touch>(
+    /// How much of a light sample a shadow ray from `origin` along unit `dir` carries to distance
+    /// `tmax` (0: blocked; 1 through nothing or only holes). Pass-through odds are decided once per
+    /// triangle by a hash of `seed` (the same odds as camera and BSDF rays). The refracting part of a
+    /// transmissive surface ([`ShadingInputs::refracts`]) blocks light from area lights, domes and
+    /// emitters, which paths that refract through it find by BSDF sampling (counting it here too
+    /// would count it twice); towards a `delta` light, which no sampled direction can reach, the ray
+    /// goes on straight with the interface's normal-incidence transmittance
+    /// ([`normal_transmittance`]): the stated approximation that keeps shadows under clear glass
+    /// from going black (no refraction offset, no focusing, no angle dependence). When some
+    /// material's opacity is textured, the ray walks closest hits and evaluates opacity at each;
+    /// otherwise one any-hit query answers.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn shadow_transmittance<T: Touch>(
         &self,
         origin: Vec3,
         dir: Vec3,
         tmax: f32,
         seed: u32,
+        delta: bool,
         filter: Filter,
         touch: &T,
-    ) -> bool {
+    ) -> f32 {
         // Instances of one prototype triangle decide independently (the instance joins the hash).
         let passes = |tri: u32, instance: u32, opacity: f32| {
             let h = if instance == blob::NONE { seed } else { hash_combine(seed, instance) };
             opacity < 1.0 && (hash_combine(h, tri) >> 8) as f32 * (1.0 / 16_777_216.0) >= opacity
         };
-        let constant_opacity = |tri: u32| {
+        // What a crossing the hash let through keeps: all of it through a hole, the interface's
+        // transmittance through glass towards a delta light, nothing through glass otherwise.
+        let crossing = |inputs: &ShadingInputs| match (inputs.refracts(), delta) {
+            (false, _) => 1.0,
+            (true, true) => normal_transmittance(inputs.ior),
+            (true, false) => 0.0,
+        };
+        let constant = |tri: u32| {
             let m = &self.view.materials[self.view.triangle_materials[tri as usize] as usize];
-            ShadingInputs::constant(m).effective_opacity()
+            ShadingInputs::constant(m)
         };
         if !self.shading.any_textured_opacity() {
-            return !self
-                .accel
-                .any_hit(origin, dir, tmax, |tri, inst| !passes(tri, inst, constant_opacity(tri)));
+            let mut kept = 1.0f32;
+            let blocked = self.accel.any_hit(origin, dir, tmax, |tri, inst| {
+                let inputs = constant(tri);
+                if !passes(tri, inst, inputs.effective_opacity()) {
+                    return true;
+                }
+                kept *= crossing(&inputs);
+                kept == 0.0
+            });
+            return if blocked { 0.0 } else { kept };
         }
         let end = origin + dir * tmax;
         let mut o = origin;
+        let mut kept = 1.0f32;
         for _ in 0..MAX_NULL_EVENTS {
             let remaining = if tmax.is_finite() { (end - o).dot(dir) } else { f32::INFINITY };
             if remaining <= 0.0 {
-                return true;
+                return kept;
             }
-            let Some(hit) = self.accel.closest_hit(o, dir, remaining) else { return true };
-            let Some(s) = self.surface(&hit, -dir, 0.0) else { return false };
-            let opacity = if self.shading.flags(s.material).textured_opacity {
-                self.shade(&s, filter, touch).effective_opacity()
+            let Some(hit) = self.accel.closest_hit(o, dir, remaining) else { return kept };
+            let Some(s) = self.surface(&hit, -dir, 0.0) else { return 0.0 };
+            let inputs = if self.shading.flags(s.material).textured_opacity {
+                self.shade(&s, filter, touch)
             } else {
-                constant_opacity(hit.triangle)
+                constant(hit.triangle)
             };
-            if !passes(hit.triangle, hit.instance, opacity) {
-                return false;
+            if !passes(hit.triangle, hit.instance, inputs.effective_opacity()) {
+                return 0.0;
+            }
+            kept *= crossing(&inputs);
+            if kept == 0.0 {
+                return 0.0;
             }
             o = offset_ray_origin(s.p, -s.ng);
         }
-        false
+        0.0
     }
 
     /// Emitted radiance at barycentrics `(b1, b2)` of emissive triangle `tri` (a light sample), with

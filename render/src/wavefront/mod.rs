@@ -148,6 +148,9 @@ pub struct ShadowRay {
     pub contribution: Vec3,
     /// Seed of the per-triangle pass-through decisions.
     pub seed: u32,
+    /// The light is a delta light (point, distant): glass lets the ray through with its
+    /// transmittance ([`crate::scene::Scene::shadow_transmittance`]).
+    pub delta: bool,
 }
 
 /// One worker's pools and queues, allocated once (before its first tile) and reused. Each stage

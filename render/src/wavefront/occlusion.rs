@@ -25,10 +25,9 @@ pub(super) fn any_hit<T: Touch>(
             prefetch::field(&states[next as usize].radiance);
         }
         let r = &shadow[i as usize];
-        if scene.shadow_transmits(r.origin, r.dir, r.tmax, r.seed, filter, ctx.touch)
-            && !scene.curves.any_hit(r.origin, r.dir, r.tmax)
-        {
-            states[i as usize].radiance += r.contribution;
+        let kept = scene.shadow_transmittance(r.origin, r.dir, r.tmax, r.seed, r.delta, filter, ctx.touch);
+        if kept > 0.0 && !scene.curves.any_hit(r.origin, r.dir, r.tmax) {
+            states[i as usize].radiance += r.contribution * kept;
         }
     }
     occlusion.clear();

@@ -368,6 +368,12 @@ fn prepare<T: Touch>(
     // The vertex's other random numbers are drawn in lanes in phase 2; this one decides phase 1.
     let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed };
     if opacity < 1.0 && sample_1d(key, st.vertex, dim::OPACITY) >= opacity {
+        if inputs.refracts() {
+            // Glass: the whole vertex per hit, with the scalar integrator's code and numbers.
+            let hit = *hit;
+            super::shade_curves::glass_vertex(ctx, w, i, s, &hit, inputs, rays);
+            return;
+        }
         let origin = offset_ray_origin(s.p, -s.ng);
         if st.pass_through(hit.t, footprint, origin, max_depth) {
             rays.bounce += 1;
@@ -550,6 +556,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mu
             tmax: shadow_tmax(ls.distance[k], origin, p),
             contribution: at(&nout.contribution, k),
             seed: seeds[k],
+            delta: ls.delta[k] != 0,
         };
         occlusion.push(i as u32);
     }

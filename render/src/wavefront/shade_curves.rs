@@ -26,7 +26,7 @@ use crate::bsdf::BsdfSample;
 use crate::hair::lanes::{eval_lanes, sample_lanes, HairLanes};
 use crate::lights::{power_heuristic, LightSample};
 use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
-use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, SampleKey};
+use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
 use crate::stats::Phase;
 use crate::surface::{Surface, SurfaceBsdf};
 use glam::Vec3;
@@ -138,7 +138,8 @@ pub(super) fn vertex<T: Touch>(
     let (u_lobe, u) = (r(dim::LOBE), [r(dim::BSDF_UV), r(dim::BSDF_UV + 1)]);
     let hair = match bsdf {
         SurfaceBsdf::Hair(hair) => hair,
-        preview @ SurfaceBsdf::Preview(_) => {
+        // (Glass is shaded by `glass_vertex`, never here.)
+        preview @ (SurfaceBsdf::Preview(_) | SurfaceBsdf::Glass(_)) => {
             // A point: its UsdPreviewSurface BSDF, one hit at a time.
             let eval = light.map(|ls| preview.eval(wo, ls.wi));
             let sample = preview.sample(wo, u_lobe, u);
@@ -158,6 +159,62 @@ pub(super) fn vertex<T: Touch>(
     if group.len == LANES {
         flush(ctx, w, group, rays);
     }
+}
+
+/// The whole vertex of path `i` at the refracting part of a transmissive triangle surface `s`
+/// (hit `hit`, shading inputs `inputs`; stochastic transparency chose it): normal map, first-hit
+/// record, emission, the light sample, the dielectric BSDF towards it and its sample, then
+/// [`finish`]. One hit at a time with the scalar sampler, in the scalar integrator's order, so the
+/// image stays the scalar one bit for bit: glass hits are few, and the dielectric has no lane twin.
+pub(super) fn glass_vertex<T: Touch>(
+    ctx: &Context<'_, '_, T>,
+    w: &mut StageParts<'_>,
+    i: u32,
+    s: &Surface,
+    hit: &crate::accel::Hit,
+    inputs: &crate::shading::ShadingInputs,
+    rays: &mut RayCounts,
+) {
+    let scene = ctx.scene;
+    let (max_depth, filter, touch) = (ctx.settings.max_depth, ctx.settings.filter, ctx.touch);
+    let st = &mut w.paths.states[i as usize];
+    let (key, vertex) =
+        (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed }, st.vertex);
+    let wo = -st.dir;
+    let footprint = st.cone().width_at(hit.t);
+    let mut s = *s;
+    if let Some(n) = inputs.normal {
+        s.ns = crate::scene::Scene::mapped_normal(&s, n, wo);
+    }
+    let bsdf = scene.glass_bsdf(hit, &s, inputs);
+    let first = &mut w.paths.first_hits[i as usize];
+    if first.is_none() && st.bounces == 0 {
+        *first = Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: st.travelled + hit.t });
+    }
+    let le = inputs.emissive_color.max(Vec3::ZERO);
+    if le != Vec3::ZERO {
+        let mis = match st.prev() {
+            None => 1.0,
+            Some((p, bsdf_pdf)) => power_heuristic(bsdf_pdf, scene.lights.triangle_pdf(hit.triangle, p, s.p)),
+        };
+        st.radiance += st.beta * le * mis;
+    }
+    if st.bounces >= max_depth {
+        return;
+    }
+    let light = scene
+        .lights
+        .sample(s.p, sample_1d(key, vertex, dim::LIGHT_SELECT), sample_2d(key, vertex, dim::LIGHT_UV))
+        .map(|mut ls| {
+            if let Some((tri, [b1, b2])) = ls.emitter {
+                ls.li = scene.emission_at(tri, b1, b2, filter, touch);
+            }
+            ls
+        });
+    let eval = light.map(|ls| bsdf.eval(wo, ls.wi));
+    let sample = bsdf.sample(wo, sample_1d(key, vertex, dim::LOBE), sample_2d(key, vertex, dim::BSDF_UV));
+    w.stats.clock.lap(Phase::Shading);
+    finish(ctx, w, Parked { path: i, surface: s, footprint, light }, eval, sample, rays);
 }
 
 /// Runs the hair lane kernels on the parked fibre hits and finishes their vertices; empties the
@@ -218,7 +275,7 @@ fn finish<T: Touch>(
             let tmax = shadow_tmax(ls.distance, origin, s.p);
             let seed = hash_combine(hash_combine(hash_u32(ctx.sampling.seed), st.pixel), st.sample) ^ vertex;
             w.paths.shadow[i as usize] =
-                ShadowRay { origin, dir: ls.wi, tmax, contribution: contribution * mis, seed };
+                ShadowRay { origin, dir: ls.wi, tmax, contribution: contribution * mis, seed, delta: ls.delta };
             w.queues.occlusion.push(i);
         }
     }
