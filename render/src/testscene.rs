@@ -61,8 +61,9 @@ pub fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32, material: u3
         for j in 0..segments {
             let a = i * row + j;
             let b = a + row;
+            // Counter-clockwise seen from outside (USD's right-handed front) unless `inward`.
             let mut quads = [[a, a + 1, b + 1], [a, b + 1, b]];
-            if !inward {
+            if inward {
                 for t in &mut quads {
                     t.swap(1, 2);
                 }

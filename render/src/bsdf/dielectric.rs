@@ -89,6 +89,11 @@ impl Dielectric {
         }
     }
 
+    /// Index behind the surface over the index on the side of `wo`.
+    pub fn eta(&self) -> f32 {
+        self.eta
+    }
+
     /// BSDF value (no cosine) and pdf for world directions `wo` (towards the viewer) and `wi`.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         let reflect = wi.dot(self.ng) > 0.0;

@@ -102,6 +102,9 @@ impl Surface {
     }
 }
 
+/// Glass surfaces a shadow ray towards a delta light may cross before it counts as blocked.
+const MAX_GLASS_CROSSINGS: usize = 16;
+
 /// The BSDF at a hit: UsdPreviewSurface (triangles, points), hair (curves), or the dielectric of a
 /// transmissive UsdPreviewSurface's `1 − opacity` part (triangles).
 pub(crate) enum SurfaceBsdf {
@@ -411,14 +414,27 @@ impl<'a> Scene<'a> {
             ShadingInputs::constant(m)
         };
         if !self.shading.any_textured_opacity() {
+            // An any-hit query may report a triangle more than once (pre-split triangles sit in
+            // several leaves), so each glass crossing is counted once, by (triangle, instance).
+            let mut crossed = [(blob::NONE, blob::NONE); MAX_GLASS_CROSSINGS];
+            let mut crossings = 0;
             let mut kept = 1.0f32;
             let blocked = self.accel.any_hit(origin, dir, tmax, |tri, inst| {
                 let inputs = constant(tri);
                 if !passes(tri, inst, inputs.effective_opacity()) {
                     return true;
                 }
-                kept *= crossing(&inputs);
-                kept == 0.0
+                let through = crossing(&inputs);
+                if through == 1.0 || crossed[..crossings].contains(&(tri, inst)) {
+                    return false;
+                }
+                if through == 0.0 || crossings == MAX_GLASS_CROSSINGS {
+                    return true;
+                }
+                crossed[crossings] = (tri, inst);
+                crossings += 1;
+                kept *= through;
+                false
             });
             return if blocked { 0.0 } else { kept };
         }

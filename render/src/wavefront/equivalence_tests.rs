@@ -323,6 +323,26 @@ fn wavefront_equals_scalar_with_curves_and_points() {
     assert!(changed_first_hits > 48 * 48 / 10, "{changed_first_hits} pixels see a curve or point first");
 }
 
+/// [`scene`] with glass: a smooth clear sphere, a rough half-opaque one of ior 1.33 whose opacity
+/// comes from the texture (the shadow rays walk closest hits), and the metal one kept; the sun (a
+/// delta light) and the area lights shine through them. Refraction, total internal reflection,
+/// glass-aware shadow rays and the per-hit glass vertex of the wavefront give the scalar image.
+#[test]
+fn wavefront_equals_scalar_through_glass() {
+    let mut scene = scene();
+    scene.materials[0] = Material { opacity: 0.0, ior: 1.5, roughness: 0.0, ..Material::default() };
+    let mut rough = textured(0.0, 0.0);
+    (rough.ior, rough.opacity) = (1.33, 0.4);
+    rough.program.push(ShaderNode::Output { input: ShadingInput::Opacity, src: 1, swizzle: [2; 4] });
+    scene.materials[2] = rough;
+    let bytes = testscene::bytes(&scene);
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    let options = RenderOptions { max_depth: 10, ..options() };
+    let (scalar, _) = both_integrators(&view, &options, "glass");
+    let mean = scalar.beauty.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / scalar.beauty.len() as f32;
+    assert!(mean > 0.05, "mean luminance {mean}");
+}
+
 /// Every light kind the light-sampling lanes handle (dome, delta and cone distant lights, point,
 /// sphere, rect and disk lights, emissive triangles of three powers, one of them with a textured
 /// `emissiveColor` evaluated per light sample): the wavefront image equals the scalar one.
