@@ -19,7 +19,7 @@
 //! dropped: `wo` and the lobe probabilities as [`BsdfLanes`] columns, an AVX-512VL clone, a variant
 //! for all-diffuse groups; measurements: `docs/perf.md#bsdf-lanes-bsdflanesrs`.
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::{albedo, Bsdf};
 use crate::shading::ShadingInputs;
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
@@ -313,9 +313,16 @@ impl P {
         let wo_h = wo.dot(h).max(0.0);
         let denom = 4.0 * wo.z * wi.z;
         let coat_view = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo.z);
-        let spec_fresnel_view = schlick(self.f0, wo.z);
-        let one = V { x: 1.0, y: 1.0, z: 1.0 };
-        let diffuse = self.diffuse.mul(one.sub(spec_fresnel_view)).scale(FRAC_1_PI);
+        // `Bsdf::diffuse_energy`, through the same per-channel function.
+        let (at_o, at_i) = (albedo::lobe_albedo(wo.z, self.alpha), albedo::lobe_albedo(wi.z, self.alpha));
+        let f0 = self.f0;
+        let f90 = (50.0 * 0.33 * (f0.x + f0.y + f0.z)).clamp(0.0, 1.0);
+        let energy = V {
+            x: albedo::diffuse_energy(f0.x, f90, at_o, at_i),
+            y: albedo::diffuse_energy(f0.y, f90, at_o, at_i),
+            z: albedo::diffuse_energy(f0.z, f90, at_o, at_i),
+        };
+        let diffuse = self.diffuse.mul(energy).scale(FRAC_1_PI);
         let specular =
             schlick(self.f0, wo_h).scale(ggx_d(h.z, self.alpha) * ggx_g2(wo.z, wi.z, self.alpha) / denom);
         let f = diffuse.add(specular).scale(1.0 - coat_view);

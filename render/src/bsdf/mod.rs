@@ -1,13 +1,16 @@
 //! The UsdPreviewSurface BSDF: Lambert diffuse + GGX specular + GGX clearcoat, reflection only.
 //!
 //! ```text
-//! f = (1 − cc·F_c(n·v)) · [ diffuse/π · (1 − F(n·v)) + D·G₂·F(v·h) / (4 |n·l| |n·v|) ] + cc · D_c·G₂_c·F_c(v·h) / (4 |n·l| |n·v|)
+//! f = (1 − cc·F_c(n·v)) · [ diffuse/π · s(n·v, n·l) + D·G₂·F(v·h) / (4 |n·l| |n·v|) ] + cc · D_c·G₂_c·F_c(v·h) / (4 |n·l| |n·v|)
 //! ```
 //! `diffuse = diffuseColor·(1 − metallic)` (metallic workflow) or `diffuseColor` (specular workflow);
 //! `F` is Schlick with F0 = mix(((ior−1)/(ior+1))², diffuseColor, metallic) or F0 = specularColor;
 //! the clearcoat uses F0 = 0.04. `D` is GGX with α = roughness² (α ≥ 1e-3), `G₂` the height-correlated
-//! Smith term. The `(1 − F(n·v))` and `(1 − cc·F_c)` factors keep the sum of lobes below 1 (they are
-//! the usual layering approximations, not exact energy bookkeeping).
+//! Smith term. `s = (1 − E(n·v))(1 − E(n·l)) / (1 − E_avg)` scales the diffuse lobe by what the
+//! specular lobe does not reflect ([`albedo`]: its tabulated directional albedo `E`), so a white
+//! base reflects exactly 1 at every angle; it replaced `(1 − F(n·v))`, which took up to 45 % off a
+//! rough matte floor towards the horizon. The `(1 − cc·F_c)` factor of the clearcoat is still the
+//! usual layering approximation.
 //!
 //! Lobes are sampled in proportion to their estimated albedos at `v` (diffuse: cosine-weighted;
 //! specular and clearcoat: GGX visible normals, Dupuy & Benyoub 2023); [`Bsdf::eval`] returns the
@@ -17,6 +20,7 @@
 //! accepted only if it is above both the shading and the geometric hemispheres of the side facing `v`, so
 //! a shading normal can never let light leak through the surface.
 
+pub mod albedo;
 pub mod dielectric;
 pub mod lanes;
 
@@ -234,6 +238,20 @@ impl Bsdf {
         [w_d / total, w_s / total, coat_f / total]
     }
 
+    /// The diffuse lobe's energy scale per channel ([`albedo::diffuse_energy`]) for local
+    /// cosines `mu_o`, `mu_i`.
+    #[inline]
+    fn diffuse_energy(&self, mu_o: f32, mu_i: f32) -> Vec3 {
+        let (at_o, at_i) = (albedo::lobe_albedo(mu_o, self.alpha), albedo::lobe_albedo(mu_i, self.alpha));
+        let f0 = self.f0;
+        let f90 = (50.0 * 0.33 * (f0.x + f0.y + f0.z)).clamp(0.0, 1.0);
+        Vec3::new(
+            albedo::diffuse_energy(f0.x, f90, at_o, at_i),
+            albedo::diffuse_energy(f0.y, f90, at_o, at_i),
+            albedo::diffuse_energy(f0.z, f90, at_o, at_i),
+        )
+    }
+
     /// BSDF value (no cosine) and combined pdf for world directions `wo` (towards the viewer) and `wi`.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         if wi.dot(self.ng) <= 0.0 {
@@ -254,8 +272,7 @@ impl Bsdf {
         let denom = 4.0 * wo.z * wi.z;
 
         let coat_view = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo.z);
-        let spec_fresnel_view = schlick(self.f0, wo.z);
-        let diffuse = self.diffuse * (Vec3::ONE - spec_fresnel_view) * FRAC_1_PI;
+        let diffuse = self.diffuse * self.diffuse_energy(wo.z, wi.z) * FRAC_1_PI;
         let specular = schlick(self.f0, wo_h) * (ggx_d(h, self.alpha) * ggx_g2(wo, wi, self.alpha) / denom);
         let mut f = (1.0 - coat_view) * (diffuse + specular);
         let mut pdf = probs[0] * wi.z * FRAC_1_PI + probs[1] * ggx_pdf(wo, h, self.alpha);
@@ -402,6 +419,26 @@ mod tests {
             eprintln!("preview surface + clearcoat θ={theta}: albedo {a:.4}");
             assert!(a <= 1.0 + 1e-3 && a > 0.8, "θ={theta}: {a}");
         }
+    }
+
+    /// Diffuse under a dielectric specular layer conserves energy ([`albedo`]): a white base reads
+    /// 1 at every angle and roughness, and a grey one keeps its brightness towards the horizon
+    /// (the old `1 − F(n·v)` factor took 25 % off this rough floor at 80°).
+    #[test]
+    fn white_plastic_is_a_furnace_and_grazing_views_keep_their_diffuse() {
+        for roughness in [0.05, 0.3, 0.6, 1.0] {
+            let bsdf = Bsdf::new(&material(1.0, 0.0, roughness, 1.5), Vec3::Z, Vec3::Z);
+            for theta in [0.0, 45.0, 70.0, 85.0] {
+                let a = albedo_by_sampling(&bsdf, dir_from_angle(theta), 200_000);
+                eprintln!("white plastic roughness {roughness} θ={theta}: albedo {a:.4}");
+                assert!((a - 1.0).abs() < 0.01, "roughness {roughness} θ={theta}: {a}");
+            }
+        }
+        let floor = Bsdf::new(&material(0.8, 0.0, 1.0, 1.5), Vec3::Z, Vec3::Z);
+        let head_on = albedo_by_sampling(&floor, dir_from_angle(0.0), 200_000);
+        let grazing = albedo_by_sampling(&floor, dir_from_angle(80.0), 200_000);
+        eprintln!("rough grey floor: albedo {head_on:.4} head-on, {grazing:.4} at 80°");
+        assert!(grazing > 0.97 * head_on, "{grazing} vs {head_on}");
     }
 
     /// Chi-square test: histogram of sampled directions over (cos θ, φ) bins vs the integral of `pdf`.

@@ -1,0 +1,174 @@
+//! Directional albedo of the GGX specular lobe, tabulated once: what the diffuse lobe is scaled by so
+//! that diffuse plus specular conserve energy at every angle (Kulla & Conty 2017, "Revisiting
+//! Physically Based Shading at Imageworks": albedo scaling).
+//!
+//! The specular lobe with Schlick's Fresnel `F = F0 + (F90 − F0)(1 − v·h)⁵` reflects
+//! `E(μ) = F0·A(μ, α) + F90·B(μ, α)` of the light arriving from `μ = n·v`, with `A` and `B` integrals
+//! of the lobe with weights `1 − (1 − v·h)⁵` and `(1 − v·h)⁵`. The diffuse lobe becomes
+//!
+//! ```text
+//! f_d = c/π · (1 − E(μo)) (1 − E(μi)) / (1 − E_avg),     E_avg = 2 ∫ E(μ) μ dμ
+//! ```
+//!
+//! which is reciprocal and makes a white base under any specular layer reflect exactly
+//! `E(μo) + (1 − E(μo)) = 1`: where the old `(1 − F(μo))` factor took up to 45 % off a rough matte
+//! floor towards the horizon (Schlick's F → 1 there while a rough lobe's E does not), the floor now
+//! keeps what the specular lobe did not reflect.
+//!
+//! The tables (`A`, `B` on a 32 × 16 grid over `μ` and `r = √α`, and their cosine-weighted averages
+//! over `μ`) are integrated once per process, deterministically (a stratified 32 × 32 grid of visible
+//! normals per entry, f64 sums of the same f32 lobe code the BSDF samples with), so every thread
+//! and both integrators read the same numbers. Both read them through [`diffuse_energy`], one
+//! function, so the lanes equal the scalar BSDF by construction.
+
+use super::{ggx_g2, ggx_lambda, sample_ggx_vndf, MIN_ALPHA};
+use glam::Vec3;
+use std::sync::OnceLock;
+
+/// Grid points over `μ = n·v` in [0, 1].
+const MU: usize = 32;
+/// Grid points over `r = √α` in [0, 1].
+const ROUGHNESS: usize = 16;
+/// Visible-normal samples per entry and axis.
+const STRATA: usize = 32;
+
+/// `A` and `B` at every grid point, and their averages per roughness.
+struct Tables {
+    /// `[r][μ]` → (A, B).
+    lobe: [[[f32; 2]; MU]; ROUGHNESS],
+    /// `[r]` → (2∫A μ dμ, 2∫B μ dμ).
+    average: [[f32; 2]; ROUGHNESS],
+}
+
+/// The smallest `μ` integrated (the lobe at exactly grazing view has no visible normals).
+const MIN_MU: f32 = 1e-3;
+
+fn integrate() -> Tables {
+    let mut lobe = [[[0.0f32; 2]; MU]; ROUGHNESS];
+    let mut average = [[0.0f32; 2]; ROUGHNESS];
+    for (j, row) in lobe.iter_mut().enumerate() {
+        let r = j as f32 / (ROUGHNESS - 1) as f32;
+        let alpha = (r * r).max(MIN_ALPHA);
+        for (i, entry) in row.iter_mut().enumerate() {
+            let mu = (i as f32 / (MU - 1) as f32).max(MIN_MU);
+            let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+            let g1 = 1.0 / (1.0 + ggx_lambda(wo, alpha));
+            let (mut a, mut b) = (0.0f64, 0.0f64);
+            for s in 0..STRATA {
+                for t in 0..STRATA {
+                    let u = [(s as f32 + 0.5) / STRATA as f32, (t as f32 + 0.5) / STRATA as f32];
+                    let h = sample_ggx_vndf(wo, alpha, u);
+                    let cos = wo.dot(h);
+                    let wi = 2.0 * cos * h - wo;
+                    if wi.z <= 0.0 {
+                        continue;
+                    }
+                    // f·cos/pdf of the visible-normal sample is F·G₂/G₁.
+                    let weight = (ggx_g2(wo, wi, alpha) / g1) as f64;
+                    let m = (1.0 - cos).clamp(0.0, 1.0) as f64;
+                    let m5 = m * m * m * m * m;
+                    a += weight * (1.0 - m5);
+                    b += weight * m5;
+                }
+            }
+            let n = (STRATA * STRATA) as f64;
+            *entry = [(a / n) as f32, (b / n) as f32];
+        }
+        // 2∫E μ dμ by the trapezoid rule over the grid.
+        let (mut sa, mut sb) = (0.0f64, 0.0f64);
+        for i in 0..MU - 1 {
+            let (m0, m1) = (i as f64 / (MU - 1) as f64, (i + 1) as f64 / (MU - 1) as f64);
+            let h = m1 - m0;
+            sa += h * 0.5 * (row[i][0] as f64 * m0 + row[i + 1][0] as f64 * m1);
+            sb += h * 0.5 * (row[i][1] as f64 * m0 + row[i + 1][1] as f64 * m1);
+        }
+        average[j] = [(2.0 * sa) as f32, (2.0 * sb) as f32];
+    }
+    Tables { lobe, average }
+}
+
+fn tables() -> &'static Tables {
+    static TABLES: OnceLock<Tables> = OnceLock::new();
+    TABLES.get_or_init(integrate)
+}
+
+/// Grid cell and weight of `x` in [0, 1] on `n` points (NaN and out-of-range values clamp).
+#[inline(always)]
+fn cell(x: f32, n: usize) -> (usize, f32) {
+    let t = x.clamp(0.0, 1.0) * (n - 1) as f32;
+    // `as` saturates (NaN → 0), and the `min` keeps the upper neighbour in range.
+    let i = (t as usize).min(n - 2);
+    (i, t - i as f32)
+}
+
+/// The tabulated lobe at `μ` and GGX `alpha`: `(A, B, A_avg, B_avg)`, bilinear in `μ` and `√α`.
+#[inline(always)]
+pub(crate) fn lobe_albedo(mu: f32, alpha: f32) -> [f32; 4] {
+    let t = tables();
+    let (j, fr) = cell(alpha.sqrt(), ROUGHNESS);
+    let (i, fm) = cell(mu, MU);
+    let lerp = |a: f32, b: f32, f: f32| a + (b - a) * f;
+    let at = |c: usize| {
+        let (lo, hi) = (t.lobe[j][i][c], t.lobe[j + 1][i][c]);
+        let (lo1, hi1) = (t.lobe[j][i + 1][c], t.lobe[j + 1][i + 1][c]);
+        lerp(lerp(lo, lo1, fm), lerp(hi, hi1, fm), fr)
+    };
+    let avg = |c: usize| lerp(t.average[j][c], t.average[j + 1][c], fr);
+    [at(0), at(1), avg(0), avg(1)]
+}
+
+/// One colour channel's diffuse scale `(1 − E(μo))(1 − E(μi)) / (1 − E_avg)` for specular `f0` and
+/// `f90`, from [`lobe_albedo`] at `μo` and `μi`: the one copy both the scalar BSDF and the lanes call.
+#[inline(always)]
+pub(crate) fn diffuse_energy(f0: f32, f90: f32, at_o: [f32; 4], at_i: [f32; 4]) -> f32 {
+    let e_o = f0 * at_o[0] + f90 * at_o[1];
+    let e_i = f0 * at_i[0] + f90 * at_i[1];
+    let e_avg = f0 * at_o[2] + f90 * at_o[3];
+    (1.0 - e_o) * (1.0 - e_i) / (1.0 - e_avg).max(1e-4)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Against a direct integration of the lobe over the hemisphere (uniform directions, no
+    /// visible-normal sampling) at points between the grid's.
+    #[test]
+    fn tables_match_a_direct_integration() {
+        let mut worst = 0.0f32;
+        for (mu, roughness) in [(0.9f32, 0.5f32), (0.3, 0.7), (0.12, 0.93), (0.55, 0.3)] {
+            let alpha = roughness * roughness;
+            let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+            let n = 400;
+            let (mut a, mut b) = (0.0f64, 0.0f64);
+            for s in 0..n {
+                for t in 0..n {
+                    let z = (s as f32 + 0.5) / n as f32;
+                    let phi = std::f32::consts::TAU * (t as f32 + 0.5) / n as f32;
+                    let r = (1.0 - z * z).sqrt();
+                    let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+                    let h = (wo + wi).normalize();
+                    let f = super::super::ggx_d(h, alpha) * ggx_g2(wo, wi, alpha) / (4.0 * wo.z * wi.z);
+                    let m = (1.0 - wo.dot(h)).clamp(0.0, 1.0) as f64;
+                    let m5 = m.powi(5);
+                    let w = (f * wi.z) as f64 * std::f64::consts::TAU / (n * n) as f64;
+                    a += w * (1.0 - m5);
+                    b += w * m5;
+                }
+            }
+            let [ta, tb, ..] = lobe_albedo(mu, alpha);
+            eprintln!("μ {mu} r {roughness}: A {ta:.4} vs {a:.4}, B {tb:.4} vs {b:.4}");
+            worst = worst.max((ta - a as f32).abs()).max((tb - b as f32).abs());
+        }
+        assert!(worst < 0.01, "worst difference {worst}");
+    }
+
+    /// With F0 = F90 = 1 the lobe is the single-scattering GGX albedo: 1 − ln 2 at α = 1 head-on.
+    #[test]
+    fn unit_fresnel_albedo_is_known_at_alpha_one() {
+        let [a, b, ..] = lobe_albedo(1.0, 1.0);
+        assert!((a + b - (1.0 - std::f32::consts::LN_2)).abs() < 3e-3, "{}", a + b);
+        let [a, b, ..] = lobe_albedo(1.0, MIN_ALPHA);
+        assert!((a + b - 1.0).abs() < 1e-3 && b < 1e-6, "smooth mirror head-on: A {a}, B {b}");
+    }
+}
