@@ -303,13 +303,16 @@ fn glass_is_entered_from_the_front_of_the_winding() {
     let scene = Scene { materials: vec![glass(0.0)], ..sphere_under_dome(1.0) };
     let bytes = testscene::bytes(&scene);
     let view = blob::SceneView::parse(&bytes).unwrap();
-    let s = crate::scene::Scene::new(view.clone());
+    let s = crate::scene::Scene::new(view);
     let inputs = crate::shading::ShadingInputs::constant(&view.materials[0]);
-    for (origin, dir, entering) in [(Vec3::new(0.1, 0.2, 4.0), -Vec3::Z, true), (Vec3::new(0.1, 0.2, 0.0), Vec3::Z, false)]
+    for (origin, dir, entering) in
+        [(Vec3::new(0.1, 0.2, 4.0), -Vec3::Z, true), (Vec3::new(0.1, 0.2, 0.0), Vec3::Z, false)]
     {
         let hit = s.accel.closest_hit(origin, dir, f32::INFINITY).expect("the ray meets the sphere");
         let surface = s.surface(&hit, -dir, 0.0).unwrap();
-        let crate::surface::SurfaceBsdf::Glass(g) = s.glass_bsdf(&hit, &surface, &inputs) else { unreachable!() };
+        let crate::surface::SurfaceBsdf::Glass(g) = s.glass_bsdf(&hit, &surface, &inputs) else {
+            unreachable!()
+        };
         let eta = if entering { 1.5 } else { 1.0 / 1.5 };
         assert_eq!(g.eta(), eta, "entering = {entering}");
     }
@@ -392,7 +395,9 @@ fn glass_sphere_inverts_the_background() {
     };
     let (left_red, left_green) = (channel(0, true), channel(1, true));
     let (right_red, right_green) = (channel(0, false), channel(1, false));
-    eprintln!("through the ball: left r {left_red:.3} g {left_green:.3}, right r {right_red:.3} g {right_green:.3}");
+    eprintln!(
+        "through the ball: left r {left_red:.3} g {left_green:.3}, right r {right_red:.3} g {right_green:.3}"
+    );
     // Outside the ball the camera sees red on the left, green on the right; through it, the reverse.
     assert!(left_green > 4.0 * left_red && right_red > 4.0 * right_green);
     let (outside, _) = mean_where(&image, |fx, fy| fx < -0.7 && fy.abs() < 0.2);

@@ -16,10 +16,12 @@
 //! keeps what the specular lobe did not reflect.
 //!
 //! The tables (`A`, `B` on a 32 × 16 grid over `μ` and `r = √α`, and their cosine-weighted averages
-//! over `μ`) are integrated once per process, deterministically (a stratified 32 × 32 grid of visible
+//! over `μ`) are integrated once per process, deterministically (a stratified 16 × 16 grid of visible
 //! normals per entry, f64 sums of the same f32 lobe code the BSDF samples with), so every thread
-//! and both integrators read the same numbers. Both read them through [`diffuse_energy`], one
-//! function, so the lanes equal the scalar BSDF by construction.
+//! and both integrators read the same numbers. Both read them through [`view_diffuse`] and
+//! [`light_diffuse`], so the lanes equal the scalar BSDF by construction; the lanes keep the view
+//! half per BSDF (built with it), which takes one table lookup and three divisions out of every
+//! evaluation.
 
 use super::{ggx_g2, ggx_lambda, sample_ggx_vndf, MIN_ALPHA};
 use glam::Vec3;
@@ -30,10 +32,10 @@ const MU: usize = 32;
 /// Grid points over `r = √α` in [0, 1].
 const ROUGHNESS: usize = 16;
 /// Visible-normal samples per entry and axis.
-const STRATA: usize = 32;
+const STRATA: usize = 16;
 
 /// `A` and `B` at every grid point, and their averages per roughness.
-struct Tables {
+pub(crate) struct Tables {
     /// `[r][μ]` → (A, B).
     lobe: [[[f32; 2]; MU]; ROUGHNESS],
     /// `[r]` → (2∫A μ dμ, 2∫B μ dμ).
@@ -87,7 +89,9 @@ fn integrate() -> Tables {
     Tables { lobe, average }
 }
 
-fn tables() -> &'static Tables {
+/// The tables, integrated on first use. Kernels take the reference once per call, outside their
+/// lane loops.
+pub(crate) fn tables() -> &'static Tables {
     static TABLES: OnceLock<Tables> = OnceLock::new();
     TABLES.get_or_init(integrate)
 }
@@ -103,9 +107,22 @@ fn cell(x: f32, n: usize) -> (usize, f32) {
 
 /// The tabulated lobe at `μ` and GGX `alpha`: `(A, B, A_avg, B_avg)`, bilinear in `μ` and `√α`.
 #[inline(always)]
-pub(crate) fn lobe_albedo(mu: f32, alpha: f32) -> [f32; 4] {
-    let t = tables();
+pub(crate) fn lobe_albedo(t: &Tables, mu: f32, alpha: f32) -> [f32; 4] {
     let (j, fr) = cell(alpha.sqrt(), ROUGHNESS);
+    let [a, b] = lobe_at(t, j, fr, mu);
+    let lerp = |a: f32, b: f32, f: f32| a + (b - a) * f;
+    [a, b, lerp(t.average[j][0], t.average[j + 1][0], fr), lerp(t.average[j][1], t.average[j + 1][1], fr)]
+}
+
+/// `(A, B)` of [`lobe_albedo`] only (what the light side needs).
+#[inline(always)]
+pub(crate) fn lobe_albedo_ab(t: &Tables, mu: f32, alpha: f32) -> [f32; 2] {
+    let (j, fr) = cell(alpha.sqrt(), ROUGHNESS);
+    lobe_at(t, j, fr, mu)
+}
+
+#[inline(always)]
+fn lobe_at(t: &Tables, j: usize, fr: f32, mu: f32) -> [f32; 2] {
     let (i, fm) = cell(mu, MU);
     let lerp = |a: f32, b: f32, f: f32| a + (b - a) * f;
     let at = |c: usize| {
@@ -113,18 +130,31 @@ pub(crate) fn lobe_albedo(mu: f32, alpha: f32) -> [f32; 4] {
         let (lo1, hi1) = (t.lobe[j][i + 1][c], t.lobe[j + 1][i + 1][c]);
         lerp(lerp(lo, lo1, fm), lerp(hi, hi1, fm), fr)
     };
-    let avg = |c: usize| lerp(t.average[j][c], t.average[j + 1][c], fr);
-    [at(0), at(1), avg(0), avg(1)]
+    [at(0), at(1)]
 }
 
-/// One colour channel's diffuse scale `(1 − E(μo))(1 − E(μi)) / (1 − E_avg)` for specular `f0` and
-/// `f90`, from [`lobe_albedo`] at `μo` and `μi`: the one copy both the scalar BSDF and the lanes call.
+/// Schlick's F90 of the specular lobe for F0 `(x, y, z)` (see `bsdf::schlick`).
 #[inline(always)]
-pub(crate) fn diffuse_energy(f0: f32, f90: f32, at_o: [f32; 4], at_i: [f32; 4]) -> f32 {
+pub(crate) fn f90(x: f32, y: f32, z: f32) -> f32 {
+    (50.0 * 0.33 * (x + y + z)).clamp(0.0, 1.0)
+}
+
+/// The view half of one colour channel's diffuse lobe: `d · (1 − E(μo)) / (1 − E_avg)` for diffuse
+/// colour `d`, specular `f0`, `f90` and [`lobe_albedo`] at `μo`. A BSDF seen from one direction keeps
+/// it (the lanes build it with the BSDF); the scalar BSDF computes it per evaluation, with the
+/// same operations.
+#[inline(always)]
+pub(crate) fn view_diffuse(d: f32, f0: f32, f90: f32, at_o: [f32; 4]) -> f32 {
     let e_o = f0 * at_o[0] + f90 * at_o[1];
-    let e_i = f0 * at_i[0] + f90 * at_i[1];
     let e_avg = f0 * at_o[2] + f90 * at_o[3];
-    (1.0 - e_o) * (1.0 - e_i) / (1.0 - e_avg).max(1e-4)
+    d * ((1.0 - e_o) / (1.0 - e_avg).max(1e-4))
+}
+
+/// One colour channel of the diffuse lobe's value times π, `view · (1 − E(μi))`, for the
+/// [`view_diffuse`] part `view` and [`lobe_albedo_ab`] at `μi`.
+#[inline(always)]
+pub(crate) fn light_diffuse(view: f32, f0: f32, f90: f32, at_i: [f32; 2]) -> f32 {
+    view * (1.0 - (f0 * at_i[0] + f90 * at_i[1]))
 }
 
 #[cfg(test)]
@@ -156,7 +186,7 @@ mod tests {
                     b += w * m5;
                 }
             }
-            let [ta, tb, ..] = lobe_albedo(mu, alpha);
+            let [ta, tb, ..] = lobe_albedo(tables(), mu, alpha);
             eprintln!("μ {mu} r {roughness}: A {ta:.4} vs {a:.4}, B {tb:.4} vs {b:.4}");
             worst = worst.max((ta - a as f32).abs()).max((tb - b as f32).abs());
         }
@@ -166,9 +196,9 @@ mod tests {
     /// With F0 = F90 = 1 the lobe is the single-scattering GGX albedo: 1 − ln 2 at α = 1 head-on.
     #[test]
     fn unit_fresnel_albedo_is_known_at_alpha_one() {
-        let [a, b, ..] = lobe_albedo(1.0, 1.0);
+        let [a, b, ..] = lobe_albedo(tables(), 1.0, 1.0);
         assert!((a + b - (1.0 - std::f32::consts::LN_2)).abs() < 3e-3, "{}", a + b);
-        let [a, b, ..] = lobe_albedo(1.0, MIN_ALPHA);
+        let [a, b, ..] = lobe_albedo(tables(), 1.0, MIN_ALPHA);
         assert!((a + b - 1.0).abs() < 1e-3 && b < 1e-6, "smooth mirror head-on: A {a}, B {b}");
     }
 }

@@ -237,7 +237,10 @@ mod tests {
                     on_snell += ((eta * sin_t - 0.5).abs() < 0.01 && s.wi.x < 0.0) as u32;
                 }
             }
-            assert!(refracted > 990 && on_snell as f32 > 0.98 * refracted as f32, "{on_snell} of {refracted}");
+            assert!(
+                refracted > 990 && on_snell as f32 > 0.98 * refracted as f32,
+                "{on_snell} of {refracted}"
+            );
         }
     }
 
@@ -249,7 +252,9 @@ mod tests {
             for theta in [0.0, 45.0, 75.0] {
                 let wo = dir(theta);
                 let (r, t, accepted) = albedo_and_acceptance(&b, wo, 200_000);
-                eprintln!("rough {roughness} θ={theta}: R {r:.4} T {t:.4}, {accepted:.4} of samples accepted");
+                eprintln!(
+                    "rough {roughness} θ={theta}: R {r:.4} T {t:.4}, {accepted:.4} of samples accepted"
+                );
                 assert!(r + t <= 1.0 + 0.01 && r + t >= lo, "r={roughness} θ={theta}: {}", r + t);
                 if roughness < 0.5 {
                     // Uniform sampling of a sharp lobe is too noisy to compare.
@@ -272,7 +277,10 @@ mod tests {
                     energy += f.x as f64 * z.abs() as f64 * scale * 4.0 * std::f64::consts::PI;
                 }
                 let (mass, energy) = (mass / n as f64, energy / n as f64);
-                assert!((mass - accepted).abs() < 0.02, "r={roughness} θ={theta}: pdf mass {mass} vs {accepted}");
+                assert!(
+                    (mass - accepted).abs() < 0.02,
+                    "r={roughness} θ={theta}: pdf mass {mass} vs {accepted}"
+                );
                 assert!((energy - (r + t)).abs() < 0.03, "r={roughness} θ={theta}: {energy} vs {}", r + t);
             }
         }

@@ -238,18 +238,17 @@ impl Bsdf {
         [w_d / total, w_s / total, coat_f / total]
     }
 
-    /// The diffuse lobe's energy scale per channel ([`albedo::diffuse_energy`]) for local
-    /// cosines `mu_o`, `mu_i`.
+    /// The diffuse lobe's value for local cosines `mu_o`, `mu_i` ([`albedo`]).
     #[inline]
-    fn diffuse_energy(&self, mu_o: f32, mu_i: f32) -> Vec3 {
-        let (at_o, at_i) = (albedo::lobe_albedo(mu_o, self.alpha), albedo::lobe_albedo(mu_i, self.alpha));
-        let f0 = self.f0;
-        let f90 = (50.0 * 0.33 * (f0.x + f0.y + f0.z)).clamp(0.0, 1.0);
-        Vec3::new(
-            albedo::diffuse_energy(f0.x, f90, at_o, at_i),
-            albedo::diffuse_energy(f0.y, f90, at_o, at_i),
-            albedo::diffuse_energy(f0.z, f90, at_o, at_i),
-        )
+    fn diffuse_lobe(&self, mu_o: f32, mu_i: f32) -> Vec3 {
+        let t = albedo::tables();
+        let (at_o, at_i) =
+            (albedo::lobe_albedo(t, mu_o, self.alpha), albedo::lobe_albedo_ab(t, mu_i, self.alpha));
+        let (d, f0) = (self.diffuse, self.f0);
+        let f90 = albedo::f90(f0.x, f0.y, f0.z);
+        let channel =
+            |d: f32, f0: f32| albedo::light_diffuse(albedo::view_diffuse(d, f0, f90, at_o), f0, f90, at_i);
+        Vec3::new(channel(d.x, f0.x), channel(d.y, f0.y), channel(d.z, f0.z)) * FRAC_1_PI
     }
 
     /// BSDF value (no cosine) and combined pdf for world directions `wo` (towards the viewer) and `wi`.
@@ -272,7 +271,7 @@ impl Bsdf {
         let denom = 4.0 * wo.z * wi.z;
 
         let coat_view = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo.z);
-        let diffuse = self.diffuse * self.diffuse_energy(wo.z, wi.z) * FRAC_1_PI;
+        let diffuse = self.diffuse_lobe(wo.z, wi.z);
         let specular = schlick(self.f0, wo_h) * (ggx_d(h, self.alpha) * ggx_g2(wo, wi, self.alpha) / denom);
         let mut f = (1.0 - coat_view) * (diffuse + specular);
         let mut pdf = probs[0] * wi.z * FRAC_1_PI + probs[1] * ggx_pdf(wo, h, self.alpha);

@@ -341,7 +341,12 @@ impl<'a> Scene<'a> {
     /// The dielectric BSDF of a transmissive hit `hit` on triangle surface `s` (normal map applied to
     /// `s.ns`): entering where the ray meets the triangle's front (its winding's normal faces `wo`,
     /// which `s.ng` was flipped towards).
-    pub(crate) fn glass_bsdf(&self, hit: &crate::accel::Hit, s: &Surface, inputs: &ShadingInputs) -> SurfaceBsdf {
+    pub(crate) fn glass_bsdf(
+        &self,
+        hit: &crate::accel::Hit,
+        s: &Surface,
+        inputs: &ShadingInputs,
+    ) -> SurfaceBsdf {
         let [p0, p1, p2] = self.accel.hit_vertices(hit);
         let entering = (p1 - p0).cross(p2 - p0).dot(s.ng) > 0.0;
         SurfaceBsdf::Glass(Dielectric::new(inputs.ior, inputs.roughness, s.ns, s.ng, entering))

@@ -274,8 +274,14 @@ fn finish<T: Touch>(
             let origin = s.spawn(ls.wi);
             let tmax = shadow_tmax(ls.distance, origin, s.p);
             let seed = hash_combine(hash_combine(hash_u32(ctx.sampling.seed), st.pixel), st.sample) ^ vertex;
-            w.paths.shadow[i as usize] =
-                ShadowRay { origin, dir: ls.wi, tmax, contribution: contribution * mis, seed, delta: ls.delta };
+            w.paths.shadow[i as usize] = ShadowRay {
+                origin,
+                dir: ls.wi,
+                tmax,
+                contribution: contribution * mis,
+                seed,
+                delta: ls.delta,
+            };
             w.queues.occlusion.push(i);
         }
     }
