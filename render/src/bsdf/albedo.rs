@@ -18,10 +18,16 @@
 //! The tables (`A`, `B` on a 32 × 16 grid over `μ` and `r = √α`, and their cosine-weighted averages
 //! over `μ`) are integrated once per process, deterministically (a stratified 16 × 16 grid of visible
 //! normals per entry, f64 sums of the same f32 lobe code the BSDF samples with), so every thread
-//! and both integrators read the same numbers. Both read them through [`view_diffuse`] and
-//! [`light_diffuse`], so the lanes equal the scalar BSDF by construction; the lanes keep the view
-//! half per BSDF (built with it), which takes one table lookup and three divisions out of every
+//! and both integrators read the same numbers. Both read them through [`view_terms`] and
+//! [`light_terms`], so the lanes equal the scalar BSDF by construction; the lanes keep the view
+//! halves per BSDF (built with it), which takes one table lookup and the divisions out of every
 //! evaluation.
+//!
+//! The same tables give the specular lobe's multiple scattering (Kulla & Conty's compensation
+//! lobe, `f_ms = F_ms (1 − E1(μo))(1 − E1(μi)) / (π (1 − E1_avg))` with `E1 = A + B` the unit-Fresnel
+//! albedo): single-scattering GGX loses up to 69 % at α = 1 (a rough F0 = 1 metal read 0.31 head-on),
+//! and the lobe gives it back, so a white metal reads 1 at every roughness. The diffuse scaling
+//! counts the compensation lobe in `E`, so a white plastic still reads exactly 1.
 
 use super::{ggx_g2, ggx_lambda, sample_ggx_vndf, MIN_ALPHA};
 use glam::Vec3;
@@ -139,22 +145,45 @@ pub(crate) fn f90(x: f32, y: f32, z: f32) -> f32 {
     (50.0 * 0.33 * (x + y + z)).clamp(0.0, 1.0)
 }
 
-/// The view half of one colour channel's diffuse lobe: `d · (1 − E(μo)) / (1 − E_avg)` for diffuse
-/// colour `d`, specular `f0`, `f90` and [`lobe_albedo`] at `μo`. A BSDF seen from one direction keeps
-/// it (the lanes build it with the BSDF); the scalar BSDF computes it per evaluation, with the
-/// same operations.
+/// Kulla & Conty's multiple-scattering Fresnel of one colour channel: `F_avg² E_avg / (1 − F_avg (1 −
+/// E_avg))` with Schlick's average `F_avg = F0 + (F90 − F0)/21` and the lobe's unit-Fresnel average
+/// albedo `E_avg` (from [`lobe_albedo`] `at`).
 #[inline(always)]
-pub(crate) fn view_diffuse(d: f32, f0: f32, f90: f32, at_o: [f32; 4]) -> f32 {
-    let e_o = f0 * at_o[0] + f90 * at_o[1];
-    let e_avg = f0 * at_o[2] + f90 * at_o[3];
-    d * ((1.0 - e_o) / (1.0 - e_avg).max(1e-4))
+pub(crate) fn ms_fresnel(f0: f32, f90: f32, at: [f32; 4]) -> f32 {
+    let e1_avg = at[2] + at[3];
+    let f_avg = f0 + (f90 - f0) * (1.0 / 21.0);
+    f_avg * f_avg * e1_avg / (1.0 - f_avg * (1.0 - e1_avg)).max(1e-4)
 }
 
-/// One colour channel of the diffuse lobe's value times π, `view · (1 − E(μi))`, for the
-/// [`view_diffuse`] part `view` and [`lobe_albedo_ab`] at `μi`.
+/// What one colour channel's specular layer reflects in all from cosine `μ`, single scattering
+/// `f0·A + f90·B` plus the multiple-scattering lobe's `f_ms (1 − (A + B))`.
 #[inline(always)]
-pub(crate) fn light_diffuse(view: f32, f0: f32, f90: f32, at_i: [f32; 2]) -> f32 {
-    view * (1.0 - (f0 * at_i[0] + f90 * at_i[1]))
+fn specular_energy(f0: f32, f90: f32, f_ms: f32, a: f32, b: f32) -> f32 {
+    f0 * a + f90 * b + f_ms * (1.0 - (a + b))
+}
+
+/// The view halves of one colour channel's lobes at `μo` ([`lobe_albedo`] `at_o`): the diffuse
+/// lobe's `d (1 − E(μo)) / (1 − E_avg)` for diffuse colour `d`, the multiple-scattering lobe's
+/// `f_ms (1 − E1(μo)) / (1 − E1_avg)`, and `f_ms` ([`ms_fresnel`]). A BSDF seen from one direction
+/// keeps them (the lanes build them with the BSDF); the scalar BSDF computes them per evaluation,
+/// with the same operations.
+#[inline(always)]
+pub(crate) fn view_terms(d: f32, f0: f32, f90: f32, at_o: [f32; 4]) -> [f32; 3] {
+    let f_ms = ms_fresnel(f0, f90, at_o);
+    let e_o = specular_energy(f0, f90, f_ms, at_o[0], at_o[1]);
+    let e_avg = specular_energy(f0, f90, f_ms, at_o[2], at_o[3]);
+    let diffuse = d * ((1.0 - e_o) / (1.0 - e_avg).max(1e-4));
+    let ms = f_ms * ((1.0 - (at_o[0] + at_o[1])) / (1.0 - (at_o[2] + at_o[3])).max(1e-4));
+    [diffuse, ms, f_ms]
+}
+
+/// One colour channel's diffuse and multiple-scattering lobe values times π from their
+/// [`view_terms`] `view` and [`lobe_albedo_ab`] at `μi`.
+#[inline(always)]
+pub(crate) fn light_terms(view: [f32; 3], f0: f32, f90: f32, at_i: [f32; 2]) -> [f32; 2] {
+    let [diffuse, ms, f_ms] = view;
+    let e_i = specular_energy(f0, f90, f_ms, at_i[0], at_i[1]);
+    [diffuse * (1.0 - e_i), ms * (1.0 - (at_i[0] + at_i[1]))]
 }
 
 #[cfg(test)]

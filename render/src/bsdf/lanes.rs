@@ -54,8 +54,12 @@ lanekit::soa! {
         pub clearcoat_alpha: f32,
         /// World-space direction towards the viewer.
         pub wo: Vec3 as [f32; 3],
-        /// The diffuse lobe's view half, [`albedo::view_diffuse`] per channel at `wo`.
+        /// The diffuse lobe's view half at `wo` ([`albedo::view_terms`] per channel).
         pub diffuse_view: Vec3 as [f32; 3],
+        /// The multiple-scattering lobe's view half at `wo`.
+        pub ms_view: Vec3 as [f32; 3],
+        /// The multiple-scattering Fresnel ([`albedo::ms_fresnel`]).
+        pub ms_fresnel: Vec3 as [f32; 3],
     }
 }
 
@@ -65,14 +69,27 @@ impl BsdfLanes {
     pub fn set_bsdf(&mut self, k: usize, bsdf: &Bsdf, wo: Vec3) {
         let Bsdf { frame, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha } = *bsdf;
         let (t, b, n) = (frame.t, frame.b, frame.n);
-        let diffuse_view = Vec3::ZERO;
-        self.set(
-            k,
-            &BsdfLane { t, b, n, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha, wo, diffuse_view },
-        );
-        let dv =
-            view_diffuse(albedo::tables(), V::at(&self.diffuse, k), V::at(&self.f0, k), alpha, wo.dot(n));
-        dv.store(&mut self.diffuse_view, k);
+        let (diffuse_view, ms_view, ms_fresnel) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+        #[rustfmt::skip]
+        self.set(k, &BsdfLane {
+            t, b, n, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha, wo, diffuse_view, ms_view, ms_fresnel,
+        });
+        self.set_view_terms(albedo::tables(), k, wo.dot(n));
+    }
+
+    /// Lane `k`'s view halves ([`albedo::view_terms`]) from its diffuse colour, F0 and α at local
+    /// cosine `wo_z`.
+    #[inline(always)]
+    fn set_view_terms(&mut self, tables: &albedo::Tables, k: usize, wo_z: f32) {
+        let (d, f0) = (V::at(&self.diffuse, k), V::at(&self.f0, k));
+        let at_o = albedo::lobe_albedo(tables, wo_z, self.alpha[k]);
+        let f90 = albedo::f90(f0.x, f0.y, f0.z);
+        let [dx, mx, fx] = albedo::view_terms(d.x, f0.x, f90, at_o);
+        let [dy, my, fy] = albedo::view_terms(d.y, f0.y, f90, at_o);
+        let [dz, mz, fz] = albedo::view_terms(d.z, f0.z, f90, at_o);
+        V { x: dx, y: dy, z: dz }.store(&mut self.diffuse_view, k);
+        V { x: mx, y: my, z: mz }.store(&mut self.ms_view, k);
+        V { x: fx, y: fy, z: fz }.store(&mut self.ms_fresnel, k);
     }
 }
 
@@ -180,21 +197,7 @@ pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
         out.clearcoat_alpha[k] = (cc_roughness * cc_roughness).max(crate::bsdf::MIN_ALPHA);
         // The local `wo.z` as `to_local` computes it.
         let wo_z = V::at(&out.wo, k).dot(n);
-        view_diffuse(tables, V::at(&out.diffuse, k), V::at(&out.f0, k), out.alpha[k], wo_z)
-            .store(&mut out.diffuse_view, k);
-    }
-}
-
-/// [`albedo::view_diffuse`] per channel of diffuse colour `d` under specular `f0` of GGX `alpha`
-/// seen at local cosine `wo_z`.
-#[inline(always)]
-fn view_diffuse(tables: &albedo::Tables, d: V, f0: V, alpha: f32, wo_z: f32) -> V {
-    let at_o = albedo::lobe_albedo(tables, wo_z, alpha);
-    let f90 = albedo::f90(f0.x, f0.y, f0.z);
-    V {
-        x: albedo::view_diffuse(d.x, f0.x, f90, at_o),
-        y: albedo::view_diffuse(d.y, f0.y, f90, at_o),
-        z: albedo::view_diffuse(d.z, f0.z, f90, at_o),
+        out.set_view_terms(tables, k, wo_z);
     }
 }
 
@@ -297,6 +300,8 @@ fn ggx_pdf(woz: f32, hz: f32, alpha: f32) -> f32 {
 struct P {
     diffuse: V,
     diffuse_view: V,
+    ms_view: V,
+    ms_fresnel: V,
     f0: V,
     alpha: f32,
     clearcoat: f32,
@@ -309,6 +314,8 @@ impl P {
         P {
             diffuse: V::at(&l.diffuse, k),
             diffuse_view: V::at(&l.diffuse_view, k),
+            ms_view: V::at(&l.ms_view, k),
+            ms_fresnel: V::at(&l.ms_fresnel, k),
             f0: V::at(&l.f0, k),
             alpha: l.alpha[k],
             clearcoat: l.clearcoat[k],
@@ -344,18 +351,17 @@ impl P {
         let wo_h = wo.dot(h).max(0.0);
         let denom = 4.0 * wo.z * wi.z;
         let coat_view = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo.z);
-        // `Bsdf::diffuse_lobe`, through the same per-channel functions, with its view half kept.
-        let (dv, f0) = (self.diffuse_view, self.f0);
+        // `Bsdf::energy_lobes`, through the same per-channel functions, with their view halves kept.
+        let (dv, mv, fm, f0) = (self.diffuse_view, self.ms_view, self.ms_fresnel, self.f0);
         let f90 = albedo::f90(f0.x, f0.y, f0.z);
-        let diffuse = V {
-            x: albedo::light_diffuse(dv.x, f0.x, f90, at_i),
-            y: albedo::light_diffuse(dv.y, f0.y, f90, at_i),
-            z: albedo::light_diffuse(dv.z, f0.z, f90, at_i),
-        }
-        .scale(FRAC_1_PI);
+        let [dx, mx] = albedo::light_terms([dv.x, mv.x, fm.x], f0.x, f90, at_i);
+        let [dy, my] = albedo::light_terms([dv.y, mv.y, fm.y], f0.y, f90, at_i);
+        let [dz, mz] = albedo::light_terms([dv.z, mv.z, fm.z], f0.z, f90, at_i);
+        let diffuse = V { x: dx, y: dy, z: dz }.scale(FRAC_1_PI);
+        let multiple = V { x: mx, y: my, z: mz }.scale(FRAC_1_PI);
         let specular =
             schlick(self.f0, wo_h).scale(ggx_d(h.z, self.alpha) * ggx_g2(wo.z, wi.z, self.alpha) / denom);
-        let f = diffuse.add(specular).scale(1.0 - coat_view);
+        let f = diffuse.add(specular.add(multiple)).scale(1.0 - coat_view);
         let pdf = probs[0] * wi.z * FRAC_1_PI + probs[1] * ggx_pdf(wo.z, h.z, self.alpha);
         let (f, pdf) = if COAT {
             let a = self.clearcoat_alpha;

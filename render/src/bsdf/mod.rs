@@ -238,17 +238,19 @@ impl Bsdf {
         [w_d / total, w_s / total, coat_f / total]
     }
 
-    /// The diffuse lobe's value for local cosines `mu_o`, `mu_i` ([`albedo`]).
+    /// The diffuse and the multiple-scattering lobes' values for local cosines `mu_o`, `mu_i`
+    /// ([`albedo`]).
     #[inline]
-    fn diffuse_lobe(&self, mu_o: f32, mu_i: f32) -> Vec3 {
+    fn energy_lobes(&self, mu_o: f32, mu_i: f32) -> (Vec3, Vec3) {
         let t = albedo::tables();
         let (at_o, at_i) =
             (albedo::lobe_albedo(t, mu_o, self.alpha), albedo::lobe_albedo_ab(t, mu_i, self.alpha));
         let (d, f0) = (self.diffuse, self.f0);
         let f90 = albedo::f90(f0.x, f0.y, f0.z);
         let channel =
-            |d: f32, f0: f32| albedo::light_diffuse(albedo::view_diffuse(d, f0, f90, at_o), f0, f90, at_i);
-        Vec3::new(channel(d.x, f0.x), channel(d.y, f0.y), channel(d.z, f0.z)) * FRAC_1_PI
+            |d: f32, f0: f32| albedo::light_terms(albedo::view_terms(d, f0, f90, at_o), f0, f90, at_i);
+        let ([dx, mx], [dy, my], [dz, mz]) = (channel(d.x, f0.x), channel(d.y, f0.y), channel(d.z, f0.z));
+        (Vec3::new(dx, dy, dz) * FRAC_1_PI, Vec3::new(mx, my, mz) * FRAC_1_PI)
     }
 
     /// BSDF value (no cosine) and combined pdf for world directions `wo` (towards the viewer) and `wi`.
@@ -271,9 +273,9 @@ impl Bsdf {
         let denom = 4.0 * wo.z * wi.z;
 
         let coat_view = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo.z);
-        let diffuse = self.diffuse_lobe(wo.z, wi.z);
+        let (diffuse, multiple) = self.energy_lobes(wo.z, wi.z);
         let specular = schlick(self.f0, wo_h) * (ggx_d(h, self.alpha) * ggx_g2(wo, wi, self.alpha) / denom);
-        let mut f = (1.0 - coat_view) * (diffuse + specular);
+        let mut f = (1.0 - coat_view) * (diffuse + (specular + multiple));
         let mut pdf = probs[0] * wi.z * FRAC_1_PI + probs[1] * ggx_pdf(wo, h, self.alpha);
         if self.clearcoat > 0.0 {
             let a = self.clearcoat_alpha;
@@ -379,25 +381,21 @@ mod tests {
         }
     }
 
-    /// Single-scattering GGX loses energy with roughness; at α = 1 and normal incidence the albedo is
-    /// exactly 2(1 − ln 2)/2 = 0.3069 (∫ G₂ dω / 4π with G₂ = 2μ/(1+μ)), which pins `eval`'s D and G₂.
+    /// A perfect-Fresnel conductor (metallic 1, diffuseColor 1: F0 = 1) keeps all the energy at
+    /// every roughness and angle: single-scattering GGX loses up to 69 % (at α = 1 head-on it keeps
+    /// exactly 1 − ln 2, pinned in [`albedo`]'s tests), and the multiple-scattering lobe returns it.
     #[test]
-    fn ggx_with_unit_fresnel_conserves_energy() {
-        let rough = Bsdf::new(&material(1.0, 1.0, 1.0, 1.5), Vec3::Z, Vec3::Z);
-        let a = albedo_by_sampling(&rough, Vec3::Z, 200_000);
-        assert!((a - (1.0 - std::f32::consts::LN_2)).abs() < 3e-3, "α=1 normal incidence: {a}");
-        for (roughness, lo) in [(0.1, 0.97), (0.3, 0.93), (0.6, 0.75), (1.0, 0.28)] {
-            // metallic = 1, diffuseColor = 1 → F0 = 1: a perfect-Fresnel conductor.
+    fn white_metal_is_a_furnace_at_every_roughness() {
+        for roughness in [0.1, 0.3, 0.6, 1.0] {
             let bsdf = Bsdf::new(&material(1.0, 1.0, roughness, 1.5), Vec3::Z, Vec3::Z);
             for theta in [0.0, 45.0, 75.0] {
                 let wo = dir_from_angle(theta);
-                let sampled = albedo_by_sampling(&bsdf, wo, 100_000);
-                let (uniform, _) = albedo_and_pdf_mass_uniform(&bsdf, wo, 400_000);
-                eprintln!("GGX F0=1 roughness {roughness} θ={theta}: albedo {sampled:.4} (uniform estimate {uniform:.4})");
-                assert!(sampled <= 1.0 + 1e-3, "r={roughness} θ={theta}: {sampled} > 1");
-                assert!(sampled >= lo, "r={roughness} θ={theta}: {sampled} < {lo}");
+                let sampled = albedo_by_sampling(&bsdf, wo, 200_000);
+                eprintln!("white metal roughness {roughness} θ={theta}: albedo {sampled:.4}");
+                assert!((sampled - 1.0).abs() < 0.01, "r={roughness} θ={theta}: {sampled}");
                 if roughness >= 0.3 {
                     // Uniform sampling of a sharp lobe is too noisy to compare at r = 0.1.
+                    let (uniform, _) = albedo_and_pdf_mass_uniform(&bsdf, wo, 400_000);
                     assert!(
                         (sampled - uniform).abs() < 0.02,
                         "r={roughness} θ={theta}: {sampled} vs {uniform}"
