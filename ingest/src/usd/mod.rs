@@ -250,7 +250,9 @@ impl std::error::Error for UsdError {}
 /// [`UsdErrorKind::Invalid`] naming the root layer, before anything is read.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     check_options(path, options)?;
-    compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::Free))
+    on_reader_stack(path, || {
+        compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::Free))
+    })
 }
 
 /// [`load`] for a process that exits once it has used the scene (the `ingest` binary): the
@@ -260,7 +262,37 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
 /// returned until the process exits, so a long-lived caller uses [`load`].
 pub fn load_until_exit(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     check_options(path, options)?;
-    compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::AtExit))
+    on_reader_stack(path, || {
+        compat::reader_panic::catch(&path.display().to_string(), || {
+            load_stage(path, options, Teardown::AtExit)
+        })
+    })
+}
+
+/// Stack of the thread the stage is composed and read on.
+///
+/// openusd composes on the native stack: each nested arc of a prim (up to its depth limit of
+/// 100) and each class of an inherits/specializes chain (up to
+/// [`compat::class_arcs::MAX_CLASS_DEPTH`]) is a few recursive frames of several KiB, which
+/// overflow a 2 MiB test thread and come close on the 8 MiB main thread. The reservation is
+/// virtual: only the pages a deep stage touches are committed.
+const READER_STACK_BYTES: usize = 512 << 20;
+
+/// Runs `read` on a thread with a [`READER_STACK_BYTES`] stack and returns its result.
+fn on_reader_stack<T: Send>(
+    root_layer: &Path,
+    read: impl FnOnce() -> Result<T, UsdError> + Send,
+) -> Result<T, UsdError> {
+    std::thread::scope(|scope| {
+        let reader = std::thread::Builder::new().name("ingest-reader".into()).stack_size(READER_STACK_BYTES);
+        match reader.spawn_scoped(scope, read) {
+            Ok(handle) => handle.join().unwrap_or_else(|payload| std::panic::resume_unwind(payload)),
+            Err(e) => Err(UsdError::new(
+                &root_layer.display().to_string(),
+                UsdErrorKind::Internal(format!("cannot start the reader thread: {e}")),
+            )),
+        }
+    })
 }
 
 /// The options [`load`] refuses, as an error naming the root layer.
