@@ -35,6 +35,8 @@ mod texture_files;
 mod xform;
 
 #[cfg(test)]
+mod budget_tests;
+#[cfg(test)]
 mod composition_tests;
 #[cfg(test)]
 mod subdivision_tests;
@@ -120,6 +122,11 @@ pub struct LoadOptions {
     /// return their fallback: for listings (`ingest --dump-json` without `-o`), which name
     /// materials but never shade.
     pub bake_textures: bool,
+    /// Most pixels (width × height) a texture file may declare (default
+    /// [`texture::DEFAULT_MAX_PIXELS`], 2^28: a 16k × 16k image). A larger one is refused from its
+    /// header before anything is allocated, with a warning naming the file and the material or
+    /// light, and its lookups return their fallback.
+    pub max_texture_pixels: u64,
 }
 
 impl Default for LoadOptions {
@@ -131,6 +138,7 @@ impl Default for LoadOptions {
             frame: None,
             subdiv: crate::dicing::SubdivOptions::default(),
             bake_textures: true,
+            max_texture_pixels: texture::DEFAULT_MAX_PIXELS,
         }
     }
 }
@@ -322,6 +330,7 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     report_composition_issues(&stage, options, &mut scene)?;
     let mut reader = Reader::new(&stage, &prims, scene);
     reader.bake_textures = options.bake_textures;
+    reader.texture_limits = texture::DecodeLimits { max_pixels: options.max_texture_pixels };
     reader.read_stage_metadata();
     reader.collect_instancer_prototypes()?;
     reader.visit("/", &Inherited::root(), false)?;
@@ -457,6 +466,8 @@ struct Reader<'a> {
     subdivision_groups: HashMap<u64, Vec<usize>>,
     /// [`LoadOptions::bake_textures`].
     bake_textures: bool,
+    /// [`LoadOptions::max_texture_pixels`].
+    texture_limits: texture::DecodeLimits,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -488,6 +499,7 @@ impl<'a> Reader<'a> {
             geometry: mesh::GeometryInterner::default(),
             subdivision_groups: HashMap::new(),
             bake_textures: true,
+            texture_limits: texture::DecodeLimits::default(),
         }
     }
 
@@ -716,7 +728,7 @@ impl<'a> Reader<'a> {
         if self.scene.default_camera.is_none() && !self.scene.cameras.is_empty() {
             self.scene.default_camera = Some(0);
         }
-        Ok(())
+        self.check_default_camera_image()
     }
 
     // --- typed attribute helpers -------------------------------------------------------------
