@@ -112,6 +112,8 @@ fn run(args: Args) -> anyhow::Result<()> {
         frame: args.frame,
         bake_textures: args.output.is_some(),
         max_texture_pixels: args.max_texture_pixels,
+        // Every file this run writes: none may be an input (checked before each is written).
+        outputs: args.output.iter().chain(&args.dump_json).cloned().collect(),
         subdiv: ingest::dicing::SubdivOptions {
             forced_level: args.subdiv_level,
             dicing_rate: args.dicing_rate,

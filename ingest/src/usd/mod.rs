@@ -45,7 +45,7 @@ mod tests;
 
 use std::collections::{HashMap, HashSet};
 use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DMat4, DQuat, DVec3};
 
@@ -127,6 +127,10 @@ pub struct LoadOptions {
     /// header before anything is allocated, with a warning naming the file and the material or
     /// light, and its lookups return their fallback.
     pub max_texture_pixels: u64,
+    /// Files this run will write (the blob, the listing). A layer composition opens or a texture
+    /// file baked that is one of them is refused ([`UsdErrorKind::OutputIsInput`]) once the stage
+    /// is read, before anything is written (see [`crate::outputs`]).
+    pub outputs: Vec<std::path::PathBuf>,
 }
 
 impl Default for LoadOptions {
@@ -139,6 +143,7 @@ impl Default for LoadOptions {
             subdiv: crate::dicing::SubdivOptions::default(),
             bake_textures: true,
             max_texture_pixels: texture::DEFAULT_MAX_PIXELS,
+            outputs: Vec::new(),
         }
     }
 }
@@ -174,6 +179,13 @@ pub enum UsdErrorKind {
     /// Any other failure reported by the composition engine.
     #[error("{0}")]
     Stage(String),
+    /// An input file (the error's layer: a layer of the stage or a texture it bakes) is also one
+    /// of [`LoadOptions::outputs`].
+    #[error("is also an output of this run ({output}); refusing to overwrite an input")]
+    OutputIsInput {
+        /// The output path as given.
+        output: String,
+    },
     /// The composition engine panicked (a bug in it); the panic's message and place.
     #[error("the USD reader failed unexpectedly: {0}")]
     Internal(String),
@@ -313,6 +325,36 @@ fn check_options(path: &Path, options: &LoadOptions) -> Result<(), UsdError> {
     })
 }
 
+/// Refuses a stage one of whose layers or baked texture files is one of `outputs`.
+fn check_inputs_are_not_outputs(stage: &Stage, scene: &Scene, outputs: &[PathBuf]) -> Result<(), UsdError> {
+    if outputs.is_empty() {
+        return Ok(());
+    }
+    // A file inside a `.usdz` package (`pkg.usdz[inner.usdc]`) is the package file on disk.
+    let on_disk = |name: &str| -> PathBuf {
+        openusd::ar::split_package_relative_path_outer(name)
+            .map_or_else(|| PathBuf::from(name), |(p, _)| PathBuf::from(p))
+    };
+    let mut inputs: Vec<PathBuf> = stage.layer_files().iter().map(|l| on_disk(l)).collect();
+    for texture in &scene.textures {
+        let text = texture.path.to_string_lossy();
+        // A dome map scaled into half-float range is keyed `file#/scale`.
+        let file = on_disk(text.split("#/").next().unwrap_or(&text));
+        if texture::udim::is_udim(&file) {
+            inputs.extend(texture::udim::expand(&file).into_iter().flatten().map(|t| t.path));
+        } else {
+            inputs.push(file);
+        }
+    }
+    for input in &inputs {
+        if let Some(output) = crate::outputs::output_named_by(input, outputs) {
+            let output = output.display().to_string();
+            return Err(UsdError::new(&input.display().to_string(), UsdErrorKind::OutputIsInput { output }));
+        }
+    }
+    Ok(())
+}
+
 /// What becomes of the composed stage once the scene is read.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Teardown {
@@ -343,6 +385,7 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     for (prim, message) in stage.take_notes() {
         reader.scene.warn(prim, message);
     }
+    check_inputs_are_not_outputs(&stage, &reader.scene, &options.outputs)?;
     let scene = std::mem::take(&mut reader.scene);
     if teardown == Teardown::AtExit {
         std::mem::forget(reader);

@@ -315,6 +315,12 @@ impl Stage {
         arcs.check().map_err(|p| UsdError::new(&p.layer, UsdErrorKind::Stage(p.message)).at(&p.prim))
     }
 
+    /// The identifiers of every layer composition has opened so far (the root layer, sublayers,
+    /// references, payloads), for the check that no output overwrites one.
+    pub(crate) fn layer_files(&self) -> Vec<String> {
+        self.inner.layer_identifiers()
+    }
+
     fn err(&self, e: anyhow::Error) -> UsdError {
         UsdError::new(&self.root_layer, UsdErrorKind::Stage(format!("{e:#}")))
     }
