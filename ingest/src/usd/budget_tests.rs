@@ -200,3 +200,78 @@ def Camera "Cam"
         "{error}"
     );
 }
+
+/// Fault isolation: one NaN point or out-of-range index is that mesh's problem, not the stage's.
+const BAD_MESHES: &str = r#"#usda 1.0
+def Mesh "Good"
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+}
+def Mesh "NotFinite"
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (nan, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+}
+def Mesh "OutOfRange"
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 7]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+}
+def Mesh "AlsoGood"
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 2), (1, 0, 2), (0, 1, 2)]
+}
+"#;
+
+#[test]
+fn bad_meshes_are_all_named_and_skipped_when_lenient() {
+    let dir = write(&[("scene.usda", BAD_MESHES.as_bytes())]);
+    let root = dir.path().join("scene.usda");
+    let error = load(&root, &LoadOptions::default()).unwrap_err();
+    let text = error.to_string();
+    let file = root.display().to_string();
+    assert!(
+        text.starts_with(&format!(
+            "{file}: /NotFinite.points: 2 prims have bad data (--lenient skips them): "
+        )),
+        "{text}"
+    );
+    assert!(
+        text.contains(&format!("{file}: /NotFinite.points: point 1 is not finite (NaN, 0, 0)")),
+        "{text}"
+    );
+    assert!(
+        text.contains(&format!("{file}: /OutOfRange.faceVertexIndices: index 7 out of range (3 points)")),
+        "{text}"
+    );
+
+    let scene = load(&root, &LoadOptions { lenient: true, ..LoadOptions::default() })
+        .unwrap_or_else(|e| panic!("{e}"));
+    let meshes: Vec<&str> = scene.meshes.iter().map(|m| m.path.as_str()).collect();
+    assert_eq!(meshes, ["/Good", "/AlsoGood"]);
+    let warnings: Vec<(&str, &str)> =
+        scene.warnings.iter().map(|w| (w.prim.as_str(), w.message.as_str())).collect();
+    let bad: Vec<_> = warnings.iter().filter(|(p, _)| *p == "/NotFinite" || *p == "/OutOfRange").collect();
+    assert_eq!(bad.len(), 2, "{warnings:?}");
+    assert_eq!(
+        *bad[0],
+        (
+            "/NotFinite",
+            format!("Mesh skipped (--lenient): {file}: /NotFinite.points: point 1 is not finite (NaN, 0, 0)")
+                .as_str()
+        )
+    );
+    assert!(
+        bad[1].1.ends_with("/OutOfRange.faceVertexIndices: index 7 out of range (3 points)"),
+        "{warnings:?}"
+    );
+}

@@ -186,6 +186,15 @@ pub enum UsdErrorKind {
         /// The output path as given.
         output: String,
     },
+    /// Several gprims have bad data (each a [`UsdErrorKind::Invalid`] error, as text naming its
+    /// layer, prim and attribute); `--lenient` skips them instead.
+    #[error("{count} prims have bad data (--lenient skips them): {}", errors.join("; "))]
+    BadPrims {
+        /// How many.
+        count: usize,
+        /// Each prim's error.
+        errors: Vec<String>,
+    },
     /// The composition engine panicked (a bug in it); the panic's message and place.
     #[error("the USD reader failed unexpectedly: {0}")]
     Internal(String),
@@ -373,9 +382,11 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     let mut reader = Reader::new(&stage, &prims, scene);
     reader.bake_textures = options.bake_textures;
     reader.texture_limits = texture::DecodeLimits { max_pixels: options.max_texture_pixels };
+    reader.lenient = options.lenient;
     reader.read_stage_metadata();
     reader.collect_instancer_prototypes()?;
     reader.visit("/", &Inherited::root(), false)?;
+    reader.bad_prims_error()?;
     reader.finish()?;
     // Bound materials' shading networks are composed as they are read (see Stage::traverse).
     report_composition_issues(&stage, options, &mut reader.scene)?;
@@ -462,6 +473,10 @@ impl Inherited {
     }
 }
 
+/// Gprims whose bad data is kept to the prim ([`Reader::read_prim_isolated`]): each adds its own
+/// geometry only, so dropping what it added leaves the scene as if it were absent.
+const ISOLATED_GPRIMS: &[&str] = &["Mesh", "Sphere", "Cube", "BasisCurves", "NurbsCurves", "Points"];
+
 /// Prim types we know to be renderable but do not read yet (warned once per prim).
 const UNSUPPORTED: &[&str] = &[
     "HermiteCurves",
@@ -511,6 +526,10 @@ struct Reader<'a> {
     bake_textures: bool,
     /// [`LoadOptions::max_texture_pixels`].
     texture_limits: texture::DecodeLimits,
+    /// [`LoadOptions::lenient`]: a gprim with bad data is skipped with a warning.
+    lenient: bool,
+    /// Gprims with bad data, when not lenient (see [`Reader::read_prim_isolated`]).
+    bad_prims: Vec<UsdError>,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -543,6 +562,8 @@ impl<'a> Reader<'a> {
             subdivision_groups: HashMap::new(),
             bake_textures: true,
             texture_limits: texture::DecodeLimits::default(),
+            lenient: false,
+            bad_prims: Vec::new(),
         }
     }
 
@@ -633,7 +654,7 @@ impl<'a> Reader<'a> {
                     state.purpose = Purpose::Guide;
                 }
             }
-            self.read_prim(path, &ty, &state)?;
+            self.read_prim_isolated(path, &ty, &state)?;
         }
         for child in self.children_of(path) {
             self.visit(&child, &state, false)?;
@@ -642,6 +663,56 @@ impl<'a> Reader<'a> {
     }
 
     /// Reads one prim of type `ty` with its resolved state.
+    /// [`Reader::read_prim`], with a gprim's bad data (a NaN point, an out-of-range index, counts
+    /// that disagree: [`UsdErrorKind::Invalid`]) kept to that prim: whatever it added is taken
+    /// back, and the error becomes one warning naming the prim when lenient, else it is kept for
+    /// [`Reader::bad_prims_error`] so that the stage's error names every bad prim, not the first.
+    fn read_prim_isolated(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
+        if !ISOLATED_GPRIMS.contains(&ty) {
+            return self.read_prim(path, ty, state);
+        }
+        let marks = (
+            self.scene.meshes.len(),
+            self.scene.curves.len(),
+            self.scene.warnings.len(),
+            self.subdivisions.len(),
+        );
+        match self.read_prim(path, ty, state) {
+            Err(e) if matches!(e.kind(), UsdErrorKind::Invalid(_)) => {
+                self.scene.meshes.truncate(marks.0);
+                self.scene.curves.truncate(marks.1);
+                self.scene.warnings.truncate(marks.2);
+                self.subdivisions.truncate(marks.3);
+                if self.lenient {
+                    let what = e.to_string();
+                    self.warn(path, format!("{ty} skipped (--lenient): {what}"));
+                } else {
+                    self.bad_prims.push(e);
+                }
+                Ok(())
+            }
+            other => other,
+        }
+    }
+
+    /// The error naming every gprim [`Reader::read_prim_isolated`] found bad, if any: the one error
+    /// itself, or for several, all of them in reading order.
+    fn bad_prims_error(&mut self) -> Result<(), UsdError> {
+        match self.bad_prims.len() {
+            0 => Ok(()),
+            1 => Err(self.bad_prims.remove(0)),
+            n => {
+                let first = &self.bad_prims[0];
+                let all: Vec<String> = self.bad_prims.iter().map(|e| e.to_string()).collect();
+                let mut error =
+                    UsdError::new(&first.0.layer, UsdErrorKind::BadPrims { count: n, errors: all });
+                error.0.prim = first.0.prim.clone();
+                error.0.attribute = first.0.attribute.clone();
+                Err(error)
+            }
+        }
+    }
+
     fn read_prim(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
         match ty {
             "Camera" => self.read_camera(path, state),
