@@ -188,12 +188,13 @@ impl Reader<'_> {
             Ok(c) => c,
             Err(_) => return Err(self.invalid(path, "curveVertexCounts", "negative vertex count".into())),
         };
-        if counts.iter().sum::<usize>() != points.len() {
+        // Saturating: counts near usize::MAX could wrap to the point count and index past it.
+        let vertex_total = counts.iter().fold(0usize, |sum, &n| sum.saturating_add(n));
+        if vertex_total != points.len() {
             self.warn(
                 path,
                 format!(
-                    "curveVertexCounts sum to {} but there are {} points; curves skipped",
-                    counts.iter().sum::<usize>(),
+                    "curveVertexCounts sum to {vertex_total} but there are {} points; curves skipped",
                     points.len()
                 ),
             );
