@@ -48,6 +48,23 @@ pub enum IngestError {
         /// The I/O error.
         error: std::io::Error,
     },
+    /// An output path names the input (checked before anything is read; the stage's other layers
+    /// and its textures are checked once it is read, as [`crate::usd::UsdErrorKind::OutputIsInput`]).
+    #[error("refusing to write {}: it is the input {}", output.display(), input.display())]
+    OutputIsInput {
+        /// The output path as given.
+        output: PathBuf,
+        /// The input it names.
+        input: PathBuf,
+    },
+    /// Two outputs of one run name the same file (the blob and the `--dump-json` listing).
+    #[error("refusing to write {} and {}: they are the same file", first.display(), second.display())]
+    OutputsCollide {
+        /// The first output.
+        first: PathBuf,
+        /// The second.
+        second: PathBuf,
+    },
     /// The subdivision options are out of range (checked before any file is read).
     #[error("invalid subdivision options: {0}")]
     SubdivOptions(SubdivOptionsError),

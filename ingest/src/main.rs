@@ -51,6 +51,11 @@ struct Args {
     /// Copy every instance into world space instead of storing shared prototypes once.
     #[arg(long)]
     flatten_instances: bool,
+    /// Most pixels (width × height) a texture file may declare; larger ones are refused from their
+    /// header, before decoding (a warning; the texture's fallback is used). Default 268435456
+    /// (2^28, a 16k × 16k image).
+    #[arg(long, value_name = "N", default_value_t = texture::DEFAULT_MAX_PIXELS)]
+    max_texture_pixels: u64,
     /// Print no summary (warnings are still printed).
     #[arg(short, long)]
     quiet: bool,
@@ -106,6 +111,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         asset_paths: args.asset_paths.clone(),
         frame: args.frame,
         bake_textures: args.output.is_some(),
+        max_texture_pixels: args.max_texture_pixels,
+        // Every file this run writes: none may be an input (checked before each is written).
+        outputs: args.output.iter().chain(&args.dump_json).cloned().collect(),
         subdiv: ingest::dicing::SubdivOptions {
             forced_level: args.subdiv_level,
             dicing_rate: args.dicing_rate,

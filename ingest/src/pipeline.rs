@@ -61,15 +61,19 @@ pub fn ingest_file_with(
     options: &LoadOptions,
     pack: &PackOptions,
 ) -> Result<(Scene, IngestReport), IngestError> {
+    let mut options = options.clone();
+    if !options.outputs.iter().any(|o| crate::outputs::same_file(o, output)) {
+        options.outputs.push(output.to_path_buf());
+    }
     let start = Instant::now();
-    let scene = load(input, options)?;
+    let scene = load(input, &options)?;
     let load_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
     let data = crate::pack::pack_scene(&scene, pack)
         .map_err(|error| IngestError::Pack { path: input.to_path_buf(), error })?;
     let bytes = data.encode();
     let pack_seconds = start.elapsed().as_secs_f64();
-    blob::write_atomic(output, &bytes).map_err(|e| IngestError::write(output, e))?;
+    crate::outputs::write_atomic(output, &bytes)?;
     let report = IngestReport {
         meshes: scene.meshes.len(),
         triangles: scene.triangle_count(),
@@ -107,6 +111,7 @@ fn read(
     read_usd: fn(&Path, &LoadOptions) -> Result<Scene, usd::UsdError>,
 ) -> Result<Scene, IngestError> {
     options.subdiv.validate()?;
+    crate::outputs::check_outputs(input, &options.outputs)?;
     let path = input.to_path_buf();
     if crate::alembic::is_alembic(input) {
         crate::alembic::load(input, options).map_err(|error| IngestError::Alembic { path, error })
@@ -115,11 +120,11 @@ fn read(
     }
 }
 
-/// Writes the [`dump_json`] listing of `scene` to `path`.
+/// Writes the [`dump_json`] listing of `scene` to `path`, atomically (see [`crate::outputs`]).
 pub fn write_dump(scene: &Scene, path: &Path) -> Result<(), IngestError> {
     let text =
         serde_json::to_string_pretty(&dump_json(scene)).map_err(|e| IngestError::write(path, e.into()))?;
-    std::fs::write(path, text).map_err(|e| IngestError::write(path, e))
+    crate::outputs::write_atomic(path, text.as_bytes())
 }
 
 /// Triangles of `scene` if every subdivision mesh were refined to the level cap instead of its

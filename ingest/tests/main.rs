@@ -6,6 +6,8 @@
 //! - `fuzz_layers`: the layer fuzzer (proptest-driven mutations of `tests/assets/fuzz/corpus`)
 //!   and the replay of its regressions; run it alone with `--test integration fuzz_layers`.
 //! - `list_only`: `ingest ASSET --dump-json FILE` without `-o`.
+//! - `outputs`: outputs that name an input (or each other) are refused, inputs kept; stale
+//!   temporaries removed.
 //! - `support`: the fuzzer's mutations and zip repair, shared by the modules above.
 //!
 //! `fuzz_layers` installs the binary's global allocator (it records the largest allocation); the
@@ -14,4 +16,5 @@
 mod bad_layers;
 mod fuzz_layers;
 mod list_only;
+mod outputs;
 mod support;

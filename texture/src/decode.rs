@@ -2,6 +2,12 @@
 //!
 //! The decoded image keeps its bit depth (8-bit, 16-bit or float) because the colour-space rule and the
 //! stored format both depend on it, and its channel count (1..=4) because the bake keeps it.
+//!
+//! Memory is budgeted before it is spent: the size a file declares is read from its header and checked
+//! against [`DecodeLimits::max_pixels`] before any pixel buffer is allocated (a 95-byte PNG can declare
+//! 100000×100000, which the decoders would otherwise try to allocate whole; a small PNG of a flat colour
+//! can decode to gigabytes). The `image` decoders also get an allocation cap sized from that budget, so
+//! their own buffers are bounded too.
 
 use std::path::Path;
 
@@ -54,26 +60,91 @@ impl SourceImage {
     }
 }
 
-/// Decodes a texture file, choosing the decoder by extension (`.exr`) or by content.
+/// Most pixels a texture may declare by default: 2^28, a 16k × 16k image (4 GiB as RGBA float, the
+/// largest production textures; a decoded 16-bit RGBA one is 2 GiB).
+pub const DEFAULT_MAX_PIXELS: u64 = 1 << 28;
+
+/// Bytes per pixel of the widest decoded layout (RGBA `f32`), to size the decoders' allocation cap.
+const MAX_BYTES_PER_PIXEL: u64 = 16;
+
+/// What a decode may spend.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DecodeLimits {
+    /// Most pixels (width × height) a file may declare; larger ones are refused from their header.
+    pub max_pixels: u64,
+}
+
+impl Default for DecodeLimits {
+    fn default() -> Self {
+        DecodeLimits { max_pixels: DEFAULT_MAX_PIXELS }
+    }
+}
+
+impl DecodeLimits {
+    /// Refuses a declared size above the budget, or above [`MAX_DIMENSION`] per side, before anything is
+    /// allocated for it.
+    fn check(&self, path: &Path, width: u64, height: u64) -> Result<(), Error> {
+        if width.saturating_mul(height) > self.max_pixels {
+            return Err(Error::new(
+                path,
+                ErrorKind::TooManyPixels { width, height, max_pixels: self.max_pixels },
+            ));
+        }
+        let side = |v: u64| u32::try_from(v).unwrap_or(u32::MAX);
+        if width > u64::from(MAX_DIMENSION) || height > u64::from(MAX_DIMENSION) {
+            return Err(Error::new(path, ErrorKind::Size { width: side(width), height: side(height) }));
+        }
+        Ok(())
+    }
+
+    /// The `image` crate's limits for this budget: allocations up to the budget's widest decoded image
+    /// (plus room for a decoder's working buffers). Sizes are left to [`DecodeLimits::check`], whose
+    /// error names them.
+    fn image_limits(&self) -> image::Limits {
+        let mut limits = image::Limits::no_limits();
+        limits.max_alloc = Some(self.max_pixels.saturating_mul(MAX_BYTES_PER_PIXEL).saturating_add(64 << 20));
+        limits
+    }
+}
+
+/// Decodes a texture file, choosing the decoder by extension (`.exr`) or by content, within the default
+/// [`DecodeLimits`].
 pub fn decode(path: &Path) -> Result<SourceImage, Error> {
+    decode_with(path, &DecodeLimits::default())
+}
+
+/// [`decode`] within `limits`.
+pub fn decode_with(path: &Path, limits: &DecodeLimits) -> Result<SourceImage, Error> {
     let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
     let img = if is_exr {
+        let meta = exr::meta::MetaData::read_from_file(path, false)
+            .map_err(|e| Error::new(path, ErrorKind::Exr(e)))?;
+        check_exr(path, &meta, limits)?;
         let image = exr::prelude::read_first_flat_layer_from_file(path)
             .map_err(|e| Error::new(path, ErrorKind::Exr(e)))?;
         decode_exr(path, image)?
     } else {
         let reader = image::ImageReader::open(path).map_err(|e| Error::new(path, ErrorKind::Io(e)))?;
-        decode_image(path, reader)?
+        decode_image(path, reader, limits)?
     };
     img.validate(path)?;
     Ok(img)
 }
 
 /// Decodes a texture already in memory (an entry of a `.usdz` package, read without extracting it);
-/// `name` (the entry's path) picks the decoder by extension like [`decode`] and names errors.
+/// `name` (the entry's path) picks the decoder by extension like [`decode`] and names errors. Within the
+/// default [`DecodeLimits`].
 pub fn decode_bytes(bytes: &[u8], name: &Path) -> Result<SourceImage, Error> {
+    decode_bytes_with(bytes, name, &DecodeLimits::default())
+}
+
+/// [`decode_bytes`] within `limits`.
+pub fn decode_bytes_with(bytes: &[u8], name: &Path, limits: &DecodeLimits) -> Result<SourceImage, Error> {
     let is_exr = name.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
     let img = if is_exr {
+        let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+            .map_err(|e| Error::new(name, ErrorKind::Exr(e)))?;
+        check_exr(name, &meta, limits)?;
         // What `read_first_flat_layer_from_file` reads, from a buffer.
         use exr::prelude::{ReadChannels, ReadLayers};
         let image = exr::prelude::read()
@@ -91,22 +162,37 @@ pub fn decode_bytes(bytes: &[u8], name: &Path) -> Result<SourceImage, Error> {
         if let Ok(format) = image::ImageFormat::from_path(name) {
             reader.set_format(format);
         }
-        decode_image(name, reader)?
+        decode_image(name, reader, limits)?
     };
     img.validate(name)?;
     Ok(img)
 }
 
+/// Every part of the file is checked against `limits`: the largest layer's declared size (the one the
+/// reader decodes).
+fn check_exr(path: &Path, meta: &exr::meta::MetaData, limits: &DecodeLimits) -> Result<(), Error> {
+    for header in meta.headers.iter() {
+        limits.check(path, header.layer_size.0 as u64, header.layer_size.1 as u64)?;
+    }
+    Ok(())
+}
+
 fn decode_image<R: std::io::BufRead + std::io::Seek>(
     path: &Path,
     reader: image::ImageReader<R>,
+    limits: &DecodeLimits,
 ) -> Result<SourceImage, Error> {
-    use image::DynamicImage as D;
+    use image::{DynamicImage as D, ImageDecoder};
     let err = |e| Error::new(path, ErrorKind::Image(e));
     let mut reader = reader.with_guessed_format().map_err(|e| Error::new(path, ErrorKind::Io(e)))?;
-    // Production textures (16k 16-bit) exceed the default 512 MiB allocation limit.
-    reader.no_limits();
-    let dynamic = reader.decode().map_err(err)?;
+    // Production textures (16k 16-bit) exceed the crate's default 512 MiB allocation limit, so the cap is
+    // sized from the pixel budget instead.
+    reader.limits(limits.image_limits());
+    // The decoder reads the header only; its declared size is checked before the pixels are allocated.
+    let decoder = reader.into_decoder().map_err(err)?;
+    let (width, height) = decoder.dimensions();
+    limits.check(path, width.into(), height.into())?;
+    let dynamic = D::from_decoder(decoder).map_err(err)?;
     let (width, height) = (dynamic.width(), dynamic.height());
     let (channels, samples) = match dynamic {
         D::ImageLuma8(b) => (1, Samples::U8(b.into_raw())),

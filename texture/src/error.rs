@@ -31,6 +31,16 @@ pub enum ErrorKind {
         /// Image height in pixels.
         height: u32,
     },
+    /// The file declares more pixels than the decode's budget ([`crate::DecodeLimits`]); refused from
+    /// its header, before allocating.
+    TooManyPixels {
+        /// Declared width in pixels.
+        width: u64,
+        /// Declared height in pixels.
+        height: u64,
+        /// The budget it exceeds.
+        max_pixels: u64,
+    },
     /// A `<UDIM>` pattern is malformed or matched no tile on disk.
     Udim(String),
     /// A record failed validation against the texel array (render side).
@@ -67,6 +77,11 @@ impl fmt::Display for Error {
             ErrorKind::Size { width, height } => {
                 write!(f, "image size {width}x{height} is outside 1..={} per side", crate::MAX_DIMENSION)
             }
+            ErrorKind::TooManyPixels { width, height, max_pixels } => write!(
+                f,
+                "image declares {width}x{height} = {} pixels, above the limit of {max_pixels} pixels",
+                width.saturating_mul(*height)
+            ),
             ErrorKind::Udim(what) => write!(f, "UDIM: {what}"),
             ErrorKind::InvalidRecord { table, index, reason } => {
                 write!(f, "{table} record {index} is invalid: {reason}")

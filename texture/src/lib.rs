@@ -81,7 +81,10 @@ pub mod udim;
 mod tests;
 
 pub use bake::{bake, BakeOptions, BakedTexture};
-pub use decode::{decode, decode_bytes, Samples, SourceImage};
+pub use decode::{
+    decode, decode_bytes, decode_bytes_with, decode_with, DecodeLimits, Samples, SourceImage,
+    DEFAULT_MAX_PIXELS,
+};
 pub use error::{Error, ErrorKind, Warning};
 pub use format::{ColorSpace, Filter, TexelFormat, Wrap};
 pub use record::{TextureRecord, UdimSetRecord, MAX_DIMENSION, MAX_MIP_LEVELS, NONE};

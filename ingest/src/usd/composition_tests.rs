@@ -208,3 +208,89 @@ def Xform "P"
     // Stage time 9 is part time 5: invisible from then on.
     assert!(at(Some(9.0)).meshes.is_empty());
 }
+
+#[test]
+fn class_cycles_are_errors_naming_the_chain() {
+    // A cycle among classes the composing prim reaches, not through it: openusd 0.6 recursed on
+    // these until the stack overflowed (SIGABRT).
+    for (arc, name) in [("inherits", "inherit"), ("specializes", "specialize")] {
+        let text = format!(
+            "#usda 1.0\ndef Xform \"X\" ({arc} = </C1>)\n{{\n}}\nclass \"C1\" ({arc} = </C2>)\n{{\n}}\nclass \"C2\" ({arc} = </C1>)\n{{\n}}\n"
+        );
+        let dir = write(&[("cls.usda", &text)]);
+        let root = dir.path().join("cls.usda");
+        for lenient in [false, true] {
+            let error = load(&root, &LoadOptions { lenient, ..LoadOptions::default() }).unwrap_err();
+            let text = error.to_string();
+            assert_eq!(error.prim(), Some("/C1"), "{text}");
+            assert!(text.contains("cls.usda"), "{text}");
+            assert!(
+                text.contains(&format!(
+                    "composition cycle: </C1> in cls.usda -{name}-> </C2> in cls.usda -{name}-> </C1> in cls.usda"
+                )),
+                "{text}"
+            );
+        }
+    }
+    // A class that specializes itself, in a referenced layer.
+    let dir = write(&[
+        ("root.usda", "#usda 1.0\ndef Xform \"A\" (\n    references = @part.usda@</P>\n)\n{\n}\n"),
+        (
+            "part.usda",
+            "#usda 1.0\ndef Xform \"P\" (specializes = </S>)\n{\n}\nclass \"S\" (specializes = </S>)\n{\n}\n",
+        ),
+    ]);
+    let error = load(&dir.path().join("root.usda"), &LoadOptions::default()).unwrap_err();
+    let text = error.to_string();
+    assert!(text.contains("part.usda"), "{text}");
+    assert!(text.contains("composition cycle: </S> in part.usda -specialize-> </S> in part.usda"), "{text}");
+}
+
+/// `n` layers `l0.usda` .. `l{n-1}.usda`, each referencing the next, the last a triangle mesh.
+fn reference_chain(n: usize) -> tempfile::TempDir {
+    let mut files: Vec<(String, String)> = (0..n)
+        .map(|i| {
+            (
+                format!("l{i}.usda"),
+                format!("#usda 1.0\ndef \"P\" (references = @l{}.usda@</P>)\n{{\n}}\n", i + 1),
+            )
+        })
+        .collect();
+    files.push((format!("l{n}.usda"), format!("#usda 1.0\ndef Mesh \"P\"\n{{\n        {TRI}\n}}\n")));
+    let refs: Vec<(&str, &str)> = files.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect();
+    write(&refs)
+}
+
+#[test]
+fn reference_chains_compose_up_to_the_depth_limit_and_name_it_beyond() {
+    let dir = reference_chain(90);
+    let scene = load_with(&dir.path().join("l0.usda"), &LoadOptions::default());
+    assert_eq!(mesh_paths(&scene), ["/P"]);
+    // openusd 0.6's limit is 100 nested arcs; beyond it the error names the limit, not a cycle.
+    let dir = reference_chain(150);
+    let error = load(&dir.path().join("l0.usda"), &LoadOptions::default()).unwrap_err();
+    let text = error.to_string();
+    assert_eq!(error.prim(), Some("/P"), "{text}");
+    assert!(text.contains("l0.usda"), "{text}");
+    assert!(
+        text.contains(
+            "composition depth limit: </P> in l0.usda nests more than 100 arcs (openusd 0.6 composes at most 100; the deeper arcs are dropped): </P> in l0.usda -reference-> </P> in l1.usda"
+        ),
+        "{text}"
+    );
+    assert!(text.contains("-reference-> </P> in l99.usda"), "{text}");
+    assert!(!text.contains("cycle"), "{text}");
+}
+
+#[test]
+fn a_deep_inherits_chain_composes() {
+    // 900 classes deep: the crate recurses once per class, on the reader's own large stack.
+    let mut text = String::from("#usda 1.0\ndef Xform \"X\" (inherits = </C0>)\n{\n}\n");
+    for i in 0..900 {
+        text.push_str(&format!("class \"C{i}\" (inherits = </C{}>)\n{{\n}}\n", i + 1));
+    }
+    text.push_str(&format!("class \"C900\"\n{{\n    def Mesh \"M\"\n    {{\n        {TRI}\n    }}\n}}\n"));
+    let dir = write(&[("chain.usda", &text)]);
+    let scene = load_with(&dir.path().join("chain.usda"), &LoadOptions::default());
+    assert_eq!(mesh_paths(&scene), ["/X/M"]);
+}

@@ -15,6 +15,11 @@ use super::{fallback, Inherited, Reader, UsdError};
 use crate::curves::{self, Basis, CurveType, Wrap};
 use crate::scene::{BezierSegment, CurveKind, Curves, PointSphere};
 
+/// Highest NurbsCurves `order` read (degree 63). usd-core sets none; modelling tools stop far
+/// below (Rhino at degree 11), and the knots and the de Boor evaluation of each curve are sized by
+/// it (`order = 2147483647` asked for 17 GB).
+pub(crate) const MAX_NURBS_ORDER: usize = 64;
+
 /// Primvar interpolation along curves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Interp {
@@ -183,12 +188,13 @@ impl Reader<'_> {
             Ok(c) => c,
             Err(_) => return Err(self.invalid(path, "curveVertexCounts", "negative vertex count".into())),
         };
-        if counts.iter().sum::<usize>() != points.len() {
+        // Saturating: counts near usize::MAX could wrap to the point count and index past it.
+        let vertex_total = counts.iter().fold(0usize, |sum, &n| sum.saturating_add(n));
+        if vertex_total != points.len() {
             self.warn(
                 path,
                 format!(
-                    "curveVertexCounts sum to {} but there are {} points; curves skipped",
-                    counts.iter().sum::<usize>(),
+                    "curveVertexCounts sum to {vertex_total} but there are {} points; curves skipped",
                     points.len()
                 ),
             );
@@ -372,6 +378,20 @@ impl Reader<'_> {
             .collect();
         let orders: Vec<usize> =
             self.ints(path, "order")?.unwrap_or_default().into_iter().map(|c| c.max(0) as usize).collect();
+        if let Some((c, order)) = orders.iter().enumerate().find(|(_, &o)| o > MAX_NURBS_ORDER) {
+            return Err(self.invalid(
+                path,
+                "order",
+                format!("curve {c}: order {order} is above the limit of {MAX_NURBS_ORDER}"),
+            ));
+        }
+        // Checked before knots are made up from the counts: a count far beyond the points would
+        // size them (and the per-curve buffers) from the file's word alone.
+        let vertex_total = counts.iter().fold(0usize, |sum, &n| sum.saturating_add(n));
+        if vertex_total != points.len() {
+            self.warn(path, "curveVertexCounts, order, knots and points disagree; NurbsCurves skipped");
+            return Ok(());
+        }
         let floats = |v: Option<Value>| match v {
             Some(Value::Array { data, arity: 1 }) => data,
             _ => Vec::new(),

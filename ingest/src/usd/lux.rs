@@ -7,7 +7,16 @@ use openusd::ar;
 
 use super::stage::Value;
 use super::{fallback, Inherited, Reader, UsdError};
+use crate::dicing::DEFAULT_WIDTH;
 use crate::scene::{Camera, Light, LightKind, SceneTexture, TextureData};
+
+/// Largest image side ingest dices for (a RenderSettings resolution, or the image a camera's
+/// apertures imply): render's per-axis limit.
+pub(crate) const MAX_RESOLUTION_SIDE: u32 = 65_535;
+/// Most image pixels ingest dices for: 2^28, a 16k × 16k frame. Subdivision dicing budgets
+/// triangles per pixel and curves are split per pixel, so an unbounded resolution is an
+/// unbounded tessellation (1 × 2147483647 grew ingest's memory without bound).
+pub(crate) const MAX_RESOLUTION_PIXELS: u64 = 1 << 28;
 
 impl Reader<'_> {
     /// A light input: `inputs:<name>` (current UsdLux) wins over plain `<name>` (pre-2021 assets).
@@ -71,7 +80,7 @@ impl Reader<'_> {
             return Ok(Some((i as u32, 1.0)));
         }
         let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
-        let baked = super::texture_files::decode_texture(&file).and_then(|mut src| {
+        let baked = super::texture_files::decode_texture(&file, &self.texture_limits).and_then(|mut src| {
             let scale = fit_half_float_range(&mut src);
             texture::bake(&src, &options).map(|baked| (baked, scale))
         });
@@ -147,6 +156,29 @@ impl Reader<'_> {
         Ok(())
     }
 
+    /// Refuses a default camera whose apertures, without a RenderSettings resolution, give an
+    /// image above the resolution limits: the image is [`DEFAULT_WIDTH`] wide at the apertures'
+    /// aspect, so a tall aperture (`verticalAperture = 192000` at 36 wide: 512 × 2.7 M pixels) made
+    /// dicing and curve splitting grow without bound.
+    pub(super) fn check_default_camera_image(&self) -> Result<(), UsdError> {
+        let (None, Some(i)) = (self.scene.resolution, self.scene.default_camera) else { return Ok(()) };
+        let camera = &self.scene.cameras[i];
+        let [h_ap, v_ap] =
+            [camera.horizontal_aperture, camera.vertical_aperture].map(|a| f64::from(a).max(1e-6));
+        let height = (f64::from(DEFAULT_WIDTH) * v_ap / h_ap).round().max(1.0);
+        let pixels = f64::from(DEFAULT_WIDTH) * height;
+        if height > f64::from(MAX_RESOLUTION_SIDE) || pixels > MAX_RESOLUTION_PIXELS as f64 {
+            return Err(self.invalid(
+                &camera.path,
+                "verticalAperture",
+                format!(
+                    "verticalAperture {v_ap} with horizontalAperture {h_ap} gives a {DEFAULT_WIDTH}x{height} image (no RenderSettings resolution), above the limit of {MAX_RESOLUTION_SIDE} per side"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Reads a Camera (cameras are kept whatever their visibility or purpose).
     pub(super) fn read_camera(&mut self, path: &str, state: &Inherited) -> Result<(), UsdError> {
         let f = |r: &Self, name: &str, fallback: f32| -> Result<f32, UsdError> {
@@ -194,6 +226,17 @@ impl Reader<'_> {
         }
         if let Some(res) = self.stage.attr(&settings, "resolution")?.and_then(|v| v.as_tuple::<2>()) {
             if res[0] >= 1.0 && res[1] >= 1.0 {
+                let [w, h] = res;
+                if w > f64::from(MAX_RESOLUTION_SIDE)
+                    || h > f64::from(MAX_RESOLUTION_SIDE)
+                    || w * h > MAX_RESOLUTION_PIXELS as f64
+                {
+                    return Err(self.invalid(
+                        &settings,
+                        "resolution",
+                        format!("resolution {w}x{h} is above the limit of {MAX_RESOLUTION_SIDE} per side and {MAX_RESOLUTION_PIXELS} pixels (subdivision and curves are diced for it)"),
+                    ));
+                }
                 self.scene.resolution = Some([res[0] as u32, res[1] as u32]);
             } else {
                 self.warn(&settings, format!("resolution {res:?} is not positive; ignored"));

@@ -667,7 +667,8 @@ impl Reader<'_> {
             return Some(i as u32);
         }
         let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
-        let bake_one = |p: &Path| decode_texture(p).and_then(|src| texture::bake(&src, &options));
+        let limits = self.texture_limits;
+        let bake_one = |p: &Path| decode_texture(p, &limits).and_then(|src| texture::bake(&src, &options));
         let data = if texture::udim::is_udim(path) {
             let tiles = match texture::udim::expand(path) {
                 Ok(tiles) => tiles,

@@ -271,6 +271,13 @@ impl Reader<'_> {
             self.warn(path, "mesh has no points or no faces; skipped");
             return Ok(());
         }
+        if let Some((i, p)) = points.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(self.invalid(
+                path,
+                "points",
+                format!("point {i} is not finite ({}, {}, {})", p.x, p.y, p.z),
+            ));
+        }
         let mut sizes = Vec::with_capacity(counts.len());
         for &c in &counts {
             sizes.push(usize::try_from(c).map_err(|_| {

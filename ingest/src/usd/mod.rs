@@ -35,6 +35,8 @@ mod texture_files;
 mod xform;
 
 #[cfg(test)]
+mod budget_tests;
+#[cfg(test)]
 mod composition_tests;
 #[cfg(test)]
 mod subdivision_tests;
@@ -43,7 +45,7 @@ mod tests;
 
 use std::collections::{HashMap, HashSet};
 use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DMat4, DQuat, DVec3};
 
@@ -120,6 +122,15 @@ pub struct LoadOptions {
     /// return their fallback: for listings (`ingest --dump-json` without `-o`), which name
     /// materials but never shade.
     pub bake_textures: bool,
+    /// Most pixels (width × height) a texture file may declare (default
+    /// [`texture::DEFAULT_MAX_PIXELS`], 2^28: a 16k × 16k image). A larger one is refused from its
+    /// header before anything is allocated, with a warning naming the file and the material or
+    /// light, and its lookups return their fallback.
+    pub max_texture_pixels: u64,
+    /// Files this run will write (the blob, the listing). A layer composition opens or a texture
+    /// file baked that is one of them is refused ([`UsdErrorKind::OutputIsInput`]) once the stage
+    /// is read, before anything is written (see [`crate::outputs`]).
+    pub outputs: Vec<std::path::PathBuf>,
 }
 
 impl Default for LoadOptions {
@@ -131,6 +142,8 @@ impl Default for LoadOptions {
             frame: None,
             subdiv: crate::dicing::SubdivOptions::default(),
             bake_textures: true,
+            max_texture_pixels: texture::DEFAULT_MAX_PIXELS,
+            outputs: Vec::new(),
         }
     }
 }
@@ -166,6 +179,22 @@ pub enum UsdErrorKind {
     /// Any other failure reported by the composition engine.
     #[error("{0}")]
     Stage(String),
+    /// An input file (the error's layer: a layer of the stage or a texture it bakes) is also one
+    /// of [`LoadOptions::outputs`].
+    #[error("is also an output of this run ({output}); refusing to overwrite an input")]
+    OutputIsInput {
+        /// The output path as given.
+        output: String,
+    },
+    /// Several gprims have bad data (each a [`UsdErrorKind::Invalid`] error, as text naming its
+    /// layer, prim and attribute); `--lenient` skips them instead.
+    #[error("{count} prims have bad data (--lenient skips them): {}", errors.join("; "))]
+    BadPrims {
+        /// How many.
+        count: usize,
+        /// Each prim's error.
+        errors: Vec<String>,
+    },
     /// The composition engine panicked (a bug in it); the panic's message and place.
     #[error("the USD reader failed unexpectedly: {0}")]
     Internal(String),
@@ -250,7 +279,9 @@ impl std::error::Error for UsdError {}
 /// [`UsdErrorKind::Invalid`] naming the root layer, before anything is read.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     check_options(path, options)?;
-    compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::Free))
+    on_reader_stack(path, || {
+        compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::Free))
+    })
 }
 
 /// [`load`] for a process that exits once it has used the scene (the `ingest` binary): the
@@ -260,7 +291,37 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
 /// returned until the process exits, so a long-lived caller uses [`load`].
 pub fn load_until_exit(path: &Path, options: &LoadOptions) -> Result<Scene, UsdError> {
     check_options(path, options)?;
-    compat::reader_panic::catch(&path.display().to_string(), || load_stage(path, options, Teardown::AtExit))
+    on_reader_stack(path, || {
+        compat::reader_panic::catch(&path.display().to_string(), || {
+            load_stage(path, options, Teardown::AtExit)
+        })
+    })
+}
+
+/// Stack of the thread the stage is composed and read on.
+///
+/// openusd composes on the native stack: each nested arc of a prim (up to its depth limit of
+/// 100) and each class of an inherits/specializes chain (up to
+/// [`compat::class_arcs::MAX_CLASS_DEPTH`]) is a few recursive frames of several KiB, which
+/// overflow a 2 MiB test thread and come close on the 8 MiB main thread. The reservation is
+/// virtual: only the pages a deep stage touches are committed.
+const READER_STACK_BYTES: usize = 512 << 20;
+
+/// Runs `read` on a thread with a [`READER_STACK_BYTES`] stack and returns its result.
+fn on_reader_stack<T: Send>(
+    root_layer: &Path,
+    read: impl FnOnce() -> Result<T, UsdError> + Send,
+) -> Result<T, UsdError> {
+    std::thread::scope(|scope| {
+        let reader = std::thread::Builder::new().name("ingest-reader".into()).stack_size(READER_STACK_BYTES);
+        match reader.spawn_scoped(scope, read) {
+            Ok(handle) => handle.join().unwrap_or_else(|payload| std::panic::resume_unwind(payload)),
+            Err(e) => Err(UsdError::new(
+                &root_layer.display().to_string(),
+                UsdErrorKind::Internal(format!("cannot start the reader thread: {e}")),
+            )),
+        }
+    })
 }
 
 /// The options [`load`] refuses, as an error naming the root layer.
@@ -271,6 +332,36 @@ fn check_options(path: &Path, options: &LoadOptions) -> Result<(), UsdError> {
             UsdErrorKind::Invalid(format!("invalid subdivision options: {e}")),
         )
     })
+}
+
+/// Refuses a stage one of whose layers or baked texture files is one of `outputs`.
+fn check_inputs_are_not_outputs(stage: &Stage, scene: &Scene, outputs: &[PathBuf]) -> Result<(), UsdError> {
+    if outputs.is_empty() {
+        return Ok(());
+    }
+    // A file inside a `.usdz` package (`pkg.usdz[inner.usdc]`) is the package file on disk.
+    let on_disk = |name: &str| -> PathBuf {
+        openusd::ar::split_package_relative_path_outer(name)
+            .map_or_else(|| PathBuf::from(name), |(p, _)| PathBuf::from(p))
+    };
+    let mut inputs: Vec<PathBuf> = stage.layer_files().iter().map(|l| on_disk(l)).collect();
+    for texture in &scene.textures {
+        let text = texture.path.to_string_lossy();
+        // A dome map scaled into half-float range is keyed `file#/scale`.
+        let file = on_disk(text.split("#/").next().unwrap_or(&text));
+        if texture::udim::is_udim(&file) {
+            inputs.extend(texture::udim::expand(&file).into_iter().flatten().map(|t| t.path));
+        } else {
+            inputs.push(file);
+        }
+    }
+    for input in &inputs {
+        if let Some(output) = crate::outputs::output_named_by(input, outputs) {
+            let output = output.display().to_string();
+            return Err(UsdError::new(&input.display().to_string(), UsdErrorKind::OutputIsInput { output }));
+        }
+    }
+    Ok(())
 }
 
 /// What becomes of the composed stage once the scene is read.
@@ -290,9 +381,12 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     report_composition_issues(&stage, options, &mut scene)?;
     let mut reader = Reader::new(&stage, &prims, scene);
     reader.bake_textures = options.bake_textures;
+    reader.texture_limits = texture::DecodeLimits { max_pixels: options.max_texture_pixels };
+    reader.lenient = options.lenient;
     reader.read_stage_metadata();
     reader.collect_instancer_prototypes()?;
     reader.visit("/", &Inherited::root(), false)?;
+    reader.bad_prims_error()?;
     reader.finish()?;
     // Bound materials' shading networks are composed as they are read (see Stage::traverse).
     report_composition_issues(&stage, options, &mut reader.scene)?;
@@ -302,6 +396,7 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     for (prim, message) in stage.take_notes() {
         reader.scene.warn(prim, message);
     }
+    check_inputs_are_not_outputs(&stage, &reader.scene, &options.outputs)?;
     let scene = std::mem::take(&mut reader.scene);
     if teardown == Teardown::AtExit {
         std::mem::forget(reader);
@@ -378,6 +473,10 @@ impl Inherited {
     }
 }
 
+/// Gprims whose bad data is kept to the prim ([`Reader::read_prim_isolated`]): each adds its own
+/// geometry only, so dropping what it added leaves the scene as if it were absent.
+const ISOLATED_GPRIMS: &[&str] = &["Mesh", "Sphere", "Cube", "BasisCurves", "NurbsCurves", "Points"];
+
 /// Prim types we know to be renderable but do not read yet (warned once per prim).
 const UNSUPPORTED: &[&str] = &[
     "HermiteCurves",
@@ -425,6 +524,12 @@ struct Reader<'a> {
     subdivision_groups: HashMap<u64, Vec<usize>>,
     /// [`LoadOptions::bake_textures`].
     bake_textures: bool,
+    /// [`LoadOptions::max_texture_pixels`].
+    texture_limits: texture::DecodeLimits,
+    /// [`LoadOptions::lenient`]: a gprim with bad data is skipped with a warning.
+    lenient: bool,
+    /// Gprims with bad data, when not lenient (see [`Reader::read_prim_isolated`]).
+    bad_prims: Vec<UsdError>,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -456,6 +561,9 @@ impl<'a> Reader<'a> {
             geometry: mesh::GeometryInterner::default(),
             subdivision_groups: HashMap::new(),
             bake_textures: true,
+            texture_limits: texture::DecodeLimits::default(),
+            lenient: false,
+            bad_prims: Vec::new(),
         }
     }
 
@@ -546,7 +654,7 @@ impl<'a> Reader<'a> {
                     state.purpose = Purpose::Guide;
                 }
             }
-            self.read_prim(path, &ty, &state)?;
+            self.read_prim_isolated(path, &ty, &state)?;
         }
         for child in self.children_of(path) {
             self.visit(&child, &state, false)?;
@@ -555,6 +663,56 @@ impl<'a> Reader<'a> {
     }
 
     /// Reads one prim of type `ty` with its resolved state.
+    /// [`Reader::read_prim`], with a gprim's bad data (a NaN point, an out-of-range index, counts
+    /// that disagree: [`UsdErrorKind::Invalid`]) kept to that prim: whatever it added is taken
+    /// back, and the error becomes one warning naming the prim when lenient, else it is kept for
+    /// [`Reader::bad_prims_error`] so that the stage's error names every bad prim, not the first.
+    fn read_prim_isolated(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
+        if !ISOLATED_GPRIMS.contains(&ty) {
+            return self.read_prim(path, ty, state);
+        }
+        let marks = (
+            self.scene.meshes.len(),
+            self.scene.curves.len(),
+            self.scene.warnings.len(),
+            self.subdivisions.len(),
+        );
+        match self.read_prim(path, ty, state) {
+            Err(e) if matches!(e.kind(), UsdErrorKind::Invalid(_)) => {
+                self.scene.meshes.truncate(marks.0);
+                self.scene.curves.truncate(marks.1);
+                self.scene.warnings.truncate(marks.2);
+                self.subdivisions.truncate(marks.3);
+                if self.lenient {
+                    let what = e.to_string();
+                    self.warn(path, format!("{ty} skipped (--lenient): {what}"));
+                } else {
+                    self.bad_prims.push(e);
+                }
+                Ok(())
+            }
+            other => other,
+        }
+    }
+
+    /// The error naming every gprim [`Reader::read_prim_isolated`] found bad, if any: the one error
+    /// itself, or for several, all of them in reading order.
+    fn bad_prims_error(&mut self) -> Result<(), UsdError> {
+        match self.bad_prims.len() {
+            0 => Ok(()),
+            1 => Err(self.bad_prims.remove(0)),
+            n => {
+                let first = &self.bad_prims[0];
+                let all: Vec<String> = self.bad_prims.iter().map(|e| e.to_string()).collect();
+                let mut error =
+                    UsdError::new(&first.0.layer, UsdErrorKind::BadPrims { count: n, errors: all });
+                error.0.prim = first.0.prim.clone();
+                error.0.attribute = first.0.attribute.clone();
+                Err(error)
+            }
+        }
+    }
+
     fn read_prim(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
         match ty {
             "Camera" => self.read_camera(path, state),
@@ -684,7 +842,7 @@ impl<'a> Reader<'a> {
         if self.scene.default_camera.is_none() && !self.scene.cameras.is_empty() {
             self.scene.default_camera = Some(0);
         }
-        Ok(())
+        self.check_default_camera_image()
     }
 
     // --- typed attribute helpers -------------------------------------------------------------

@@ -13,6 +13,7 @@ use std::path::Path;
 use openusd::ar::{ResolvedPath, Resolver};
 use openusd::{pcp, sdf, usd};
 
+use super::compat::class_arcs::ClassArcs;
 use super::compat::layer_fix::{list_op_field, parse_error_location};
 use super::resolver::IngestResolver;
 use super::{LoadOptions, UsdError, UsdErrorKind};
@@ -226,6 +227,9 @@ pub(crate) struct Stage {
     /// Nested instances whose contents openusd composes wrongly, found by [`Stage::traverse`]:
     /// queries below them are redirected (see [`NestedInstance`]).
     nested: RefCell<Vec<NestedInstance>>,
+    /// The class arcs of the layers loaded so far, checked before each prim composes (see
+    /// [`Stage::check_class_arcs`]).
+    class_arcs: RefCell<ClassArcs>,
 }
 
 /// An instance reached through an instance proxy (an instanceable prim inside another instance's
@@ -288,7 +292,33 @@ impl Stage {
             reported_issues: RefCell::new(HashSet::new()),
             notes: RefCell::new(Vec::new()),
             nested: RefCell::new(Vec::new()),
+            class_arcs: RefCell::new(ClassArcs::default()),
         })
+    }
+
+    /// Refuses the stage if the layers loaded so far author an inherits/specializes cycle (or an
+    /// exponentially branching class hierarchy), which openusd would recurse into until the
+    /// stack overflows (see [`super::compat::class_arcs`]). Called before each prim of the
+    /// traversal composes: the layers its pre-cache reads are those of its parent's index,
+    /// loaded by then. Cheap when no layer loaded since the last call.
+    fn check_class_arcs(&self) -> Result<(), UsdError> {
+        let mut arcs = self.class_arcs.borrow_mut();
+        if self.inner.layer_count() > arcs.scanned_count() {
+            for identifier in self.inner.layer_identifiers() {
+                if !arcs.has_scanned(&identifier) {
+                    if let Some(layer) = self.inner.layer(&identifier) {
+                        arcs.scan(&identifier, layer.data());
+                    }
+                }
+            }
+        }
+        arcs.check().map_err(|p| UsdError::new(&p.layer, UsdErrorKind::Stage(p.message)).at(&p.prim))
+    }
+
+    /// The identifiers of every layer composition has opened so far (the root layer, sublayers,
+    /// references, payloads), for the check that no output overwrites one.
+    pub(crate) fn layer_files(&self) -> Vec<String> {
+        self.inner.layer_identifiers()
     }
 
     fn err(&self, e: anyhow::Error) -> UsdError {
@@ -315,6 +345,7 @@ impl Stage {
         let mut stack: Vec<(sdf::Path, bool)> = Vec::new();
         self.push_children(&sdf::Path::abs_root(), false, &mut stack)?;
         while let Some((prim_path, in_instance)) = stack.pop() {
+            self.check_class_arcs()?;
             let prim = self.inner.prim(prim_path.clone());
             // `Attribute::get_metadata` on a prim path reads the prim's own composed field:
             // the crate exposes no prim-level metadata getter.
@@ -356,6 +387,8 @@ impl Stage {
             }
             self.push_children(&prim_path, in_instance || is_instance, &mut stack)?;
         }
+        // The last prim may have loaded layers of its own.
+        self.check_class_arcs()?;
         Ok(out)
     }
 
@@ -743,15 +776,47 @@ fn locate_parse_error(resolver: &IngestResolver, resolved: &ResolvedPath) -> Opt
     parse_error_location(&text).map(|location| format!("{resolved}: {location}"))
 }
 
-/// A reference/payload/inherit cycle as `/A (a.usda) -references-> </B> in b.usda -> ...`.
+/// Most nested composition arcs openusd 0.6 composes below one prim (its `MAX_DEPTH`, not
+/// configurable from outside the crate; usd-core's limit is deeper).
+const MAX_ARC_DEPTH: usize = 100;
+
+/// A reference/payload/inherit cycle as `/A (a.usda) -references-> </B> in b.usda -> ...`, or,
+/// when the chain's last site repeats none before it, the crate's depth limit it stands for.
+///
+/// openusd reports a chain deeper than [`MAX_ARC_DEPTH`] arcs as the same `ArcCycle` as a real
+/// cycle; an acyclic chain of 100 references is not a cycle, so it is named as the limit it is
+/// (with the chain's ends: the middle of a 100-arc chain is noise).
 fn describe_cycle(chain: &pcp::CycleChain) -> String {
     let file =
         |layer: &str| Path::new(layer).file_name().map_or(layer.to_string(), |f| f.to_string_lossy().into());
-    let mut text =
-        format!("composition cycle: <{}> in {}", chain.composing.as_str(), file(&chain.root_layer));
-    for hop in &chain.hops {
+    let hop_text = |hop: &pcp::CycleHop| {
         let arc = format!("{:?}", hop.arc).to_lowercase();
-        text.push_str(&format!(" -{arc}-> <{}> in {}", hop.path.as_str(), file(&hop.layer)));
+        format!(" -{arc}-> <{}> in {}", hop.path.as_str(), file(&hop.layer))
+    };
+    let closes = chain.hops.split_last().is_some_and(|(last, before)| {
+        let repeats = |layer: &str, site: &sdf::Path| layer == last.layer && site.is_nested_with(&last.path);
+        repeats(&chain.root_layer, &chain.composing) || before.iter().any(|h| repeats(&h.layer, &h.path))
+    });
+    let start = format!("<{}> in {}", chain.composing.as_str(), file(&chain.root_layer));
+    if !closes && chain.hops.len() + 1 >= MAX_ARC_DEPTH {
+        let hops = &chain.hops;
+        let mut text = format!(
+            "composition depth limit: {start} nests more than {MAX_ARC_DEPTH} arcs (openusd 0.6 composes at most {MAX_ARC_DEPTH}; the deeper arcs are dropped): {start}"
+        );
+        for hop in &hops[..3.min(hops.len())] {
+            text.push_str(&hop_text(hop));
+        }
+        if hops.len() > 5 {
+            text.push_str(&format!(" ... ({} more arcs)", hops.len() - 5));
+        }
+        for hop in &hops[3.max(hops.len().saturating_sub(2)).min(hops.len())..] {
+            text.push_str(&hop_text(hop));
+        }
+        return text;
+    }
+    let mut text = format!("composition cycle: {start}");
+    for hop in &chain.hops {
+        text.push_str(&hop_text(hop));
     }
     text.push_str(" (the last arc closes the cycle and is dropped)");
     text

@@ -55,13 +55,17 @@ pub(super) fn texture_location(path: &Path) -> PathBuf {
 }
 
 /// Decodes a texture file, or a package entry in place from the zip (usdz entries are stored
-/// uncompressed, so this is a copy of the entry's bytes, never a file extracted to disk).
-pub(super) fn decode_texture(path: &Path) -> Result<texture::SourceImage, texture::Error> {
-    let Some((_, inner)) = packaged(path) else { return texture::decode(path) };
+/// uncompressed, so this is a copy of the entry's bytes, never a file extracted to disk), within
+/// `limits` (checked against the size the file declares, before decoding).
+pub(super) fn decode_texture(
+    path: &Path,
+    limits: &texture::DecodeLimits,
+) -> Result<texture::SourceImage, texture::Error> {
+    let Some((_, inner)) = packaged(path) else { return texture::decode_with(path, limits) };
     let io = |e: std::io::Error| texture::Error { path: path.to_path_buf(), kind: texture::ErrorKind::Io(e) };
     let resolved = ar::ResolvedPath::new(path);
     let bytes =
         ar::DefaultResolver::new().open_asset(&resolved).and_then(|mut a| a.read_all()).map_err(io)?;
-    texture::decode_bytes(&bytes, Path::new(&inner))
+    texture::decode_bytes_with(&bytes, Path::new(&inner), limits)
         .map_err(|e| texture::Error { path: path.to_path_buf(), ..e })
 }

@@ -163,3 +163,95 @@ fn decode_bytes_matches_decode() {
     let err = crate::decode_bytes(b"not an image", Path::new("pkg.usdz[t/x.png]")).unwrap_err();
     assert!(err.to_string().contains("pkg.usdz[t/x.png]"), "{err}");
 }
+
+/// CRC-32 (PNG's polynomial), for chunks written by hand.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+        }
+    }
+    !crc
+}
+
+/// A well-formed PNG header declaring `width`×`height` RGBA8, with one tiny IDAT: under 100 bytes.
+fn png_declaring(width: u32, height: u32) -> Vec<u8> {
+    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut chunk = |kind: &[u8], data: &[u8]| {
+        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let body: Vec<u8> = kind.iter().chain(data).copied().collect();
+        out.extend_from_slice(&body);
+        out.extend_from_slice(&crc32(&body).to_be_bytes());
+    };
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&width.to_be_bytes());
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 6, 0, 0, 0]);
+    chunk(b"IHDR", &ihdr);
+    // An empty zlib stream: the decoder would fail only after allocating the image.
+    chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]);
+    chunk(b"IEND", &[]);
+    out
+}
+
+#[test]
+fn declared_sizes_above_the_pixel_budget_are_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("huge.png");
+    std::fs::write(&png, png_declaring(100_000, 100_000)).unwrap();
+    assert!(std::fs::metadata(&png).unwrap().len() < 100);
+    let hdr = dir.path().join("huge.hdr");
+    std::fs::write(&hdr, b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n\x02\x02\x00\x10")
+        .unwrap();
+    for path in [&png, &hdr] {
+        let text = decode(path).unwrap_err().to_string();
+        assert_eq!(
+            text,
+            format!(
+                "{}: image declares 100000x100000 = 10000000000 pixels, above the limit of 268435456 pixels",
+                path.display()
+            )
+        );
+    }
+    // The same bytes from memory (a `.usdz` entry).
+    let text = crate::decode_bytes(&png_declaring(30_000, 30_000), Path::new("pkg/huge.png"))
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        text,
+        "pkg/huge.png: image declares 30000x30000 = 900000000 pixels, above the limit of 268435456 pixels"
+    );
+
+    // A real image over a caller's budget; within it, it decodes.
+    let small = dir.path().join("small.png");
+    image::RgbImage::from_pixel(40, 30, image::Rgb([1, 2, 3])).save(&small).unwrap();
+    let tight = crate::DecodeLimits { max_pixels: 1199 };
+    let text = crate::decode_with(&small, &tight).unwrap_err().to_string();
+    assert!(
+        text.ends_with("small.png: image declares 40x30 = 1200 pixels, above the limit of 1199 pixels"),
+        "{text}"
+    );
+    let enough = crate::DecodeLimits { max_pixels: 1200 };
+    assert_eq!(crate::decode_with(&small, &enough).unwrap().width, 40);
+}
+
+#[test]
+fn exr_declared_sizes_above_the_pixel_budget_are_refused() {
+    use exr::prelude::WritableImage;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("small.exr");
+    let pixels = exr::prelude::SpecificChannels::rgb(|_: exr::prelude::Vec2<usize>| (0.5f32, 0.5f32, 0.5f32));
+    exr::prelude::Image::from_channels((40, 30), pixels).write().to_file(&path).unwrap();
+    let tight = crate::DecodeLimits { max_pixels: 1000 };
+    let text = crate::decode_with(&path, &tight).unwrap_err().to_string();
+    assert!(
+        text.ends_with("small.exr: image declares 40x30 = 1200 pixels, above the limit of 1000 pixels"),
+        "{text}"
+    );
+    let bytes = std::fs::read(&path).unwrap();
+    let text = crate::decode_bytes_with(&bytes, Path::new("a.exr"), &tight).unwrap_err().to_string();
+    assert_eq!(text, "a.exr: image declares 40x30 = 1200 pixels, above the limit of 1000 pixels");
+    assert_eq!(crate::decode_with(&path, &crate::DecodeLimits { max_pixels: 1200 }).unwrap().height, 30);
+}

@@ -2,7 +2,8 @@
 //! removed when the crate is fixed.
 //!
 //! Every layer the resolver serves passes through the first three before the crate sees it; the
-//! fourth catches what they miss. For each: what it covers in openusd, and what would make it
+//! stage checks each loaded layer with the fourth before composing a prim; the last catches what
+//! they miss. For each: what it covers in openusd, and what would make it
 //! removable. No fix is known upstream for any of them yet ("open upstream as of openusd 0.6.0");
 //! when the crate is upgraded, rerun the layer fuzzer (`ingest/tests`, `fuzz_layers`) and the
 //! survey tests below without the workaround before deleting it.
@@ -36,12 +37,18 @@
 //!   `}` without `{`). Removable when openusd validates paths on parse and `append_property`:
 //!   open upstream as of openusd 0.6.0. The survey test `path_syntax::survey`
 //!   (`TEXT_CHECK_SURVEY=DIR`) runs the text checks on a folder of real assets.
+//! - [`class_arcs`]: inherits/specializes cycles among classes, and class hierarchies whose
+//!   walks branch exponentially, refused with the chain before the crate composes them. openusd's
+//!   pre-cache of inherit targets recurses through composed classes with no visited set (a stack
+//!   overflow, or a hang). Removable when the pre-cache keeps a visited set: open upstream as of
+//!   openusd 0.6.0.
 //! - [`reader_panic`]: the backstop. A panic still raised inside the composition engine (it
 //!   indexes freely) becomes [`UsdErrorKind::Internal`](super::UsdErrorKind::Internal) naming the
 //!   root layer, and [`reader_panic::quiet_reader_panics`] keeps the panic banner out of the
 //!   binary's output. Removable when openusd reports malformed input as errors rather than
 //!   panics: open upstream as of openusd 0.6.0.
 
+pub(super) mod class_arcs;
 pub(super) mod crate_check;
 pub(super) mod layer_fix;
 pub(super) mod path_syntax;
