@@ -6,6 +6,7 @@
 //! - `fuzz_layers`: the layer fuzzer (proptest-driven mutations of `tests/assets/fuzz/corpus`)
 //!   and the replay of its regressions; run it alone with `--test integration fuzz_layers`.
 //! - `list_only`: `ingest ASSET --dump-json FILE` without `-o`.
+//! - `materialx`: MaterialX looks (`.mtlx` documents, inline `ND_*` networks, the surface mappings).
 //! - `support`: the fuzzer's mutations and zip repair, shared by the modules above.
 //!
 //! `fuzz_layers` installs the binary's global allocator (it records the largest allocation); the
@@ -14,4 +15,5 @@
 mod bad_layers;
 mod fuzz_layers;
 mod list_only;
+mod materialx;
 mod support;

@@ -27,6 +27,7 @@ mod curves;
 mod lux;
 mod material;
 mod mesh;
+mod mtlx_document;
 mod renderman;
 mod resolver;
 mod stage;
