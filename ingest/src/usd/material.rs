@@ -15,6 +15,10 @@
 //! and unknown nodes become their fallback constant) gets one register, in dependency order, and each
 //! connected PreviewSurface input an `Output` reading the connected channel(s). An unbound gprim
 //! whose displayColor varies gets a program that reads it per hit.
+//! A Material's `outputs:mtlx:surface` wins over `outputs:surface` when its shader is a MaterialX
+//! surface model [`mtlx_network`] maps (standard_surface, open_pbr_surface, UsdPreviewSurface): it
+//! is the production look a MaterialX renderer picks, and the universal surface is the preview of
+//! it. `ND_*` nodes inside a UsdPreviewSurface network compile through [`mtlx_network`] too.
 //! Texture files resolve against the layer that authored `inputs:file` and are decoded and baked here,
 //! once per (file, colour space), so a missing or unreadable file is a warning on the shader naming the
 //! file and the fallback the lookup will return instead.
@@ -272,7 +276,7 @@ impl Reader<'_> {
                 format!("bound material is a {ty:?} prim, not a Material; using displayColor")
             } else {
                 // Typically a material defined only in a layer that did not load (a `.mtlx` reference).
-                "bound material is not defined on the stage (no layer that composed defines it: a reference or payload that should bring it in failed, see the composition warnings); using displayColor".to_string()
+                "bound material is not defined on the stage (no composed layer defines it: see the composition warnings for an arc that failed); using displayColor".to_string()
             };
             self.warn(path, message);
             return Ok(None);

@@ -46,6 +46,8 @@
 //! is one warning naming the node, its category and its file; the inputs it feeds keep their
 //! authored value, else the surface model's default.
 //!
+//! An `image` without a file is its `default` (MaterialX's meaning of an empty `file`), a constant.
+//!
 //! Value conventions: a float-typed value lives in channel `x` of its register (a float constant
 //! in every channel); where a float feeds a vector or colour operation it is broadcast first.
 //! Texture colour spaces: `colorSpace` metadata on `inputs:file` (`srgb_texture` → sRGB, any other
@@ -874,6 +876,14 @@ impl Reader<'_> {
         let Val::Const(fallback) = default.val else {
             return Ok(Err("a connected default is not supported".into()));
         };
+        // An image without a file is MaterialX's way to author its `default` (not a missing file).
+        let has_file = matches!(
+            self.trace_input(node, "inputs:file")?,
+            Input::Constant { value: Value::Str(f), .. } if !f.is_empty()
+        );
+        if !has_file {
+            return Ok(Ok(default));
+        }
         let mut uv = match self.trace_input(node, "inputs:texcoord")? {
             Input::Unauthored => match self.uv_register(p) {
                 Some(r) => Typed { val: Val::Reg(r), float: false },
