@@ -50,8 +50,8 @@ fn mean_albedo(base: &Path, metallic: &Path, n: u32) -> [f64; 3] {
         for i in 0..n {
             let (u, v) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
             let keep = 1.0 - bilinear(&|x, y| metal.get_pixel(x, y)[0] as f64 / 255.0, u, v);
-            for c in 0..3 {
-                sum[c] += bilinear(&|x, y| linear(base.get_pixel(x, y)[c]), u, v) * keep;
+            for (c, total) in sum.iter_mut().enumerate() {
+                *total += bilinear(&|x, y| linear(base.get_pixel(x, y)[c]), u, v) * keep;
             }
         }
     }
