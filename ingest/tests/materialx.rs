@@ -528,3 +528,87 @@ fn a_broken_mtlx_reference_names_the_file_and_line() {
         "{err}"
     );
 }
+
+#[test]
+fn primvar_reads_channel_picks_and_a_world_space_normal() {
+    let layer = r#"#usda 1.0
+def Mesh "Ball" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    color3f[] primvars:tint = [(1, 0, 0), (0, 1, 0), (0, 0, 1)] (interpolation = "vertex")
+    uniform token subdivisionScheme = "none"
+    rel material:binding = </Look>
+}
+def Material "Look"
+{
+    token outputs:mtlx:surface.connect = </Look/Surface.outputs:out>
+    def Shader "Surface"
+    {
+        uniform token info:id = "ND_standard_surface_surfaceshader"
+        color3f inputs:base_color.connect = </Look/Picked.outputs:out>
+        float inputs:specular_roughness.connect = </Look/Split.outputs:outg>
+        color3f inputs:emission_color.connect = </Look/Combined.outputs:out>
+        float inputs:emission = 1
+        float3 inputs:normal.connect = </Look/Tint.outputs:out>
+        token outputs:out
+    }
+    def Shader "Tint"
+    {
+        uniform token info:id = "ND_geompropvalue_color3"
+        string inputs:geomprop = "tint"
+        color3f inputs:default = (0.5, 0.5, 0.5)
+        color3f outputs:out
+    }
+    def Shader "Picked"
+    {
+        uniform token info:id = "ND_swizzle_color3_color3"
+        color3f inputs:in.connect = </Look/Tint.outputs:out>
+        string inputs:channels = "bgr"
+        color3f outputs:out
+    }
+    def Shader "Split"
+    {
+        uniform token info:id = "ND_separate3_color3"
+        color3f inputs:in.connect = </Look/Tint.outputs:out>
+        float outputs:outr
+        float outputs:outg
+        float outputs:outb
+    }
+    def Shader "Combined"
+    {
+        uniform token info:id = "ND_combine3_color3"
+        float inputs:in1 = 0.25
+        float inputs:in2.connect = </Look/Split.outputs:outb>
+        float inputs:in3 = 0.75
+        color3f outputs:out
+    }
+}
+"#;
+    let (_dir, root) = write(&[("look.usda", layer)]);
+    let scene = load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let warnings: Vec<&str> = scene.warnings.iter().map(|w| w.message.as_str()).collect();
+    assert_eq!(
+        warnings,
+        ["normal reads /Look/Tint (geompropvalue), not a normalmap: a world-space normal the renderer cannot take; using the interpolated normal"]
+    );
+    let m = material(&scene, "/Look");
+    assert!(!m.program.iter().any(|n| matches!(n, ShaderNode::Output { input: ShadingInput::Normal, .. })));
+    // base_color = tint.bgr, a swizzle of the primvar read.
+    match source_of(m, ShadingInput::DiffuseColor) {
+        ShaderNode::Math { op: MathOp::Swizzle([2, 1, 0, _]), srcs, .. } => {
+            assert!(matches!(writer(&m.program, srcs[0]), ShaderNode::Primvar { name, fallback, .. }
+                if name == "tint" && *fallback == [0.5, 0.5, 0.5, 1.0]));
+        }
+        other => panic!("diffuse reads {other:?}"),
+    }
+    // separate3's outg: channel 1 moved to x.
+    assert!(matches!(
+        source_of(m, ShadingInput::Roughness),
+        ShaderNode::Math { op: MathOp::Swizzle([1, 1, 1, 1]), .. }
+    ));
+    // combine3(0.25, tint.b, 0.75): the constants fold into one vector, the primvar's channel added.
+    assert!(matches!(source_of(m, ShadingInput::EmissiveColor), ShaderNode::Math { op: MathOp::Add, .. }));
+    assert_eq!(m.look.node_categories, ["combine3", "geompropvalue", "separate3", "swizzle"]);
+}

@@ -645,6 +645,33 @@ fn an_mtlx_reference_composes_its_materials() {
 }
 
 #[test]
+fn a_sublayered_mtlx_document_adds_its_materials_at_usdmtlx_paths() {
+    let files = [
+        (
+            "scene.usda",
+            "#usda 1.0\n(\n    subLayers = [@./looks/look.mtlx@]\n)\ndef Mesh \"Tri\" (prepend apiSchemas = [\"MaterialBindingAPI\"])\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n    uniform token subdivisionScheme = \"none\"\n    rel material:binding = </MaterialX/Materials/Red>\n}\n",
+        ),
+        (
+            "looks/look.mtlx",
+            "<?xml version=\"1.0\"?>\n<materialx version=\"1.39\">\n  <open_pbr_surface name=\"S\" type=\"surfaceshader\">\n    <input name=\"base_color\" type=\"color3\" value=\"1, 0, 0\"/>\n  </open_pbr_surface>\n  <surfacematerial name=\"Red\" type=\"material\">\n    <input name=\"surfaceshader\" type=\"surfaceshader\" nodename=\"S\"/>\n  </surfacematerial>\n</materialx>\n",
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("looks")).unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let scene =
+        load(&dir.path().join("scene.usda"), &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let red = &scene.materials[mesh(&scene, "/Tri").triangle_materials[0] as usize];
+    assert_eq!(red.path, "/MaterialX/Materials/Red");
+    // base_weight 1 × base_color (1, 0, 0).
+    assert_eq!(red.diffuse_color, Vec3::new(1.0, 0.0, 0.0));
+    assert_eq!(red.look.surface_model, "open_pbr_surface");
+}
+
+#[test]
 fn malformed_file_names_the_file() {
     let (_dir, root) = write(&[("broken.usda", "#usda 1.0\n\ndef Mesh \"M\" {\n    int[] x = [1, \n")]);
     let err = load(&root, &LoadOptions::default()).unwrap_err();
