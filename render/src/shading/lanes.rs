@@ -9,7 +9,8 @@
 //! (each lane's triangle finds its own primvar record); `TEXTURE` hands the eight coordinates and
 //! footprints to [`texture::sample_lanes_with`] (one texture per op, so the format is resolved once),
 //! then applies scale and bias in lanes — a UDIM op picks a tile per lane, so it looks each lane up
-//! alone; `OUTPUT` writes the swizzled register into each lane's inputs.
+//! alone; `MATH` runs [`blob::math`] per lane (a few flops: not worth a lane twin, and equal by
+//! construction); `OUTPUT` writes the swizzled register into each lane's inputs.
 //!
 //! Register traffic (callgrind, shading-heavy 120×80, 8 spp, 1 thread: 11,443 groups, one texture op
 //! each, ≈ 1,260 instructions a group outside the lookup): a second mask marking the registers that

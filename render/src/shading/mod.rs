@@ -8,6 +8,10 @@
 //! coordinates, transformed by `TRANSFORM_2D`), so a texture read through a UsdTransform2d picks its mip
 //! level from the transformed footprint.
 //!
+//! `MATH` ops (MaterialX arithmetic, channel picks and normal maps; [`blob::math_op`]) apply
+//! [`blob::math`], the one definition of each function, to their operand registers; the result
+//! carries no footprint derivatives.
+//!
 //! `PRIMVAR` ops read the hit mesh's primvar from the blob's primvar tables and interpolate it with
 //! the triangle's barycentrics ([`MeshPoint`]).
 //!
