@@ -22,7 +22,7 @@ struct Args {
     /// A missing sublayer/reference/payload, or a composition cycle, is a warning instead of an error.
     #[arg(long)]
     lenient: bool,
-    /// Also write a JSON list of every rendered gprim (path, bounds, triangles, materials).
+    /// Also write a JSON list of every rendered gprim (path, bounds, triangles, materials) and of every material (surface model, node categories read).
     #[arg(long, value_name = "FILE")]
     dump_json: Option<PathBuf>,
     /// Search directory for asset paths not found next to the layer naming them (repeatable;

@@ -154,7 +154,9 @@ fn polygon_triangles(scene: &Scene) -> u64 {
 /// and its cage's world bounds (USD's extent; the limit surface lies inside). Subdivision
 /// surfaces add their `scheme`, the `subdiv_level` refined to (adaptive: the
 /// level as fine as the finest edge), `subdiv_mode` and, when adaptive, `min_edge_rate` and
-/// `max_edge_rate` (segments per cage edge). The top
+/// `max_edge_rate` (segments per cage edge). `materials` lists every material read with its
+/// `surface_model` (`UsdPreviewSurface`, `standard_surface`, `open_pbr_surface`, `PxrDisney`; empty
+/// for a displayColor material) and the `node_categories` of the shading nodes read. The top
 /// level has the scene's `triangles`, `triangles_at_fixed_level` (every subdivision mesh at the
 /// level cap) and `triangles_saved` (their difference; negative when a forced level exceeds the
 /// cap).
@@ -199,8 +201,20 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
         .collect();
     let triangles = listed_triangles(scene);
     let fixed = triangles_at_fixed_level(scene);
+    let materials: Vec<serde_json::Value> = scene
+        .materials
+        .iter()
+        .map(|m| {
+            serde_json::json!({
+                "path": m.path,
+                "surface_model": m.look.surface_model,
+                "node_categories": m.look.node_categories,
+            })
+        })
+        .collect();
     serde_json::json!({
         "gprims": gprims,
+        "materials": materials,
         "instances": scene.instance_count,
         "triangles": triangles,
         "triangles_at_fixed_level": fixed,

@@ -6,6 +6,7 @@
 //! - `fuzz_layers`: the layer fuzzer (proptest-driven mutations of `tests/assets/fuzz/corpus`)
 //!   and the replay of its regressions; run it alone with `--test integration fuzz_layers`.
 //! - `list_only`: `ingest ASSET --dump-json FILE` without `-o`.
+//! - `materialx`: MaterialX looks (`.mtlx` documents, inline `ND_*` networks, the surface mappings).
 //! - `outputs`: outputs that name an input (or each other) are refused, inputs kept; stale
 //!   temporaries removed.
 //! - `support`: the fuzzer's mutations and zip repair, shared by the modules above.
@@ -16,5 +17,6 @@
 mod bad_layers;
 mod fuzz_layers;
 mod list_only;
+mod materialx;
 mod outputs;
 mod support;

@@ -157,6 +157,16 @@ pub enum ShaderNode {
         /// `inputs:fallback`.
         fallback: [f32; 4],
     },
+    /// MaterialX arithmetic: `r[dst] = op(r[a], r[b], r[c])` per channel (see [`blob::math_op`] for
+    /// each function; operands a function does not use are ignored).
+    Math {
+        /// Destination register.
+        dst: u32,
+        /// The function.
+        op: MathOp,
+        /// Operand registers `a`, `b`, `c`.
+        srcs: [u32; 3],
+    },
     /// Binds `swizzle(r[src])` to a shading input.
     Output {
         /// The input.
@@ -167,6 +177,61 @@ pub enum ShaderNode {
         /// `[0; 4]`, `a` → `[3; 4]`).
         swizzle: [u8; 4],
     },
+}
+
+/// The functions of [`ShaderNode::Math`], one per [`blob::math_op`] code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MathOp {
+    /// `a + b`.
+    Add,
+    /// `a - b`.
+    Subtract,
+    /// `a * b`.
+    Multiply,
+    /// `a / b`.
+    Divide,
+    /// `b + (a - b) * c` (MaterialX `mix(fg, bg, mix)`).
+    Mix,
+    /// `min(max(a, b), c)`.
+    Clamp,
+    /// `a ^ b`.
+    Power,
+    /// `min(a, b)`.
+    Min,
+    /// `max(a, b)`.
+    Max,
+    /// `a` with channel `i` taken from channel `selectors[i]`.
+    Swizzle([u8; 4]),
+    /// `2a - 1`, `x` and `y` then times `b.x`.
+    NormalMap,
+    /// `1 - a`.
+    OneMinus,
+    /// `|a|`.
+    Absolute,
+}
+
+impl MathOp {
+    /// The op's [`blob::ShaderOp::flags`]: the [`blob::math_op`] code, and a swizzle's selectors.
+    pub fn flags(self) -> u32 {
+        use blob::math_op as m;
+        match self {
+            MathOp::Add => m::ADD,
+            MathOp::Subtract => m::SUBTRACT,
+            MathOp::Multiply => m::MULTIPLY,
+            MathOp::Divide => m::DIVIDE,
+            MathOp::Mix => m::MIX,
+            MathOp::Clamp => m::CLAMP,
+            MathOp::Power => m::POWER,
+            MathOp::Min => m::MIN,
+            MathOp::Max => m::MAX,
+            MathOp::Swizzle(s) => {
+                m::SWIZZLE | s.iter().enumerate().fold(0, |f, (i, &c)| f | ((c as u32 & 3) << (8 + 2 * i)))
+            }
+            MathOp::NormalMap => m::NORMAL_MAP,
+            MathOp::OneMinus => m::ONE_MINUS,
+            MathOp::Absolute => m::ABSOLUTE,
+        }
+    }
 }
 
 impl ShaderNode {
@@ -670,6 +735,8 @@ macro_rules! scene_material {
             )*
             /// Inputs connected to shading networks, compiled; empty when every input is a constant.
             pub program: Vec<ShaderNode>,
+            /// What the material was read from, for reports; the packer ignores it.
+            pub look: Look,
         }
 
         impl Default for Material {
@@ -678,12 +745,24 @@ macro_rules! scene_material {
                     path: String::new(),
                     $($field: model_fallback!($kind, $fallback),)*
                     program: Vec::new(),
+                    look: Look::default(),
                 }
             }
         }
     };
 }
 blob::preview_surface_constants!(scene_material);
+
+/// The surface model a material was authored with and the shading nodes read for it (what
+/// `ingest --dump-json` lists per material).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Look {
+    /// `UsdPreviewSurface`, `standard_surface`, `open_pbr_surface`, `PxrDisney`, or empty for a
+    /// displayColor material.
+    pub surface_model: String,
+    /// Categories of the network nodes read (`image`, `UsdUVTexture`, ...), sorted, each once.
+    pub node_categories: Vec<String>,
+}
 
 /// A UsdLux light.
 #[derive(Clone, Debug, PartialEq)]

@@ -15,11 +15,17 @@
 //! and unknown nodes become their fallback constant) gets one register, in dependency order, and each
 //! connected PreviewSurface input an `Output` reading the connected channel(s). An unbound gprim
 //! whose displayColor varies gets a program that reads it per hit.
+//! A Material's `outputs:mtlx:surface` wins over `outputs:surface` when its shader is a MaterialX
+//! surface model [`mtlx_network`] maps (standard_surface, open_pbr_surface, UsdPreviewSurface): it
+//! is the production look a MaterialX renderer picks, and the universal surface is the preview of
+//! it. `ND_*` nodes inside a UsdPreviewSurface network compile through [`mtlx_network`] too.
 //! Texture files resolve against the layer that authored `inputs:file` and are decoded and baked here,
 //! once per (file, colour space), so a missing or unreadable file is a warning on the shader naming the
 //! file and the fallback the lookup will return instead.
 
-use std::collections::HashMap;
+mod mtlx_network;
+
+use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
@@ -28,7 +34,8 @@ use rayon::prelude::*;
 use super::stage::Value;
 use super::texture_files::{decode_texture, packaged, resolve_asset, texture_location};
 use super::{Reader, UsdError};
-use crate::scene::{Material, SceneTexture, ShaderNode, ShadingInput, TextureData};
+use crate::scene::{Look, Material, SceneTexture, ShaderNode, ShadingInput, TextureData};
+use mtlx_network::Model;
 
 /// Where a shader input's value comes from.
 enum Input {
@@ -52,6 +59,8 @@ struct Program {
     /// Program index of each UsdUVTexture node whose `scale` and `bias` are both unauthored, by
     /// register (a normal map without them is remapped from `[0, 1]` to `[-1, 1]`).
     unscaled_textures: HashMap<u32, usize>,
+    /// Categories of the nodes read (`UsdUVTexture`, MaterialX `image`, ...), for the report.
+    categories: BTreeSet<String>,
 }
 
 impl Program {
@@ -267,15 +276,35 @@ impl Reader<'_> {
                 format!("bound material is a {ty:?} prim, not a Material; using displayColor")
             } else {
                 // Typically a material defined only in a layer that did not load (a `.mtlx` reference).
-                "bound material is not defined on the stage; using displayColor".to_string()
+                "bound material is not defined on the stage (no composed layer defines it: see the composition warnings for an arc that failed); using displayColor".to_string()
             };
             self.warn(path, message);
             return Ok(None);
         }
-        // The universal surface first; else RenderMan's (a PxrDisney is read, see `renderman`).
+        // The MaterialX surface first (the production look, what a MaterialX renderer picks), when
+        // it is a model `mtlx_network` maps; else the universal surface; else RenderMan's (a
+        // PxrDisney is read, see `renderman`).
+        let mut unmapped_mtlx = None;
+        if let Some(shader) = self.surface_shader(path, "outputs:mtlx:surface") {
+            let id = self.token(&shader, "info:id")?.unwrap_or_default();
+            match Model::of(&id) {
+                Some(model) => return self.mtlx_surface(path, &shader, model).map(Some),
+                None => unmapped_mtlx = Some((shader, id)),
+            }
+        }
         let shader = self
             .surface_shader(path, "outputs:surface")
             .or_else(|| self.surface_shader(path, "outputs:ri:surface"));
+        if let Some((mtlx_shader, id)) = unmapped_mtlx {
+            let then = if shader.is_some() { "using outputs:surface" } else { "using displayColor" };
+            self.warn(
+                path,
+                format!("MaterialX surface {mtlx_shader} is {id:?}, not a surface model the renderer maps (standard_surface, open_pbr_surface, UsdPreviewSurface); {then}"),
+            );
+            if shader.is_none() {
+                return Ok(None);
+            }
+        }
         let Some(shader) = shader else {
             let other = self
                 .stage
@@ -293,7 +322,9 @@ impl Reader<'_> {
         };
         let id = self.token(&shader, "info:id")?;
         if id.as_deref() == Some("PxrDisney") {
-            return self.disney_surface(path, &shader).map(Some);
+            let mut m = self.disney_surface(path, &shader)?;
+            m.look.surface_model = "PxrDisney".into();
+            return Ok(Some(m));
         }
         if id.as_deref() != Some("UsdPreviewSurface") {
             self.warn(
@@ -355,6 +386,10 @@ impl Reader<'_> {
             self.warn(path, "displacement ignored");
         }
         m.program = program.nodes;
+        m.look = Look {
+            surface_model: "UsdPreviewSurface".into(),
+            node_categories: program.categories.into_iter().collect(),
+        };
         Ok(Some(m))
     }
 
@@ -465,6 +500,22 @@ impl Reader<'_> {
             return Ok(None);
         }
         let id = self.token(node, "info:id")?.unwrap_or_default();
+        if id.starts_with("ND_") {
+            return self.mtlx_register(material, node, program, depth);
+        }
+        program.categories.insert(id.clone());
+        self.compile_usd_node(material, node, &id, program, depth)
+    }
+
+    /// [`Self::compile_node`] for the UsdShade node `node` whose `info:id` is `id`.
+    fn compile_usd_node(
+        &mut self,
+        material: &str,
+        node: &str,
+        id: &str,
+        program: &mut Program,
+        depth: u32,
+    ) -> Result<Option<u32>, UsdError> {
         let value = |r: &mut Self, name: &str| -> Result<Option<Value>, UsdError> {
             Ok(match r.trace_input(node, &format!("inputs:{name}"))? {
                 Input::Constant { value, .. } => Some(value),
@@ -472,7 +523,7 @@ impl Reader<'_> {
             })
         };
         let fallback = value(self, "fallback")?;
-        let node_out: ShaderNode = match id.as_str() {
+        let node_out: ShaderNode = match id {
             "UsdUVTexture" => {
                 let st = self.coordinate_register(material, node, "st", program, depth)?;
                 let file = self.texture_file(material, node)?;

@@ -8,7 +8,11 @@
 //! - `mesh`: Mesh topology, n-gon triangulation, primvars (normals, st), face-corner splitting,
 //!   the implicit Sphere/Cube shapes.
 //! - `material`: material binding resolution and UsdPreviewSurface constant inputs, with the
-//!   displayColor fallback for unbound gprims.
+//!   displayColor fallback for unbound gprims; `material::mtlx_network` reads MaterialX networks
+//!   (`outputs:mtlx:surface`, `ND_*` shaders) and maps standard_surface and open_pbr_surface onto
+//!   UsdPreviewSurface.
+//! - `mtlx_document`: `.mtlx` files as USD layers in usdMtlx's layout (the resolver serves them), so
+//!   looks that reference MaterialX documents compose.
 //! - `subdivision`: subdivision surfaces, queued during the walk and diced against the render
 //!   camera after it.
 //! - `curves`: BasisCurves, NurbsCurves and Points (to cubic Bézier segments and spheres).
@@ -27,6 +31,7 @@ mod curves;
 mod lux;
 mod material;
 mod mesh;
+mod mtlx_document;
 mod renderman;
 mod resolver;
 mod stage;

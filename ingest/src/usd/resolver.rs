@@ -6,6 +6,11 @@
 //! handed to the crate already normalized, and a crate file already checked, without copying or
 //! patching the crate's parser.
 //!
+//! MaterialX documents are layers too, as usdMtlx makes them: a `.mtlx` file resolves to a
+//! stand-in path beside it ending in `.mtlx.usda` (the crate picks a layer's format by the resolved
+//! path's extension), and opening that path serves the document translated to USDA by
+//! [`super::mtlx_document`], so `.mtlx` references and sublayers compose like any layer.
+//!
 //! Search paths follow usd-core's `ArDefaultResolver`: an asset path that is relative but not
 //! file-relative (`tex/a.usda`, not `./a.usda` or `../a.usda`) is looked up next to the layer
 //! that names it first, then in each search directory in order.
@@ -47,6 +52,8 @@ struct Shared {
     prepared: Mutex<HashMap<ResolvedPath, Arc<OnceLock<Prepared>>>>,
     /// Identifiers already created, by (asset path, anchor); see [`Shared::create_identifier`].
     identifiers: Mutex<HashMap<(String, Option<ResolvedPath>), String>>,
+    /// The MaterialX document behind each stand-in layer path handed out by [`Shared::layer_path`].
+    mtlx_documents: Mutex<HashMap<ResolvedPath, ResolvedPath>>,
 }
 
 /// A file as [`Shared::prepare`] left it.
@@ -113,6 +120,7 @@ impl IngestResolver {
                 search_paths,
                 prepared: Mutex::default(),
                 identifiers: Mutex::default(),
+                mtlx_documents: Mutex::default(),
             }),
         }
     }
@@ -167,6 +175,35 @@ impl Shared {
             .unwrap_or(anchored)
     }
 
+    /// The layer the crate opens for `resolved`: itself, or for a MaterialX document the stand-in
+    /// `<file>.mtlx.usda` path that [`Self::prepare`] serves translated (see the module docs).
+    fn layer_path(&self, resolved: ResolvedPath) -> ResolvedPath {
+        let text = resolved.to_string_lossy();
+        if !super::mtlx_document::is_mtlx(&resolved) || ar::is_package_relative_path(&text) {
+            return resolved;
+        }
+        let stand_in = ResolvedPath::new(format!("{text}.usda"));
+        let mut documents = self.mtlx_documents.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        documents.insert(stand_in.clone(), resolved);
+        stand_in
+    }
+
+    /// A MaterialX document as the USDA layer [`super::mtlx_document::translate`] makes of it.
+    fn prepare_mtlx(&self, document: &ResolvedPath) -> Prepared {
+        let name = file_name(document);
+        let text = match self.inner.open_asset(document).and_then(|mut a| a.read_all()) {
+            Ok(bytes) => match String::from_utf8(bytes) {
+                Ok(text) => text,
+                Err(_) => return Prepared::Rejected(format!("{name}: not UTF-8 text")),
+            },
+            Err(e) => return Prepared::Rejected(format!("{name}: {e}")),
+        };
+        match super::mtlx_document::translate(&text, &name) {
+            Ok(layer) => Prepared::Layer(layer.into_bytes().into()),
+            Err(problem) => Prepared::Rejected(problem),
+        }
+    }
+
     /// The cell of `resolved` and whether this call created it.
     fn cell(&self, resolved: &ResolvedPath) -> (Arc<OnceLock<Prepared>>, bool) {
         let mut prepared = self.prepared.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
@@ -183,6 +220,10 @@ impl Shared {
     /// Reads `resolved` and, if it is a text layer, checks and normalizes it, then starts the
     /// preparation of the layers it names; if it is a crate file, checks and repairs it.
     fn prepare(self: &Arc<Self>, resolved: &ResolvedPath) -> Prepared {
+        let document = self.mtlx_documents.lock().unwrap_or_else(|p| p.into_inner()).get(resolved).cloned();
+        if let Some(document) = document {
+            return self.prepare_mtlx(&document);
+        }
         let Ok(mut asset) = self.inner.open_asset(resolved) else { return Prepared::Other };
         let magic = match read_magic(asset.as_mut(), crate_check::MAGIC.len()) {
             Ok(magic) => magic,
@@ -269,7 +310,7 @@ impl Resolver for IngestResolver {
     }
 
     fn resolve(&self, asset_path: &str) -> Option<ResolvedPath> {
-        self.shared.inner.resolve(asset_path)
+        self.shared.inner.resolve(asset_path).map(|resolved| self.shared.layer_path(resolved))
     }
 
     fn resolve_for_new_asset(&self, asset_path: &str) -> Option<ResolvedPath> {

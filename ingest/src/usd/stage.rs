@@ -954,7 +954,7 @@ def Mesh "Tri2" (prepend apiSchemas = ["MaterialBindingAPI"])
         };
         assert_eq!(
             warned("/Looks/FromMtlx"),
-            ["bound material is not defined on the stage; using displayColor"]
+            ["bound material is not defined on the stage (no composed layer defines it: see the composition warnings for an arc that failed); using displayColor"]
         );
         assert_eq!(
             warned("/Scoped"),

@@ -401,10 +401,11 @@ def Mesh "Mtlx" (prepend apiSchemas = ["MaterialBindingAPI"]) {{{TRI}
     assert_eq!(mat("/Subsets", 0).path, "/Looks/Red");
     assert_eq!(mat("/Subsets", 1).path, "/Looks/Blue");
 
+    // A MaterialX standard_surface with no inputs authored: the model's defaults, mapped.
     let x = mat("/Mtlx", 0);
-    assert_eq!(x.path, "/Mtlx.displayColor");
-    assert_eq!(x.diffuse_color, Vec3::new(0.0, 1.0, 0.0));
-    assert!(has_warning(&scene, "/Looks/X", "outputs:mtlx:surface"));
+    assert_eq!(x.path, "/Looks/X");
+    assert_eq!((x.diffuse_color, x.roughness), (Vec3::splat(0.8), 0.2));
+    assert_eq!(x.look.surface_model, "standard_surface");
 
     let paths: Vec<&str> = scene.materials.iter().map(|m| m.path.as_str()).collect();
     assert_eq!(paths.len(), 3, "materials deduplicated: {paths:?}");
@@ -619,17 +620,55 @@ fn missing_reference_names_referencing_layer() {
 }
 
 #[test]
-fn unsupported_reference_format_is_a_warning() {
+fn an_mtlx_reference_composes_its_materials() {
     let files = [
         (
             "scene.usda",
             "#usda 1.0\n\ndef Xform \"World\" {\n    def \"Look\" (references = @look.mtlx@) {}\n}\n",
         ),
-        ("look.mtlx", "<?xml version=\"1.0\"?>\n<materialx version=\"1.38\"/>\n"),
+        (
+            "look.mtlx",
+            "<?xml version=\"1.0\"?>\n<materialx version=\"1.38\"><standard_surface name=\"S\" type=\"surfaceshader\"/><surfacematerial name=\"M\" type=\"material\"><input name=\"surfaceshader\" type=\"surfaceshader\" nodename=\"S\"/></surfacematerial></materialx>\n",
+        ),
     ];
     let (_dir, root) = write(&files);
     let scene = load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    assert!(has_warning(&scene, "/World/Look", "look.mtlx"), "{:?}", scene.warnings);
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    // The reference names no prim: the document's default prim, /MaterialX, lands on /World/Look.
+    let stage = Stage::open(&root, &LoadOptions::default()).unwrap();
+    assert_eq!(stage.type_name("/World/Look/Materials/M"), "Material");
+    assert_eq!(stage.type_name("/World/Look/Materials/M/S"), "Shader");
+    assert_eq!(
+        stage.connections("/World/Look/Materials/M", "outputs:mtlx:surface"),
+        ["/World/Look/Materials/M/S.outputs:out"]
+    );
+}
+
+#[test]
+fn a_sublayered_mtlx_document_adds_its_materials_at_usdmtlx_paths() {
+    let files = [
+        (
+            "scene.usda",
+            "#usda 1.0\n(\n    subLayers = [@./looks/look.mtlx@]\n)\ndef Mesh \"Tri\" (prepend apiSchemas = [\"MaterialBindingAPI\"])\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n    uniform token subdivisionScheme = \"none\"\n    rel material:binding = </MaterialX/Materials/Red>\n}\n",
+        ),
+        (
+            "looks/look.mtlx",
+            "<?xml version=\"1.0\"?>\n<materialx version=\"1.39\">\n  <open_pbr_surface name=\"S\" type=\"surfaceshader\">\n    <input name=\"base_color\" type=\"color3\" value=\"1, 0, 0\"/>\n  </open_pbr_surface>\n  <surfacematerial name=\"Red\" type=\"material\">\n    <input name=\"surfaceshader\" type=\"surfaceshader\" nodename=\"S\"/>\n  </surfacematerial>\n</materialx>\n",
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("looks")).unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let scene =
+        load(&dir.path().join("scene.usda"), &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let red = &scene.materials[mesh(&scene, "/Tri").triangle_materials[0] as usize];
+    assert_eq!(red.path, "/MaterialX/Materials/Red");
+    // base_weight 1 × base_color (1, 0, 0).
+    assert_eq!(red.diffuse_color, Vec3::new(1.0, 0.0, 0.0));
+    assert_eq!(red.look.surface_model, "open_pbr_surface");
 }
 
 #[test]

@@ -17,7 +17,7 @@
 //! assert_eq!(view.triangles.len(), 0);
 //! ```
 //!
-//! Modules: [`records`] (the Pod records), [`curves`] (curve and point records, format 2), [`instances`] (prototypes, instances and
+//! Modules: [`records`] (the Pod records; the `MATH` shader op of MaterialX arithmetic, format 7), [`curves`] (curve and point records, format 2), [`instances`] (prototypes, instances and
 //! the top-level BVH, format 5), [`dome`] (textured dome lights' maps and distributions, format 6), `container` (header and section table), `scene` (encode and
 //! parse), `checksum`, `error`, `io` (atomic write, aligned buffers).
 

@@ -381,8 +381,89 @@ pub mod op_kind {
     /// with the triangle's barycentrics, or `params[0]` (the reader's fallback) where the mesh has no
     /// such primvar (UsdPrimvarReader_float/float3/float4/int). `src` is a key, not a register.
     pub const PRIMVAR: u32 = 5;
+    /// `r[dst] = f(a, b, c)` per channel with `a = r[src]`, `b = r[src2]`, `c = r[src3]` and `f` the
+    /// [`super::math_op`] in the low byte of `flags` (MaterialX arithmetic nodes). The result carries
+    /// no footprint derivatives (a texture read through it filters at the finest level).
+    pub const MATH: u32 = 6;
     /// One past the largest kind.
-    pub const COUNT: u32 = 6;
+    pub const COUNT: u32 = 7;
+}
+
+/// [`op_kind::MATH`] functions, in the low byte of the op's `flags`; per channel `i` of `a`, `b`, `c`
+/// (unused operands ignored). Each is one IEEE expression, evaluated the same way by the scalar and
+/// the lane programs.
+pub mod math_op {
+    /// `a + b`.
+    pub const ADD: u32 = 0;
+    /// `a - b`.
+    pub const SUBTRACT: u32 = 1;
+    /// `a * b`.
+    pub const MULTIPLY: u32 = 2;
+    /// `a / b`.
+    pub const DIVIDE: u32 = 3;
+    /// `b + (a - b) * c`: MaterialX `mix(fg = a, bg = b, mix = c)`.
+    pub const MIX: u32 = 4;
+    /// `min(max(a, b), c)`: MaterialX `clamp(in, low, high)`.
+    pub const CLAMP: u32 = 5;
+    /// `powf(a, b)`.
+    pub const POWER: u32 = 6;
+    /// `min(a, b)`.
+    pub const MIN: u32 = 7;
+    /// `max(a, b)`.
+    pub const MAX: u32 = 8;
+    /// `a[s[i]]`, the four 2-bit channel selectors `s` in bits 8..16 of `flags`, lowest first
+    /// (MaterialX `extract`, `convert`, `swizzle`, `separate`).
+    pub const SWIZZLE: u32 = 9;
+    /// A tangent-space normal from a `[0, 1]`-encoded one: `2a - 1`, then `x` and `y` times `b.x`
+    /// (MaterialX `normalmap` with `scale`).
+    pub const NORMAL_MAP: u32 = 10;
+    /// `1 - a`.
+    pub const ONE_MINUS: u32 = 11;
+    /// `|a|`.
+    pub const ABSOLUTE: u32 = 12;
+    /// One past the largest function.
+    pub const COUNT: u32 = 13;
+}
+
+/// An [`op_kind::MATH`] op's function (its `flags`) of its operand values: the one definition of
+/// each [`math_op`], run by render's scalar and lane programs and by ingest when it folds
+/// constant operands.
+#[inline]
+pub fn math(flags: u32, a: [f32; 4], b: [f32; 4], c: [f32; 4]) -> [f32; 4] {
+    let each = |f: &dyn Fn(f32, f32, f32) -> f32| std::array::from_fn(|i| f(a[i], b[i], c[i]));
+    match op_math(flags) {
+        math_op::ADD => each(&|a, b, _| a + b),
+        math_op::SUBTRACT => each(&|a, b, _| a - b),
+        math_op::MULTIPLY => each(&|a, b, _| a * b),
+        math_op::DIVIDE => each(&|a, b, _| a / b),
+        math_op::MIX => each(&|a, b, c| b + (a - b) * c),
+        math_op::CLAMP => each(&|a, b, c| a.max(b).min(c)),
+        math_op::POWER => each(&|a, b, _| a.powf(b)),
+        math_op::MIN => each(&|a, b, _| a.min(b)),
+        math_op::MAX => each(&|a, b, _| a.max(b)),
+        math_op::SWIZZLE => {
+            let s = op_math_swizzle(flags);
+            std::array::from_fn(|i| a[((s >> (2 * i)) & 3) as usize])
+        }
+        math_op::NORMAL_MAP => {
+            let n: [f32; 4] = each(&|a, _, _| 2.0 * a - 1.0);
+            [n[0] * b[0], n[1] * b[0], n[2], n[3]]
+        }
+        math_op::ONE_MINUS => each(&|a, _, _| 1.0 - a),
+        math_op::ABSOLUTE => each(&|a, _, _| a.abs()),
+        // Validated at parse: no other code reaches a renderer.
+        _ => a,
+    }
+}
+
+/// The [`math_op`] of an [`op_kind::MATH`] op's flags.
+pub const fn op_math(flags: u32) -> u32 {
+    flags & 0xff
+}
+
+/// The swizzle selectors of a [`math_op::SWIZZLE`] op's flags (see [`op_kind::OUTPUT`] for the layout).
+pub const fn op_math_swizzle(flags: u32) -> u32 {
+    (flags >> 8) & 0xff
 }
 
 /// [`op_kind::TEXTURE`] flag: `texture` indexes the UDIM sets, not the textures.
@@ -444,8 +525,12 @@ pub struct ShaderOp {
     pub texture: u32,
     /// Kind-specific bits.
     pub flags: u32,
+    /// Second source register of [`op_kind::MATH`] (zero for the other kinds).
+    pub src2: u32,
+    /// Third source register of [`op_kind::MATH`] (zero for the other kinds).
+    pub src3: u32,
     /// Reserved, zero.
-    pub reserved: [u32; 3],
+    pub reserved: u32,
     /// Kind-specific constants.
     pub params: [[f32; 4]; 3],
 }

@@ -341,6 +341,10 @@ impl<'a> SceneView<'a> {
                         && (op.texture == NONE || (op.texture as usize) < limit)
                 }
                 op_kind::OUTPUT => op.dst < shading_input::COUNT && register_ok(op.src),
+                op_kind::MATH => {
+                    crate::op_math(op.flags) < crate::math_op::COUNT
+                        && [op.dst, op.src, op.src2, op.src3].into_iter().all(register_ok)
+                }
                 _ => false,
             };
             if !ok {

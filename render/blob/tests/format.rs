@@ -208,6 +208,26 @@ fn bad_texture_and_program_indices_are_rejected() {
     rejects("source register out of range", &|s| s.shader_ops[2].src = 99, SectionKind::ShaderOps);
     rejects("unknown input", &|s| s.shader_ops[2].dst = shading_input::COUNT, SectionKind::ShaderOps);
     rejects("unknown op", &|s| s.shader_ops[0].kind = op_kind::COUNT, SectionKind::ShaderOps);
+    let math = |s: &mut SceneData, src3: u32, function: u32| {
+        s.shader_ops[0] = ShaderOp {
+            kind: op_kind::MATH,
+            dst: 1,
+            src: 0,
+            src2: 2,
+            src3,
+            flags: function,
+            ..ShaderOp::default()
+        };
+    };
+    rejects(
+        "math operand out of range",
+        &|s| math(s, MAX_REGISTERS, blob::math_op::MIX),
+        SectionKind::ShaderOps,
+    );
+    rejects("unknown math function", &|s| math(s, 3, blob::math_op::COUNT), SectionKind::ShaderOps);
+    let mut scene = sample_scene();
+    math(&mut scene, 3, blob::math_op::MIX);
+    assert!(parse(&scene.encode()).is_ok(), "a valid MATH op is accepted");
     rejects("program past the ops", &|s| s.materials[0].program_len = 4, SectionKind::Materials);
     // A missing texture is NONE, not an error.
     let mut scene = sample_scene();

@@ -9,7 +9,8 @@
 //! (each lane's triangle finds its own primvar record); `TEXTURE` hands the eight coordinates and
 //! footprints to [`texture::sample_lanes_with`] (one texture per op, so the format is resolved once),
 //! then applies scale and bias in lanes — a UDIM op picks a tile per lane, so it looks each lane up
-//! alone; `OUTPUT` writes the swizzled register into each lane's inputs.
+//! alone; `MATH` runs [`blob::math`] per lane (a few flops: not worth a lane twin, and equal by
+//! construction); `OUTPUT` writes the swizzled register into each lane's inputs.
 //!
 //! Register traffic (callgrind, shading-heavy 120×80, 8 spp, 1 thread: 11,443 groups, one texture op
 //! each, ≈ 1,260 instructions a group outside the lookup): a second mask marking the registers that
@@ -128,9 +129,27 @@ pub fn evaluate_lanes<T: Touch>(
             op_kind::CONST => regs.set(op.dst, broadcast(op.params[0]), NO_DERIVATIVE, NO_DERIVATIVE),
             op_kind::PRIMVAR_UV => primvar_uv_lanes(regs, op, at),
             op_kind::TRANSFORM_2D => transform_lanes(regs, op),
+            op_kind::MATH => math_lanes(regs, op),
             _ => {}
         }
     }
+}
+
+/// `MATH`: the scalar [`crate::shading::math`] per lane (one copy of each function, so the lanes
+/// equal the scalar program by construction; the ops are a few flops, not worth a lane twin).
+fn math_lanes(regs: &mut RegisterLanes, op: &ShaderOp) {
+    let column = |r: u32, k: usize| {
+        let v = regs.get(r).0;
+        [v[0][k], v[1][k], v[2][k], v[3][k]]
+    };
+    let mut value = [[0.0; LANES]; 4];
+    for k in 0..LANES {
+        let v = crate::shading::math(op.flags, column(op.src, k), column(op.src2, k), column(op.src3, k));
+        for c in 0..4 {
+            value[c][k] = v[c];
+        }
+    }
+    regs.set(op.dst, value, NO_DERIVATIVE, NO_DERIVATIVE);
 }
 
 fn broadcast(v: [f32; 4]) -> [Lanes; 4] {
@@ -372,6 +391,7 @@ mod tests {
                 ],
                 ..Material::default()
             },
+            Material { program: math_program(), ..Material::default() },
             testscene::lambert(0.5),
         ];
         Scene {
@@ -400,6 +420,45 @@ mod tests {
             ],
             ..Scene::default()
         }
+    }
+
+    /// Every `MATH` function over a texture, a primvar and constants (negative, zero and
+    /// fractional operands: `powf` and `/` meet NaN and infinities), each bound to an input.
+    fn math_program() -> Vec<ShaderNode> {
+        use scene_pack::scene::MathOp::*;
+        use ShadingInput::*;
+        let math = |dst, op, srcs| ShaderNode::Math { dst, op, srcs };
+        let ops = [
+            Add,
+            Subtract,
+            Multiply,
+            Divide,
+            Mix,
+            Clamp,
+            Power,
+            Min,
+            Max,
+            Swizzle([2, 0, 3, 1]),
+            NormalMap,
+            OneMinus,
+            Absolute,
+        ];
+        let mut program = vec![
+            ShaderNode::PrimvarUv { dst: 0, fallback: [0.25, 0.75, 0.0, 1.0] },
+            texture_node(1, 0, Some(0), Wrap::Repeat, Wrap::Repeat),
+            ShaderNode::Primvar { dst: 2, name: "vert".into(), fallback: [0.9, -0.8, 0.0, 0.6] },
+            ShaderNode::Const { dst: 3, value: [-0.5, 0.0, 2.5, 0.3] },
+        ];
+        let inputs = [DiffuseColor, EmissiveColor, SpecularColor, Roughness, Metallic, Opacity, Normal];
+        for (i, op) in ops.into_iter().enumerate() {
+            // Registers 4..16, the last op overwriting register 4 after it was read.
+            let dst = 4 + (i as u32 % 12);
+            let srcs = [[1, 2, 3], [2, 3, 1], [3, 1, 2]][i % 3];
+            let srcs = if i >= 6 { [dst - 1, srcs[1], srcs[2]] } else { srcs };
+            program.push(math(dst, op, srcs));
+            program.push(out(inputs[i % inputs.len()], dst, [0, 1, 2, 3]));
+        }
+        program
     }
 
     fn footprint(rng: &mut Rng, triangles: u32) -> UvFootprint {

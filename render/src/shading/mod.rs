@@ -8,6 +8,10 @@
 //! coordinates, transformed by `TRANSFORM_2D`), so a texture read through a UsdTransform2d picks its mip
 //! level from the transformed footprint.
 //!
+//! `MATH` ops (MaterialX arithmetic, channel picks and normal maps; [`blob::math_op`]) apply
+//! [`blob::math`], the one definition of each function, to their operand registers; the result
+//! carries no footprint derivatives.
+//!
 //! `PRIMVAR` ops read the hit mesh's primvar from the blob's primvar tables and interpolate it with
 //! the triangle's barycentrics ([`MeshPoint`]).
 //!
@@ -191,6 +195,7 @@ fn registers_used(program: &[ShaderOp]) -> u32 {
     let named = |op: &ShaderOp| match op.kind {
         op_kind::OUTPUT => op.src,
         op_kind::TEXTURE | op_kind::TRANSFORM_2D => op.src.max(op.dst),
+        op_kind::MATH => op.dst.max(op.src).max(op.src2).max(op.src3),
         op_kind::CONST | op_kind::PRIMVAR_UV | op_kind::PRIMVAR => op.dst,
         _ => 0,
     };
@@ -493,6 +498,10 @@ pub(crate) fn reg(r: u32) -> usize {
     (r & (MAX_REGISTERS - 1)) as usize
 }
 
+/// A `MATH` op's function of its operand values: [`blob::math`], the one definition (the lanes
+/// run it per lane, so they equal the scalar program by construction).
+pub(crate) use blob::math;
+
 /// `OUTPUT`'s swizzle: four 2-bit channel selectors, lowest first.
 #[inline]
 pub(crate) fn swizzle(v: [f32; 4], flags: u32) -> [f32; 4] {
@@ -548,6 +557,10 @@ impl<const N: usize> Registers<N> {
                 } else {
                     self.set(op.dst, op.params[0], [0.0; 2], [0.0; 2]);
                 }
+            }
+            op_kind::MATH => {
+                let v = |r| self.value[self.index(r)];
+                self.set(op.dst, math(op.flags, v(op.src), v(op.src2), v(op.src3)), [0.0; 2], [0.0; 2]);
             }
             op_kind::TRANSFORM_2D => {
                 let [a, b, c, d] = op.params[0];
@@ -683,6 +696,32 @@ mod tests {
         assert_eq!(registers_used(&[op(op_kind::PRIMVAR, 2, 40), op(op_kind::OUTPUT, 30, 1)]), 3);
         assert_eq!(registers_used(&[op(op_kind::TRANSFORM_2D, 1, 7)]), 8);
         assert_eq!(registers_used(&[op(op_kind::TEXTURE, 5, 0)]), 6);
+        let math = ShaderOp { kind: op_kind::MATH, dst: 1, src: 2, src2: 9, src3: 3, ..Default::default() };
+        assert_eq!(registers_used(&[math]), 10);
+    }
+
+    #[test]
+    fn math_functions_follow_the_materialx_definitions() {
+        use blob::math_op as m;
+        let (a, b, c) = ([0.25, 0.5, 0.75, 1.0], [2.0, -1.0, 0.5, 0.0], [0.5, 0.25, 1.0, 0.0]);
+        let f = |op| math(op, a, b, c);
+        assert_eq!(f(m::ADD), [2.25, -0.5, 1.25, 1.0]);
+        assert_eq!(f(m::SUBTRACT), [-1.75, 1.5, 0.25, 1.0]);
+        assert_eq!(f(m::MULTIPLY), [0.5, -0.5, 0.375, 0.0]);
+        assert_eq!(f(m::DIVIDE), [0.125, -0.5, 1.5, f32::INFINITY]);
+        // mix(fg = a, bg = b, mix = c): c = 1 is the foreground, c = 0 the background.
+        assert_eq!(f(m::MIX), [1.125, -0.625, 0.75, 0.0]);
+        // clamp(in = a, low = b, high = c).
+        assert_eq!(f(m::CLAMP), [0.5, 0.25, 0.75, 0.0]);
+        assert_eq!(f(m::POWER), [0.0625, 2.0, 0.75f32.powf(0.5), 1.0]);
+        assert_eq!(f(m::MIN), [0.25, -1.0, 0.5, 0.0]);
+        assert_eq!(f(m::MAX), [2.0, 0.5, 0.75, 1.0]);
+        let zwxy = m::SWIZZLE | (0b01_00_11_10 << 8);
+        assert_eq!(f(zwxy), [0.75, 1.0, 0.25, 0.5]);
+        // normalmap: 2a - 1 = (-0.5, 0, 0.5, 1), x and y scaled by b.x = 2.
+        assert_eq!(f(m::NORMAL_MAP), [-1.0, 0.0, 0.5, 1.0]);
+        assert_eq!(f(m::ONE_MINUS), [0.75, 0.5, 0.25, 0.0]);
+        assert_eq!(math(m::ABSOLUTE, b, a, c), [2.0, 1.0, 0.5, 0.0]);
     }
 
     #[test]

@@ -102,7 +102,9 @@ fn plan(shading: &Shading, material: u32) -> KeyPlan {
                 plan.no_uv_key = shading.sort_key(material, &UvFootprint::default());
                 return KeyPlan::Uv(plan);
             }
-            op_kind::PRIMVAR => regs[reg(op.dst)] = Source::Varying,
+            // A MaterialX arithmetic result (say texture coordinates times a primvar) is followed
+            // by the scalar key, which runs the op.
+            op_kind::PRIMVAR | op_kind::MATH => regs[reg(op.dst)] = Source::Varying,
             op_kind::CONST => regs[reg(op.dst)] = Source::Constant,
             op_kind::PRIMVAR_UV => {
                 regs[reg(op.dst)] = Source::Uv { transforms: [0; MAX_TRANSFORMS], count: 0 };
@@ -393,6 +395,15 @@ mod tests {
                 Some(0),
             ),
             with(vec![transform(3, 2, 10.0)], 3, Some(0)),
+            // Coordinates through a MaterialX multiply: the scalar key runs the op.
+            with(
+                vec![
+                    ShaderNode::Const { dst: 4, value: [2.0, 3.0, 1.0, 1.0] },
+                    ShaderNode::Math { dst: 2, op: scene_pack::scene::MathOp::Multiply, srcs: [0, 4, 4] },
+                ],
+                2,
+                Some(0),
+            ),
         ];
         let scene = scene_pack::Scene {
             meshes: vec![card(0.0, 1.0, 0)],
@@ -435,6 +446,7 @@ mod tests {
                 Some((0, true)),
                 None,
                 Some((9, true)),
+                None,
             ]
         );
     }

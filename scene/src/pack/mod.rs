@@ -371,6 +371,9 @@ fn shader_op(
             let flags = swizzle.iter().enumerate().fold(0u32, |f, (i, &c)| f | ((c as u32 & 3) << (2 * i)));
             rec::ShaderOp { kind: op_kind::OUTPUT, dst: input_code(input), src, flags, ..op }
         }
+        ShaderNode::Math { dst, op: math, srcs: [a, b, c] } => {
+            rec::ShaderOp { kind: op_kind::MATH, dst, src: a, src2: b, src3: c, flags: math.flags(), ..op }
+        }
     }
 }
 
@@ -585,6 +588,12 @@ fn program_problem(program: &[ShaderNode], textures: usize) -> Option<String> {
             ShaderNode::Transform2d { dst, src, .. } => ([dst, src], None),
             ShaderNode::Texture { dst, src, texture, .. } => ([dst, src], texture),
             ShaderNode::Output { src, .. } => ([src, 0], None),
+            ShaderNode::Math { dst, srcs, .. } => {
+                if srcs.iter().any(|&r| r >= max) {
+                    return Some(format!("shading program uses a register past {max}"));
+                }
+                ([dst, 0], None)
+            }
         };
         if regs.iter().any(|&r| r >= max) {
             return Some(format!("shading program uses a register past {max}"));

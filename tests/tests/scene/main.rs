@@ -7,11 +7,13 @@
 //! - [`textures`]: texture files and UsdShade networks through ingest and render;
 //! - [`dome`]: textured dome lights;
 //! - [`instancing`]: two-level instancing against the flattened scene;
-//! - [`alembic`]: Alembic archives against the USD they were exported from.
+//! - [`alembic`]: Alembic archives against the USD they were exported from;
+//! - [`materialx`]: a MaterialX look (`.mtlx` referenced from USD) through ingest and render.
 
 mod accel;
 mod alembic;
 mod dome;
 mod instancing;
+mod materialx;
 mod pipeline;
 mod textures;
