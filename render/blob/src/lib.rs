@@ -36,12 +36,12 @@ pub mod surface_inputs;
 pub mod tree;
 
 pub use checksum::checksum;
+pub use container::reseal;
 pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};
 pub use curves::{CurveAttributes, CurveData, CurveGroup, CurveSegment, CurveView, PointSphere};
 pub use dome::{DomeData, DomeMap, DomeView};
 pub use error::BlobError;
 pub use instances::{Instance, InstanceData, InstanceView, Prototype};
-pub use container::reseal;
 pub use io::{write_atomic, AlignedBytes};
 pub use records::*;
 pub use scene::{SceneData, SceneView};

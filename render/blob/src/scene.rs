@@ -395,7 +395,8 @@ impl<'a> SceneView<'a> {
         let info = self.info;
         let empty = info.bounds_min.iter().all(|&x| x == f32::INFINITY)
             && info.bounds_max.iter().all(|&x| x == f32::NEG_INFINITY);
-        if !empty && !(all_sane(&info.bounds_min) && all_sane(&info.bounds_max)) {
+        let sane_bounds = all_sane(&info.bounds_min) && all_sane(&info.bounds_max);
+        if !(empty || sane_bounds) {
             return bad("scene bounds non-finite or beyond ±1e12 (and not the empty encoding)");
         }
         let [w, h] = info.resolution;

@@ -235,8 +235,14 @@ mod tests {
     #[test]
     fn trees_pass_and_cycles_dags_orphans_and_depth_fail() {
         assert_eq!(chain(&[(0, &[1, 2]), (1, &[3])], 4, 3), Ok(()));
-        assert_eq!(chain(&[(0, &[0])], 1, 8).unwrap_err().1, "child node index not after the parent or out of range");
-        assert!(chain(&[(0, &[1, 2]), (1, &[2])], 3, 8).unwrap_err().1.contains("shared with another parent"));
+        assert_eq!(
+            chain(&[(0, &[0])], 1, 8).unwrap_err().1,
+            "child node index not after the parent or out of range"
+        );
+        assert!(chain(&[(0, &[1, 2]), (1, &[2])], 3, 8)
+            .unwrap_err()
+            .1
+            .contains("shared with another parent"));
         assert!(chain(&[(0, &[1])], 3, 8).unwrap_err().1.contains("not reachable"));
         assert!(chain(&[(0, &[1]), (1, &[2])], 3, 2).unwrap_err().1.contains("deeper"));
         assert_eq!(chain(&[(0, &[1]), (1, &[2])], 3, 3), Ok(()));
