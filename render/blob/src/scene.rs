@@ -511,7 +511,9 @@ impl<'a> SceneView<'a> {
             previous_cdf = e.cdf;
         }
         self.validate_info()?;
-        if let Some(i) = self.positions.iter().position(|p| !all_sane(p)) {
+        // One pass over all coordinates; the offending record is looked for only on failure.
+        if !all_sane(bytemuck::cast_slice(self.positions)) {
+            let i = self.positions.iter().position(|p| !all_sane(p)).unwrap_or(0);
             return bad(K::Positions, i, "non-finite or huge position");
         }
         if self.info.default_camera != NONE && self.info.default_camera as usize >= self.cameras.len() {
@@ -540,7 +542,9 @@ impl<'a> SceneView<'a> {
             crate::tree::bvh8_children(nodes, n, nodes.len(), (0, blocks), "leaf block range out of bounds")
         })
         .or_else(|(i, what)| bad(K::BvhNodes, i, what))?;
-        if let Some(i) = self.bvh_blocks.iter().position(|b| !all_sane(bytemuck::cast_slice(&b.vertices))) {
+        let block_ok = |b: &TriangleBlock| all_sane(bytemuck::cast_slice(&b.vertices));
+        if !self.bvh_blocks.iter().fold(true, |ok, b| ok & block_ok(b)) {
+            let i = self.bvh_blocks.iter().position(|b| !block_ok(b)).unwrap_or(0);
             return bad(K::BvhTriangleBlocks, i, "non-finite or huge vertex");
         }
         self.instancing

@@ -635,7 +635,10 @@ fn bvh_dags_orphans_and_deep_chains_are_rejected() {
     assert!(parse(&chain(tree::MAX_BVH_DEPTH as usize).encode()).is_ok());
     assert_eq!(
         crafted_error(&chain(tree::MAX_BVH_DEPTH as usize + 1), K::BvhNodes),
-        format!("section BvhNodes record {}: BVH deeper than the traversal stack allows", tree::MAX_BVH_DEPTH - 1)
+        format!(
+            "section BvhNodes record {}: BVH deeper than the traversal stack allows",
+            tree::MAX_BVH_DEPTH - 1
+        )
     );
     let mut self_child = sample_scene();
     link(&mut self_child.bvh_nodes[0], 1, 0);
@@ -647,14 +650,18 @@ fn bvh_dags_orphans_and_deep_chains_are_rejected() {
     link(&mut s.instancing.bvh_nodes[0], 1, 1);
     link(&mut s.instancing.bvh_nodes[0], 2, 2);
     link(&mut s.instancing.bvh_nodes[1], 1, 2);
-    assert!(crafted_error(&s, K::InstanceBvhNodes).contains("record 1: child node shared with another parent"));
+    assert!(
+        crafted_error(&s, K::InstanceBvhNodes).contains("record 1: child node shared with another parent")
+    );
     let mut s = with_instances();
     s.instancing.prototype_nodes = vec![s.instancing.prototype_nodes[0]; 3];
     s.instancing.prototypes[0].node_count = 3;
     link(&mut s.instancing.prototype_nodes[0], 1, 1);
     link(&mut s.instancing.prototype_nodes[0], 2, 2);
     link(&mut s.instancing.prototype_nodes[1], 1, 2);
-    assert!(crafted_error(&s, K::PrototypeBvhNodes).contains("record 1: child node shared with another parent"));
+    assert!(
+        crafted_error(&s, K::PrototypeBvhNodes).contains("record 1: child node shared with another parent")
+    );
 }
 
 #[test]
