@@ -777,4 +777,10 @@ fn reseal_lets_byte_level_mutations_reach_structural_validation() {
     blob::reseal(&mut bytes);
     let err = parse(&bytes).unwrap_err().to_string();
     assert_eq!(err, "section BvhNodes record 0: child node index not after the parent or out of range");
+    // A truncation gets past the file-size check to the section bounds.
+    let mut short = bytes[..bytes.len() - 64].to_vec();
+    blob::reseal(&mut short);
+    let header: Header = bytemuck::pod_read_unaligned(&short[..64]);
+    assert_eq!(header.file_size, short.len() as u64);
+    assert!(matches!(parse(&short), Err(BlobError::SectionBounds { .. })), "{:?}", parse(&short));
 }
