@@ -4,7 +4,8 @@
 //!
 //! * **Atomic**: each output is written to a temporary file in its own directory, fsynced and renamed
 //!   over the target ([`write_atomic_with`]). A full disk or a kill leaves the previous file intact and
-//!   never a truncated one under the target name.
+//!   never a truncated one under the target name. An existing device or pipe (`-o /dev/null`) is written
+//!   directly: a rename would replace the node itself.
 //! * **Stale temporaries**: the temporary is `.NAME.render-tmp-PID`; [`check_outputs`] removes those
 //!   whose process no longer runs (Linux `/proc`), so an interrupted run's leftovers go with the next run.
 //! * **Checked before work** ([`check_outputs`]): an output that is the input blob (same path after
@@ -45,8 +46,15 @@ pub fn write_atomic_with(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<(), String>,
 ) -> Result<(), RenderError> {
-    let temp = temp_path(path, std::process::id())?;
     let fail = |message: String| RenderError::Output { path: path.to_path_buf(), message };
+    if is_special(path) {
+        // A device or pipe (`-o /dev/null`): renaming over it would replace the node with a file.
+        let file = std::fs::OpenOptions::new().write(true).open(path).map_err(|e| fail(e.to_string()))?;
+        let mut out = BufWriter::new(file);
+        write(&mut out).map_err(fail)?;
+        return out.flush().map_err(|e| fail(e.to_string()));
+    }
+    let temp = temp_path(path, std::process::id())?;
     let result = (|| {
         let file = File::create(&temp).map_err(|e| format!("cannot create {}: {e}", temp.display()))?;
         let mut out = BufWriter::new(file);
@@ -65,6 +73,11 @@ pub fn write_atomic_with(
         let _ = std::fs::remove_file(&temp);
     }
     result.map_err(fail)
+}
+
+/// Whether `path` exists and is neither a regular file nor a directory (a device, a pipe, a socket).
+fn is_special(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
 }
 
 /// Writes `text` to `path` atomically (the statistics JSON).
@@ -140,6 +153,9 @@ pub fn check_outputs(blob: &Path, outputs: &[(&str, &Path)]) -> Result<(), Rende
             return Err(refuse(format!("{option} and {other} name the same file")));
         }
         seen.push((option, target, id));
+        if is_special(path) {
+            continue;
+        }
         remove_stale_temporaries(path);
         // Probe the directory with the temporary the write will use, so that an unwritable directory
         // fails now rather than after the render.
@@ -272,6 +288,9 @@ mod tests {
         write_text(&path, "new").unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        // A device is written through, not replaced.
+        write_text(Path::new("/dev/null"), "discarded").unwrap();
+        assert!(!std::fs::metadata("/dev/null").unwrap().is_file());
     }
 
     #[test]
