@@ -2,6 +2,17 @@
 //! Prints the parse time (best of five), and the time of one checksum pass over the whole file for
 //! scale (parse checksums every section once; the structural checks come on top).
 
+/// Depth (root = 1) of a validated BVH8: children follow their parent, so one forward pass.
+fn depth(nodes: &[blob::BvhNode]) -> u32 {
+    let mut d = vec![1u32; nodes.len()];
+    for (i, node) in nodes.iter().enumerate() {
+        for &c in node.children.iter().filter(|&&c| !blob::child_ref::is_leaf(c)) {
+            d[c as usize] = d[i] + 1;
+        }
+    }
+    d.into_iter().max().unwrap_or(0)
+}
+
 fn main() {
     for path in std::env::args().skip(1) {
         let bytes = match std::fs::read(&path) {
@@ -24,8 +35,9 @@ fn main() {
         let parse_ms = best(&|| {
             result.set(match blob::SceneView::parse(&bytes) {
                 Ok(v) => format!(
-                    "ok: {} BVH nodes, {} prototype nodes, {} curve nodes, {} positions",
+                    "ok: {} BVH nodes (depth {}), {} prototype nodes, {} curve nodes, {} positions",
                     v.bvh_nodes.len(),
+                    depth(v.bvh_nodes),
                     v.instancing.prototype_nodes.len(),
                     v.curves.bvh_nodes.len(),
                     v.positions.len()

@@ -192,8 +192,9 @@ pub struct SceneView<'a> {
     pub cameras: &'a [Camera],
     /// Emissive triangles.
     pub emissive_triangles: &'a [EmissiveTriangle],
-    /// BVH nodes, root first. Every internal child index is greater than its parent's index and in
-    /// range, every leaf's block range is in range.
+    /// BVH nodes, root first: a tree (every internal child after its parent and reached once, depth at
+    /// most [`crate::tree::MAX_BVH_DEPTH`]), every leaf's block range in range and non-empty or
+    /// [`child_ref::EMPTY`] (see [`crate::tree`]).
     pub bvh_nodes: &'a [BvhNode],
     /// Triangle blocks of the BVH leaves; every lane's triangle index is in range.
     pub bvh_blocks: &'a [TriangleBlock],
