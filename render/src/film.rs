@@ -41,6 +41,46 @@ impl Sampling {
     }
 }
 
+/// Bytes of one pixel of [`Image`] or of a tile result: beauty 16, albedo 12, normal 12, depth 4.
+pub const PIXEL_BYTES: u64 = 16 + 12 + 12 + 4;
+
+/// Bytes per pixel at the render's peak: the tile results and the assembled [`Image`] are alive together
+/// at the end of the frame, and writing the EXR copies every channel once more (its compressed blocks,
+/// smaller than the copy, are counted in the same third).
+pub const PEAK_BYTES_PER_PIXEL: u64 = 3 * PIXEL_BYTES;
+
+/// Upper estimate of one path slot of a worker's pools (rays, hits, curve hits, shadow rays, surfaces,
+/// queue entries): the wavefront's 2048-path pool is sized to fit a 2 MiB L2, so 1 KiB per path, doubled
+/// for margin. The scalar integrator needs less.
+pub const POOL_BYTES_PER_PATH: u64 = 2048;
+
+/// Largest samples per pixel: per-pixel sums are `f32`, which stop counting at `2²⁴` equal samples.
+pub const MAX_SPP: u32 = 1 << 24;
+
+/// Bytes a `width × height` render on `threads` workers with tiles of `tile_size²` pixels allocates
+/// for its film, path pools and AOVs (not the mapped blob, whose pages the kernel owns and may evict).
+pub fn memory_estimate(width: u32, height: u32, tile_size: u32, threads: usize) -> u64 {
+    let pixels = width as u64 * height as u64;
+    let paths = (tile_size as u64 * tile_size as u64).max(crate::wavefront::POOL_PATHS as u64);
+    let pools = threads as u64 * paths * (POOL_BYTES_PER_PATH + PIXEL_BYTES);
+    pixels.saturating_mul(PEAK_BYTES_PER_PIXEL).saturating_add(pools)
+}
+
+/// The default memory limit: 3/4 of the physical memory (`MemTotal` of `/proc/meminfo`), leaving a
+/// quarter to the mapped blob's page cache and the rest of the machine; 16 GiB where `/proc/meminfo`
+/// cannot be read.
+pub fn default_max_memory() -> u64 {
+    physical_memory().map_or(16 << 30, |total| total / 4 * 3)
+}
+
+/// Physical memory in bytes from `/proc/meminfo`, if readable.
+fn physical_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.trim_start_matches("MemTotal:").trim().trim_end_matches("kB").trim().parse().ok()?;
+    kib.checked_mul(1024)
+}
+
 /// A rendered image with its AOVs, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {

@@ -38,22 +38,49 @@ pub fn render_scene_with_progress(
     }
 }
 
+/// A resolution the film can index: both axes 1..=65536 and at most [`blob::tree::MAX_PIXELS`] pixels
+/// in total (what the blob accepts for an authored one).
+pub fn check_resolution(width: u32, height: u32) -> Result<(), RenderError> {
+    let pixels = width as u64 * height as u64;
+    let axis = blob::tree::MAX_RESOLUTION_AXIS;
+    if width == 0 || height == 0 || width > axis || height > axis || pixels > blob::tree::MAX_PIXELS {
+        return Err(RenderError::InvalidOption(format!(
+            "resolution {width}x{height} ({pixels} pixels) is out of range (1..={axis} per axis, at most {} pixels)",
+            blob::tree::MAX_PIXELS
+        )));
+    }
+    Ok(())
+}
+
 fn render_with_touch<T: texture::Touch + Sync>(
     scene: &Scene,
     options: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
     touch: &T,
 ) -> Result<Image, RenderError> {
-    if options.spp == 0 {
-        return Err(RenderError::InvalidOption("spp must be at least 1".into()));
+    if options.spp == 0 || options.spp > crate::film::MAX_SPP {
+        return Err(RenderError::InvalidOption(format!(
+            "spp {} out of range (1..={})",
+            options.spp,
+            crate::film::MAX_SPP
+        )));
     }
-    if options.tile_size == 0 {
-        return Err(RenderError::InvalidOption("tile size must be at least 1".into()));
+    if options.tile_size == 0 || options.tile_size > 4096 {
+        return Err(RenderError::InvalidOption("tile size must be 1..=4096".into()));
     }
     let camera_index = scene.camera_index(options.camera.as_deref())?;
     let [width, height] = scene.resolution(options.resolution, camera_index);
-    if width == 0 || height == 0 || width as u64 * height as u64 > u32::MAX as u64 {
-        return Err(RenderError::InvalidOption(format!("resolution {width}x{height} is out of range")));
+    check_resolution(width, height)?;
+    // Before anything is allocated: the film and pools of a huge resolution (an authored one, or one
+    // a camera's aperture aspect implies) must be refused, not aborted on.
+    let threads = match options.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    };
+    let needed = crate::film::memory_estimate(width, height, options.tile_size, threads);
+    let limit = options.max_memory.unwrap_or_else(crate::film::default_max_memory);
+    if needed > limit {
+        return Err(RenderError::Memory { width, height, needed, limit });
     }
     let camera = scene.camera(camera_index, width, height);
     let mut scene = scene.clone();
@@ -179,4 +206,59 @@ fn render_with_touch<T: texture::Touch + Sync>(
     image.stats.phases = clock.seconds();
     image.stats.shader_evaluations = clock.shader_evaluations;
     Ok(image)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A blob with one camera of the given apertures and nothing else.
+    fn camera_blob(horizontal_aperture: f32, vertical_aperture: f32) -> blob::AlignedBytes {
+        let mut data = blob::SceneData::default();
+        let name = data.add_string("/Cam");
+        data.cameras.push(blob::Camera {
+            name,
+            focal_length: 50.0,
+            horizontal_aperture,
+            vertical_aperture,
+            world_from_camera: [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]],
+            ..blob::Camera::default()
+        });
+        data.info.default_camera = 0;
+        data.info.dome_light = blob::NONE;
+        blob::AlignedBytes::copy_from(&data.encode())
+    }
+
+    #[test]
+    fn resolutions_and_memory_beyond_the_limits_are_refused_before_allocating() {
+        let bytes = camera_blob(36.0, 24.0);
+        let scene = Scene::new(blob::SceneView::parse(&bytes).unwrap());
+        let render =
+            |options: RenderOptions| render_scene(&scene, &options).map(|_| ()).unwrap_err().to_string();
+        // A camera aperture of 192000 implied a 512 × 2.7 M image through the default aspect.
+        let tall = camera_blob(36.0, 192_000.0);
+        let tall_scene = Scene::new(blob::SceneView::parse(&tall).unwrap());
+        let err = render_scene(&tall_scene, &RenderOptions::default()).map(|_| ()).unwrap_err().to_string();
+        assert!(err.contains("resolution 512x2730667 (1398101504 pixels) is out of range"), "{err}");
+        let err = render(RenderOptions { resolution: Some([1, 2_147_483_647]), ..RenderOptions::default() });
+        assert!(err.contains("resolution 1x2147483647"), "{err}");
+        let err = render(RenderOptions {
+            resolution: Some([8192, 8192]),
+            max_memory: Some(1 << 30),
+            threads: 2,
+            ..RenderOptions::default()
+        });
+        let needed = crate::film::memory_estimate(8192, 8192, 16, 2);
+        assert_eq!(needed, 8192 * 8192 * 132 + 2 * 2048 * (2048 + 44));
+        assert_eq!(
+            err,
+            format!(
+                "a 8192x8192 render needs about {needed} bytes of film, path pools and AOVs, more than the \
+                 limit of 1073741824 bytes (--max-memory; the default is 3/4 of the physical memory)"
+            )
+        );
+        let err = render(RenderOptions { spp: crate::film::MAX_SPP + 1, ..RenderOptions::default() });
+        assert_eq!(err, "invalid option: spp 16777217 out of range (1..=16777216)");
+        assert!(crate::film::default_max_memory() > 0);
+    }
 }

@@ -33,6 +33,10 @@ pub struct RenderOptions {
     /// Time every phase of every path ([`crate::RenderStats::phases`]); costs a few percent, so off by
     /// default (`--stats` turns it on).
     pub phase_stats: bool,
+    /// Refuse a render whose film, pools and AOVs would need more than this many bytes
+    /// ([`crate::film::memory_estimate`]); `None` for [`crate::film::default_max_memory`] (3/4 of the
+    /// physical memory).
+    pub max_memory: Option<u64>,
 }
 
 /// The path-tracing integrator: depth-first scalar or breadth-first wavefront (same estimator, same
@@ -73,6 +77,7 @@ impl Default for RenderOptions {
             texture_stats: false,
             curve_shape: None,
             integrator: Integrator::Wavefront,
+            max_memory: None,
             phase_stats: false,
         }
     }

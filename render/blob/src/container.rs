@@ -171,3 +171,37 @@ section_kinds! {
     /// `f32` CDF values of the dome maps' distributions.
     DomeCdfValues = 61,
 }
+
+/// Recomputes, in place, every section checksum whose section lies inside `bytes`, then the table's and
+/// the header's checksums, so that only structural validation stands between mutated bytes and render.
+/// For tests and fuzzers that craft blobs (an adversary can do the same, which is why
+/// [`crate::SceneView::parse`] never relies on checksums for safety). `file_size` becomes the buffer's
+/// length, so truncations and extensions reach the section checks too. Does nothing to a buffer too
+/// short for its header; only the header is resealed when the table does not fit.
+pub fn reseal(bytes: &mut [u8]) {
+    let header_len = std::mem::size_of::<Header>();
+    let entry_len = std::mem::size_of::<SectionEntry>();
+    if bytes.len() < header_len {
+        return;
+    }
+    let mut header: Header = bytemuck::pod_read_unaligned(&bytes[..header_len]);
+    header.file_size = bytes.len() as u64;
+    let table_end = header_len as u64 + header.section_count as u64 * entry_len as u64;
+    if table_end > bytes.len() as u64 {
+        header.seal();
+        bytes[..header_len].copy_from_slice(bytemuck::bytes_of(&header));
+        return;
+    }
+    for i in 0..header.section_count as usize {
+        let at = header_len + i * entry_len;
+        let mut entry: SectionEntry = bytemuck::pod_read_unaligned(&bytes[at..at + entry_len]);
+        let end = entry.offset.checked_add(entry.byte_len);
+        if let Some(end) = end.filter(|&e| e <= bytes.len() as u64) {
+            entry.checksum = crate::checksum(&bytes[entry.offset as usize..end as usize]);
+            bytes[at..at + entry_len].copy_from_slice(bytemuck::bytes_of(&entry));
+        }
+    }
+    header.table_checksum = crate::checksum(&bytes[header_len..table_end as usize]);
+    header.seal();
+    bytes[..header_len].copy_from_slice(bytemuck::bytes_of(&header));
+}

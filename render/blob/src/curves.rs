@@ -191,7 +191,6 @@ impl CurveView<'_> {
                 return Err((K::CurveGroups, i, "segment or sphere range outside its section"));
             }
         }
-        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
         for (i, s) in self.segments.iter().enumerate() {
             let g = self.groups.get(s.group as usize);
             if g.is_none_or(|g| {
@@ -199,8 +198,8 @@ impl CurveView<'_> {
             }) {
                 return Err((K::CurveSegments, i, "group index out of range or not owning the segment"));
             }
-            if !finite(bytemuck::cast_slice(&s.p)) || s.p.iter().any(|p| p[3] < 0.0) {
-                return Err((K::CurveSegments, i, "non-finite control point or negative radius"));
+            if !crate::tree::all_sane(bytemuck::cast_slice(&s.p)) || s.p.iter().any(|p| p[3] < 0.0) {
+                return Err((K::CurveSegments, i, "non-finite or huge control point, or negative radius"));
             }
         }
         for (i, s) in self.spheres.iter().enumerate() {
@@ -210,7 +209,7 @@ impl CurveView<'_> {
             }) {
                 return Err((K::PointSpheres, i, "group index out of range or not owning the sphere"));
             }
-            if !(finite(&s.center) && s.radius >= 0.0 && s.radius.is_finite()) {
+            if !(crate::tree::all_sane(&s.center) && s.radius >= 0.0 && crate::tree::sane(s.radius)) {
                 return Err((K::PointSpheres, i, "non-finite centre or bad radius"));
             }
         }
@@ -228,8 +227,11 @@ impl CurveView<'_> {
                 "a curve BVH is required exactly when there are curves or points",
             ));
         }
-        crate::scene::validate_cwbvh(self.bvh_nodes, self.bvh_primitives.len())
-            .map_err(|(i, what)| (K::CurveBvhNodes, i, what))
+        let primitives = self.bvh_primitives.len();
+        crate::tree::check_tree(0, self.bvh_nodes.len(), crate::tree::MAX_CURVE_BVH_DEPTH, |n| {
+            crate::tree::cwbvh_children(&self.bvh_nodes[n], primitives)
+        })
+        .map_err(|(i, what)| (K::CurveBvhNodes, i, what))
     }
 }
 

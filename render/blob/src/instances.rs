@@ -18,7 +18,8 @@
 //! contiguously and in order, so every triangle is either top level (traversed by the world BVH,
 //! possibly emissive) or in exactly one prototype (traversed through its instances).
 
-use crate::records::{child_ref, BvhNode, StrRef, TriangleBlock};
+use crate::records::{BvhNode, StrRef, TriangleBlock};
+use crate::tree::{all_sane, MAX_BVH_DEPTH};
 use bytemuck::{Pod, Zeroable};
 
 /// One prototype: a set of meshes in prototype space with its own 8-wide BVH. 64 bytes.
@@ -141,7 +142,6 @@ impl InstanceView<'_> {
         strings_ok: impl Fn(StrRef) -> bool,
     ) -> Result<(), (crate::SectionKind, usize, &'static str)> {
         use crate::SectionKind as K;
-        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
         let mut next_triangle = self.top_level_triangles(triangles) as u64;
         for (i, p) in self.prototypes.iter().enumerate() {
             if p.triangle_count == 0 || p.first_triangle as u64 != next_triangle {
@@ -162,35 +162,26 @@ impl InstanceView<'_> {
             if p.first_mesh as u64 + p.mesh_count as u64 > meshes as u64 {
                 return Err((K::Prototypes, i, "mesh range outside the meshes section"));
             }
-            if !finite(&p.bounds_min) || !finite(&p.bounds_max) {
-                return Err((K::Prototypes, i, "non-finite bounds"));
+            if !all_sane(&p.bounds_min) || !all_sane(&p.bounds_max) {
+                return Err((K::Prototypes, i, "non-finite or huge bounds"));
             }
-            // Every reference of this prototype's BVH stays inside its own ranges, so a traversal
-            // started at `first_node` only ever sees this prototype's triangles.
-            for n in p.first_node..node_end as u32 {
-                for &r in &self.prototype_nodes[n as usize].children {
-                    if r & child_ref::LEAF != 0 {
-                        let (first, count) = child_ref::leaf_range(r);
-                        if count > 0 && (first < p.first_block || first as u64 + count as u64 > block_end) {
-                            return Err((
-                                K::PrototypeBvhNodes,
-                                n as usize,
-                                "leaf blocks outside the prototype",
-                            ));
-                        }
-                    } else if r <= n || r as u64 >= node_end {
-                        return Err((
-                            K::PrototypeBvhNodes,
-                            n as usize,
-                            "child not after the parent or outside the prototype",
-                        ));
-                    }
-                }
-            }
+            // The prototype's BVH is a tree inside its own node range whose leaves stay inside its own
+            // block range, so a traversal started at `first_node` visits each of its nodes once and
+            // only ever sees this prototype's triangles.
+            let (nodes, end) = (self.prototype_nodes, node_end as usize);
+            crate::tree::check_tree(p.first_node as usize, p.node_count as usize, MAX_BVH_DEPTH, |n| {
+                let leaves = (p.first_block as u64, block_end);
+                crate::tree::bvh8_children(nodes, n, end, leaves, "leaf blocks outside the prototype")
+            })
+            .map_err(|(n, what)| (K::PrototypeBvhNodes, n, what))?;
             let tri_range = p.first_triangle..p.first_triangle + p.triangle_count;
             for b in p.first_block..block_end as u32 {
-                if !self.prototype_blocks[b as usize].triangles.iter().all(|t| tri_range.contains(t)) {
+                let block = &self.prototype_blocks[b as usize];
+                if !block.triangles.iter().all(|t| tri_range.contains(t)) {
                     return Err((K::PrototypeBvhBlocks, b as usize, "triangle outside its prototype"));
+                }
+                if !all_sane(bytemuck::cast_slice(&block.vertices)) {
+                    return Err((K::PrototypeBvhBlocks, b as usize, "non-finite or huge vertex"));
                 }
             }
         }
@@ -209,8 +200,8 @@ impl InstanceView<'_> {
                 return Err((K::Instances, i, "name outside the strings section"));
             }
             let (a, b) = (&inst.world_from_object, &inst.object_from_world);
-            if !finite(bytemuck::cast_slice(a)) || !finite(bytemuck::cast_slice(b)) {
-                return Err((K::Instances, i, "non-finite transform"));
+            if !all_sane(bytemuck::cast_slice(a)) || !all_sane(bytemuck::cast_slice(b)) {
+                return Err((K::Instances, i, "non-finite transform or an entry beyond ±1e12"));
             }
             if inverse_error(a, b) > 1e-3 {
                 return Err((K::Instances, i, "object_from_world is not the inverse of world_from_object"));
@@ -226,22 +217,12 @@ impl InstanceView<'_> {
                 "a top-level BVH is required exactly when there are instances",
             ));
         }
-        for (i, node) in self.bvh_nodes.iter().enumerate() {
-            for &r in &node.children {
-                if r & child_ref::LEAF != 0 {
-                    let (first, count) = child_ref::leaf_range(r);
-                    if first as u64 + count as u64 > self.bvh_items.len() as u64 {
-                        return Err((K::InstanceBvhNodes, i, "leaf item range out of bounds"));
-                    }
-                } else if r as usize <= i || r as usize >= self.bvh_nodes.len() {
-                    return Err((
-                        K::InstanceBvhNodes,
-                        i,
-                        "child node index not after the parent or out of range",
-                    ));
-                }
-            }
-        }
+        let items = self.bvh_items.len() as u64;
+        let nodes = self.bvh_nodes;
+        crate::tree::check_tree(0, nodes.len(), MAX_BVH_DEPTH, |n| {
+            crate::tree::bvh8_children(nodes, n, nodes.len(), (0, items), "leaf item range out of bounds")
+        })
+        .map_err(|(n, what)| (K::InstanceBvhNodes, n, what))?;
         Ok(())
     }
 }

@@ -4,8 +4,8 @@
 //! cross-references are `u32` indices), [`SceneData::encode`] lays it out as a header, a section table and
 //! 64-byte-aligned sections with checksums, and [`write_atomic`] puts it on disk (temp file, fsync,
 //! rename). Render maps the file and calls [`SceneView::parse`], which validates everything once —
-//! magic, version, checksums, bounds, record sizes, every index — and hands out typed slices that need no
-//! further checks.
+//! magic, version, checksums, bounds, record sizes, every index, every BVH's tree shape and depth, float
+//! magnitudes — and hands out typed slices that need no further checks.
 //!
 //! ```
 //! use blob::{SceneData, SceneView, AlignedBytes};
@@ -19,7 +19,9 @@
 //!
 //! Modules: [`records`] (the Pod records; the `MATH` shader op of MaterialX arithmetic, format 7), [`curves`] (curve and point records, format 2), [`instances`] (prototypes, instances and
 //! the top-level BVH, format 5), [`dome`] (textured dome lights' maps and distributions, format 6), `container` (header and section table), `scene` (encode and
-//! parse), `checksum`, `error`, `io` (atomic write, aligned buffers).
+//! parse), [`tree`] (the structural proofs parse runs on every BVH and the float and size limits), `checksum`,
+//! `error`, `io` (atomic write, aligned buffers). [`reseal`] recomputes a mutated blob's checksums for
+//! tests and fuzzers.
 
 #![deny(missing_docs)]
 
@@ -33,8 +35,10 @@ mod io;
 pub mod records;
 mod scene;
 pub mod surface_inputs;
+pub mod tree;
 
 pub use checksum::checksum;
+pub use container::reseal;
 pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};
 pub use curves::{CurveAttributes, CurveData, CurveGroup, CurveSegment, CurveView, PointSphere};
 pub use dome::{DomeData, DomeMap, DomeView};

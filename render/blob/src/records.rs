@@ -227,7 +227,8 @@ pub const BLOCK_WIDTH: usize = 4;
 /// ```text
 /// bit 31      1 = leaf, 0 = internal node
 /// internal    bits 0..31: index of the child node (always greater than the parent's index)
-/// leaf        bits 27..31: number of triangle blocks (0 = empty slot), bits 0..27: first block
+/// leaf        bits 27..31: number of triangle blocks, bits 0..27: first block
+/// empty slot  exactly EMPTY (a leaf of 0 blocks at block 0); any other 0-block leaf is rejected
 /// ```
 pub mod child_ref {
     /// Tag bit of a leaf reference.
@@ -248,6 +249,13 @@ pub mod child_ref {
         } else {
             Some(LEAF | count << COUNT_SHIFT | first)
         }
+    }
+
+    /// Whether a child reference is a leaf (else an internal node index). The one rule for "internal
+    /// child": the validator and every BVH8 traversal in render decide with this function.
+    #[inline(always)]
+    pub const fn is_leaf(r: u32) -> bool {
+        r & LEAF != 0
     }
 
     /// `(first block, block count)` of a leaf reference.

@@ -6,6 +6,7 @@ use crate::container::{
 };
 use crate::error::BlobError;
 use crate::records::*;
+use crate::tree::all_sane;
 use bytemuck::Pod;
 
 /// Upper bound on the section table length, so a corrupted count cannot make us read far.
@@ -191,8 +192,9 @@ pub struct SceneView<'a> {
     pub cameras: &'a [Camera],
     /// Emissive triangles.
     pub emissive_triangles: &'a [EmissiveTriangle],
-    /// BVH nodes, root first. Every internal child index is greater than its parent's index and in
-    /// range, every leaf's block range is in range.
+    /// BVH nodes, root first: a tree (every internal child after its parent and reached once, depth at
+    /// most [`crate::tree::MAX_BVH_DEPTH`]), every leaf's block range in range and non-empty or
+    /// [`child_ref::EMPTY`] (see [`crate::tree`]).
     pub bvh_nodes: &'a [BvhNode],
     /// Triangle blocks of the BVH leaves; every lane's triangle index is in range.
     pub bvh_blocks: &'a [TriangleBlock],
@@ -390,6 +392,31 @@ impl<'a> SceneView<'a> {
         Ok(())
     }
 
+    /// Scene bounds sane (or the empty encoding: min = +inf, max = −inf) and the authored resolution
+    /// unauthored (0×0) or within [`crate::tree::MAX_RESOLUTION_AXIS`] and [`crate::tree::MAX_PIXELS`].
+    fn validate_info(&self) -> Result<(), BlobError> {
+        use crate::tree::{MAX_PIXELS, MAX_RESOLUTION_AXIS};
+        let bad = |what| Err(BlobError::BadIndex { kind: SectionKind::SceneInfo, record: 0, what });
+        let info = self.info;
+        let empty = info.bounds_min.iter().all(|&x| x == f32::INFINITY)
+            && info.bounds_max.iter().all(|&x| x == f32::NEG_INFINITY);
+        let sane_bounds = all_sane(&info.bounds_min) && all_sane(&info.bounds_max);
+        if !(empty || sane_bounds) {
+            return bad("scene bounds non-finite or beyond ±1e12 (and not the empty encoding)");
+        }
+        let [w, h] = info.resolution;
+        if (w == 0) != (h == 0) {
+            return bad("resolution has one zero axis");
+        }
+        if w > MAX_RESOLUTION_AXIS || h > MAX_RESOLUTION_AXIS || w as u64 * h as u64 > MAX_PIXELS {
+            return bad("resolution beyond 65536 per axis or 2^28 pixels");
+        }
+        if !(info.meters_per_unit.is_finite() && info.meters_per_unit >= 0.0) {
+            return bad("metersPerUnit non-finite or negative");
+        }
+        Ok(())
+    }
+
     fn validate_indices(&self) -> Result<(), BlobError> {
         use SectionKind as K;
         let bad = |kind, record: usize, what| Err(BlobError::BadIndex { kind, record: record as u64, what });
@@ -451,6 +478,13 @@ impl<'a> SceneView<'a> {
             if !strings_ok(l.name) || l.kind > light_kind::TEXTURED_DOME {
                 return bad(K::Lights, i, "bad name or unknown light kind");
             }
+            let shape = [l.radius, l.width, l.height, l.angle_degrees];
+            if !all_sane(bytemuck::cast_slice(&l.world_from_light))
+                || !all_sane(&shape)
+                || !l.radiance.iter().all(|x| x.is_finite())
+            {
+                return bad(K::Lights, i, "non-finite or huge transform, size or radiance");
+            }
             if l.kind == light_kind::TEXTURED_DOME && l.dome_map as usize >= self.dome.maps.len() {
                 return bad(K::Lights, i, "dome map index out of range");
             }
@@ -459,6 +493,16 @@ impl<'a> SceneView<'a> {
         for (i, c) in self.cameras.iter().enumerate() {
             if !strings_ok(c.name) || c.projection > PROJECTION_ORTHOGRAPHIC {
                 return bad(K::Cameras, i, "bad name or unknown projection");
+            }
+            let lens = [
+                c.focal_length,
+                c.horizontal_aperture,
+                c.vertical_aperture,
+                c.horizontal_aperture_offset,
+                c.vertical_aperture_offset,
+            ];
+            if !all_sane(bytemuck::cast_slice(&c.world_from_camera)) || !all_sane(&lens) {
+                return bad(K::Cameras, i, "non-finite or huge transform, focal length or aperture");
             }
         }
         // Emissive triangles and the world BVH address only the top-level triangles: prototype
@@ -470,6 +514,12 @@ impl<'a> SceneView<'a> {
                 return bad(K::EmissiveTriangles, i, "triangle out of range or cdf not increasing in [0, 1]");
             }
             previous_cdf = e.cdf;
+        }
+        self.validate_info()?;
+        // One pass over all coordinates; the offending record is looked for only on failure.
+        if !all_sane(bytemuck::cast_slice(self.positions)) {
+            let i = self.positions.iter().position(|p| !all_sane(p)).unwrap_or(0);
+            return bad(K::Positions, i, "non-finite or huge position");
         }
         if self.info.default_camera != NONE && self.info.default_camera as usize >= self.cameras.len() {
             return bad(K::SceneInfo, 0, "default camera out of range");
@@ -490,48 +540,23 @@ impl<'a> SceneView<'a> {
         if self.bvh_nodes.is_empty() != (top_level == 0) {
             return bad(K::BvhNodes, 0, "a BVH is required exactly when there are top-level triangles");
         }
-        // Internal children must come after their parent: the node graph is then acyclic, so every
-        // traversal terminates, and every index it follows is in range.
-        for (i, node) in self.bvh_nodes.iter().enumerate() {
-            for &r in &node.children {
-                if r & child_ref::LEAF != 0 {
-                    let (first, count) = child_ref::leaf_range(r);
-                    if first as u64 + count as u64 > self.bvh_blocks.len() as u64 {
-                        return bad(K::BvhNodes, i, "leaf block range out of bounds");
-                    }
-                } else if r as usize <= i || r as usize >= self.bvh_nodes.len() {
-                    return bad(K::BvhNodes, i, "child node index not after the parent or out of range");
-                }
-            }
+        // The world BVH is a tree (see `tree`): every query visits each node at most once.
+        let blocks = self.bvh_blocks.len() as u64;
+        let nodes = self.bvh_nodes;
+        crate::tree::check_tree(0, nodes.len(), crate::tree::MAX_BVH_DEPTH, |n| {
+            crate::tree::bvh8_children(nodes, n, nodes.len(), (0, blocks), "leaf block range out of bounds")
+        })
+        .or_else(|(i, what)| bad(K::BvhNodes, i, what))?;
+        let block_ok = |b: &TriangleBlock| all_sane(bytemuck::cast_slice(&b.vertices));
+        if !self.bvh_blocks.iter().fold(true, |ok, b| ok & block_ok(b)) {
+            let i = self.bvh_blocks.iter().position(|b| !block_ok(b)).unwrap_or(0);
+            return bad(K::BvhTriangleBlocks, i, "non-finite or huge vertex");
         }
         self.instancing
             .validate(self.triangles.len(), self.meshes.len(), strings_ok)
             .or_else(|(kind, i, what)| bad(kind, i, what))?;
         self.curves.validate(self.materials.len(), strings_ok).or_else(|(kind, i, what)| bad(kind, i, what))
     }
-}
-
-/// Checks a CWBVH's child and leaf ranges against its node count and `primitives` slots.
-pub(crate) fn validate_cwbvh(nodes: &[CwBvhNode], primitives: usize) -> Result<(), (usize, &'static str)> {
-    for (i, node) in nodes.iter().enumerate() {
-        let internal = node.imask.count_ones() as u64;
-        if internal > 0 && node.child_base_idx as u64 + internal > nodes.len() as u64 {
-            return Err((i, "child node range out of bounds"));
-        }
-        for (slot, &meta) in node.child_meta.iter().enumerate() {
-            let is_internal = node.imask & (1 << slot) != 0;
-            if meta == 0 || is_internal {
-                continue;
-            }
-            // Leaf: low 5 bits = first primitive offset, high 3 bits = unary primitive count.
-            let first = node.primitive_base_idx as u64 + (meta & 0b1_1111) as u64;
-            let count = (meta >> 5).count_ones() as u64;
-            if first + count > primitives as u64 {
-                return Err((i, "leaf primitive range out of bounds"));
-            }
-        }
-    }
-    Ok(())
 }
 
 /// Validates header and table; returns each known kind's entry by [`SectionKind::slot`].

@@ -607,3 +607,200 @@ fn corrupted_instance_records_are_rejected_with_valid_checksums() {
         "",
     );
 }
+
+// Crafted blobs: every checksum is right (`encode` and `reseal` recompute them), so only structural
+// validation stands between these and render. Each pins a hang, panic or blow-up found by an
+// adversarial run (issue 20).
+
+/// The error text of parsing `scene`, which must be a `BadIndex` of `kind`.
+fn crafted_error(scene: &SceneData, kind: SectionKind) -> String {
+    match parse(&scene.encode()) {
+        Err(e @ BlobError::BadIndex { kind: k, .. }) if k == kind => e.to_string(),
+        other => panic!("expected a {kind:?} error, got {other:?}"),
+    }
+}
+
+/// Makes `slot` of `node` an internal child `child` with the bounds of slot 0.
+fn link(node: &mut BvhNode, slot: usize, child: u32) {
+    for k in 0..6 {
+        node.bounds[k][slot] = node.bounds[k][0];
+    }
+    node.children[slot] = child;
+}
+
+/// `n` world BVH nodes of the sample scene: node 0 links to 1..n as `edges` says, every node keeps the
+/// sample's one leaf in slot 0.
+fn world_bvh(n: usize, edges: &[(usize, usize, u32)]) -> SceneData {
+    let mut s = sample_scene();
+    s.bvh_nodes = vec![s.bvh_nodes[0]; n];
+    for &(parent, slot, child) in edges {
+        link(&mut s.bvh_nodes[parent], slot, child);
+    }
+    s
+}
+
+#[test]
+fn bvh_dags_orphans_and_deep_chains_are_rejected() {
+    use SectionKind as K;
+    assert!(parse(&world_bvh(3, &[(0, 1, 1), (0, 2, 2)]).encode()).is_ok(), "a tree");
+    // Node 2 under both 0 and 1: a DAG, exponential to traverse when repeated.
+    let dag = world_bvh(3, &[(0, 1, 1), (0, 2, 2), (1, 1, 2)]);
+    assert_eq!(
+        crafted_error(&dag, K::BvhNodes),
+        "section BvhNodes record 1: child node shared with another parent (the BVH must be a tree)"
+    );
+    let orphan = world_bvh(3, &[(0, 1, 1)]);
+    assert!(crafted_error(&orphan, K::BvhNodes).contains("record 2: node not reachable from the root"));
+    let chain = |n: usize| world_bvh(n, &(0..n - 1).map(|i| (i, 1, i as u32 + 1)).collect::<Vec<_>>());
+    assert!(parse(&chain(tree::MAX_BVH_DEPTH as usize).encode()).is_ok());
+    assert_eq!(
+        crafted_error(&chain(tree::MAX_BVH_DEPTH as usize + 1), K::BvhNodes),
+        format!(
+            "section BvhNodes record {}: BVH deeper than the traversal stack allows",
+            tree::MAX_BVH_DEPTH - 1
+        )
+    );
+    let mut self_child = sample_scene();
+    link(&mut self_child.bvh_nodes[0], 1, 0);
+    assert!(crafted_error(&self_child, K::BvhNodes).contains("child node index not after the parent"));
+
+    // The same rules hold in the top-level and the prototype BVHs.
+    let mut s = with_instances();
+    s.instancing.bvh_nodes = vec![s.instancing.bvh_nodes[0]; 3];
+    link(&mut s.instancing.bvh_nodes[0], 1, 1);
+    link(&mut s.instancing.bvh_nodes[0], 2, 2);
+    link(&mut s.instancing.bvh_nodes[1], 1, 2);
+    assert!(
+        crafted_error(&s, K::InstanceBvhNodes).contains("record 1: child node shared with another parent")
+    );
+    let mut s = with_instances();
+    s.instancing.prototype_nodes = vec![s.instancing.prototype_nodes[0]; 3];
+    s.instancing.prototypes[0].node_count = 3;
+    link(&mut s.instancing.prototype_nodes[0], 1, 1);
+    link(&mut s.instancing.prototype_nodes[0], 2, 2);
+    link(&mut s.instancing.prototype_nodes[1], 1, 2);
+    assert!(
+        crafted_error(&s, K::PrototypeBvhNodes).contains("record 1: child node shared with another parent")
+    );
+}
+
+#[test]
+fn zero_block_leaves_must_be_the_empty_slot() {
+    // A prototype leaf of 0 blocks far past the block array: traversal sliced `blocks[first..first]`.
+    let mut s = with_instances();
+    s.instancing.prototype_nodes[0].children[2] = child_ref::leaf(1000, 0).unwrap();
+    assert_eq!(
+        crafted_error(&s, SectionKind::PrototypeBvhNodes),
+        "section PrototypeBvhNodes record 0: leaf with no blocks that is not the empty-slot encoding"
+    );
+    let mut s = sample_scene();
+    s.bvh_nodes[0].children[1] = child_ref::leaf(0, 0).unwrap();
+    assert_eq!(child_ref::leaf(0, 0), Some(child_ref::EMPTY), "block 0, count 0 is the empty slot");
+    assert!(parse(&s.encode()).is_ok());
+}
+
+#[test]
+fn curve_bvh_must_be_a_tree_with_one_rule_for_internal_children() {
+    use SectionKind as K;
+    let internal = |child_base_idx: u32| CwBvhNode {
+        imask: 1 << 1,
+        child_base_idx,
+        child_meta: [0b0010_0000, tree::cw_internal_meta(1), 0, 0, 0, 0, 0, 0],
+        ..CwBvhNode::default()
+    };
+    let leaf = with_curves().curves.bvh_nodes[0];
+    let mut ok = with_curves();
+    ok.curves.bvh_nodes = vec![internal(1), leaf];
+    assert!(parse(&ok.encode()).is_ok());
+    // A node whose children include itself hung render.
+    let mut s = with_curves();
+    s.curves.bvh_nodes = vec![internal(0), leaf];
+    assert!(crafted_error(&s, K::CurveBvhNodes)
+        .contains("record 0: child node index not after the parent or out of range"));
+    // Internal by its meta byte, a leaf by imask: the traversal indexed past the nodes.
+    let mut s = ok.clone();
+    s.curves.bvh_nodes[0].imask = 0;
+    assert!(crafted_error(&s, K::CurveBvhNodes).contains("imask and meta byte disagree"));
+    let mut s = ok.clone();
+    s.curves.bvh_nodes[0].child_meta[1] = tree::cw_internal_meta(3);
+    assert!(crafted_error(&s, K::CurveBvhNodes).contains("does not name its own slot"));
+    let mut s = with_curves();
+    s.curves.bvh_nodes[0].child_meta[0] = 0b1010_0000;
+    assert!(crafted_error(&s, K::CurveBvhNodes).contains("not unary"));
+    let mut s = with_curves();
+    s.curves.bvh_nodes[0].child_meta[0] = 0b0110_0000 | 23;
+    assert!(crafted_error(&s, K::CurveBvhNodes).contains("spill past the node's 24 primitive bits"));
+    // A chain deeper than obvhs' 32-entry stack.
+    let deep = tree::MAX_CURVE_BVH_DEPTH as usize + 1;
+    let mut s = with_curves();
+    s.curves.bvh_nodes = (0..deep - 1).map(|i| internal(i as u32 + 1)).chain([leaf]).collect();
+    assert!(crafted_error(&s, K::CurveBvhNodes).contains("deeper than the traversal stack"));
+    s.curves.bvh_nodes = (0..deep - 2).map(|i| internal(i as u32 + 1)).chain([leaf]).collect();
+    assert!(parse(&s.encode()).is_ok(), "32 levels traverse exactly");
+}
+
+#[test]
+fn huge_or_non_finite_floats_and_resolutions_are_rejected() {
+    use SectionKind as K;
+    for bound in [1e38, f32::INFINITY, f32::NAN] {
+        let mut s = sample_scene();
+        s.info.bounds_max = [bound; 3];
+        s.info.bounds_min = [-bound; 3];
+        assert_eq!(
+            crafted_error(&s, K::SceneInfo),
+            "section SceneInfo record 0: scene bounds non-finite or beyond ±1e12 (and not the empty encoding)"
+        );
+    }
+    let mut s = sample_scene();
+    (s.info.bounds_min, s.info.bounds_max) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    assert!(parse(&s.encode()).is_ok(), "the empty scene's bounds");
+    for resolution in [[1, 2_147_483_647], [65_535, 65_535], [0, 5]] {
+        let mut s = sample_scene();
+        s.info.resolution = resolution;
+        assert!(crafted_error(&s, K::SceneInfo).contains("resolution"), "{resolution:?}");
+    }
+    let mut s = sample_scene();
+    s.info.resolution = [16_384, 16_384];
+    assert!(parse(&s.encode()).is_ok());
+    let mut s = sample_scene();
+    s.positions[1][0] = 3e12;
+    assert_eq!(crafted_error(&s, K::Positions), "section Positions record 1: non-finite or huge position");
+    let mut s = sample_scene();
+    s.bvh_blocks[0].vertices[1][0][2] = f32::NAN;
+    assert!(crafted_error(&s, K::BvhTriangleBlocks).contains("non-finite or huge vertex"));
+    let mut s = sample_scene();
+    s.bvh_nodes[0].bounds[4][0] = f32::INFINITY;
+    assert!(crafted_error(&s, K::BvhNodes).contains("non-finite or huge child bounds"));
+    let mut s = sample_scene();
+    s.cameras[0].world_from_camera[0][3] = f32::NAN;
+    assert!(crafted_error(&s, K::Cameras).contains("non-finite or huge transform"));
+    let mut s = sample_scene();
+    s.lights[0].radiance[1] = f32::INFINITY;
+    assert!(crafted_error(&s, K::Lights).contains("radiance"));
+    let mut s = with_instances();
+    s.instancing.instances[0].world_from_object[0][3] = 1e20;
+    s.instancing.instances[0].object_from_world[0][3] = -1e20;
+    assert!(crafted_error(&s, K::Instances).contains("beyond ±1e12"));
+}
+
+#[test]
+fn reseal_lets_byte_level_mutations_reach_structural_validation() {
+    let scene = sample_scene();
+    let mut bytes = scene.encode();
+    let view_bytes = AlignedBytes::copy_from(&bytes);
+    let view = SceneView::parse(&view_bytes).unwrap();
+    // Point the root's slot 1 at the root itself, in the file's bytes.
+    let node_offset = view.bvh_nodes.as_ptr() as usize - view_bytes.as_ptr() as usize;
+    let slot1 = node_offset + std::mem::offset_of!(BvhNode, children) + 4;
+    bytes[slot1..slot1 + 4].copy_from_slice(&0u32.to_le_bytes());
+    assert!(matches!(parse(&bytes), Err(BlobError::SectionChecksum(SectionKind::BvhNodes))));
+    blob::reseal(&mut bytes);
+    let err = parse(&bytes).unwrap_err().to_string();
+    assert_eq!(err, "section BvhNodes record 0: child node index not after the parent or out of range");
+    // A truncation gets past the file-size check to the section bounds.
+    let mut short = bytes[..bytes.len() - 64].to_vec();
+    blob::reseal(&mut short);
+    let header: Header = bytemuck::pod_read_unaligned(&short[..64]);
+    assert_eq!(header.file_size, short.len() as u64);
+    assert!(matches!(parse(&short), Err(BlobError::SectionBounds { .. })), "{:?}", parse(&short));
+}

@@ -603,6 +603,19 @@ mod tests {
     }
 
     #[test]
+    fn blob_and_obvhs_agree_on_which_children_are_internal() {
+        // Parse proves the curve BVH a tree with `blob::tree::cw_child_is_internal`; the traversal is
+        // obvhs' macro, which decides from the meta byte itself. With every octant bit set, obvhs
+        // flips the low three bits of exactly the children it treats as internal.
+        for meta in 0..=255u8 {
+            let node = CwBvhNode { child_meta: [meta; 8], ..CwBvhNode::default() };
+            let (_, bit_index) = node.get_child_and_index_bits(0x0707_0707);
+            let obvhs_internal = (bit_index & 0xff) as u8 != meta & 0b1_1111;
+            assert_eq!(obvhs_internal, blob::tree::cw_child_is_internal(meta), "meta {meta:#010b}");
+        }
+    }
+
+    #[test]
     fn straight_curve_covers_the_expected_pixels() {
         // Camera: focal 20, aperture 20 → a 10-unit-wide view at distance 10 on 200 px (0.05 units/px).
         // A curve 6 units long and w units wide at distance 10 covers (6/0.05)·(w/0.05) px; end caps of

@@ -377,7 +377,7 @@ pub(crate) fn walk_closest(
     let mut stack = Stack::new();
     let mut current = Entry { child: root, t: 0.0 };
     loop {
-        if current.child & child_ref::LEAF != 0 {
+        if child_ref::is_leaf(current.child) {
             tmax = leaf.visit(current.child, tmax);
         } else {
             let node = &nodes[current.child as usize];
@@ -473,7 +473,7 @@ pub(crate) fn walk_any(
     let mut stack = Stack::new();
     let mut current = root;
     loop {
-        if current & child_ref::LEAF != 0 {
+        if child_ref::is_leaf(current) {
             if leaf(current) {
                 return true;
             }

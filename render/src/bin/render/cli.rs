@@ -16,12 +16,17 @@ pub struct Args {
     /// Print scene counts and bounds as one JSON object and exit.
     #[arg(long)]
     pub info: bool,
-    /// Samples per pixel.
+    /// Samples per pixel (1..=16777216).
     #[arg(long, default_value_t = 16)]
     pub spp: u32,
-    /// Resolution as WIDTHxHEIGHT (default: RenderSettings, else 512 wide with the camera aspect).
+    /// Resolution as WIDTHxHEIGHT, at most 65536 per axis and 2^28 pixels (default: RenderSettings,
+    /// else 512 wide with the camera aspect).
     #[arg(long, value_parser = parse_resolution)]
     pub res: Option<[u32; 2]>,
+    /// Refuse to start a render whose film, path pools and AOVs need more than SIZE bytes (suffixes K,
+    /// M, G, T: powers of 1024). Default: 3/4 of the physical memory.
+    #[arg(long, value_parser = parse_size)]
+    pub max_memory: Option<u64>,
     /// Camera prim path (default: the scene's default camera).
     #[arg(long)]
     pub camera: Option<String>,
@@ -70,10 +75,29 @@ fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got {s:?}"))?;
     let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("bad resolution {s:?}: {e}"));
     let res = [parse(w)?, parse(h)?];
-    if res[0] == 0 || res[1] == 0 || res[0] > 65536 || res[1] > 65536 {
-        return Err(format!("resolution {s:?} out of range (1..=65536 per axis)"));
-    }
+    // The total, not only each axis: 65535x65535 is 4.3 G pixels.
+    render::frame::check_resolution(res[0], res[1]).map_err(|e| e.to_string())?;
     Ok(res)
+}
+
+/// Bytes with an optional binary suffix: `512M`, `8G`, `1073741824`.
+fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let (digits, shift) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => {
+            let shift = match c.to_ascii_uppercase() {
+                'K' => 10,
+                'M' => 20,
+                'G' => 30,
+                'T' => 40,
+                _ => return Err(format!("bad size {s:?}: suffix must be K, M, G or T")),
+            };
+            (&t[..i], shift)
+        }
+        _ => (t, 0),
+    };
+    let n: u64 = digits.trim().parse().map_err(|e| format!("bad size {s:?}: {e}"))?;
+    n.checked_mul(1u64 << shift).ok_or_else(|| format!("size {s:?} does not fit in 64 bits"))
 }
 
 /// What to do, validated.
@@ -105,8 +129,12 @@ impl Args {
         if self.info {
             return Ok(Command::Info { blob: self.blob });
         }
-        if self.spp == 0 {
-            return Err(RenderError::InvalidOption("--spp must be at least 1".into()));
+        if self.spp == 0 || self.spp > render::film::MAX_SPP {
+            return Err(RenderError::InvalidOption(format!(
+                "--spp {} out of range (1..={})",
+                self.spp,
+                render::film::MAX_SPP
+            )));
         }
         let output =
             self.output.ok_or_else(|| RenderError::InvalidOption("-o OUT.exr is required".into()))?;
@@ -127,6 +155,7 @@ impl Args {
                 phase_stats: self.stats.is_some(),
                 curve_shape: self.curve_shape,
                 integrator: self.integrator,
+                max_memory: self.max_memory,
                 ..RenderOptions::default()
             },
         })
@@ -167,6 +196,19 @@ mod tests {
             Command::Info { .. }
         ));
         assert!(Args::try_parse_from(["render", "s.blob", "-o", "x", "--res", "0x5"]).is_err());
+        // Each axis fits, the total does not (4.3 G pixels aborted on the allocation).
+        let err = parse_resolution("65535x65535").unwrap_err();
+        assert!(err.contains("resolution 65535x65535 (4294836225 pixels) is out of range"), "{err}");
+        assert_eq!(parse_resolution("16384x16384"), Ok([16384, 16384]));
+        assert_eq!(parse_size("512M"), Ok(512 << 20));
+        assert_eq!(parse_size("3g"), Ok(3 << 30));
+        assert_eq!(parse_size("1000"), Ok(1000));
+        assert!(parse_size("5Q").unwrap_err().contains("suffix"));
+        let err = Args::try_parse_from(["render", "s.blob", "-o", "x", "--spp", "16777217"])
+            .unwrap()
+            .into_command()
+            .unwrap_err();
+        assert!(err.to_string().contains("--spp 16777217 out of range"), "{err}");
         assert!(Args::try_parse_from(["render", "s.blob", "-o", "x", "--spp", "0"])
             .unwrap()
             .into_command()

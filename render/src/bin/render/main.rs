@@ -33,12 +33,21 @@ where
         }
     };
     let command = args.into_command()?;
+    if let cli::Command::Render { blob, output, png, stats, .. } = &command {
+        // Before any work: no output may destroy the input or another output, and every output
+        // directory must take a file (a full render used to end in "cannot write").
+        let mut outputs = vec![("-o", output.as_path())];
+        outputs.extend(png.as_deref().map(|p| ("--png", p)));
+        outputs.extend(stats.as_deref().map(|p| ("--stats", p)));
+        render::output::check_outputs(blob, &outputs)?;
+    }
     let load_start = Instant::now();
     let blob_path = match &command {
         cli::Command::Info { blob } | cli::Command::Render { blob, .. } => blob.clone(),
     };
-    // SAFETY: blobs are replaced atomically by ingest (temporary file + rename), never written in place;
-    // the map lives until this function returns and nothing here writes to the file.
+    // SAFETY: blobs are immutable by contract and replaced atomically (temporary file + rename), never
+    // written in place (README, "The blob"); the map lives until this function returns, nothing here
+    // writes to the file, and `check_unchanged` below refuses the image if someone did.
     let map = unsafe { render::map_blob(&blob_path) }?;
     let view = render::parse_blob(&blob_path, &map)?;
     let load_seconds = load_start.elapsed().as_secs_f64();
@@ -71,6 +80,7 @@ where
             if let Some(bar) = &bar {
                 bar.finish_and_clear();
             }
+            map.check_unchanged(&blob_path)?;
             let write_start = Instant::now();
             render::write_exr(&output, &image)?;
             if let Some(png) = &png {
@@ -83,7 +93,7 @@ where
             summary.write_seconds = write_start.elapsed().as_secs_f64();
             eprintln!("{}", summary.to_text());
             if let Some(path) = &stats {
-                std::fs::write(path, serde_json::to_string_pretty(&summary)?)
+                render::output::write_text(path, &serde_json::to_string_pretty(&summary)?)
                     .with_context(|| format!("writing statistics to {}", path.display()))?;
             }
             Ok(ExitCode::SUCCESS)
@@ -146,5 +156,95 @@ mod tests {
         std::fs::write(&bad, &bytes[..bytes.len() / 2]).unwrap();
         let err = run(["render".to_string(), arg(&bad), "--info".into()]).unwrap_err();
         assert!(format!("{err:#}").contains("bad.blob"), "{err:#}");
+    }
+
+    /// `render BLOB ARGS...` as a list of strings.
+    fn args(blob: &std::path::Path, rest: &[&str]) -> Vec<String> {
+        let mut v = vec!["render".to_string(), blob.to_str().unwrap().to_string()];
+        v.extend(rest.iter().map(|s| s.to_string()));
+        v
+    }
+
+    fn dome_blob(dir: &std::path::Path) -> std::path::PathBuf {
+        let path = dir.join("scene.blob");
+        let mut data = blob::SceneData::default();
+        data.info.default_camera = blob::NONE;
+        data.info.dome_light = 0;
+        data.lights.push(blob::Light {
+            kind: blob::light_kind::DOME,
+            radiance: [1.0; 3],
+            ..Default::default()
+        });
+        blob::write_atomic(&path, &data.encode()).unwrap();
+        path
+    }
+
+    #[test]
+    fn outputs_that_would_destroy_the_input_or_each_other_are_refused_before_rendering() {
+        let dir = tempfile::tempdir().unwrap();
+        let blob = dome_blob(dir.path());
+        let bytes = std::fs::read(&blob).unwrap();
+        let b = blob.to_str().unwrap();
+        let link = dir.path().join("link.blob");
+        std::fs::hard_link(&blob, &link).unwrap();
+        let l = link.to_str().unwrap();
+        let out = dir.path().join("out.exr");
+        let o = out.to_str().unwrap();
+        let same_dir = format!("{}/./scene.blob", dir.path().display());
+        let cases: Vec<(Vec<&str>, String)> = vec![
+            (vec!["-o", b], format!("refusing to write -o {b}: it is the input blob")),
+            (vec!["-o", o, "--png", b], format!("refusing to write --png {b}: it is the input blob")),
+            (vec!["-o", o, "--stats", l], format!("refusing to write --stats {l}: it is the input blob")),
+            (vec!["-o", &same_dir], "it is the input blob".to_string()),
+            (vec!["-o", o, "--png", o], "--png and -o name the same file".to_string()),
+            (
+                vec!["-o", "/nonexistent-blobsafe-dir/x.exr"],
+                "cannot create a file in /nonexistent-blobsafe-dir".into(),
+            ),
+            (vec!["-o", dir.path().to_str().unwrap()], "-o names a directory".into()),
+        ];
+        for (rest, expected) in cases {
+            let mut rest = rest.clone();
+            rest.extend(["--res", "4x4", "--spp", "1", "--threads", "1"]);
+            let err = format!("{:#}", run(args(&blob, &rest)).unwrap_err());
+            assert!(err.contains(&expected), "{rest:?}: {err}");
+            assert_eq!(std::fs::read(&blob).unwrap(), bytes, "{rest:?} left the blob intact");
+            assert!(!out.exists(), "{rest:?}: refused before rendering");
+        }
+    }
+
+    #[test]
+    fn a_render_beyond_max_memory_is_refused_with_its_size() {
+        let dir = tempfile::tempdir().unwrap();
+        let blob = dome_blob(dir.path());
+        let out = dir.path().join("out.exr");
+        let rest =
+            ["-o", out.to_str().unwrap(), "--res", "4096x4096", "--max-memory", "64M", "--threads", "1"];
+        let err = format!("{:#}", run(args(&blob, &rest)).unwrap_err());
+        let needed = render::film::memory_estimate(4096, 4096, 16, 1);
+        assert!(err.contains(&format!("a 4096x4096 render needs about {needed} bytes")), "{err}");
+        assert!(err.contains(&format!("the limit of {} bytes", 64u64 << 20)), "{err}");
+        assert!(!out.exists());
+    }
+
+    #[test]
+    fn stale_temporaries_of_dead_runs_are_removed_and_a_rerun_replaces_the_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let blob = dome_blob(dir.path());
+        let out = dir.path().join("out.exr");
+        // A pid above the kernel's maximum (2^22) cannot be alive.
+        let stale = dir.path().join(".out.exr.render-tmp-4194305");
+        std::fs::write(&stale, b"half an image").unwrap();
+        std::fs::write(&out, b"previous").unwrap();
+        let rest = ["-o", out.to_str().unwrap(), "--res", "4x4", "--spp", "1", "--threads", "1"];
+        assert_eq!(run(args(&blob, &rest)).unwrap(), ExitCode::SUCCESS);
+        assert!(!stale.exists(), "the dead run's temporary is gone");
+        assert_ne!(std::fs::read(&out).unwrap(), b"previous", "replaced by the new image");
+        let left: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().contains(".render-tmp-"))
+            .collect();
+        assert!(left.is_empty(), "no temporary left: {left:?}");
     }
 }
