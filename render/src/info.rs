@@ -35,6 +35,8 @@ pub struct SceneSummary {
     pub points: usize,
     /// Materials.
     pub materials: usize,
+    /// Materials by how the renderer shades them.
+    pub material_models: MaterialModels,
     /// UsdLux lights.
     pub lights: usize,
     /// Cameras.
@@ -43,6 +45,43 @@ pub struct SceneSummary {
     pub bounds_min: [f32; 3],
     /// World bounds maximum.
     pub bounds_max: [f32; 3],
+}
+
+/// Materials counted by the surface the renderer makes of them (a UsdPreviewSurface's `opacity`,
+/// `opacityThreshold` and `ior`, constant or driven by its program): every look, MaterialX
+/// included, is mapped onto these at ingest.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct MaterialModels {
+    /// Opaque: opacity 1 and no program writing it.
+    pub opaque: usize,
+    /// Glass: opacity below 1 (or from a program), `opacityThreshold` 0 and `ior` ≠ 1; the
+    /// `1 − opacity` part refracts.
+    pub glass: usize,
+    /// Cut-out: `opacityThreshold` > 0.
+    pub cut_out: usize,
+    /// See-through: opacity below 1 (or from a program) with `ior` 1, a hole the path passes.
+    pub see_through: usize,
+}
+
+/// See [`MaterialModels`].
+fn material_models(view: &SceneView) -> MaterialModels {
+    let shading = crate::shading::Shading::new(view);
+    let mut models = MaterialModels::default();
+    for (i, m) in view.materials.iter().enumerate() {
+        let inputs = crate::shading::ShadingInputs::constant(m);
+        let partial = inputs.opacity < 1.0 || shading.flags(i as u32).textured_opacity;
+        let count = if inputs.opacity_threshold > 0.0 {
+            &mut models.cut_out
+        } else if partial && inputs.refracts() {
+            &mut models.glass
+        } else if partial {
+            &mut models.see_through
+        } else {
+            &mut models.opaque
+        };
+        *count += 1;
+    }
+    models
 }
 
 /// Summarizes a validated blob.
@@ -66,6 +105,7 @@ pub fn summarize(view: &SceneView) -> SceneSummary {
         curve_segments: view.curves.segments.len(),
         points: view.curves.spheres.len(),
         materials: view.materials.len(),
+        material_models: material_models(view),
         lights: view.lights.len(),
         cameras: view.cameras.len(),
         bounds_min: view.info.bounds_min,
@@ -128,6 +168,32 @@ mod tests {
             assert!(json.get(key).is_some(), "{key}");
         }
         assert_eq!((json["prototypes"].clone(), json["bytes_saved"].clone()), (0.into(), 0.into()));
+        assert_eq!(json["material_models"]["opaque"], 1);
+    }
+
+    #[test]
+    fn info_counts_materials_by_model() {
+        let mut scene = testscene::instanced_spheres(2, 5);
+        let lambert = testscene::lambert(0.5);
+        let material = |opacity: f32, threshold: f32, ior: f32| scene_pack::Material {
+            opacity,
+            opacity_threshold: threshold,
+            ior,
+            ..lambert.clone()
+        };
+        scene.materials = vec![
+            material(1.0, 0.0, 1.5),
+            material(0.0, 0.0, 1.5),
+            material(0.3, 0.0, 1.33),
+            material(0.5, 0.5, 1.5),
+            material(0.5, 0.0, 1.0),
+        ];
+        let bytes = testscene::bytes(&scene);
+        let view = SceneView::parse(&bytes).unwrap();
+        assert_eq!(
+            summarize(&view).material_models,
+            MaterialModels { opaque: 1, glass: 2, cut_out: 1, see_through: 1 }
+        );
     }
 
     #[test]
