@@ -300,6 +300,23 @@ fn two_level_any<
         && accel.instances.any(origin, direction, tmax, node_kernel, block_kernel, blocks)
 }
 
+/// Test support, shared by the tests below and the integration tests' BVH checks (which cannot
+/// see a `cfg(test)` item): closest hits must agree in `t`; a different triangle is only
+/// acceptable for a tie in `t`. Panics naming `what` and both hits otherwise.
+#[doc(hidden)]
+pub fn assert_same_closest(fast: Option<Hit>, slow: Option<Hit>, what: &str) {
+    match (fast, slow) {
+        (None, None) => {}
+        (Some(f), Some(s)) => {
+            assert!((f.t - s.t).abs() <= 1e-5 * s.t.max(1.0), "{what}: {f:?} vs {s:?}");
+            if f.triangle != s.triangle {
+                assert!((f.t - s.t).abs() < 1e-6, "{what}: {f:?} vs {s:?}");
+            }
+        }
+        other => panic!("{what}: BVH and brute force disagree: {other:?}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::traverse::*;
@@ -391,20 +408,6 @@ mod tests {
             let a = ray.intersect([q[0], q[1], q[2]], f32::INFINITY).is_some();
             let b = ray.intersect([q[0], q[2], q[3]], f32::INFINITY).is_some();
             assert!(a || b, "gap at {s}");
-        }
-    }
-
-    /// Closest hits must agree in `t`; a different triangle is only acceptable for a tie in `t`.
-    fn assert_same_closest(fast: Option<Hit>, slow: Option<Hit>, what: &str) {
-        match (fast, slow) {
-            (None, None) => {}
-            (Some(f), Some(s)) => {
-                assert!((f.t - s.t).abs() <= 1e-5 * s.t.max(1.0), "{what}: {f:?} vs {s:?}");
-                if f.triangle != s.triangle {
-                    assert!((f.t - s.t).abs() < 1e-6, "{what}: {f:?} vs {s:?}");
-                }
-            }
-            other => panic!("{what}: BVH and brute force disagree: {other:?}"),
         }
     }
 
