@@ -261,23 +261,9 @@ pub fn scheme_token(scheme: subdiv::Scheme) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Camera;
-    use glam::{Mat4, Vec3};
-
-    /// A 36 mm lens on 36 mm square film (half-angle atan 0.5 ≈ 26.6°) at `eye`, looking down −Z.
-    fn camera(eye: Vec3, orthographic: bool) -> Camera {
-        Camera {
-            path: "/Cam".into(),
-            world_from_camera: Mat4::from_translation(eye),
-            orthographic,
-            focal_length: 36.0,
-            horizontal_aperture: 36.0,
-            vertical_aperture: 36.0,
-            horizontal_aperture_offset: 0.0,
-            vertical_aperture_offset: 0.0,
-            clipping_range: [0.1, 1000.0],
-        }
-    }
+    use glam::Vec3;
+    // The 36 mm test camera, shared with scene-pack's camera tests.
+    use scene_pack::camera::test_camera as camera;
 
     #[test]
     fn perspective_pixels_follow_distance() {

@@ -231,25 +231,29 @@ fn frustum_planes(orthographic: bool, window: [f64; 4], camera_from_world: DMat4
     camera_space.map(|(a, b)| (linear.transpose() * a).extend(a.dot(offset) + b))
 }
 
+/// Test support, shared by these tests and ingest's dicing tests (ingest depends on this crate;
+/// a `cfg(test)` item would not be visible there): a 36 mm lens on 36 mm square film (half-angle
+/// atan 0.5 ≈ 26.6°) at `eye`, looking down −Z, clipping 0.1 to 1000.
+#[doc(hidden)]
+pub fn test_camera(eye: glam::Vec3, orthographic: bool) -> Camera {
+    Camera {
+        path: "/Cam".into(),
+        world_from_camera: glam::Mat4::from_translation(eye),
+        orthographic,
+        focal_length: 36.0,
+        horizontal_aperture: 36.0,
+        vertical_aperture: 36.0,
+        horizontal_aperture_offset: 0.0,
+        vertical_aperture_offset: 0.0,
+        clipping_range: [0.1, 1000.0],
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::test_camera as camera;
     use super::*;
     use glam::{Mat4, Vec3};
-
-    /// A 36 mm lens on 36 mm square film (half-angle atan 0.5 ≈ 26.6°) at `eye`, looking down −Z.
-    fn camera(eye: Vec3, orthographic: bool) -> Camera {
-        Camera {
-            path: "/Cam".into(),
-            world_from_camera: Mat4::from_translation(eye),
-            orthographic,
-            focal_length: 36.0,
-            horizontal_aperture: 36.0,
-            vertical_aperture: 36.0,
-            horizontal_aperture_offset: 0.0,
-            vertical_aperture_offset: 0.0,
-            clipping_range: [0.1, 1000.0],
-        }
-    }
 
     #[test]
     fn segment_pixels_use_depth() {

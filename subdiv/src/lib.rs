@@ -14,7 +14,8 @@
 //!    primvar to that level, either as control points or on the limit surface;
 //!    [`Refiner::limit`] gives limit positions and tangents.
 //! 4. [`tessellate`] turns the last level into triangles with limit positions, unit limit
-//!    normals (`du × dv`), limit UVs split along seams, and the cage face of each triangle.
+//!    normals (`du × dv`), limit UVs split along seams, and the cage face of each triangle (its
+//!    doc has the uniform path's example, a cube at level 2).
 //!
 //! Or, per face instead of per level: [`AdaptiveRefiner::new`] keeps the cage unrefined and
 //! lists its edges; [`AdaptiveRefiner::tessellate`] takes a number of segments per edge (for
@@ -36,31 +37,6 @@
 //! let rates = vec![4; refiner.edges().len()];
 //! let mesh = refiner.tessellate(&points, None, &rates, false)?.mesh;
 //! assert_eq!(mesh.triangles.len(), 2 * 6 * 16);
-//! # Ok::<(), subdiv::Error>(())
-//! ```
-//!
-//! ```
-//! use subdiv::{tessellate, Cage, Refiner, Topology};
-//!
-//! // A unit cube.
-//! let points = [
-//!     [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0],
-//!     [0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0],
-//! ];
-//! let counts = [4; 6];
-//! let indices = [
-//!     0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7,
-//! ];
-//! let cage = Cage {
-//!     face_vertex_counts: &counts,
-//!     face_vertex_indices: &indices,
-//!     vertex_count: points.len(),
-//!     ..Default::default()
-//! };
-//! let topology = Topology::new(&cage)?;
-//! let refiner = Refiner::new(&topology, 2)?;
-//! let mesh = tessellate(&refiner, &points, None)?;
-//! assert_eq!(mesh.triangles.len(), 2 * 6 * 4usize.pow(2));
 //! # Ok::<(), subdiv::Error>(())
 //! ```
 //!

@@ -53,6 +53,31 @@ impl Tessellation {
 }
 
 /// Tessellates the surface `refiner` describes, with cage `positions` and optional UVs.
+///
+/// ```
+/// use subdiv::{tessellate, Cage, Refiner, Topology};
+///
+/// // A unit cube.
+/// let points = [
+///     [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0],
+///     [0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0],
+/// ];
+/// let counts = [4; 6];
+/// let indices = [
+///     0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7,
+/// ];
+/// let cage = Cage {
+///     face_vertex_counts: &counts,
+///     face_vertex_indices: &indices,
+///     vertex_count: points.len(),
+///     ..Default::default()
+/// };
+/// let topology = Topology::new(&cage)?;
+/// let refiner = Refiner::new(&topology, 2)?;
+/// let mesh = tessellate(&refiner, &points, None)?;
+/// assert_eq!(mesh.triangles.len(), 2 * 6 * 4usize.pow(2));
+/// # Ok::<(), subdiv::Error>(())
+/// ```
 pub fn tessellate(
     refiner: &Refiner,
     positions: &[[f32; 3]],

@@ -25,22 +25,19 @@
 //!   `t` is known the walk goes on with the limit `tie_limit(t)`, 256 ulps beyond it, so no
 //!   rounding of a limit equal to `t` culls a triangle met at exactly `t`. The answer is then
 //!   independent of the order leaves are visited in: a tree with every node's children reversed
-//!   gives the same hit (tested on a stack of identical triangles). Cost: within ±1 % of the traversal's
-//!   instructions (cachegrind, the three `bench integrators` scenes).
+//!   gives the same hit (tested on a stack of identical triangles).
 //! * **Scalar reference**: [`Scalar`] implements the same two kernels child by child and triangle by
 //!   triangle (the latter with [`WatertightRay::intersect`]); the tests check that both kernels and
 //!   both full traversals agree exactly, and that they agree with brute force.
 //!
-//! The stack is a fixed array of 32 entries on the CPU stack; a deeper walk (never seen in the 2.5 M
-//! bench rays of the three test scenes) spills into a heap vector rather than fail, so no blob,
-//! however adversarial, can make a query index out of bounds, and ordinary rays never allocate.
+//! The stack is a fixed array of 32 entries on the CPU stack; a deeper walk (never seen on the bench
+//! scenes) spills into a heap vector rather than fail, so no blob, however adversarial, can make a
+//! query index out of bounds, and ordinary rays never allocate.
 //!
 //! The layout, the out-of-line `inherit_target` kernels, the masks in the triangle kernel, the
 //! subtree-fits-first collapse (5.5 children per node), the branch-free `WatertightRay::new` and the
-//! inlined `ClosestLeaf` were each measured against what they replaced; measurements: `docs/perf.md#bvh-traversal-accelmodrs`.
-//! Not tried for lack of time: BVH4 (half the node bytes; nodes are 45 % empty at 5.5 children),
-//! 8-wide triangle blocks, Möller–Trumbore on precomputed edges (not watertight), AVX-512, prefetching
-//! the second-nearest child, and processing leaf children at once instead of through the stack.
+//! inlined `ClosestLeaf` were each measured against what they replaced; measurements and what was
+//! not tried: `docs/perf.md#bvh-traversal-accelmodrs`.
 
 pub mod curves;
 pub mod instanced;
@@ -303,6 +300,23 @@ fn two_level_any<
         && accel.instances.any(origin, direction, tmax, node_kernel, block_kernel, blocks)
 }
 
+/// Test support, shared by the tests below and the integration tests' BVH checks (which cannot
+/// see a `cfg(test)` item): closest hits must agree in `t`; a different triangle is only
+/// acceptable for a tie in `t`. Panics naming `what` and both hits otherwise.
+#[doc(hidden)]
+pub fn assert_same_closest(fast: Option<Hit>, slow: Option<Hit>, what: &str) {
+    match (fast, slow) {
+        (None, None) => {}
+        (Some(f), Some(s)) => {
+            assert!((f.t - s.t).abs() <= 1e-5 * s.t.max(1.0), "{what}: {f:?} vs {s:?}");
+            if f.triangle != s.triangle {
+                assert!((f.t - s.t).abs() < 1e-6, "{what}: {f:?} vs {s:?}");
+            }
+        }
+        other => panic!("{what}: BVH and brute force disagree: {other:?}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::traverse::*;
@@ -394,20 +408,6 @@ mod tests {
             let a = ray.intersect([q[0], q[1], q[2]], f32::INFINITY).is_some();
             let b = ray.intersect([q[0], q[2], q[3]], f32::INFINITY).is_some();
             assert!(a || b, "gap at {s}");
-        }
-    }
-
-    /// Closest hits must agree in `t`; a different triangle is only acceptable for a tie in `t`.
-    fn assert_same_closest(fast: Option<Hit>, slow: Option<Hit>, what: &str) {
-        match (fast, slow) {
-            (None, None) => {}
-            (Some(f), Some(s)) => {
-                assert!((f.t - s.t).abs() <= 1e-5 * s.t.max(1.0), "{what}: {f:?} vs {s:?}");
-                if f.triangle != s.triangle {
-                    assert!((f.t - s.t).abs() < 1e-6, "{what}: {f:?} vs {s:?}");
-                }
-            }
-            other => panic!("{what}: BVH and brute force disagree: {other:?}"),
         }
     }
 

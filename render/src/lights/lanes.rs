@@ -14,12 +14,11 @@
 //!    light is at infinity (the table is then `uniform`), else
 //!    [`crate::lights::tree::LightSelector::select_lanes`] (the eight lanes' light-tree descents
 //!    interleaved level by level, each lane `select`'s result, its probability kept for step 4's
-//!    pdfs); then only
-//!    the columns the scene's kinds read (a rect's or disk's axes and normal only when the scene has
-//!    one), and for up to `BLEND_GATHER_MAX` lights by blending each light's record into the lanes
-//!    that picked it (8-wide bit masks) rather than copying a record per lane; then, if a lane picked
-//!    the emissive-triangle entry, a branchless binary search of the power CDF, eight lanes in step
-//!    (`partition_point`'s index on the validated, non-decreasing CDF);
+//!    pdfs); then only the columns the scene's kinds read (a rect's or disk's axes and normal only
+//!    when the scene has one), and for up to `BLEND_GATHER_MAX` lights by blending each light's
+//!    record into the lanes that picked it (8-wide bit masks) rather than copying a record per
+//!    lane; then, if a lane picked the emissive-triangle entry, a branchless binary search of the
+//!    power CDF, eight lanes in step (`partition_point`'s index on the validated, non-decreasing CDF);
 //! 2. the angle each lane's sampling needs (φ = 2πu₁ for domes, spheres and cones; the concentric
 //!    disk's θ, computed only when a lane picked a disk);
 //! 3. its cosine and sine, 8-wide on every lane ([`crate::trig::sin_cos_lanes`]: the polynomial
@@ -40,8 +39,8 @@
 //! per lane that picked a textured dome (its map's CDF search and lookup).
 //!
 //! The descent stays one lane at a time (interleaved, [`crate::lights::tree`]): a lane-parallel
-//! descent with gathered node records saved 0.6 % and would have kept a second copy of the
-//! importance arithmetic; measurements: `docs/perf.md#light-sampling-lanes-lightslanesrs`.
+//! descent with gathered node records saved too little to keep a second copy of the importance
+//! arithmetic; measurements: `docs/perf.md#light-sampling-lanes-lightslanesrs`.
 
 use crate::lights::tree::LightSelector;
 use crate::lights::{Lights, Shape};

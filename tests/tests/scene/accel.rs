@@ -3,7 +3,7 @@
 //! USD (issue 18).
 
 use glam::Vec3;
-use render::accel::{offset_ray_origin, Accel, Hit};
+use render::accel::{assert_same_closest, offset_ray_origin, Accel};
 
 /// SplitMix64: deterministic rays without a dependency.
 struct Rng(u64);
@@ -16,20 +16,6 @@ impl Rng {
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         z ^= z >> 31;
         (z >> 40) as f32 * (1.0 / 16_777_216.0)
-    }
-}
-
-/// Closest hits must agree in `t`; a different triangle is only acceptable for a tie in `t`.
-fn assert_same_closest(fast: Option<Hit>, slow: Option<Hit>, what: &str) {
-    match (fast, slow) {
-        (None, None) => {}
-        (Some(f), Some(s)) => {
-            assert!((f.t - s.t).abs() <= 1e-5 * s.t.max(1.0), "{what}: {f:?} vs {s:?}");
-            if f.triangle != s.triangle {
-                assert!((f.t - s.t).abs() < 1e-6, "{what}: {f:?} vs {s:?}");
-            }
-        }
-        other => panic!("{what}: BVH and brute force disagree: {other:?}"),
     }
 }
 

@@ -1,5 +1,15 @@
 //! The tree's build: a binary SAH tree (PBRT-v4's `BVHLightSampler::buildBVH` cost), collapsed
 //! into nodes of up to eight children (Embree's BVH2 → BVH8 collapse).
+//!
+//! The binary tree is built by binned SAH over the three axes (12 buckets; PBRT's cost
+//! φ · M_Ω · surface area · K_r, which also weighs how spread the emission cones are), falling
+//! back to a median split by light index order when no axis separates the centroids, and a forced
+//! median split once the depth could exceed the 42 levels the 128 path bits hold. The collapse: a
+//! node starts with the binary node's two children and, while it has fewer than eight, opens the
+//! interior child of largest φ · M_Ω · surface area (then φ: lights at one point have no area) in
+//! place. Opening the child with the most lights instead lost on the floor test (figures:
+//! `docs/perf.md#light-tree-lightstreemodrs`). Every step is a deterministic function of the input
+//! order: same scene, same tree.
 
 use super::node::{Node, LEAF, WIDTH};
 use super::{LightBounds, Path};

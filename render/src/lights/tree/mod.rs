@@ -21,26 +21,12 @@
 //! every ray's state by a normal for this one weight was rejected. The normal term (PBRT's
 //! `cos θ_i` bound) would mostly help points facing away from whole clusters of lights.
 //!
-//! Node layout: the tree is 8-wide. A [`Node`] (512 bytes, `repr(C, align(64))`, in
-//! `tree/node.rs`) holds up to eight children's bounds column by column — `[f32; 8]` columns of the
-//! centre and squared radius of each child's bounding sphere, the cone's axis, cos/sin θ_o, cos θ_e,
-//! φ, flags, and the child's node index or light index — so one node's eight importances are one
-//! 8-lane pass (AVX2 under [`multiversion`], 4 `vsqrtps` and 3 `vdivps` for all eight), where the
-//! binary tree made two scalar calls per level. Nodes sit in a `Vec`, root first. Each light's path
+//! Node layout (`tree/node.rs`): the tree is 8-wide, each [`Node`] holding its children's bounds
+//! column by column, so one node's eight importances are one 8-lane pass. Each light's path
 //! from the root (three bits per level: the child slot) is stored beside the tree, so `pmf` replays
 //! the same decisions as sampling and multiplies the same factors in the same order: the two agree
-//! bit for bit.
-//!
-//! Build (`tree/build.rs`): a binary tree by binned SAH over the three axes (12 buckets; PBRT's
-//! cost φ · M_Ω · surface area · K_r, which also weighs how spread the emission cones are), falling
-//! back to a median split by light index order when no axis separates the centroids, and a forced
-//! median split once the depth could exceed the 42 levels the 128 path bits hold; then collapsed
-//! (Embree's BVH2 → BVH8): a node starts with the binary node's two children and, while it has
-//! fewer than eight, opens the interior child of largest φ · M_Ω · surface area (then φ: lights at
-//! one point have no area) in place. Every step is a deterministic function of the input order:
-//! same scene, same tree. The bench scene's ring of 48 sphere lights: binary depth 6, wide depth 2
-//! for 40 of them and 3 for 8 (2.1 nodes per descent on the bench render). Tried: opening the child
-//! with the most lights instead (depth the same here): floor-test RMSE 0.354 against 0.330.
+//! bit for bit. Build (`tree/build.rs`): a binary tree by binned SAH, collapsed into 8-wide nodes;
+//! deterministic: same scene, same tree.
 //!
 //! Sampling descends with one uniform number: at each node the children's probabilities (their
 //! share of the node's importance; 1 / children each where none may contribute, so the
@@ -49,18 +35,13 @@
 //! `u` rescaled into the chosen child's slice (clamped below 1). A child of probability 0 is never
 //! chosen. The descent is latency-bound (square roots and divisions in a chain, then the next
 //! node's address depends on the choice), so the choice compares weights rather than dividing
-//! all eight first, and φ / d² is divided before the angles are known. A node whose children all
-//! emit in every direction (spheres, points, the emissive triangles' entry, and nodes over them
-//! only: `Node::omni`, set at build) weighs them by φ / max(d², r²) alone, which is what the
-//! whole formula gives there bit for bit wherever the squared distances are finite (the proof is
-//! at `node::omni_importances`): one division for eight children where the cone terms took four
-//! square roots and three divisions.
+//! all eight first, and φ / d² is divided before the angles are known; nodes of omnidirectional
+//! children take a short importance of one division (`tree/node.rs`).
 //!
-//! The wavefront's descents (`tree/lanes.rs`) run the node step in AVX2 intrinsics
-//! (`tree/avx.rs`: the weights stay in a register from the importance to the choice, the running
-//! sums are three shuffle-and-add steps, each bit mask of the choice one `vmovmskps`); the
-//! baseline clone and the scalar `descend` and `replay` run the portable functions in
-//! `tree/node.rs`, and the tests hold the two to the same bits. measurements: `docs/perf.md#light-tree-lightstreemodrs`.
+//! The wavefront's descents (`tree/lanes.rs`) run the node step in AVX2 intrinsics (`tree/avx.rs`);
+//! the baseline clone and the scalar `descend` and `replay` run the portable functions in
+//! `tree/node.rs`, and the tests hold the two to the same bits. Measurements:
+//! `docs/perf.md#light-tree-lightstreemodrs`.
 
 #[cfg(target_arch = "x86_64")]
 mod avx;

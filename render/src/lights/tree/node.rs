@@ -1,5 +1,18 @@
 //! The wide tree's node: up to [`WIDTH`] children whose bounds are stored column by column, so
 //! the importance of all of a node's children is one 8-lane pass ([`child_weights`]).
+//!
+//! Layout: a [`Node`] (512 bytes, `repr(C, align(64))`) holds up to eight children's bounds —
+//! `[f32; 8]` columns of the centre and squared radius of each child's bounding sphere, the cone's
+//! axis, cos/sin θ_o, cos θ_e, φ, flags, and the child's node index or light index — so one node's
+//! eight importances are one 8-lane pass (AVX2 under [`multiversion`], 4 `vsqrtps` and 3 `vdivps`
+//! for all eight), where the binary tree made two scalar calls per level. Nodes sit in a `Vec`,
+//! root first.
+//!
+//! A node whose children all emit in every direction (spheres, points, the emissive triangles'
+//! entry, and nodes over them only: `Node::omni`, set at build) weighs them by φ / max(d², r²)
+//! alone, which is what the whole formula gives there bit for bit wherever the squared distances
+//! are finite (the proof is at [`omni_importances`]): one division for eight children where the
+//! cone terms took four square roots and three divisions.
 
 use super::LightBounds;
 use std::f32::consts::{FRAC_PI_2, PI};
