@@ -50,7 +50,8 @@ pub fn mtlx(bytes: &[u8]) -> Result<(), String> {
     let dir = scratch();
     let document = dir.join("doc.mtlx");
     std::fs::write(&document, bytes).map_err(|e| format!("{}: {e}", document.display()))?;
-    let root = "#usda 1.0\n\ndef Xform \"World\" (\n    references = @./doc.mtlx@</MaterialX/Materials>\n)\n{\n}\n";
+    let root =
+        "#usda 1.0\n\ndef Xform \"World\" (\n    references = @./doc.mtlx@</MaterialX/Materials>\n)\n{\n}\n";
     load(&dir, root.as_bytes(), "usda")
 }
 
