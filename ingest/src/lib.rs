@@ -70,6 +70,7 @@
 pub mod alembic;
 pub mod dicing;
 mod error;
+pub mod fuzz_entry;
 pub mod outputs;
 pub mod pipeline;
 pub mod usd;

@@ -5,6 +5,8 @@
 //!   section and the problem, from the library and from the `ingest` binary.
 //! - `fuzz_layers`: the layer fuzzer (proptest-driven mutations of `tests/assets/fuzz/corpus`)
 //!   and the replay of its regressions; run it alone with `--test integration fuzz_layers`.
+//! - `fuzz_corpus`: replays the libFuzzer targets' committed corpora and regressions
+//!   (`ingest/fuzz/corpus`, `ingest/fuzz/regressions`) through `ingest::fuzz_entry`, no libFuzzer.
 //! - `list_only`: `ingest ASSET --dump-json FILE` without `-o`.
 //! - `materialx`: MaterialX looks (`.mtlx` documents, inline `ND_*` networks, the surface mappings).
 //! - `outputs`: outputs that name an input (or each other) are refused, inputs kept; stale
@@ -15,6 +17,7 @@
 //! other modules run under it too, which costs them nothing.
 
 mod bad_layers;
+mod fuzz_corpus;
 mod fuzz_layers;
 mod list_only;
 mod materialx;

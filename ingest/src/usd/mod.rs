@@ -56,6 +56,8 @@ use glam::{DMat4, DQuat, DVec3};
 
 use crate::scene::{Scene, UpAxis};
 pub use compat::reader_panic::quiet_reader_panics;
+/// For [`crate::fuzz_entry`]: the MaterialX translation on its own.
+pub(crate) use mtlx_document::translate as translate_mtlx;
 use stage::{Stage, Value};
 
 /// USD schema fallbacks (values used when an attribute is unauthored).
