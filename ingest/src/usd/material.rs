@@ -550,15 +550,7 @@ impl Reader<'_> {
                         texture::ColorSpace::Auto
                     }),
                 };
-                let texture = match file {
-                    Some(path) => {
-                        let start = std::time::Instant::now();
-                        let texture = self.bake_texture(node, &path, color_space, fallback);
-                        self.scene.load_timings.texture_seconds += start.elapsed().as_secs_f64();
-                        texture
-                    }
-                    None => None,
-                };
+                let texture = file.and_then(|path| self.bake_texture(node, &path, color_space, fallback));
                 let Some(dst) = program.register() else { return self.too_many(node) };
                 if scale_v.is_none() && bias_v.is_none() {
                     program.unscaled_textures.insert(dst, program.nodes.len());
@@ -698,8 +690,23 @@ impl Reader<'_> {
     }
 
     /// The scene texture for `path` baked in `color_space` (decoded once per pair), or `None` with a
-    /// warning naming the file and the fallback the lookups return instead.
+    /// warning naming the file and the fallback the lookups return instead; the time it takes is
+    /// charged to the load timings' texture seconds.
     fn bake_texture(
+        &mut self,
+        node: &str,
+        path: &Path,
+        color_space: texture::ColorSpace,
+        fallback: [f32; 4],
+    ) -> Option<u32> {
+        let start = std::time::Instant::now();
+        let texture = self.bake_texture_untimed(node, path, color_space, fallback);
+        self.scene.load_timings.texture_seconds += start.elapsed().as_secs_f64();
+        texture
+    }
+
+    /// [`Self::bake_texture`] without the timing.
+    fn bake_texture_untimed(
         &mut self,
         node: &str,
         path: &Path,

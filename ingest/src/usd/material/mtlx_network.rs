@@ -928,15 +928,9 @@ impl Reader<'_> {
                 Some(_) => texture::ColorSpace::Raw,
             }
         };
-        let texture = match self.texture_file(material, node)? {
-            Some(path) => {
-                let start = std::time::Instant::now();
-                let texture = self.bake_texture(node, &path, color_space, fallback);
-                self.scene.load_timings.texture_seconds += start.elapsed().as_secs_f64();
-                texture
-            }
-            None => None,
-        };
+        let texture = self
+            .texture_file(material, node)?
+            .and_then(|path| self.bake_texture(node, &path, color_space, fallback));
         let Some(dst) = p.register() else { return Ok(full()) };
         p.registers.insert(node.to_string(), dst);
         p.nodes.push(ShaderNode::Texture {

@@ -108,17 +108,8 @@ mod tests {
     #[test]
     fn binary_entry_point_renders_writes_and_reports() {
         let dir = tempfile::tempdir().unwrap();
-        let blob_path = dir.path().join("scene.blob");
         // A white dome and nothing else: every camera ray escapes and reads 1.
-        let mut data = blob::SceneData::default();
-        data.info.default_camera = blob::NONE;
-        data.info.dome_light = 0;
-        data.lights.push(blob::Light {
-            kind: blob::light_kind::DOME,
-            radiance: [1.0; 3],
-            ..Default::default()
-        });
-        blob::write_atomic(&blob_path, &data.encode()).unwrap();
+        let blob_path = dome_blob(dir.path());
         let exr = dir.path().join("out.exr");
         let png = dir.path().join("out.png");
         let stats = dir.path().join("stats.json");
