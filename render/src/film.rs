@@ -81,13 +81,18 @@ fn physical_memory() -> Option<u64> {
     kib.checked_mul(1024)
 }
 
-/// A rendered image with its AOVs, row-major from the top-left pixel.
+/// A rendered image with its AOVs, row-major from the top-left pixel: the data window of a frame
+/// (the whole frame unless cropped).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
     /// Width in pixels.
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
+    /// This image's top-left pixel in the frame (the EXR data window's origin; zero unless cropped).
+    pub origin: [u32; 2],
+    /// The frame's width and height (the EXR display window; `[width, height]` unless cropped).
+    pub frame: [u32; 2],
     /// Linear RGB radiance and alpha (fraction of camera samples that hit geometry).
     pub beauty: Vec<[f32; 4]>,
     /// First-hit diffuse albedo, averaged over samples (0 where a sample missed).
@@ -108,6 +113,54 @@ impl Image {
     }
 }
 
+/// The pixels of a frame a render draws: columns `x0..x1`, rows `y0..y1` (rows from the top).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelWindow {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// One past the last column.
+    pub x1: u32,
+    /// One past the last row.
+    pub y1: u32,
+}
+
+impl PixelWindow {
+    /// The whole `width × height` frame.
+    pub fn full(width: u32, height: u32) -> Self {
+        PixelWindow { x0: 0, y0: 0, x1: width, y1: height }
+    }
+
+    /// The pixels of a `width × height` frame whose centres lie in the NDC rectangle `ndc` (xmin, ymin,
+    /// xmax, ymax; (0, 0) bottom-left, (1, 1) top-right, as RenderSettings `dataWindowNDC`), minimum
+    /// edges inclusive and maximum edges exclusive; clipped to the frame. `None` if no pixel is inside.
+    pub fn from_ndc(ndc: [f32; 4], width: u32, height: u32) -> Option<Self> {
+        let (w, h) = (f64::from(width), f64::from(height));
+        // Column x's centre is (x + ½)/w: the first column at or past `min` is ceil(min·w − ½).
+        let first = |edge: f64, size: f64, n: u32| (edge * size - 0.5).ceil().clamp(0.0, f64::from(n)) as u32;
+        let [xmin, ymin, xmax, ymax] = ndc.map(f64::from);
+        // Rows count from the top: NDC y = 1 − (row + ½)/h.
+        let window = PixelWindow {
+            x0: first(xmin, w, width),
+            x1: first(xmax, w, width),
+            y0: first(1.0 - ymax, h, height),
+            y1: first(1.0 - ymin, h, height),
+        };
+        (window.x0 < window.x1 && window.y0 < window.y1).then_some(window)
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+}
+
 pub(crate) struct Tile {
     pub(crate) x0: u32,
     pub(crate) y0: u32,
@@ -115,16 +168,18 @@ pub(crate) struct Tile {
     pub(crate) y1: u32,
 }
 
-/// The image's `tile_size`-square tiles in row-major order, clipped to its edges.
-pub(crate) fn tiles(width: u32, height: u32, tile_size: u32) -> Vec<Tile> {
+/// The frame's `tile_size`-square tiles that meet `window`, in row-major order, clipped to it. The grid
+/// is the whole frame's, so a cropped render traces each of its pixels in the same tile, with the same
+/// neighbours, as the full render does.
+pub(crate) fn tiles(window: PixelWindow, tile_size: u32) -> Vec<Tile> {
     let ts = tile_size;
-    (0..height.div_ceil(ts))
+    (window.y0 / ts..window.y1.div_ceil(ts))
         .flat_map(|ty| {
-            (0..width.div_ceil(ts)).map(move |tx| Tile {
-                x0: tx * ts,
-                y0: ty * ts,
-                x1: ((tx + 1) * ts).min(width),
-                y1: ((ty + 1) * ts).min(height),
+            (window.x0 / ts..window.x1.div_ceil(ts)).map(move |tx| Tile {
+                x0: (tx * ts).max(window.x0),
+                y0: (ty * ts).max(window.y0),
+                x1: ((tx + 1) * ts).min(window.x1),
+                y1: ((ty + 1) * ts).min(window.y1),
             })
         })
         .collect()

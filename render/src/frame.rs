@@ -4,7 +4,7 @@
 //! scheduling order.
 
 use crate::error::RenderError;
-use crate::film::{tiles, Image, Sampling, TileResult};
+use crate::film::{tiles, Image, PixelWindow, Sampling, TileResult};
 use crate::options::{Integrator, RenderOptions};
 use crate::path::PathSettings;
 use crate::scene::Scene;
@@ -12,16 +12,29 @@ use crate::stats::{Counters, PhaseClock, RenderStats, StageSeconds};
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// Renders a prepared `scene` with `options`.
-pub fn render_scene(scene: &Scene, options: &RenderOptions) -> Result<Image, RenderError> {
-    render_scene_with_progress(scene, options, &|_, _| {})
+/// How far a render has come, reported as each tile finishes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// Tiles finished.
+    pub tiles_done: usize,
+    /// Tiles of the render.
+    pub tiles_total: usize,
+    /// Camera samples of the finished tiles.
+    pub samples_done: u64,
+    /// Camera samples of the render.
+    pub samples_total: u64,
 }
 
-/// [`render_scene`] calling `progress(tiles_done, tiles_total)` as tiles finish (from worker threads).
+/// Renders a prepared `scene` with `options`.
+pub fn render_scene(scene: &Scene, options: &RenderOptions) -> Result<Image, RenderError> {
+    render_scene_with_progress(scene, options, &|_| {})
+}
+
+/// [`render_scene`] calling `progress` as tiles finish (from worker threads, in completion order).
 pub fn render_scene_with_progress(
     scene: &Scene,
     options: &RenderOptions,
-    progress: &(dyn Fn(usize, usize) + Sync),
+    progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<Image, RenderError> {
     let total_bytes = scene.shading.textures().texel_bytes();
     if options.texture_stats {
@@ -52,10 +65,65 @@ pub fn check_resolution(width: u32, height: u32) -> Result<(), RenderError> {
     Ok(())
 }
 
+/// Tiles and samples finished so far, counted from the worker threads.
+struct ProgressCounter {
+    tiles_total: usize,
+    samples_total: u64,
+    spp: u64,
+    /// Finished tiles and their samples, updated together.
+    done: std::sync::Mutex<(usize, u64)>,
+}
+
+impl ProgressCounter {
+    fn new(tiles_total: usize, window: PixelWindow, spp: u32) -> Self {
+        let pixels = u64::from(window.width()) * u64::from(window.height());
+        ProgressCounter {
+            tiles_total,
+            samples_total: pixels * u64::from(spp),
+            spp: u64::from(spp),
+            done: std::sync::Mutex::new((0, 0)),
+        }
+    }
+
+    /// Counts `tile` as finished and returns the progress so far.
+    fn finish(&self, tile: &crate::film::Tile) -> Progress {
+        let samples = u64::from(tile.x1 - tile.x0) * u64::from(tile.y1 - tile.y0) * self.spp;
+        let mut done = self.done.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        done.0 += 1;
+        done.1 += samples;
+        Progress {
+            tiles_done: done.0,
+            tiles_total: self.tiles_total,
+            samples_done: done.1,
+            samples_total: self.samples_total,
+        }
+    }
+}
+
+/// The pixels a render draws: the `crop` it is asked for, else the scene's authored data window, else
+/// the whole frame; an error if the window holds no pixel.
+fn pixel_window(
+    scene: &Scene,
+    crop: Option<[f32; 4]>,
+    width: u32,
+    height: u32,
+) -> Result<PixelWindow, RenderError> {
+    let (ndc, what) = match (crop, scene.data_window_ndc()) {
+        (Some(c), _) => (c, "--crop"),
+        (None, Some(authored)) => (authored, "the RenderSettings dataWindowNDC"),
+        (None, None) => return Ok(PixelWindow::full(width, height)),
+    };
+    PixelWindow::from_ndc(ndc, width, height).ok_or_else(|| {
+        RenderError::InvalidOption(format!(
+            "{what} {ndc:?} (xmin, ymin, xmax, ymax in NDC) holds no pixel centre of the {width}x{height} frame"
+        ))
+    })
+}
+
 fn render_with_touch<T: texture::Touch + Sync>(
     scene: &Scene,
     options: &RenderOptions,
-    progress: &(dyn Fn(usize, usize) + Sync),
+    progress: &(dyn Fn(Progress) + Sync),
     touch: &T,
 ) -> Result<Image, RenderError> {
     if options.spp == 0 || options.spp > crate::film::MAX_SPP {
@@ -71,16 +139,17 @@ fn render_with_touch<T: texture::Touch + Sync>(
     let camera_index = scene.camera_index(options.camera.as_deref())?;
     let [width, height] = scene.resolution(options.resolution, camera_index);
     check_resolution(width, height)?;
+    let window = pixel_window(scene, options.crop, width, height)?;
     // Before anything is allocated: the film and pools of a huge resolution (an authored one, or one
     // a camera's aperture aspect implies) must be refused, not aborted on.
     let threads = match options.threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         n => n,
     };
-    let needed = crate::film::memory_estimate(width, height, options.tile_size, threads);
+    let needed = crate::film::memory_estimate(window.width(), window.height(), options.tile_size, threads);
     let limit = options.max_memory.unwrap_or_else(crate::film::default_max_memory);
     if needed > limit {
-        return Err(RenderError::Memory { width, height, needed, limit });
+        return Err(RenderError::Memory { width: window.width(), height: window.height(), needed, limit });
     }
     let camera = scene.camera(camera_index, width, height);
     let mut scene = scene.clone();
@@ -95,11 +164,10 @@ fn render_with_touch<T: texture::Touch + Sync>(
         .map_err(|e| RenderError::ThreadPool(e.to_string()))?;
 
     let ts = options.tile_size;
-    let tiles = tiles(width, height, ts);
-    let total = tiles.len();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let start = Instant::now();
+    let tiles = tiles(window, ts);
     let spp = options.spp;
+    let counter = ProgressCounter::new(tiles.len(), window, spp);
+    let start = Instant::now();
     let settings = PathSettings { max_depth: options.max_depth, filter: options.texture_filter };
     let sampling = Sampling::new(options, width, height, camera.forward());
 
@@ -119,8 +187,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
                         tile,
                         touch,
                     );
-                    let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                    progress(finished, total);
+                    progress(counter.finish(tile));
                     r
                 })
                 .collect()
@@ -157,8 +224,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
                         },
                         |m, tile| {
                             let r = crate::wavefront::render(&ctx, &mut m.0, tile);
-                            let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                            progress(finished, total);
+                            progress(counter.finish(tile));
                             r
                         },
                     )
@@ -170,10 +236,13 @@ fn render_with_touch<T: texture::Touch + Sync>(
     let (stage_seconds, counters, mut clock) =
         stages.into_inner().unwrap_or_else(|poisoned| poisoned.into_inner());
 
-    let n = (width * height) as usize;
+    let (image_width, image_height) = (window.width(), window.height());
+    let n = (image_width * image_height) as usize;
     let mut image = Image {
-        width,
-        height,
+        width: image_width,
+        height: image_height,
+        origin: [window.x0, window.y0],
+        frame: [width, height],
         beauty: vec![[0.0; 4]; n],
         albedo: vec![[0.0; 3]; n],
         normal: vec![[0.0; 3]; n],
@@ -190,7 +259,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
     for (tile, r) in tiles.iter().zip(&results) {
         let tw = (tile.x1 - tile.x0) as usize;
         for (row, y) in (tile.y0..tile.y1).enumerate() {
-            let dst = (y * width + tile.x0) as usize;
+            let dst = ((y - window.y0) * image_width + tile.x0 - window.x0) as usize;
             let src = row * tw;
             image.beauty[dst..dst + tw].copy_from_slice(&r.beauty[src..src + tw]);
             image.albedo[dst..dst + tw].copy_from_slice(&r.albedo[src..src + tw]);

@@ -41,6 +41,8 @@ pub mod accel;
 pub mod bsdf;
 pub mod camera;
 #[cfg(test)]
+mod crop_tests;
+#[cfg(test)]
 mod dispatch_tests;
 #[cfg(test)]
 mod dome_tests;
@@ -72,7 +74,7 @@ pub mod wavefront;
 pub use accel::{Accel, Hit, Ray};
 pub use error::RenderError;
 pub use film::Image;
-pub use frame::{render_scene, render_scene_with_progress};
+pub use frame::{render_scene, render_scene_with_progress, Progress};
 pub use mapped::{map_blob, parse_blob, read_blob, MappedBlob};
 pub use options::{Integrator, RenderOptions};
 pub use output::{write_exr, write_png};

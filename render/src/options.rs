@@ -37,6 +37,10 @@ pub struct RenderOptions {
     /// ([`crate::film::memory_estimate`]); `None` for [`crate::film::default_max_memory`] (3/4 of the
     /// physical memory).
     pub max_memory: Option<u64>,
+    /// Draw only this NDC rectangle of the frame (xmin, ymin, xmax, ymax; (0, 0) bottom-left), as
+    /// RenderSettings `dataWindowNDC` does and overriding it; `None` for the authored window or the
+    /// whole frame. Pixels are the full render's, bit for bit ([`crate::film::PixelWindow::from_ndc`]).
+    pub crop: Option<[f32; 4]>,
 }
 
 /// The path-tracing integrator: depth-first scalar or breadth-first wavefront (same estimator, same
@@ -79,6 +83,7 @@ impl Default for RenderOptions {
             integrator: Integrator::Wavefront,
             max_memory: None,
             phase_stats: false,
+            crop: None,
         }
     }
 }

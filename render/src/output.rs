@@ -1,5 +1,6 @@
 //! Writing images: a multi-channel OpenEXR (beauty RGBA plus `albedo.*`, `normal.*` and `depth.Z`
-//! layers, 32-bit float, linear) and an 8-bit sRGB PNG preview of the beauty; and the rules every output
+//! layers, 32-bit float, linear; a cropped render's data window inside the frame's display window)
+//! and an 8-bit sRGB PNG preview of the beauty (the data window only); and the rules every output
 //! of render follows.
 //!
 //! * **Atomic**: each output is written to a temporary file in its own directory, fsynced and renamed
@@ -189,15 +190,22 @@ pub fn write_exr(path: &Path, image: &Image) -> Result<(), RenderError> {
         channel("normal.Z", normal(2)),
         channel("depth.Z", image.depth.clone()),
     ];
+    // A cropped image is the data window of its frame: placed at its origin, the display window the
+    // whole frame, as compositors expect of a region render.
+    let attributes = LayerAttributes {
+        layer_position: Vec2(image.origin[0] as i32, image.origin[1] as i32),
+        ..LayerAttributes::named("beauty")
+    };
     let layer = Layer::new(
         size,
-        LayerAttributes::named("beauty"),
+        attributes,
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
+    let frame = (image.frame[0] as usize, image.frame[1] as usize);
     // Sequential compression: exr's parallel writer emits blocks in completion order, so the same pixels
     // would give different file bytes from run to run.
-    let image = Image::from_layer(layer);
+    let image = Image::new(ImageAttributes::new(IntegerBounds::from_dimensions(frame)), layer);
     write_atomic_with(path, |out| image.write().non_parallel().to_buffered(out).map_err(|e| e.to_string()))
 }
 
@@ -243,6 +251,8 @@ mod tests {
         let image = Image {
             width: 3,
             height: 2,
+            origin: [0, 0],
+            frame: [3, 2],
             beauty: (0..6).map(|i| [i as f32 * 0.25, 0.5, 1.5, 1.0]).collect(),
             albedo: vec![[0.5; 3]; 6],
             normal: vec![[0.0, 0.0, 1.0]; 6],

@@ -87,6 +87,28 @@ impl<'a> Scene<'a> {
         [512, default_height(camera.map(|i| &self.view.cameras[i]), 512)]
     }
 
+    /// Whether anything in the scene can light it: a UsdLux light, an emissive triangle, or a material
+    /// (on curves or points) whose `emissiveColor` is non-zero or driven by its program. A scene
+    /// without any renders black.
+    pub fn has_light(&self) -> bool {
+        let v = &self.view;
+        let program_emits = |m: &blob::Material| {
+            let ops = v.shader_ops.get(m.program_start as usize..).unwrap_or_default();
+            ops.iter()
+                .take(m.program_len as usize)
+                .any(|op| op.kind == blob::op_kind::OUTPUT && op.dst == blob::shading_input::EMISSIVE_COLOR)
+        };
+        !v.lights.is_empty()
+            || !v.emissive_triangles.is_empty()
+            || v.materials.iter().any(|m| m.emissive_color != [0.0; 3] || program_emits(m))
+    }
+
+    /// The authored RenderSettings data window (NDC), if any ([`blob::SceneInfo::data_window_ndc`]).
+    pub fn data_window_ndc(&self) -> Option<[f32; 4]> {
+        let w = self.view.info.data_window_ndc;
+        (w[0] != w[2] && w[1] != w[3]).then_some(w)
+    }
+
     /// The camera for an image of `width × height`: the blob camera `index`, or one framing the bounds.
     pub fn camera(&self, index: Option<usize>, width: u32, height: u32) -> Camera {
         match index {

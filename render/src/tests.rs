@@ -427,3 +427,15 @@ fn distant_light_through_a_glass_pane_keeps_its_transmittance() {
     let expected = open * 0.96f32.powi(2) * (1.0 - 0.04) / (1.0 + 0.04);
     assert_close("card under a glass pane, distant light", under, expected, 0.02);
 }
+
+#[test]
+fn scenes_without_any_light_are_recognised() {
+    let dark = Scene { meshes: vec![card(0.0, 1.0, 0)], materials: vec![lambert(0.5)], ..Scene::default() };
+    let has_light = |scene: &Scene| {
+        crate::Scene::new(blob::SceneView::parse(&testscene::bytes(scene)).unwrap()).has_light()
+    };
+    assert!(!has_light(&dark));
+    assert!(has_light(&Scene { lights: vec![dome(1.0)], ..dark.clone() }));
+    let lamp = scene_pack::Material { emissive_color: Vec3::ONE, ..lambert(0.5) };
+    assert!(has_light(&Scene { materials: vec![lamp], ..dark.clone() }), "an emissive surface lights it");
+}

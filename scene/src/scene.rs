@@ -31,6 +31,8 @@ pub struct Scene {
     pub default_camera: Option<usize>,
     /// Resolution authored by RenderSettings, if any.
     pub resolution: Option<[u32; 2]>,
+    /// RenderSettings `dataWindowNDC` (xmin, ymin, xmax, ymax; y up), if authored and not the whole frame.
+    pub data_window_ndc: Option<[f32; 4]>,
     /// `metersPerUnit` of the stage (fallback 0.01).
     pub meters_per_unit: f64,
     /// Up axis of the stage.

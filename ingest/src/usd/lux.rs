@@ -242,7 +242,31 @@ impl Reader<'_> {
                 self.warn(&settings, format!("resolution {res:?} is not positive; ignored"));
             }
         }
+        if let Some(window) = self.stage.attr(&settings, "dataWindowNDC")? {
+            self.read_data_window(&settings, &window);
+        }
         Ok(())
+    }
+
+    /// RenderSettings `dataWindowNDC`: kept when it is an upright rectangle within
+    /// ±[`blob::tree::MAX_NDC`] that is not the whole frame; anything else is one warning and the whole
+    /// frame.
+    fn read_data_window(&mut self, settings: &str, value: &Value) {
+        let Some(w) = value.as_tuple::<4>() else {
+            self.warn(settings, format!("dataWindowNDC {value:?} is not a float4; ignored"));
+            return;
+        };
+        let limit = f64::from(blob::tree::MAX_NDC);
+        if !w.iter().all(|v| v.is_finite() && v.abs() <= limit) || w[0] >= w[2] || w[1] >= w[3] {
+            self.warn(
+                settings,
+                format!("dataWindowNDC {w:?} is not an upright rectangle within ±{limit} (xmin, ymin, xmax, ymax); the whole frame is rendered"),
+            );
+            return;
+        }
+        if w != [0.0, 0.0, 1.0, 1.0] {
+            self.scene.data_window_ndc = Some(w.map(|v| v as f32));
+        }
     }
 }
 

@@ -583,6 +583,30 @@ def Scope "Render" {
 }
 
 #[test]
+fn render_settings_data_windows() {
+    let settings = |window: &str| {
+        load_text(&usda(&format!(
+            "def Camera \"Cam\" {{}}\ndef RenderSettings \"Settings\" {{\n    uniform float4 dataWindowNDC = {window}\n}}"
+        )))
+    };
+    let scene = settings("(0.25, 0, 0.75, 0.5)");
+    assert_eq!(scene.data_window_ndc, Some([0.25, 0.0, 0.75, 0.5]));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(settings("(0, 0, 1, 1)").data_window_ndc, None, "the whole frame is no crop");
+    let inverted = settings("(0.75, 0, 0.25, 1)");
+    assert_eq!(inverted.data_window_ndc, None);
+    assert!(
+        has_warning(
+            &inverted,
+            "/Settings",
+            "dataWindowNDC [0.75, 0.0, 0.25, 1.0] is not an upright rectangle"
+        ),
+        "{:?}",
+        inverted.warnings
+    );
+}
+
+#[test]
 fn stage_metadata() {
     let scene = load_text("#usda 1.0\n(\n    upAxis = \"Z\"\n    metersPerUnit = 1\n)\n");
     assert_eq!(scene.up_axis, UpAxis::Z);

@@ -25,7 +25,7 @@ pub const UP_AXIS_Y: u32 = 1;
 /// Up axis of the source stage.
 pub const UP_AXIS_Z: u32 = 2;
 
-/// Scene-wide facts; the [`crate::SectionKind::SceneInfo`] section holds exactly one. 64 bytes.
+/// Scene-wide facts; the [`crate::SectionKind::SceneInfo`] section holds exactly one. 80 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct SceneInfo {
@@ -49,8 +49,12 @@ pub struct SceneInfo {
     pub dome_light: u32,
     /// Reserved, zero.
     pub reserved: [u32; 2],
+    /// RenderSettings `dataWindowNDC` (xmin, ymin, xmax, ymax; (0, 0) the bottom-left corner of the
+    /// frame, (1, 1) the top-right): the region render draws. A window of zero area means unauthored
+    /// (the whole frame), so a zeroed record keeps today's meaning.
+    pub data_window_ndc: [f32; 4],
 }
-const _: () = assert!(std::mem::size_of::<SceneInfo>() == 64);
+const _: () = assert!(std::mem::size_of::<SceneInfo>() == 80);
 
 /// One triangle: three indices into the vertex sections and the mesh it belongs to. 16 bytes.
 #[repr(C)]

@@ -392,8 +392,9 @@ impl<'a> SceneView<'a> {
         Ok(())
     }
 
-    /// Scene bounds sane (or the empty encoding: min = +inf, max = −inf) and the authored resolution
-    /// unauthored (0×0) or within [`crate::tree::MAX_RESOLUTION_AXIS`] and [`crate::tree::MAX_PIXELS`].
+    /// Scene bounds sane (or the empty encoding: min = +inf, max = −inf), the authored resolution
+    /// unauthored (0×0) or within [`crate::tree::MAX_RESOLUTION_AXIS`] and [`crate::tree::MAX_PIXELS`],
+    /// and the data window unset or an upright rectangle within ±[`crate::tree::MAX_NDC`].
     fn validate_info(&self) -> Result<(), BlobError> {
         use crate::tree::{MAX_PIXELS, MAX_RESOLUTION_AXIS};
         let bad = |what| Err(BlobError::BadIndex { kind: SectionKind::SceneInfo, record: 0, what });
@@ -413,6 +414,13 @@ impl<'a> SceneView<'a> {
         }
         if !(info.meters_per_unit.is_finite() && info.meters_per_unit >= 0.0) {
             return bad("metersPerUnit non-finite or negative");
+        }
+        let [x0, y0, x1, y1] = info.data_window_ndc;
+        let window_unset = x0 == x1 || y0 == y1;
+        if !info.data_window_ndc.iter().all(|v| v.is_finite() && v.abs() <= crate::tree::MAX_NDC)
+            || !(window_unset || (x0 < x1 && y0 < y1))
+        {
+            return bad("data window non-finite, beyond ±16 or inverted");
         }
         Ok(())
     }

@@ -54,6 +54,10 @@ pub const MAX_RESOLUTION_AXIS: u32 = 65_536;
 /// film's actual memory against its `--max-memory` on top of this.
 pub const MAX_PIXELS: u64 = 1 << 28;
 
+/// Largest data-window coordinate in NDC: a window may reach past the frame (overscan), render clips
+/// it to the frame; ±16 frames is far beyond any authored overscan.
+pub const MAX_NDC: f32 = 16.0;
+
 /// A value inside `±MAX_COORDINATE` (false for NaN and infinities).
 #[inline]
 pub fn sane(x: f32) -> bool {

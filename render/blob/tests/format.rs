@@ -754,6 +754,18 @@ fn huge_or_non_finite_floats_and_resolutions_are_rejected() {
     let mut s = sample_scene();
     (s.info.bounds_min, s.info.bounds_max) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
     assert!(parse(&s.encode()).is_ok(), "the empty scene's bounds");
+    for window in [[0.5, 0.0, 0.25, 1.0], [0.0, 0.0, f32::NAN, 1.0], [0.0, 0.0, 17.0, 1.0]] {
+        let mut s = sample_scene();
+        s.info.data_window_ndc = window;
+        assert_eq!(
+            crafted_error(&s, K::SceneInfo),
+            "section SceneInfo record 0: data window non-finite, beyond ±16 or inverted",
+            "{window:?}"
+        );
+    }
+    let mut s = sample_scene();
+    s.info.data_window_ndc = [-0.5, 0.25, 1.5, 0.75];
+    assert!(parse(&s.encode()).is_ok(), "an overscanning window");
     for resolution in [[1, 2_147_483_647], [65_535, 65_535], [0, 5]] {
         let mut s = sample_scene();
         s.info.resolution = resolution;

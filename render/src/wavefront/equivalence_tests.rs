@@ -485,7 +485,7 @@ fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads:
         touch: &texture::NoTouch,
         textured: scene.shading.textures().texel_bytes() > 0,
     };
-    let tiles = crate::film::tiles(width, height, options.tile_size);
+    let tiles = crate::film::tiles(crate::film::PixelWindow::full(width, height), options.tile_size);
     let n = (width * height) as usize;
     let mut image = DriverImage {
         beauty: vec![[0.0; 4]; n],

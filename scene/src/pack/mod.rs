@@ -180,6 +180,7 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
         instance_count: scene.instance_count,
         dome_light,
         reserved: [0; 2],
+        data_window_ndc: scene.data_window_ndc.unwrap_or([0.0; 4]),
     };
     Ok(data)
 }

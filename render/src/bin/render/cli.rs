@@ -57,6 +57,31 @@ pub struct Args {
     /// every bench scene) or scalar (depth first, the reference); same image bit for bit.
     #[arg(long, default_value = "wavefront")]
     pub integrator: render::Integrator,
+    /// Render only this region of the frame: XMIN,YMIN,XMAX,YMAX in NDC ((0,0) bottom-left, (1,1)
+    /// top-right, as RenderSettings dataWindowNDC, which it overrides). The EXR keeps the frame as its
+    /// display window; the pixels equal the full render's.
+    #[arg(long, value_parser = parse_crop)]
+    pub crop: Option<[f32; 4]>,
+    /// Seconds between progress lines when stderr is not a terminal (a farm log); a terminal gets a bar.
+    #[arg(long, default_value_t = 10.0)]
+    pub progress_interval: f64,
+}
+
+fn parse_crop(s: &str) -> Result<[f32; 4], String> {
+    let values: Vec<f32> = s
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|e| format!("bad crop {s:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    let [x0, y0, x1, y1] = values[..] else {
+        return Err(format!("expected XMIN,YMIN,XMAX,YMAX, got {s:?}"));
+    };
+    let limit = blob::tree::MAX_NDC;
+    if !values.iter().all(|v| v.is_finite() && v.abs() <= limit) || x0 >= x1 || y0 >= y1 {
+        return Err(format!(
+            "crop {s:?} must be XMIN,YMIN,XMAX,YMAX with XMIN < XMAX, YMIN < YMAX, within ±{limit}"
+        ));
+    }
+    Ok([x0, y0, x1, y1])
 }
 
 fn parse_filter(s: &str) -> Result<texture::Filter, String> {
@@ -120,6 +145,8 @@ pub enum Command {
         stats: Option<PathBuf>,
         /// Render options.
         options: RenderOptions,
+        /// Seconds between plain progress lines (stderr not a terminal).
+        progress_interval: f64,
     },
 }
 
@@ -138,11 +165,18 @@ impl Args {
         }
         let output =
             self.output.ok_or_else(|| RenderError::InvalidOption("-o OUT.exr is required".into()))?;
+        if !(self.progress_interval.is_finite() && (0.0..=1e6).contains(&self.progress_interval)) {
+            return Err(RenderError::InvalidOption(format!(
+                "--progress-interval {} out of range (0..=1000000 seconds)",
+                self.progress_interval
+            )));
+        }
         Ok(Command::Render {
             stats: self.stats.clone(),
             blob: self.blob,
             output,
             png: self.png,
+            progress_interval: self.progress_interval,
             options: RenderOptions {
                 spp: self.spp,
                 resolution: self.res,
@@ -156,6 +190,7 @@ impl Args {
                 curve_shape: self.curve_shape,
                 integrator: self.integrator,
                 max_memory: self.max_memory,
+                crop: self.crop,
                 ..RenderOptions::default()
             },
         })
@@ -209,6 +244,15 @@ mod tests {
             .into_command()
             .unwrap_err();
         assert!(err.to_string().contains("--spp 16777217 out of range"), "{err}");
+        assert_eq!(parse_crop("0.25, 0, 0.75,0.5"), Ok([0.25, 0.0, 0.75, 0.5]));
+        assert!(parse_crop("0.5,0,0.25,1").unwrap_err().contains("XMIN < XMAX"));
+        assert!(parse_crop("0,0,1").unwrap_err().contains("expected XMIN,YMIN,XMAX,YMAX"));
+        assert!(parse_crop("0,0,nan,1").unwrap_err().contains("within ±16"));
+        let err = Args::try_parse_from(["render", "s.blob", "-o", "x", "--progress-interval", "-1"])
+            .unwrap()
+            .into_command()
+            .unwrap_err();
+        assert!(err.to_string().contains("--progress-interval -1 out of range"), "{err}");
         assert!(Args::try_parse_from(["render", "s.blob", "-o", "x", "--spp", "0"])
             .unwrap()
             .into_command()

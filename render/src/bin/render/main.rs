@@ -2,6 +2,7 @@
 //! crates (clap, indicatif, anyhow) stay out of the library.
 
 mod cli;
+mod progress;
 
 use anyhow::Context;
 use std::io::IsTerminal;
@@ -57,29 +58,21 @@ where
             println!("{}", serde_json::to_string(&render::info::summarize(&view))?);
             Ok(ExitCode::SUCCESS)
         }
-        cli::Command::Render { output, png, stats, options, .. } => {
+        cli::Command::Render { output, png, stats, options, progress_interval, .. } => {
             let scene = render::Scene::new(view);
-            let bar = std::io::stderr().is_terminal().then(|| {
-                let bar = indicatif::ProgressBar::new(0);
-                bar.set_style(
-                    indicatif::ProgressStyle::with_template(
-                        "{bar:40} {pos}/{len} tiles {elapsed_precise} eta {eta}",
-                    )
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            if !scene.has_light() {
+                eprintln!(
+                    "render: warning: {} has no light (no UsdLux light, no emissive surface): the image is black",
+                    blob_path.display()
                 );
-                bar
-            });
-            let progress = |done: usize, total: usize| {
-                if let Some(bar) = &bar {
-                    bar.set_length(total as u64);
-                    bar.set_position(done as u64);
-                }
-            };
-            let image = render::render_scene_with_progress(&scene, &options, &progress)
-                .with_context(|| format!("rendering {}", blob_path.display()))?;
-            if let Some(bar) = &bar {
-                bar.finish_and_clear();
             }
+            let reporter = progress::Reporter::for_stderr(
+                std::io::stderr().is_terminal(),
+                std::time::Duration::from_secs_f64(progress_interval),
+            );
+            let image = render::render_scene_with_progress(&scene, &options, &|p| reporter.report(p))
+                .with_context(|| format!("rendering {}", blob_path.display()))?;
+            reporter.finish();
             map.check_unchanged(&blob_path)?;
             let write_start = Instant::now();
             render::write_exr(&output, &image)?;
