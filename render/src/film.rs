@@ -12,8 +12,9 @@ pub(crate) struct Sampling {
     pub(crate) width: u32,
     /// Image height.
     pub(crate) height: u32,
-    /// Samples per pixel.
-    pub(crate) spp: u32,
+    /// The samples of each pixel to trace: `samples[0] .. samples[1]` (sample keys of the whole
+    /// render, so a render in passes traces the same paths as one in a single pass).
+    pub(crate) samples: [u32; 2],
     /// Sampler seed.
     pub(crate) seed: u32,
     /// Scale of every camera ray's footprint ([`crate::RenderOptions::texture_footprint_scale`]).
@@ -33,7 +34,7 @@ impl Sampling {
         Sampling {
             width,
             height,
-            spp: options.spp,
+            samples: [0, options.spp],
             seed: options.seed,
             footprint_scale: options.texture_footprint_scale,
             forward,
@@ -44,10 +45,13 @@ impl Sampling {
 /// Bytes of one pixel of [`Image`] or of a tile result: beauty 16, albedo 12, normal 12, depth 4.
 pub const PIXEL_BYTES: u64 = 16 + 12 + 12 + 4;
 
-/// Bytes per pixel at the render's peak: the tile results and the assembled [`Image`] are alive together
-/// at the end of the frame, and writing the EXR copies every channel once more (its compressed blocks,
-/// smaller than the copy, are counted in the same third).
-pub const PEAK_BYTES_PER_PIXEL: u64 = 3 * PIXEL_BYTES;
+/// Bytes of one pixel's running sums ([`PixelSum`]).
+pub const SUM_BYTES: u64 = std::mem::size_of::<PixelSum>() as u64;
+
+/// Bytes per pixel at the render's peak: the frame's sums and the tiles' returned sums are alive
+/// together at the end of a pass, then the [`Image`], and writing the EXR copies every channel once
+/// more (its compressed blocks, smaller than the copy, are counted in the same share).
+pub const PEAK_BYTES_PER_PIXEL: u64 = 2 * SUM_BYTES + 2 * PIXEL_BYTES;
 
 /// Upper estimate of one path slot of a worker's pools (rays, hits, curve hits, shadow rays, surfaces,
 /// queue entries): the wavefront's 2048-path pool is sized to fit a 2 MiB L2, so 1 KiB per path, doubled
@@ -185,13 +189,61 @@ pub(crate) fn tiles(window: PixelWindow, tile_size: u32) -> Vec<Tile> {
         .collect()
 }
 
+/// Running sums of one pixel over the samples traced so far, added in sample order by both
+/// integrators ([`PixelSum::add`]), so continuing them with later samples (a resumed checkpoint, the
+/// next pass) gives the bits of a render in one go.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelSum {
+    /// Radiance of the finite samples.
+    pub sum: Vec3,
+    /// First-hit albedo of the samples that hit.
+    pub albedo: Vec3,
+    /// First-hit shading normal of the samples that hit.
+    pub normal: Vec3,
+    /// First-hit distance of the samples that hit.
+    pub depth: f64,
+    /// Samples that hit geometry.
+    pub hits: u32,
+    /// Samples whose radiance was not finite (dropped from `sum`).
+    pub nonfinite: u32,
+}
+
+impl PixelSum {
+    /// Adds one sample.
+    #[inline]
+    pub(crate) fn add(&mut self, radiance: Vec3, first_hit: &Option<crate::path::FirstHit>) {
+        if radiance.is_finite() {
+            self.sum += radiance;
+        } else {
+            self.nonfinite += 1;
+        }
+        if let Some(h) = first_hit {
+            self.albedo += h.albedo;
+            self.normal += h.normal;
+            self.depth += h.depth as f64;
+            self.hits += 1;
+        }
+    }
+
+    /// The pixel's beauty (RGB and alpha), albedo, normal and depth as the mean of `samples` samples.
+    pub fn resolve(&self, samples: u32) -> ([f32; 4], [f32; 3], [f32; 3], f32) {
+        let inv = 1.0 / samples as f32;
+        let c = self.sum * inv;
+        let depth = if self.hits > 0 { (self.depth / self.hits as f64) as f32 } else { f32::INFINITY };
+        (
+            [c.x, c.y, c.z, self.hits as f32 * inv],
+            (self.albedo * inv).to_array(),
+            self.normal.normalize_or_zero().to_array(),
+            depth,
+        )
+    }
+}
+
+/// What one tile's render hands back: its pixels' sums, continued from the sums it was given.
 pub(crate) struct TileResult {
-    pub(crate) beauty: Vec<[f32; 4]>,
-    pub(crate) albedo: Vec<[f32; 3]>,
-    pub(crate) normal: Vec<[f32; 3]>,
-    pub(crate) depth: Vec<f32>,
+    /// The tile's pixels, row-major.
+    pub(crate) sums: Vec<PixelSum>,
     pub(crate) rays: RayCounts,
-    pub(crate) nonfinite: u64,
     /// Scalar integrator: the tile's phase times and shader count (the wavefront keeps them per worker).
     pub(crate) clock: Option<PhaseClock>,
 }

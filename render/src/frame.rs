@@ -4,7 +4,7 @@
 //! scheduling order.
 
 use crate::error::RenderError;
-use crate::film::{tiles, Image, PixelWindow, Sampling, TileResult};
+use crate::film::{tiles, Image, PixelSum, PixelWindow, Sampling, TileResult};
 use crate::options::{Integrator, RenderOptions};
 use crate::path::PathSettings;
 use crate::scene::Scene;
@@ -36,18 +36,103 @@ pub fn render_scene_with_progress(
     options: &RenderOptions,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<Image, RenderError> {
-    let total_bytes = scene.shading.textures().texel_bytes();
-    if options.texture_stats {
-        // One bitmap for the whole render, allocated before any tile starts.
-        let pages = texture::PageTouches::new(total_bytes);
-        let mut image = render_with_touch(scene, options, progress, &pages)?;
-        image.stats.texture_bytes_touched = pages.touched_bytes();
-        image.stats.texture_bytes_total = total_bytes as u64;
-        Ok(image)
-    } else {
-        let mut image = render_with_touch(scene, options, progress, &texture::NoTouch)?;
-        image.stats.texture_bytes_total = total_bytes as u64;
-        Ok(image)
+    let mut film = Accumulation::new(scene, options)?;
+    film.render(scene, options, options.spp, progress)?;
+    Ok(film.image())
+}
+
+/// A frame's running pixel sums and how many samples per pixel they hold: what a render in passes, a
+/// checkpoint and a resumed render carry between passes. Continuing it traces the samples after
+/// [`Accumulation::samples`] with the keys of the whole render, so any split into passes gives the
+/// bits of one pass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Accumulation {
+    /// The pixels drawn, in the frame.
+    pub window: PixelWindow,
+    /// The frame's width and height.
+    pub frame: [u32; 2],
+    /// Samples per pixel traced so far (every pixel has the same).
+    pub samples: u32,
+    /// The window's pixels, row-major.
+    pub sums: Vec<PixelSum>,
+    /// Counters and timings of the passes so far.
+    pub stats: RenderStats,
+}
+
+impl Accumulation {
+    /// An empty accumulation for `options` (validated: spp, tile size, camera, resolution, window and
+    /// memory; an error before anything is allocated).
+    pub fn new(scene: &Scene, options: &RenderOptions) -> Result<Self, RenderError> {
+        let (window, frame) = plan(scene, options)?;
+        let n = window.width() as usize * window.height() as usize;
+        Ok(Accumulation {
+            window,
+            frame,
+            samples: 0,
+            sums: vec![PixelSum::default(); n],
+            stats: RenderStats::default(),
+        })
+    }
+
+    /// Traces samples `self.samples .. until` of every pixel (nothing if `until` is not past them),
+    /// calling `progress` as tiles finish.
+    pub fn render(
+        &mut self,
+        scene: &Scene,
+        options: &RenderOptions,
+        until: u32,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<(), RenderError> {
+        if until <= self.samples {
+            return Ok(());
+        }
+        let (window, frame) = plan(scene, options)?;
+        if (window, frame) != (self.window, self.frame) {
+            return Err(RenderError::InvalidOption(format!(
+                "the accumulation is of pixels {:?} of a {}x{} frame, the options ask for {window:?} of {}x{}",
+                self.window, self.frame[0], self.frame[1], frame[0], frame[1]
+            )));
+        }
+        let total_bytes = scene.shading.textures().texel_bytes();
+        let samples = [self.samples, until.min(crate::film::MAX_SPP)];
+        let mut stats = if options.texture_stats {
+            // One bitmap for the pass, allocated before any tile starts.
+            let pages = texture::PageTouches::new(total_bytes);
+            let mut stats = render_pass(scene, options, self, samples, progress, &pages)?;
+            stats.texture_bytes_touched = pages.touched_bytes();
+            stats
+        } else {
+            render_pass(scene, options, self, samples, progress, &texture::NoTouch)?
+        };
+        stats.texture_bytes_total = total_bytes as u64;
+        self.samples = samples[1];
+        self.stats.add_pass(&stats);
+        self.stats.nonfinite_samples = self.sums.iter().map(|p| u64::from(p.nonfinite)).sum();
+        Ok(())
+    }
+
+    /// The pixels: each the mean of its [`Accumulation::samples`] samples.
+    pub fn image(&self) -> Image {
+        let n = self.sums.len();
+        let mut image = Image {
+            width: self.window.width(),
+            height: self.window.height(),
+            origin: [self.window.x0, self.window.y0],
+            frame: self.frame,
+            beauty: Vec::with_capacity(n),
+            albedo: Vec::with_capacity(n),
+            normal: Vec::with_capacity(n),
+            depth: Vec::with_capacity(n),
+            stats: self.stats.clone(),
+        };
+        for p in &self.sums {
+            let (beauty, albedo, normal, depth) = p.resolve(self.samples.max(1));
+            image.beauty.push(beauty);
+            image.albedo.push(albedo);
+            image.normal.push(normal);
+            image.depth.push(depth);
+        }
+        image
     }
 }
 
@@ -120,12 +205,8 @@ fn pixel_window(
     })
 }
 
-fn render_with_touch<T: texture::Touch + Sync>(
-    scene: &Scene,
-    options: &RenderOptions,
-    progress: &(dyn Fn(Progress) + Sync),
-    touch: &T,
-) -> Result<Image, RenderError> {
+/// The window and frame size `options` ask for, validated (see [`Accumulation::new`]).
+fn plan(scene: &Scene, options: &RenderOptions) -> Result<(PixelWindow, [u32; 2]), RenderError> {
     if options.spp == 0 || options.spp > crate::film::MAX_SPP {
         return Err(RenderError::InvalidOption(format!(
             "spp {} out of range (1..={})",
@@ -142,15 +223,39 @@ fn render_with_touch<T: texture::Touch + Sync>(
     let window = pixel_window(scene, options.crop, width, height)?;
     // Before anything is allocated: the film and pools of a huge resolution (an authored one, or one
     // a camera's aperture aspect implies) must be refused, not aborted on.
-    let threads = match options.threads {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n,
-    };
-    let needed = crate::film::memory_estimate(window.width(), window.height(), options.tile_size, threads);
+    let needed = crate::film::memory_estimate(
+        window.width(),
+        window.height(),
+        options.tile_size,
+        thread_count(options),
+    );
     let limit = options.max_memory.unwrap_or_else(crate::film::default_max_memory);
     if needed > limit {
         return Err(RenderError::Memory { width: window.width(), height: window.height(), needed, limit });
     }
+    Ok((window, [width, height]))
+}
+
+/// The worker threads `options` ask for (0: one per core).
+fn thread_count(options: &RenderOptions) -> usize {
+    match options.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    }
+}
+
+/// One pass: samples `samples[0] .. samples[1]` of every pixel of `film`'s window, continuing its
+/// sums. Returns the pass's statistics.
+fn render_pass<T: texture::Touch + Sync>(
+    scene: &Scene,
+    options: &RenderOptions,
+    film: &mut Accumulation,
+    samples: [u32; 2],
+    progress: &(dyn Fn(Progress) + Sync),
+    touch: &T,
+) -> Result<RenderStats, RenderError> {
+    let (window, [width, height]) = (film.window, film.frame);
+    let camera_index = scene.camera_index(options.camera.as_deref())?;
     let camera = scene.camera(camera_index, width, height);
     let mut scene = scene.clone();
     if options.curve_shape.is_some() {
@@ -165,11 +270,21 @@ fn render_with_touch<T: texture::Touch + Sync>(
 
     let ts = options.tile_size;
     let tiles = tiles(window, ts);
-    let spp = options.spp;
-    let counter = ProgressCounter::new(tiles.len(), window, spp);
+    let counter = ProgressCounter::new(tiles.len(), window, samples[1] - samples[0]);
     let start = Instant::now();
     let settings = PathSettings { max_depth: options.max_depth, filter: options.texture_filter };
-    let sampling = Sampling::new(options, width, height, camera.forward());
+    let sampling = Sampling { samples, ..Sampling::new(options, width, height, camera.forward()) };
+    // The tile's sums so far, row-major (the window's rows are `film.window.width()` long).
+    let sums = &film.sums;
+    let stride = window.width();
+    let tile_sums = |tile: &crate::film::Tile| -> Vec<PixelSum> {
+        (tile.y0..tile.y1)
+            .flat_map(|y| {
+                let row = ((y - window.y0) * stride + tile.x0 - window.x0) as usize;
+                sums[row..row + (tile.x1 - tile.x0) as usize].iter().copied()
+            })
+            .collect()
+    };
 
     let stages =
         std::sync::Mutex::new((StageSeconds::default(), Counters::default(), PhaseClock::new(false)));
@@ -185,6 +300,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
                         settings,
                         options.phase_stats,
                         tile,
+                        &tile_sums(tile),
                         touch,
                     );
                     progress(counter.finish(tile));
@@ -223,7 +339,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
                             Merge(worker, &stages)
                         },
                         |m, tile| {
-                            let r = crate::wavefront::render(&ctx, &mut m.0, tile);
+                            let r = crate::wavefront::render(&ctx, &mut m.0, tile, &tile_sums(tile));
                             progress(counter.finish(tile));
                             r
                         },
@@ -235,46 +351,28 @@ fn render_with_touch<T: texture::Touch + Sync>(
     let seconds = start.elapsed().as_secs_f64();
     let (stage_seconds, counters, mut clock) =
         stages.into_inner().unwrap_or_else(|poisoned| poisoned.into_inner());
-
-    let (image_width, image_height) = (window.width(), window.height());
-    let n = (image_width * image_height) as usize;
-    let mut image = Image {
-        width: image_width,
-        height: image_height,
-        origin: [window.x0, window.y0],
-        frame: [width, height],
-        beauty: vec![[0.0; 4]; n],
-        albedo: vec![[0.0; 3]; n],
-        normal: vec![[0.0; 3]; n],
-        depth: vec![0.0; n],
-        stats: RenderStats {
-            samples: n as u64 * spp as u64,
-            seconds,
-            threads: pool.current_num_threads(),
-            stages: stage_seconds,
-            counters,
-            ..RenderStats::default()
-        },
+    let mut stats = RenderStats {
+        samples: u64::from(window.width()) * u64::from(window.height()) * u64::from(samples[1] - samples[0]),
+        seconds,
+        threads: pool.current_num_threads(),
+        stages: stage_seconds,
+        counters,
+        ..RenderStats::default()
     };
     for (tile, r) in tiles.iter().zip(&results) {
         let tw = (tile.x1 - tile.x0) as usize;
         for (row, y) in (tile.y0..tile.y1).enumerate() {
-            let dst = ((y - window.y0) * image_width + tile.x0 - window.x0) as usize;
-            let src = row * tw;
-            image.beauty[dst..dst + tw].copy_from_slice(&r.beauty[src..src + tw]);
-            image.albedo[dst..dst + tw].copy_from_slice(&r.albedo[src..src + tw]);
-            image.normal[dst..dst + tw].copy_from_slice(&r.normal[src..src + tw]);
-            image.depth[dst..dst + tw].copy_from_slice(&r.depth[src..src + tw]);
+            let dst = ((y - window.y0) * stride + tile.x0 - window.x0) as usize;
+            film.sums[dst..dst + tw].copy_from_slice(&r.sums[row * tw..(row + 1) * tw]);
         }
-        image.stats.rays.add(&r.rays);
+        stats.rays.add(&r.rays);
         if let Some(c) = &r.clock {
             clock.merge(c);
         }
-        image.stats.nonfinite_samples += r.nonfinite;
     }
-    image.stats.phases = clock.seconds();
-    image.stats.shader_evaluations = clock.shader_evaluations;
-    Ok(image)
+    stats.phases = clock.seconds();
+    stats.shader_evaluations = clock.shader_evaluations;
+    Ok(stats)
 }
 
 #[cfg(test)]
@@ -318,7 +416,7 @@ mod tests {
             ..RenderOptions::default()
         });
         let needed = crate::film::memory_estimate(8192, 8192, 16, 2);
-        assert_eq!(needed, 8192 * 8192 * 132 + 2 * 2048 * (2048 + 44));
+        assert_eq!(needed, 8192 * 8192 * (2 * 56 + 2 * 44) + 2 * 2048 * (2048 + 44));
         assert_eq!(
             err,
             format!(

@@ -41,13 +41,13 @@ pub mod accel;
 pub mod bsdf;
 pub mod camera;
 #[cfg(test)]
-mod crop_tests;
-#[cfg(test)]
 mod dispatch_tests;
 #[cfg(test)]
 mod dome_tests;
 pub mod error;
 pub mod film;
+#[cfg(test)]
+mod film_tests;
 pub mod frame;
 pub mod hair;
 pub mod info;
@@ -74,7 +74,7 @@ pub mod wavefront;
 pub use accel::{Accel, Hit, Ray};
 pub use error::RenderError;
 pub use film::Image;
-pub use frame::{render_scene, render_scene_with_progress, Progress};
+pub use frame::{render_scene, render_scene_with_progress, Accumulation, Progress};
 pub use mapped::{map_blob, parse_blob, read_blob, MappedBlob};
 pub use options::{Integrator, RenderOptions};
 pub use output::{write_exr, write_png};

@@ -10,7 +10,7 @@
 
 use crate::camera::Camera;
 use crate::camera::RayCone;
-use crate::film::{Sampling, Tile, TileResult};
+use crate::film::{PixelSum, Sampling, Tile, TileResult};
 use crate::lights::power_heuristic;
 use crate::path::{
     shadow_tmax, FirstHit, PathResult, PathSettings, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS,
@@ -226,26 +226,18 @@ pub(crate) fn render_tile<T: Touch>(
     settings: PathSettings,
     phase_stats: bool,
     tile: &Tile,
+    init: &[PixelSum],
     touch: &T,
 ) -> TileResult {
-    let Sampling { width, height, spp, forward, .. } = *sampling;
-    let n = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
-    let mut out = TileResult {
-        beauty: Vec::with_capacity(n),
-        albedo: Vec::with_capacity(n),
-        normal: Vec::with_capacity(n),
-        depth: Vec::with_capacity(n),
-        rays: RayCounts::default(),
-        nonfinite: 0,
-        clock: None,
-    };
+    let Sampling { width, height, samples, forward, .. } = *sampling;
+    let mut out = TileResult { sums: init.to_vec(), rays: RayCounts::default(), clock: None };
     let mut clock = PhaseClock::new(phase_stats);
+    let mut sums = out.sums.iter_mut();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             let pixel = y * width + x;
-            let mut sum = Vec3::ZERO;
-            let (mut albedo, mut normal, mut depth, mut hits) = (Vec3::ZERO, Vec3::ZERO, 0.0f64, 0u32);
-            for sample in 0..spp {
+            let Some(p) = sums.next() else { break };
+            for sample in samples[0]..samples[1] {
                 let key = SampleKey { pixel, sample, seed: sampling.seed };
                 let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
                 let (o, d) =
@@ -254,24 +246,8 @@ pub(crate) fn render_tile<T: Touch>(
                 cone.width *= sampling.footprint_scale;
                 cone.spread *= sampling.footprint_scale;
                 let r = scene.trace_path_timed(o, d, cone, key, &settings, &mut out.rays, touch, &mut clock);
-                if r.radiance.is_finite() {
-                    sum += r.radiance;
-                } else {
-                    out.nonfinite += 1;
-                }
-                if let Some(h) = r.first_hit {
-                    albedo += h.albedo;
-                    normal += h.normal;
-                    depth += h.depth as f64;
-                    hits += 1;
-                }
+                p.add(r.radiance, &r.first_hit);
             }
-            let inv = 1.0 / spp as f32;
-            let c = sum * inv;
-            out.beauty.push([c.x, c.y, c.z, hits as f32 * inv]);
-            out.albedo.push((albedo * inv).to_array());
-            out.normal.push(normal.normalize_or_zero().to_array());
-            out.depth.push(if hits > 0 { (depth / hits as f64) as f32 } else { f32::INFINITY });
         }
     }
     clock.lap(Phase::Overhead);

@@ -31,6 +31,24 @@ pub struct RenderStats {
     pub shader_evaluations: u64,
 }
 
+impl RenderStats {
+    /// Adds a later pass of the same frame: counts and seconds add up; the thread count and texture
+    /// totals are the pass's; bytes touched keep the largest pass's (pages read again are not new);
+    /// non-finite samples are counted from the pixel sums by the caller.
+    pub fn add_pass(&mut self, pass: &RenderStats) {
+        self.rays.add(&pass.rays);
+        self.samples += pass.samples;
+        self.seconds += pass.seconds;
+        self.threads = pass.threads;
+        self.texture_bytes_total = pass.texture_bytes_total;
+        self.texture_bytes_touched = self.texture_bytes_touched.max(pass.texture_bytes_touched);
+        self.stages.add(&pass.stages);
+        self.counters.add(&pass.counters);
+        self.phases.add(&pass.phases);
+        self.shader_evaluations += pass.shader_evaluations;
+    }
+}
+
 /// Per-stage wall-clock seconds, summed over workers (so over threads: CPU-seconds).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct StageSeconds {

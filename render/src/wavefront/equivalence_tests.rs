@@ -472,6 +472,11 @@ struct DriverImage {
 /// Renders `view` on `threads` threads, worker `k` taking every `threads`-th tile
 /// from the `k`-th (so the thread count changes which tiles share a worker's queues); asserts that
 /// no worker's queues or pools grew.
+/// Pixels of `tile`.
+fn npix(tile: &crate::film::Tile) -> usize {
+    ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize
+}
+
 fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads: usize) -> DriverImage {
     let scene = crate::scene::Scene::new(*view);
     let camera_index = scene.camera_index(None).unwrap();
@@ -508,7 +513,8 @@ fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads:
                         .skip(k)
                         .step_by(threads)
                         .map(|(t, tile)| {
-                            let r = super::render(ctx, &mut w, tile);
+                            let fresh = vec![crate::film::PixelSum::default(); npix(tile)];
+                            let r = super::render(ctx, &mut w, tile, &fresh);
                             assert!(w.queues.occlusion.is_empty(), "a tile left shadow rays queued");
                             (t, r)
                         })
@@ -531,10 +537,9 @@ fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads:
             for y in tile.y0..tile.y1 {
                 for x in tile.x0..tile.x1 {
                     let p = (y * width + x) as usize;
-                    image.beauty[p] = r.beauty[k];
-                    image.albedo[p] = r.albedo[k];
-                    image.normal[p] = r.normal[k];
-                    image.depth[p] = r.depth[k];
+                    let (beauty, albedo, normal, depth) = r.sums[k].resolve(options.spp);
+                    (image.beauty[p], image.albedo[p], image.normal[p], image.depth[p]) =
+                        (beauty, albedo, normal, depth);
                     k += 1;
                 }
             }

@@ -55,7 +55,7 @@ pub mod sort;
 use crate::accel::Hit;
 use crate::camera::{Camera, RayCone};
 use crate::film::Sampling;
-use crate::film::{Tile, TileResult};
+use crate::film::{PixelSum, Tile, TileResult};
 use crate::path::{FirstHit, PathSettings, RayCounts};
 use crate::scene::Scene;
 use crate::stats::{Counters, Phase, StageSeconds};
@@ -161,7 +161,7 @@ pub struct Worker {
     kernels: KernelScratch,
     tables: WorkerTables,
     /// Per-pixel running sums of the current tile.
-    film: Vec<accumulate::PixelSum>,
+    film: Vec<PixelSum>,
     /// Stage timers, lane counters and the phase clock.
     pub stats: WorkerStats,
 }
@@ -341,16 +341,21 @@ impl Worker {
 
 /// Renders one tile breadth-first: per chunk of samples, waves of intersect, sort, shade and occlusion
 /// until no path is left.
-pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &Tile) -> TileResult {
+pub(crate) fn render(
+    ctx: &Context<'_, '_, impl Touch>,
+    w: &mut Worker,
+    tile: &Tile,
+    init: &[PixelSum],
+) -> TileResult {
     let Worker { paths, queues, kernels, tables, film, stats } = w;
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
-    let spp = ctx.sampling.spp as usize;
+    let [first, end] = ctx.sampling.samples.map(|s| s as usize);
     let mut rays = RayCounts::default();
-    accumulate::begin(film, npix);
-    let per_chunk = (paths.states.capacity() / npix).clamp(1, spp);
-    let mut s0 = 0;
-    while s0 < spp {
-        let samples = per_chunk.min(spp - s0);
+    accumulate::begin(film, init);
+    let per_chunk = (paths.states.capacity() / npix).clamp(1, (end - first).max(1));
+    let mut s0 = first;
+    while s0 < end {
+        let samples = per_chunk.min(end - s0);
         let mut secs = stats.seconds;
         stats.clock.lap(Phase::Overhead);
         timed(&mut secs.generate, || {
@@ -387,5 +392,5 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, tile: &T
         stats.seconds = secs;
         s0 += samples;
     }
-    accumulate::finish(film, spp as u32, rays)
+    accumulate::finish(film, rays)
 }

@@ -1,5 +1,6 @@
-//! Crops and authored data windows: a region render draws exactly the full render's pixels (both
-//! integrators, windows cutting through tiles) and writes them as the EXR data window of the frame.
+//! Crops, authored data windows and passes: a region render draws exactly the full render's pixels
+//! (both integrators, windows cutting through tiles) and writes them as the EXR data window of the
+//! frame; a render in passes (checkpoints, resumes) equals one in a single pass bit for bit.
 
 use crate::film::PixelWindow;
 use crate::testscene::{self, camera_looking_down_z, card, dome, lambert, sphere};
@@ -117,4 +118,26 @@ fn a_cropped_exr_is_the_data_window_of_the_whole_frame() {
     assert_eq!((layer.size.width(), layer.size.height()), (21, 21));
     let r = layer.channel_data.list.iter().find(|c| c.name.to_string() == "R").unwrap();
     assert_eq!(r.sample_data.value_by_flat_index(21 * 3 + 4).to_f32(), crop.beauty[21 * 3 + 4][0]);
+}
+
+#[test]
+fn a_render_in_passes_equals_one_pass_bit_for_bit() {
+    let bytes = testscene::bytes(&scene(None));
+    let scene = crate::Scene::new(blob::SceneView::parse(&bytes).unwrap());
+    for integrator in [Integrator::Scalar, Integrator::Wavefront] {
+        let options = RenderOptions { spp: 7, ..options(integrator, Some(CROP)) };
+        let whole = crate::render_scene(&scene, &options).unwrap();
+        let mut film = crate::Accumulation::new(&scene, &options).unwrap();
+        for until in [1, 3, 3, 7] {
+            film.render(&scene, &options, until, &|_| {}).unwrap();
+        }
+        assert_eq!(film.samples, 7);
+        let passes = film.image();
+        assert_eq!((passes.origin, passes.width, passes.height), (whole.origin, whole.width, whole.height));
+        // Both are the window: compare them as the full frame of themselves.
+        let at_origin = |image: &Image| Image { origin: [0, 0], ..image.clone() };
+        assert_same_pixels(&at_origin(&passes), &at_origin(&whole));
+        assert_eq!(passes.stats.rays, whole.stats.rays, "the same paths were traced");
+        assert_eq!(passes.stats.samples, whole.stats.samples);
+    }
 }
