@@ -34,6 +34,14 @@ pub enum RenderError {
     /// An option value outside its valid range.
     #[error("invalid option: {0}")]
     InvalidOption(String),
+    /// A checkpoint that cannot be read or resumed (`--resume`).
+    #[error("cannot resume from {path}: {message}")]
+    Checkpoint {
+        /// The checkpoint file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
     /// The render would need more memory than its limit (`--max-memory`).
     #[error(
         "a {width}x{height} render needs about {needed} bytes of film, path pools and AOVs, more than \

@@ -239,6 +239,13 @@ impl PixelSum {
     }
 }
 
+/// A tile to render and its pixels' sums so far (row-major), which the render continues.
+#[derive(Clone, Copy)]
+pub(crate) struct TileJob<'a> {
+    pub(crate) tile: &'a Tile,
+    pub(crate) sums: &'a [PixelSum],
+}
+
 /// What one tile's render hands back: its pixels' sums, continued from the sums it was given.
 pub(crate) struct TileResult {
     /// The tile's pixels, row-major.

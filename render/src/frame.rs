@@ -4,7 +4,7 @@
 //! scheduling order.
 
 use crate::error::RenderError;
-use crate::film::{tiles, Image, PixelSum, PixelWindow, Sampling, TileResult};
+use crate::film::{tiles, Image, PixelSum, PixelWindow, Sampling, TileJob, TileResult};
 use crate::options::{Integrator, RenderOptions};
 use crate::path::PathSettings;
 use crate::scene::Scene;
@@ -123,7 +123,7 @@ impl Accumulation {
             albedo: Vec::with_capacity(n),
             normal: Vec::with_capacity(n),
             depth: Vec::with_capacity(n),
-            stats: self.stats.clone(),
+            stats: self.stats,
         };
         for p in &self.sums {
             let (beauty, albedo, normal, depth) = p.resolve(self.samples.max(1));
@@ -299,8 +299,7 @@ fn render_pass<T: texture::Touch + Sync>(
                         &sampling,
                         settings,
                         options.phase_stats,
-                        tile,
-                        &tile_sums(tile),
+                        TileJob { tile, sums: &tile_sums(tile) },
                         touch,
                     );
                     progress(counter.finish(tile));
@@ -339,7 +338,11 @@ fn render_pass<T: texture::Touch + Sync>(
                             Merge(worker, &stages)
                         },
                         |m, tile| {
-                            let r = crate::wavefront::render(&ctx, &mut m.0, tile, &tile_sums(tile));
+                            let r = crate::wavefront::render(
+                                &ctx,
+                                &mut m.0,
+                                TileJob { tile, sums: &tile_sums(tile) },
+                            );
                             progress(counter.finish(tile));
                             r
                         },

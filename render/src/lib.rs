@@ -40,6 +40,7 @@
 pub mod accel;
 pub mod bsdf;
 pub mod camera;
+pub mod checkpoint;
 #[cfg(test)]
 mod dispatch_tests;
 #[cfg(test)]

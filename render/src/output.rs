@@ -171,13 +171,17 @@ pub fn check_outputs(blob: &Path, outputs: &[(&str, &Path)]) -> Result<(), Rende
 /// Writes `image` as an OpenEXR file with the layers `R G B A`, `albedo.{R,G,B}`, `normal.{X,Y,Z}`
 /// and `depth.Z`.
 pub fn write_exr(path: &Path, image: &Image) -> Result<(), RenderError> {
+    write_channels(path, image, layer_attributes(image), image_channels(image))
+}
+
+/// The image's channels as [`write_exr`] writes them.
+pub(crate) fn image_channels(image: &Image) -> Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>> {
     use exr::prelude::*;
-    let size = (image.width as usize, image.height as usize);
     let channel = |name: &str, values: Vec<f32>| AnyChannel::new(name, FlatSamples::F32(values));
     let beauty = |c: usize| image.beauty.iter().map(|p| p[c]).collect::<Vec<f32>>();
     let albedo = |c: usize| image.albedo.iter().map(|p| p[c]).collect::<Vec<f32>>();
     let normal = |c: usize| image.normal.iter().map(|p| p[c]).collect::<Vec<f32>>();
-    let channels = vec![
+    vec![
         channel("R", beauty(0)),
         channel("G", beauty(1)),
         channel("B", beauty(2)),
@@ -189,13 +193,28 @@ pub fn write_exr(path: &Path, image: &Image) -> Result<(), RenderError> {
         channel("normal.Y", normal(1)),
         channel("normal.Z", normal(2)),
         channel("depth.Z", image.depth.clone()),
-    ];
-    // A cropped image is the data window of its frame: placed at its origin, the display window the
-    // whole frame, as compositors expect of a region render.
-    let attributes = LayerAttributes {
+    ]
+}
+
+/// The layer's attributes: named `beauty`, placed at the image's origin in the frame (a cropped image
+/// is the data window of its frame, as compositors expect of a region render).
+pub(crate) fn layer_attributes(image: &Image) -> exr::prelude::LayerAttributes {
+    use exr::prelude::*;
+    LayerAttributes {
         layer_position: Vec2(image.origin[0] as i32, image.origin[1] as i32),
         ..LayerAttributes::named("beauty")
-    };
+    }
+}
+
+/// Writes one layer of `channels` with `attributes`, the image's frame as the display window.
+pub(crate) fn write_channels(
+    path: &Path,
+    image: &Image,
+    attributes: exr::prelude::LayerAttributes,
+    channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
+) -> Result<(), RenderError> {
+    use exr::prelude::*;
+    let size = (image.width as usize, image.height as usize);
     let layer = Layer::new(
         size,
         attributes,
@@ -205,7 +224,7 @@ pub fn write_exr(path: &Path, image: &Image) -> Result<(), RenderError> {
     let frame = (image.frame[0] as usize, image.frame[1] as usize);
     // Sequential compression: exr's parallel writer emits blocks in completion order, so the same pixels
     // would give different file bytes from run to run.
-    let image = Image::new(ImageAttributes::new(IntegerBounds::from_dimensions(frame)), layer);
+    let image = exr::prelude::Image::new(ImageAttributes::new(IntegerBounds::from_dimensions(frame)), layer);
     write_atomic_with(path, |out| image.write().non_parallel().to_buffered(out).map_err(|e| e.to_string()))
 }
 

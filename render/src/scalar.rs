@@ -10,7 +10,7 @@
 
 use crate::camera::Camera;
 use crate::camera::RayCone;
-use crate::film::{PixelSum, Sampling, Tile, TileResult};
+use crate::film::{Sampling, TileJob, TileResult};
 use crate::lights::power_heuristic;
 use crate::path::{
     shadow_tmax, FirstHit, PathResult, PathSettings, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS,
@@ -225,10 +225,10 @@ pub(crate) fn render_tile<T: Touch>(
     sampling: &Sampling,
     settings: PathSettings,
     phase_stats: bool,
-    tile: &Tile,
-    init: &[PixelSum],
+    job: TileJob<'_>,
     touch: &T,
 ) -> TileResult {
+    let TileJob { tile, sums: init } = job;
     let Sampling { width, height, samples, forward, .. } = *sampling;
     let mut out = TileResult { sums: init.to_vec(), rays: RayCounts::default(), clock: None };
     let mut clock = PhaseClock::new(phase_stats);

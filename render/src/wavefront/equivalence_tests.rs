@@ -514,7 +514,7 @@ fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads:
                         .step_by(threads)
                         .map(|(t, tile)| {
                             let fresh = vec![crate::film::PixelSum::default(); npix(tile)];
-                            let r = super::render(ctx, &mut w, tile, &fresh);
+                            let r = super::render(ctx, &mut w, crate::film::TileJob { tile, sums: &fresh });
                             assert!(w.queues.occlusion.is_empty(), "a tile left shadow rays queued");
                             (t, r)
                         })

@@ -55,7 +55,7 @@ pub mod sort;
 use crate::accel::Hit;
 use crate::camera::{Camera, RayCone};
 use crate::film::Sampling;
-use crate::film::{PixelSum, Tile, TileResult};
+use crate::film::{PixelSum, TileJob, TileResult};
 use crate::path::{FirstHit, PathSettings, RayCounts};
 use crate::scene::Scene;
 use crate::stats::{Counters, Phase, StageSeconds};
@@ -341,12 +341,8 @@ impl Worker {
 
 /// Renders one tile breadth-first: per chunk of samples, waves of intersect, sort, shade and occlusion
 /// until no path is left.
-pub(crate) fn render(
-    ctx: &Context<'_, '_, impl Touch>,
-    w: &mut Worker,
-    tile: &Tile,
-    init: &[PixelSum],
-) -> TileResult {
+pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, job: TileJob<'_>) -> TileResult {
+    let TileJob { tile, sums: init } = job;
     let Worker { paths, queues, kernels, tables, film, stats } = w;
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
     let [first, end] = ctx.sampling.samples.map(|s| s as usize);

@@ -65,6 +65,19 @@ pub struct Args {
     /// Seconds between progress lines when stderr is not a terminal (a farm log); a terminal gets a bar.
     #[arg(long, default_value_t = 10.0)]
     pub progress_interval: f64,
+    /// Write the image so far to -o at most every SECONDS (atomically; with its exact pixel sums, sample
+    /// count and provenance as EXR channels and attributes), so a killed render loses at most that much
+    /// and `--resume` continues it. The final EXR keeps the sums too.
+    #[arg(long, value_name = "SECONDS")]
+    pub checkpoint: Option<f64>,
+    /// Continue the checkpoint at -o (same blob and pixel settings) up to --spp; the image equals an
+    /// uninterrupted render's bit for bit.
+    #[arg(long)]
+    pub resume: bool,
+    /// Stop after the pass (8 samples per pixel) during which SECONDS have passed, and write what is
+    /// done as a checkpoint at -o (resumable).
+    #[arg(long, value_name = "SECONDS")]
+    pub time_limit: Option<f64>,
 }
 
 fn parse_crop(s: &str) -> Result<[f32; 4], String> {
@@ -143,10 +156,16 @@ pub enum Command {
         png: Option<PathBuf>,
         /// Statistics JSON.
         stats: Option<PathBuf>,
-        /// Render options.
-        options: RenderOptions,
+        /// Render options (boxed: the largest variant by far).
+        options: Box<RenderOptions>,
         /// Seconds between plain progress lines (stderr not a terminal).
         progress_interval: f64,
+        /// Seconds between checkpoints.
+        checkpoint: Option<f64>,
+        /// Continue the checkpoint at `output`.
+        resume: bool,
+        /// Seconds after which no new pass starts.
+        time_limit: Option<f64>,
     },
 }
 
@@ -165,11 +184,17 @@ impl Args {
         }
         let output =
             self.output.ok_or_else(|| RenderError::InvalidOption("-o OUT.exr is required".into()))?;
-        if !(self.progress_interval.is_finite() && (0.0..=1e6).contains(&self.progress_interval)) {
-            return Err(RenderError::InvalidOption(format!(
-                "--progress-interval {} out of range (0..=1000000 seconds)",
-                self.progress_interval
-            )));
+        let seconds = [
+            ("--progress-interval", Some(self.progress_interval)),
+            ("--checkpoint", self.checkpoint),
+            ("--time-limit", self.time_limit),
+        ];
+        for (option, value) in seconds {
+            if let Some(v) = value.filter(|v| !(v.is_finite() && (0.0..=1e9).contains(v))) {
+                return Err(RenderError::InvalidOption(format!(
+                    "{option} {v} out of range (0..=1000000000 seconds)"
+                )));
+            }
         }
         Ok(Command::Render {
             stats: self.stats.clone(),
@@ -177,7 +202,10 @@ impl Args {
             output,
             png: self.png,
             progress_interval: self.progress_interval,
-            options: RenderOptions {
+            checkpoint: self.checkpoint,
+            resume: self.resume,
+            time_limit: self.time_limit,
+            options: Box::new(RenderOptions {
                 spp: self.spp,
                 resolution: self.res,
                 camera: self.camera,
@@ -192,7 +220,7 @@ impl Args {
                 max_memory: self.max_memory,
                 crop: self.crop,
                 ..RenderOptions::default()
-            },
+            }),
         })
     }
 }
@@ -248,11 +276,16 @@ mod tests {
         assert!(parse_crop("0.5,0,0.25,1").unwrap_err().contains("XMIN < XMAX"));
         assert!(parse_crop("0,0,1").unwrap_err().contains("expected XMIN,YMIN,XMAX,YMAX"));
         assert!(parse_crop("0,0,nan,1").unwrap_err().contains("within ±16"));
-        let err = Args::try_parse_from(["render", "s.blob", "-o", "x", "--progress-interval", "-1"])
+        let err = Args::try_parse_from(["render", "s.blob", "-o", "x", "--progress-interval=-1"])
             .unwrap()
             .into_command()
             .unwrap_err();
         assert!(err.to_string().contains("--progress-interval -1 out of range"), "{err}");
+        let err = Args::try_parse_from(["render", "s.blob", "-o", "x", "--checkpoint", "nan"])
+            .unwrap()
+            .into_command()
+            .unwrap_err();
+        assert!(err.to_string().contains("--checkpoint NaN out of range"), "{err}");
         assert!(Args::try_parse_from(["render", "s.blob", "-o", "x", "--spp", "0"])
             .unwrap()
             .into_command()

@@ -58,7 +58,17 @@ where
             println!("{}", serde_json::to_string(&render::info::summarize(&view))?);
             Ok(ExitCode::SUCCESS)
         }
-        cli::Command::Render { output, png, stats, options, progress_interval, .. } => {
+        cli::Command::Render {
+            output,
+            png,
+            stats,
+            options,
+            progress_interval,
+            checkpoint,
+            resume,
+            time_limit,
+            ..
+        } => {
             let scene = render::Scene::new(view);
             if !scene.has_light() {
                 eprintln!(
@@ -66,21 +76,66 @@ where
                     blob_path.display()
                 );
             }
+            let provenance = render::checkpoint::Provenance::of(&map, &options);
+            let mut film = if resume {
+                resumed(&output, &provenance, &options)?
+            } else {
+                render::Accumulation::new(&scene, &options)?
+            };
+            let spp = options.spp;
+            // Passes only where something happens between them (a checkpoint, a deadline check): one
+            // pass of all samples keeps the wavefront's chunks as full as they can be.
+            let pass = if checkpoint.is_some() || time_limit.is_some() { PASS_SAMPLES } else { spp };
             let reporter = progress::Reporter::for_stderr(
                 std::io::stderr().is_terminal(),
                 std::time::Duration::from_secs_f64(progress_interval),
             );
-            let image = render::render_scene_with_progress(&scene, &options, &|p| reporter.report(p))
-                .with_context(|| format!("rendering {}", blob_path.display()))?;
+            let (start, mut last_checkpoint) = (Instant::now(), Instant::now());
+            let pixels = film.sums.len() as u64;
+            while film.samples < spp {
+                let before = u64::from(film.samples) * pixels;
+                let until = film.samples.saturating_add(pass).min(spp);
+                let report = |p: render::Progress| {
+                    reporter.report(render::Progress {
+                        samples_done: before + p.samples_done,
+                        samples_total: u64::from(spp) * pixels,
+                        ..p
+                    })
+                };
+                film.render(&scene, &options, until, &report)
+                    .with_context(|| format!("rendering {}", blob_path.display()))?;
+                if let Some(limit) = time_limit.filter(|&t| start.elapsed().as_secs_f64() >= t) {
+                    if film.samples < spp {
+                        eprintln!(
+                            "render: time limit of {limit} s reached after {} of {spp} samples per pixel; {} holds them and --resume continues it",
+                            film.samples,
+                            output.display()
+                        );
+                        break;
+                    }
+                }
+                if let Some(every) = checkpoint {
+                    if film.samples < spp && last_checkpoint.elapsed().as_secs_f64() >= every {
+                        map.check_unchanged(&blob_path)?;
+                        render::checkpoint::write_checkpoint(&output, &film, &provenance)?;
+                        last_checkpoint = Instant::now();
+                    }
+                }
+            }
             reporter.finish();
             map.check_unchanged(&blob_path)?;
+            let image = film.image();
             let write_start = Instant::now();
-            render::write_exr(&output, &image)?;
+            if checkpoint.is_some() || film.samples < spp {
+                render::checkpoint::write_checkpoint(&output, &film, &provenance)?;
+            } else {
+                render::write_exr(&output, &image)?;
+            }
             if let Some(png) = &png {
                 render::write_png(png, &image)?;
             }
             let mut summary =
-                render::stats::Summary::from_render(&image.stats, image.width, image.height, options.spp);
+                render::stats::Summary::from_render(&image.stats, image.width, image.height, film.samples);
             summary.load_seconds = load_seconds;
             summary.integrator = format!("{:?}", options.integrator).to_lowercase();
             summary.write_seconds = write_start.elapsed().as_secs_f64();
@@ -92,6 +147,45 @@ where
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// Samples per pixel of one pass when passes are needed (`--checkpoint`, `--time-limit`): the
+/// wavefront's chunk of a 16-pixel tile (2048 paths / 256 pixels), so a pass costs no efficiency.
+const PASS_SAMPLES: u32 = 8;
+
+/// The checkpoint at `output`, checked to continue this render: the same blob and pixel settings,
+/// and no more samples than `--spp`.
+fn resumed(
+    output: &std::path::Path,
+    provenance: &render::checkpoint::Provenance,
+    options: &render::RenderOptions,
+) -> anyhow::Result<render::Accumulation> {
+    let (film, from) = render::checkpoint::read_checkpoint(output)?;
+    if from.blob != provenance.blob {
+        anyhow::bail!(
+            "cannot resume from {}: it was rendered from another blob (id {:016x}, this one is {:016x})",
+            output.display(),
+            from.blob,
+            provenance.blob
+        );
+    }
+    if from.settings != provenance.settings {
+        anyhow::bail!(
+            "cannot resume from {}: it was rendered with {}, this render asks for {}",
+            output.display(),
+            from.settings,
+            provenance.settings
+        );
+    }
+    if film.samples > options.spp {
+        anyhow::bail!(
+            "cannot resume from {}: it holds {} samples per pixel, more than --spp {}",
+            output.display(),
+            film.samples,
+            options.spp
+        );
+    }
+    Ok(film)
 }
 
 #[cfg(test)]

@@ -37,8 +37,8 @@ impl Reporter {
     pub fn report(&self, p: Progress) {
         match self {
             Reporter::Bar(bar) => {
-                bar.set_length(p.tiles_total as u64);
-                bar.set_position(p.tiles_done as u64);
+                bar.set_length(p.samples_total);
+                bar.set_position(p.samples_done);
             }
             Reporter::Lines(lines) => {
                 if let Some(line) = lines.due(p, Instant::now()) {
@@ -75,7 +75,7 @@ impl Lines {
     pub fn due(&self, p: Progress, now: Instant) -> Option<String> {
         let mut last = self.last.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
         let since = now.saturating_duration_since(last.unwrap_or(self.start));
-        let finished = p.tiles_done == p.tiles_total;
+        let finished = p.samples_done == p.samples_total;
         if !finished && since < self.interval {
             return None;
         }
@@ -84,8 +84,8 @@ impl Lines {
     }
 }
 
-/// `render: 42.0% (136/324 tiles, 1.2/2.9 Msamples), 12.3 s elapsed, eta 17.0 s, 0.10 Msamples/s`;
-/// the ETA assumes the remaining samples go at the rate so far.
+/// `render: 42.0% (1.2/2.9 Msamples), 12.3 s elapsed, eta 17.0 s, 0.10 Msamples/s`; the ETA assumes
+/// the remaining samples go at the rate so far.
 pub fn line(p: Progress, elapsed: Duration) -> String {
     let fraction = if p.samples_total == 0 { 1.0 } else { p.samples_done as f64 / p.samples_total as f64 };
     let seconds = elapsed.as_secs_f64();
@@ -96,10 +96,8 @@ pub fn line(p: Progress, elapsed: Duration) -> String {
         "unknown".to_string()
     };
     format!(
-        "render: {:.1}% ({}/{} tiles, {:.1}/{:.1} Msamples), {seconds:.1} s elapsed, eta {eta}, {:.2} Msamples/s",
+        "render: {:.1}% ({:.1}/{:.1} Msamples), {seconds:.1} s elapsed, eta {eta}, {:.2} Msamples/s",
         100.0 * fraction,
-        p.tiles_done,
-        p.tiles_total,
         p.samples_done as f64 / 1e6,
         p.samples_total as f64 / 1e6,
         rate / 1e6,
@@ -117,10 +115,7 @@ mod tests {
     #[test]
     fn lines_name_percent_elapsed_eta_and_rate() {
         let line = line(at(1, 1_000_000), Duration::from_secs(2));
-        assert_eq!(
-            line,
-            "render: 25.0% (1/4 tiles, 1.0/4.0 Msamples), 2.0 s elapsed, eta 6.0 s, 0.50 Msamples/s"
-        );
+        assert_eq!(line, "render: 25.0% (1.0/4.0 Msamples), 2.0 s elapsed, eta 6.0 s, 0.50 Msamples/s");
     }
 
     #[test]
@@ -129,9 +124,9 @@ mod tests {
         let t0 = lines.start;
         assert_eq!(lines.due(at(1, 1), t0 + Duration::from_secs(3)), None, "too early");
         let first = lines.due(at(2, 2), t0 + Duration::from_secs(11)).expect("due after 10 s");
-        assert!(first.contains("(2/4 tiles"), "{first}");
+        assert!(first.starts_with("render: 0.0% (0.0/4.0 Msamples), 11.0 s"), "{first}");
         assert_eq!(lines.due(at(3, 3), t0 + Duration::from_secs(15)), None, "4 s after the last line");
         let last = lines.due(at(4, 4_000_000), t0 + Duration::from_secs(16)).expect("the last tile always");
-        assert!(last.starts_with("render: 100.0% (4/4 tiles"), "{last}");
+        assert!(last.starts_with("render: 100.0% (4.0/4.0 Msamples)"), "{last}");
     }
 }

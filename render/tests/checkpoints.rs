@@ -1,0 +1,156 @@
+//! The render binary's checkpoints, time limits and resumes as a farm runs them: separate processes,
+//! one killed mid-render.
+
+use glam::{Mat4, Vec3};
+use scene_pack::{Light, LightKind, Material, Mesh, Scene};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A floor and a card above it under a dome: soft shadows, so every sample differs.
+fn blob(dir: &Path) -> PathBuf {
+    let quad = |path: &str, z: f32, half: f32| Mesh {
+        path: path.into(),
+        positions: vec![
+            Vec3::new(-half, -half, z),
+            Vec3::new(half, -half, z),
+            Vec3::new(half, half, z),
+            Vec3::new(-half, half, z),
+        ],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        triangle_materials: vec![0, 0],
+        ..Mesh::default()
+    };
+    let scene = Scene {
+        meshes: vec![quad("/Floor", 0.0, 3.0), quad("/Card", 0.6, 0.5)],
+        materials: vec![Material::default()],
+        lights: vec![Light {
+            path: "/Dome".into(),
+            kind: LightKind::Dome,
+            radiance: Vec3::ONE,
+            normalize: false,
+            world_from_light: Mat4::IDENTITY,
+        }],
+        cameras: vec![scene_pack::camera::test_camera(Vec3::new(0.0, 0.0, 4.0), false)],
+        default_camera: Some(0),
+        ..Scene::default()
+    };
+    let path = dir.join("scene.blob");
+    blob::write_atomic(&path, &scene_pack::pack::pack(&scene).unwrap().encode()).unwrap();
+    path
+}
+
+fn render(blob: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args =
+        vec![blob.to_str().unwrap(), "-o", out.to_str().unwrap(), "--res", "40x30", "--threads", "2"];
+    args.extend(extra);
+    Command::new(env!("CARGO_BIN_EXE_render")).args(&args).output().unwrap()
+}
+
+fn stderr(output: &std::process::Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+#[test]
+fn a_resumed_render_equals_an_uninterrupted_one_byte_for_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = blob(dir.path());
+    let (whole, part) = (dir.path().join("whole.exr"), dir.path().join("part.exr"));
+    for integrator in ["scalar", "wavefront"] {
+        let run = render(&blob, &whole, &["--spp", "20", "--checkpoint", "1000", "--integrator", integrator]);
+        assert!(run.status.success(), "{}", stderr(&run));
+        // 8 of 20 samples, a checkpoint; then continued to 20.
+        let first = render(&blob, &part, &["--spp", "8", "--checkpoint", "1000", "--integrator", integrator]);
+        assert!(first.status.success(), "{}", stderr(&first));
+        assert!(std::fs::read(&part).unwrap() != std::fs::read(&whole).unwrap());
+        let resumed = render(
+            &blob,
+            &part,
+            &["--spp", "20", "--checkpoint", "1000", "--resume", "--integrator", integrator],
+        );
+        assert!(resumed.status.success(), "{}", stderr(&resumed));
+        let (x, y) = (std::fs::read(&part).unwrap(), std::fs::read(&whole).unwrap());
+        assert!(x == y, "{integrator}: the resumed EXR differs from the uninterrupted one");
+    }
+    // Without --checkpoint the resumed render's EXR is the plain one, as an uninterrupted plain render.
+    let plain = dir.path().join("plain.exr");
+    assert!(render(&blob, &plain, &["--spp", "20"]).status.success());
+    assert!(render(&blob, &part, &["--spp", "8", "--checkpoint", "1000"]).status.success());
+    assert!(render(&blob, &part, &["--spp", "20", "--resume"]).status.success());
+    assert!(std::fs::read(&part).unwrap() == std::fs::read(&plain).unwrap());
+}
+
+#[test]
+fn resumes_refuse_other_blobs_settings_and_plain_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = blob(dir.path());
+    let out = dir.path().join("out.exr");
+    assert!(render(&blob, &out, &["--spp", "4", "--checkpoint", "1000"]).status.success());
+    let other_seed = render(&blob, &out, &["--spp", "8", "--resume", "--seed", "3"]);
+    assert!(!other_seed.status.success());
+    assert!(stderr(&other_seed).contains("it was rendered with seed 0"), "{}", stderr(&other_seed));
+    let fewer = render(&blob, &out, &["--spp", "2", "--resume"]);
+    assert!(stderr(&fewer).contains("it holds 4 samples per pixel, more than --spp 2"), "{}", stderr(&fewer));
+    let other_res = render(&blob, &out, &["--spp", "8", "--resume", "--res", "20x30"]);
+    assert!(!other_res.status.success(), "{}", stderr(&other_res));
+    let plain = dir.path().join("plain.exr");
+    assert!(render(&blob, &plain, &["--spp", "2"]).status.success());
+    let not_a_checkpoint = render(&blob, &plain, &["--spp", "4", "--resume"]);
+    assert!(
+        stderr(&not_a_checkpoint)
+            .contains("no render.checkpoint attribute: not a checkpoint (render --checkpoint writes them)"),
+        "{}",
+        stderr(&not_a_checkpoint)
+    );
+}
+
+#[test]
+fn a_time_limit_stops_after_a_pass_and_the_rest_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = blob(dir.path());
+    let (whole, part) = (dir.path().join("whole.exr"), dir.path().join("part.exr"));
+    assert!(render(&blob, &whole, &["--spp", "24", "--checkpoint", "1000"]).status.success());
+    let limited = render(&blob, &part, &["--spp", "24", "--time-limit", "0"]);
+    assert!(limited.status.success(), "{}", stderr(&limited));
+    assert!(
+        stderr(&limited).contains("time limit of 0 s reached after 8 of 24 samples per pixel"),
+        "{}",
+        stderr(&limited)
+    );
+    assert!(render(&blob, &part, &["--spp", "24", "--checkpoint", "1000", "--resume"]).status.success());
+    assert!(std::fs::read(&part).unwrap() == std::fs::read(&whole).unwrap());
+}
+
+#[test]
+fn a_killed_render_leaves_its_last_checkpoint_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = blob(dir.path());
+    let out = dir.path().join("out.exr");
+    // A checkpoint after every pass of 8 samples, far more samples than the test waits for.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_render"))
+        .args([blob.to_str().unwrap(), "-o", out.to_str().unwrap(), "--res", "200x150", "--spp", "1000000"])
+        .args(["--threads", "1", "--checkpoint", "0"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while !out.exists() && start.elapsed().as_secs() < 120 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert!(out.exists(), "a checkpoint within two minutes");
+    // Kill it while it writes the next ones.
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let (film, _) = render::checkpoint::read_checkpoint(&out).expect("the last checkpoint reads whole");
+    assert!(film.samples >= 8 && film.samples % 8 == 0, "{} samples", film.samples);
+    assert_eq!(film.sums.len(), 200 * 150);
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().all(|n| n == "scene.blob" || n == "out.exr" || n.starts_with(".out.exr.render-tmp-")),
+        "{names:?}"
+    );
+}
