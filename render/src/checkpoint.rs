@@ -1,7 +1,8 @@
 //! Checkpoints: an EXR of the image so far that also carries the frame's exact pixel sums
 //! ([`PixelSum`], as `sums.*` channels: f32 sums, the f64 depth sum as two u32 halves, u32 counts)
-//! and what they were rendered from (the `render.checkpoint` attribute: samples per pixel, the blob's
-//! identity, the settings that change pixels). `render --resume` reads one back as an [`Accumulation`] and
+//! and what they were rendered from (the `render.checkpoint` attribute: the sample range, the blob's
+//! identity, the settings that change pixels); the EXR data window is the pixels it holds. A farm's
+//! part (a tile, a sample slice) is a checkpoint too, which [`crate::merge`] assembles. `render --resume` reads one back as an [`Accumulation`] and
 //! continues it, so the result has the bits of an uninterrupted render; the mean of a sum stored as
 //! an image would not (`mean × n` does not round back to the sum).
 //!
@@ -90,8 +91,17 @@ pub fn write_checkpoint(
         channels.push(AnyChannel::new(name, FlatSamples::U32(film.sums.iter().map(read).collect())));
     }
     let mut attributes = crate::output::layer_attributes(&image);
-    let text =
-        format!("samples {}\nblob {:016x}\nsettings {}", film.samples, provenance.blob, provenance.settings);
+    let text = format!(
+        "first {}\nsamples {}\nregion {} {} {} {}\nblob {:016x}\nsettings {}",
+        film.first_sample,
+        film.samples,
+        film.region.x0,
+        film.region.y0,
+        film.region.x1,
+        film.region.y1,
+        provenance.blob,
+        provenance.settings
+    );
     attributes.other.insert(Text::from(ATTRIBUTE), AttributeValue::Text(Text::from(text.as_str())));
     crate::output::write_channels(path, &image, attributes, channels)
 }
@@ -120,6 +130,16 @@ pub fn read_checkpoint(path: &Path) -> Result<(Accumulation, Provenance), Render
         .ok()
         .filter(|n| (1..=crate::film::MAX_SPP).contains(n))
         .ok_or_else(|| fail(format!("{ATTRIBUTE} has no valid sample count")))?;
+    let first_sample = field("first")?
+        .parse::<u32>()
+        .ok()
+        .filter(|&f| f < samples)
+        .ok_or_else(|| fail(format!("{ATTRIBUTE} has no valid first sample")))?;
+    let region: Vec<u32> = field("region")?.split(' ').filter_map(|v| v.parse().ok()).collect();
+    let region = match region[..] {
+        [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => PixelWindow { x0, y0, x1, y1 },
+        _ => return Err(fail(format!("{ATTRIBUTE} has no valid region"))),
+    };
     let blob = u64::from_str_radix(field("blob")?, 16).map_err(|e| fail(format!("bad blob id: {e}")))?;
     let settings = field("settings")?.to_string();
     let display = image.attributes.display_window;
@@ -165,6 +185,15 @@ pub fn read_checkpoint(path: &Path) -> Result<(Accumulation, Provenance), Render
             nonfinite: u[3][i],
         })
         .collect();
-    let film = Accumulation { window, frame, samples, sums, stats: Default::default() };
+    let inside = |w: &PixelWindow| w.x1 <= frame[0] && w.y1 <= frame[1];
+    if !inside(&region)
+        || window.x0 < region.x0
+        || window.y0 < region.y0
+        || window.x1 > region.x1
+        || window.y1 > region.y1
+    {
+        return Err(fail("its pixels are not inside its region, or its region not inside its frame".into()));
+    }
+    let film = Accumulation { window, region, frame, first_sample, samples, sums, stats: Default::default() };
     Ok((film, Provenance { blob, settings }))
 }

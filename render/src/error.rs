@@ -34,8 +34,8 @@ pub enum RenderError {
     /// An option value outside its valid range.
     #[error("invalid option: {0}")]
     InvalidOption(String),
-    /// A checkpoint that cannot be read or resumed (`--resume`).
-    #[error("cannot resume from {path}: {message}")]
+    /// A checkpoint or farm part that cannot be read, resumed or merged.
+    #[error("{path}: {message}")]
     Checkpoint {
         /// The checkpoint file.
         path: PathBuf,

@@ -49,9 +49,16 @@ pub fn render_scene_with_progress(
 pub struct Accumulation {
     /// The pixels drawn, in the frame.
     pub window: PixelWindow,
+    /// The render's whole region (crop, authored data window or frame) that `window` is a tile of
+    /// (`window` itself unless [`RenderOptions::band`] cut it): what a merge of the tiles must cover.
+    pub region: PixelWindow,
     /// The frame's width and height.
     pub frame: [u32; 2],
-    /// Samples per pixel traced so far (every pixel has the same).
+    /// The first sample index of every pixel this accumulation holds ([`RenderOptions::first_sample`]:
+    /// non-zero for a farm's sample slice).
+    pub first_sample: u32,
+    /// One past the last sample index traced so far (every pixel has the same): the pixels hold
+    /// samples `first_sample .. samples`.
     pub samples: u32,
     /// The window's pixels, row-major.
     pub sums: Vec<PixelSum>,
@@ -63,12 +70,14 @@ impl Accumulation {
     /// An empty accumulation for `options` (validated: spp, tile size, camera, resolution, window and
     /// memory; an error before anything is allocated).
     pub fn new(scene: &Scene, options: &RenderOptions) -> Result<Self, RenderError> {
-        let (window, frame) = plan(scene, options)?;
+        let (window, region, frame) = plan(scene, options)?;
         let n = window.width() as usize * window.height() as usize;
         Ok(Accumulation {
             window,
+            region,
             frame,
-            samples: 0,
+            first_sample: options.first_sample,
+            samples: options.first_sample,
             sums: vec![PixelSum::default(); n],
             stats: RenderStats::default(),
         })
@@ -86,7 +95,13 @@ impl Accumulation {
         if until <= self.samples {
             return Ok(());
         }
-        let (window, frame) = plan(scene, options)?;
+        let (window, _, frame) = plan(scene, options)?;
+        if options.first_sample != self.first_sample {
+            return Err(RenderError::InvalidOption(format!(
+                "the accumulation starts at sample {}, the options at {}",
+                self.first_sample, options.first_sample
+            )));
+        }
         if (window, frame) != (self.window, self.frame) {
             return Err(RenderError::InvalidOption(format!(
                 "the accumulation is of pixels {:?} of a {}x{} frame, the options ask for {window:?} of {}x{}",
@@ -111,7 +126,12 @@ impl Accumulation {
         Ok(())
     }
 
-    /// The pixels: each the mean of its [`Accumulation::samples`] samples.
+    /// Samples per pixel held.
+    pub fn sample_count(&self) -> u32 {
+        self.samples - self.first_sample
+    }
+
+    /// The pixels: each the mean of its [`Accumulation::sample_count`] samples.
     pub fn image(&self) -> Image {
         let n = self.sums.len();
         let mut image = Image {
@@ -126,7 +146,7 @@ impl Accumulation {
             stats: self.stats,
         };
         for p in &self.sums {
-            let (beauty, albedo, normal, depth) = p.resolve(self.samples.max(1));
+            let (beauty, albedo, normal, depth) = p.resolve(self.sample_count().max(1));
             image.beauty.push(beauty);
             image.albedo.push(albedo);
             image.normal.push(normal);
@@ -206,7 +226,7 @@ fn pixel_window(
 }
 
 /// The window and frame size `options` ask for, validated (see [`Accumulation::new`]).
-fn plan(scene: &Scene, options: &RenderOptions) -> Result<(PixelWindow, [u32; 2]), RenderError> {
+fn plan(scene: &Scene, options: &RenderOptions) -> Result<(PixelWindow, PixelWindow, [u32; 2]), RenderError> {
     if options.spp == 0 || options.spp > crate::film::MAX_SPP {
         return Err(RenderError::InvalidOption(format!(
             "spp {} out of range (1..={})",
@@ -220,7 +240,17 @@ fn plan(scene: &Scene, options: &RenderOptions) -> Result<(PixelWindow, [u32; 2]
     let camera_index = scene.camera_index(options.camera.as_deref())?;
     let [width, height] = scene.resolution(options.resolution, camera_index);
     check_resolution(width, height)?;
-    let window = pixel_window(scene, options.crop, width, height)?;
+    let region = pixel_window(scene, options.crop, width, height)?;
+    let window = match options.band {
+        Some(band) => band_of(region, band)?,
+        None => region,
+    };
+    if options.first_sample >= options.spp {
+        return Err(RenderError::InvalidOption(format!(
+            "the first sample {} is not below the sample count {}",
+            options.first_sample, options.spp
+        )));
+    }
     // Before anything is allocated: the film and pools of a huge resolution (an authored one, or one
     // a camera's aperture aspect implies) must be refused, not aborted on.
     let needed = crate::film::memory_estimate(
@@ -233,7 +263,20 @@ fn plan(scene: &Scene, options: &RenderOptions) -> Result<(PixelWindow, [u32; 2]
     if needed > limit {
         return Err(RenderError::Memory { width: window.width(), height: window.height(), needed, limit });
     }
-    Ok((window, [width, height]))
+    Ok((window, region, [width, height]))
+}
+
+/// Band `index` of `count` of `window`: its rows cut into `count` runs as equal as they can be
+/// (a farm's `--tile I/N`; pixels equal the whole render's whatever the cut).
+fn band_of(window: PixelWindow, [index, count]: [u32; 2]) -> Result<PixelWindow, RenderError> {
+    let rows = window.height();
+    if count == 0 || index >= count || count > rows {
+        return Err(RenderError::InvalidOption(format!(
+            "tile {index}/{count} of a {rows}-row image: the count must be 1..={rows} and the index below it"
+        )));
+    }
+    let row = |i: u32| window.y0 + (u64::from(rows) * u64::from(i) / u64::from(count)) as u32;
+    Ok(PixelWindow { y0: row(index), y1: row(index + 1), ..window })
 }
 
 /// The worker threads `options` ask for (0: one per core).

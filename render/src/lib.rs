@@ -54,6 +54,7 @@ pub mod hair;
 pub mod info;
 pub mod lights;
 pub mod mapped;
+pub mod merge;
 pub mod options;
 pub mod output;
 pub mod path;

@@ -41,6 +41,11 @@ pub struct RenderOptions {
     /// RenderSettings `dataWindowNDC` does and overriding it; `None` for the authored window or the
     /// whole frame. Pixels are the full render's, bit for bit ([`crate::film::PixelWindow::from_ndc`]).
     pub crop: Option<[f32; 4]>,
+    /// Draw only band `[index, count]` of the window: its rows cut into `count` runs (a farm's tile;
+    /// `render --tile I/N`).
+    pub band: Option<[u32; 2]>,
+    /// Trace samples `first_sample .. spp` of each pixel (a farm's sample slice; 0 for a whole render).
+    pub first_sample: u32,
 }
 
 /// The path-tracing integrator: depth-first scalar or breadth-first wavefront (same estimator, same
@@ -84,6 +89,8 @@ impl Default for RenderOptions {
             max_memory: None,
             phase_stats: false,
             crop: None,
+            band: None,
+            first_sample: 0,
         }
     }
 }

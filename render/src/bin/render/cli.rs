@@ -78,6 +78,52 @@ pub struct Args {
     /// done as a checkpoint at -o (resumable).
     #[arg(long, value_name = "SECONDS")]
     pub time_limit: Option<f64>,
+    /// A farm tile: render only band I (0-based) of N bands of rows of the frame (or of the crop), and
+    /// write it as a part for `render merge`.
+    #[arg(long, value_name = "I/N", value_parser = parse_tile)]
+    pub tile: Option<[u32; 2]>,
+    /// A farm sample slice: trace only samples A..B of each pixel (the keys the whole render uses; B
+    /// at most --spp's range) and write a part for `render merge`. Overrides --spp.
+    #[arg(long, value_name = "A..B", value_parser = parse_sample_range)]
+    pub sample_range: Option<[u32; 2]>,
+}
+
+/// `render merge PARTS... -o OUT.exr`.
+#[derive(Debug, Parser)]
+#[command(
+    name = "render merge",
+    about = "Assembles the parts of a farm render (tiles, sample slices) into one EXR."
+)]
+pub struct MergeArgs {
+    /// The parts: EXRs written by render --tile / --sample-range (or checkpoints).
+    #[arg(required = true)]
+    pub parts: Vec<PathBuf>,
+    /// The merged EXR.
+    #[arg(short = 'o', long = "output")]
+    pub output: PathBuf,
+    /// Keep the exact pixel sums in the output (a part of a larger merge, or resumable).
+    #[arg(long)]
+    pub keep_sums: bool,
+}
+
+fn parse_tile(s: &str) -> Result<[u32; 2], String> {
+    let (i, n) = s.split_once('/').ok_or_else(|| format!("expected I/N, got {s:?}"))?;
+    let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("bad tile {s:?}: {e}"));
+    let (i, n) = (parse(i)?, parse(n)?);
+    if n == 0 || i >= n {
+        return Err(format!("tile {s:?}: I must be below N (0-based), N at least 1"));
+    }
+    Ok([i, n])
+}
+
+fn parse_sample_range(s: &str) -> Result<[u32; 2], String> {
+    let (a, b) = s.split_once("..").ok_or_else(|| format!("expected A..B, got {s:?}"))?;
+    let parse = |v: &str| v.trim().parse::<u32>().map_err(|e| format!("bad sample range {s:?}: {e}"));
+    let (a, b) = (parse(a)?, parse(b)?);
+    if a >= b || b > render::film::MAX_SPP {
+        return Err(format!("sample range {s:?}: A must be below B, B at most {}", render::film::MAX_SPP));
+    }
+    Ok([a, b])
 }
 
 fn parse_crop(s: &str) -> Result<[f32; 4], String> {
@@ -166,6 +212,8 @@ pub enum Command {
         resume: bool,
         /// Seconds after which no new pass starts.
         time_limit: Option<f64>,
+        /// Write a farm part (sums and provenance kept): a tile or a sample slice.
+        part: bool,
     },
 }
 
@@ -205,8 +253,11 @@ impl Args {
             checkpoint: self.checkpoint,
             resume: self.resume,
             time_limit: self.time_limit,
+            part: self.tile.is_some() || self.sample_range.is_some(),
             options: Box::new(RenderOptions {
-                spp: self.spp,
+                spp: self.sample_range.map_or(self.spp, |[_, end]| end),
+                first_sample: self.sample_range.map_or(0, |[first, _]| first),
+                band: self.tile,
                 resolution: self.res,
                 camera: self.camera,
                 threads: self.threads,
@@ -286,6 +337,14 @@ mod tests {
             .into_command()
             .unwrap_err();
         assert!(err.to_string().contains("--checkpoint NaN out of range"), "{err}");
+        assert_eq!(parse_tile("3/4"), Ok([3, 4]));
+        assert!(parse_tile("4/4").unwrap_err().contains("I must be below N"));
+        assert_eq!(parse_sample_range("8..16"), Ok([8, 16]));
+        assert!(parse_sample_range("8..8").unwrap_err().contains("A must be below B"));
+        let args =
+            Args::try_parse_from(["render", "s.blob", "-o", "x", "--sample-range", "4..12", "--tile", "1/2"]);
+        let Command::Render { options, part, .. } = args.unwrap().into_command().unwrap() else { panic!() };
+        assert_eq!((options.first_sample, options.spp, options.band, part), (4, 12, Some([1, 2]), true));
         assert!(Args::try_parse_from(["render", "s.blob", "-o", "x", "--spp", "0"])
             .unwrap()
             .into_command()

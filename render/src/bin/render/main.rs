@@ -26,6 +26,10 @@ where
     T: Into<std::ffi::OsString> + Clone,
 {
     use clap::Parser;
+    let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
+    if args.get(1).is_some_and(|a| a == "merge") {
+        return run_merge(&args[1..]);
+    }
     let args = match cli::Args::try_parse_from(args) {
         Ok(a) => a,
         Err(e) => {
@@ -67,6 +71,7 @@ where
             checkpoint,
             resume,
             time_limit,
+            part,
             ..
         } => {
             let scene = render::Scene::new(view);
@@ -126,7 +131,7 @@ where
             map.check_unchanged(&blob_path)?;
             let image = film.image();
             let write_start = Instant::now();
-            if checkpoint.is_some() || film.samples < spp {
+            if checkpoint.is_some() || part || film.samples < spp {
                 render::checkpoint::write_checkpoint(&output, &film, &provenance)?;
             } else {
                 render::write_exr(&output, &image)?;
@@ -134,8 +139,12 @@ where
             if let Some(png) = &png {
                 render::write_png(png, &image)?;
             }
-            let mut summary =
-                render::stats::Summary::from_render(&image.stats, image.width, image.height, film.samples);
+            let mut summary = render::stats::Summary::from_render(
+                &image.stats,
+                image.width,
+                image.height,
+                film.sample_count(),
+            );
             summary.load_seconds = load_seconds;
             summary.integrator = format!("{:?}", options.integrator).to_lowercase();
             summary.write_seconds = write_start.elapsed().as_secs_f64();
@@ -147,6 +156,41 @@ where
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// `render merge PARTS... -o OUT.exr`: reads, merges and writes (see [`render::merge`]).
+fn run_merge(args: &[std::ffi::OsString]) -> anyhow::Result<ExitCode> {
+    use clap::Parser;
+    let args = match cli::MergeArgs::try_parse_from(args) {
+        Ok(a) => a,
+        Err(e) => {
+            let _ = e.print();
+            return Ok(if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS });
+        }
+    };
+    let outputs = [("-o", args.output.as_path())];
+    for part in &args.parts {
+        render::output::check_outputs(part, &outputs)?;
+    }
+    let parts = render::merge::read_parts(&args.parts)?;
+    let (film, provenance) = render::merge::merge(&parts)?;
+    if args.keep_sums {
+        render::checkpoint::write_checkpoint(&args.output, &film, &provenance)?;
+    } else {
+        render::write_exr(&args.output, &film.image())?;
+    }
+    eprintln!(
+        "render merge: {} parts, samples {}..{}, pixels {}x{} of the {}x{} frame -> {}",
+        parts.len(),
+        film.first_sample,
+        film.samples,
+        film.window.width(),
+        film.window.height(),
+        film.frame[0],
+        film.frame[1],
+        args.output.display()
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 /// Samples per pixel of one pass when passes are needed (`--checkpoint`, `--time-limit`): the

@@ -1,5 +1,5 @@
-//! The render binary's checkpoints, time limits and resumes as a farm runs them: separate processes,
-//! one killed mid-render.
+//! The render binary's checkpoints, time limits, resumes, tiles, sample slices and merges as a farm
+//! runs them: separate processes, one killed mid-render.
 
 use glam::{Mat4, Vec3};
 use scene_pack::{Light, LightKind, Material, Mesh, Scene};
@@ -8,6 +8,11 @@ use std::process::Command;
 
 /// A floor and a card above it under a dome: soft shadows, so every sample differs.
 fn blob(dir: &Path) -> PathBuf {
+    blob_named(dir, "scene.blob", 0.6)
+}
+
+/// The scene with its card at `card_height`, written to `dir/name`.
+fn blob_named(dir: &Path, name: &str, card_height: f32) -> PathBuf {
     let quad = |path: &str, z: f32, half: f32| Mesh {
         path: path.into(),
         positions: vec![
@@ -21,7 +26,7 @@ fn blob(dir: &Path) -> PathBuf {
         ..Mesh::default()
     };
     let scene = Scene {
-        meshes: vec![quad("/Floor", 0.0, 3.0), quad("/Card", 0.6, 0.5)],
+        meshes: vec![quad("/Floor", 0.0, 3.0), quad("/Card", card_height, 0.5)],
         materials: vec![Material::default()],
         lights: vec![Light {
             path: "/Dome".into(),
@@ -34,7 +39,7 @@ fn blob(dir: &Path) -> PathBuf {
         default_camera: Some(0),
         ..Scene::default()
     };
-    let path = dir.join("scene.blob");
+    let path = dir.join(name);
     blob::write_atomic(&path, &scene_pack::pack::pack(&scene).unwrap().encode()).unwrap();
     path
 }
@@ -153,4 +158,105 @@ fn a_killed_render_leaves_its_last_checkpoint_whole() {
         names.iter().all(|n| n == "scene.blob" || n == "out.exr" || n.starts_with(".out.exr.render-tmp-")),
         "{names:?}"
     );
+}
+
+fn merge(parts: &[&Path], out: &Path) -> std::process::Output {
+    let mut args = vec!["merge".to_string()];
+    args.extend(parts.iter().map(|p| p.to_str().unwrap().to_string()));
+    args.extend(["-o".to_string(), out.to_str().unwrap().to_string()]);
+    Command::new(env!("CARGO_BIN_EXE_render")).args(&args).output().unwrap()
+}
+
+/// Beauty R of every pixel of an EXR.
+fn red(path: &Path) -> Vec<f32> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+    let r = image.layer_data[0].channel_data.list.iter().find(|c| c.name.to_string() == "R").unwrap();
+    (0..r.sample_data.len()).map(|i| r.sample_data.value_by_flat_index(i).to_f32()).collect()
+}
+
+#[test]
+fn four_tiles_merge_to_the_single_process_render_byte_for_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = blob(dir.path());
+    for integrator in ["scalar", "wavefront"] {
+        let whole = dir.path().join("whole.exr");
+        assert!(render(&blob, &whole, &["--spp", "6", "--integrator", integrator]).status.success());
+        let parts: Vec<PathBuf> = (0..4).map(|i| dir.path().join(format!("tile{i}.exr"))).collect();
+        for (i, part) in parts.iter().enumerate() {
+            let tile = format!("{i}/4");
+            let run = render(&blob, part, &["--spp", "6", "--tile", &tile, "--integrator", integrator]);
+            assert!(run.status.success(), "{}", stderr(&run));
+        }
+        let merged = dir.path().join("merged.exr");
+        let refs: Vec<&Path> = parts.iter().map(PathBuf::as_path).collect();
+        let run = merge(&refs, &merged);
+        assert!(run.status.success(), "{}", stderr(&run));
+        assert!(
+            stderr(&run).contains("4 parts, samples 0..6, pixels 40x30 of the 40x30 frame"),
+            "{}",
+            stderr(&run)
+        );
+        assert!(
+            std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(),
+            "{integrator}: merged differs"
+        );
+    }
+}
+
+#[test]
+fn a_sample_split_merges_to_the_single_process_render_within_rounding() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = blob(dir.path());
+    let whole = dir.path().join("whole.exr");
+    assert!(render(&blob, &whole, &["--spp", "16"]).status.success());
+    let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    assert!(render(&blob, &a, &["--sample-range", "0..8"]).status.success());
+    assert!(render(&blob, &b, &["--sample-range", "8..16"]).status.success());
+    let merged = dir.path().join("merged.exr");
+    let run = merge(&[&b, &a], &merged);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let (m, w) = (red(&merged), red(&whole));
+    assert_eq!(m.len(), 40 * 30);
+    let worst = m.iter().zip(&w).map(|(m, w)| ((m - w) / w.max(1e-3)).abs()).fold(0.0f32, f32::max);
+    assert!(worst <= 1e-5, "largest relative difference {worst}");
+    let half = red(&a);
+    assert!(half.iter().zip(&w).any(|(h, w)| h != w), "a slice alone is a noisier image");
+}
+
+#[test]
+fn merges_refuse_gaps_overlaps_other_blobs_and_broken_parts() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = blob(dir.path());
+    let part = |name: &str, extra: &[&str]| {
+        let path = dir.path().join(name);
+        let run = render(&blob, &path, extra);
+        assert!(run.status.success(), "{}", stderr(&run));
+        path
+    };
+    let t0 = part("t0.exr", &["--spp", "4", "--tile", "0/3"]);
+    let t1 = part("t1.exr", &["--spp", "4", "--tile", "1/3"]);
+    let out = dir.path().join("out.exr");
+    let missing = merge(&[&t0, &t1], &out);
+    assert!(!missing.status.success());
+    assert!(stderr(&missing).contains("no part holds pixel (0, 20) of samples 0..4"), "{}", stderr(&missing));
+    let overlap = merge(&[&t0, &t1, &t0], &out);
+    assert!(stderr(&overlap).contains("overlaps"), "{}", stderr(&overlap));
+    let s0 = part("s0.exr", &["--sample-range", "0..4"]);
+    let s2 = part("s2.exr", &["--sample-range", "8..12"]);
+    let gap = merge(&[&s0, &s2], &out);
+    assert!(stderr(&gap).contains("sample ranges 0..4 and 8..12 leave a gap"), "{}", stderr(&gap));
+    let other_blob = blob_named(dir.path(), "other.blob", 0.8);
+    let foreign = dir.path().join("foreign.exr");
+    assert!(render(&other_blob, &foreign, &["--spp", "4", "--tile", "2/3"]).status.success());
+    let t2 = part("t2.exr", &["--spp", "4", "--tile", "2/3"]);
+    let wrong = merge(&[&t0, &t1, &foreign], &out);
+    assert!(stderr(&wrong).contains("foreign.exr: rendered from blob"), "{}", stderr(&wrong));
+    let bytes = std::fs::read(&t2).unwrap();
+    let truncated = dir.path().join("truncated.exr");
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    let broken = merge(&[&t0, &t1, &truncated], &out);
+    assert!(!broken.status.success());
+    assert!(stderr(&broken).contains("truncated.exr"), "{}", stderr(&broken));
+    assert!(!out.exists(), "no output from a failed merge");
+    assert!(merge(&[&t0, &t1, &t2], &out).status.success(), "the three tiles merge");
 }
