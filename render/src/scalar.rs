@@ -11,7 +11,9 @@
 use crate::camera::Camera;
 use crate::camera::RayCone;
 use crate::film::{Sampling, Tile, TileResult};
+use crate::lights::mis::{self, NeeLane};
 use crate::lights::power_heuristic;
+use crate::path::roulette::{self, RouletteLane};
 use crate::path::{
     shadow_tmax, FirstHit, PathResult, PathSettings, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS,
     RR_START_BOUNCE,
@@ -162,9 +164,10 @@ impl Scene<'_> {
                     ls.li = self.emission_at(tri, b1, b2, filter, touch);
                 }
                 let (f, bsdf_pdf) = bsdf.eval(wo, ls.wi);
-                let contribution = beta * f * ls.li * (s.ns.dot(ls.wi).abs() / ls.pdf);
-                if contribution.max_element() > 0.0 {
-                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
+                let cos = s.ns.dot(ls.wi).abs();
+                let (li, light_pdf, delta) = (ls.li, ls.pdf, ls.delta as u32);
+                let weighed = mis::weigh(&NeeLane { beta, f, li, cos, light_pdf, bsdf_pdf, delta });
+                if weighed.keep {
                     let shadow_origin = s.spawn(ls.wi);
                     let tmax = shadow_tmax(ls.distance, shadow_origin, s.p);
                     rays.shadow += 1;
@@ -183,7 +186,7 @@ impl Scene<'_> {
                     }
                     clock.lap(Phase::Intersect);
                     if kept > 0.0 {
-                        radiance += contribution * w * kept;
+                        radiance += weighed.contribution * kept;
                     }
                 }
             }
@@ -192,16 +195,16 @@ impl Scene<'_> {
             let u_lobe = sample_1d(key, vertex, dim::LOBE);
             let u_bsdf = sample_2d(key, vertex, dim::BSDF_UV);
             let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else { break };
-            beta *= bs.f * (s.ns.dot(bs.wi).abs() / bs.pdf);
             prev = Some((s.p, bs.pdf));
             bounces += 1;
-            if bounces >= RR_START_BOUNCE {
-                let survive = beta.max_element().min(0.95);
-                if sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) >= survive {
-                    break;
-                }
-                beta /= survive;
+            let play = bounces >= RR_START_BOUNCE;
+            let u = if play { sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) } else { 0.0 };
+            let (f, cos, pdf) = (bs.f, s.ns.dot(bs.wi).abs(), bs.pdf);
+            let next = roulette::continue_path(&RouletteLane { beta, f, cos, pdf, u, play });
+            if !next.alive {
+                break;
             }
+            beta = next.beta;
             vertex += 1;
             origin = s.spawn(bs.wi);
             dir = bs.wi;
