@@ -11,7 +11,7 @@
 //! operations, same bits). Measurements: `docs/perf.md#sampler-lanes-samplerlanesrs`.
 
 pub use crate::sampler::DIMS;
-use crate::sampler::{vertex_samples, PairSeeds};
+use crate::sampler::{dim, vertex_samples, PairSeeds};
 use lanekit::{Lanes, U32Lanes, LANES};
 
 lanekit::soa! {
@@ -28,14 +28,14 @@ lanekit::soa! {
     }
 }
 
-/// `out[d][k]` = `sample_1d(key_k, vertex_k, d)` for `d < DIMS`, `d != dim::OPACITY` (0):
+/// `out[d][k]` = `sample_1d(key_k, vertex_k, d)` for `d < DIMS`, `d != dim::OPACITY` (left as it was):
 /// [`vertex_samples`] per lane; `seed_hash` is `hash_u32(seed)`.
 #[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma+gfni", "x86_64+avx+avx2+fma"))]
 pub fn vertex_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [Lanes; DIMS]) {
     for k in 0..LANES {
         let u = vertex_samples(seed_hash, keys.pixel[k], keys.sample[k], keys.vertex[k]);
-        for d in 0..DIMS {
+        for d in (0..DIMS).filter(|&d| d != dim::OPACITY as usize) {
             out[d][k] = u[d];
         }
     }
