@@ -285,6 +285,7 @@ pub fn sample_lanes(l: &BsdfLanes, u: &SampleInputs, out: &mut SampleLanes) {
 
 /// The three steps of [`Bsdf::sample`] in loops of their own, with the sines and cosines and the
 /// table lookups between them.
+#[allow(clippy::needless_range_loop)] // each loop indexes several columns by the lane
 #[inline(always)]
 fn sample_group<const COAT: bool>(l: &BsdfLanes, u: &SampleInputs, out: &mut SampleLanes) {
     let (mut starts, mut angle) = (StartLanes::default(), [0.0f32; LANES]);

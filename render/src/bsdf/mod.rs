@@ -304,7 +304,7 @@ pub struct SampledDirection {
 impl SeenBsdf {
     /// World → local (the shading frame).
     #[inline(always)]
-    fn to_local(&self, v: Vec3) -> Vec3 {
+    fn local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
     }
 
@@ -385,7 +385,7 @@ impl SeenBsdf {
     /// at `wi · n`; zero below the geometric or either local hemisphere.
     #[inline(always)]
     pub fn eval<const COAT: bool>(&self, wi: Vec3, at_i: [f32; 2]) -> (Vec3, f32) {
-        let (wo_l, wi_l) = (self.to_local(self.wo), self.to_local(wi));
+        let (wo_l, wi_l) = (self.local(self.wo), self.local(wi));
         let (f, pdf) = self.eval_local::<COAT>(self.lobe_probabilities(wo_l.z), wo_l, wi_l, at_i);
         let above = !((wo_l.z <= 0.0) | (wi_l.z <= 0.0) | (wi.dot(self.ng) <= 0.0));
         (Vec3::new(or_zero(above, f.x), or_zero(above, f.y), or_zero(above, f.z)), or_zero(above, pdf))
@@ -486,7 +486,7 @@ impl SeenBsdf {
     /// GGX).
     #[inline(always)]
     pub fn sample_start(&self, u_lobe: f32, u: [f32; 2]) -> SampleStart {
-        let wo = self.to_local(self.wo);
+        let wo = self.local(self.wo);
         let probs = self.lobe_probabilities(wo.z);
         let diffuse = u_lobe < probs[0];
         let angle = if diffuse { concentric_angle(u) } else { TAU * u[0] };
