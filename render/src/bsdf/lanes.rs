@@ -1,7 +1,7 @@
 //! The UsdPreviewSurface BSDF ([`crate::bsdf::Bsdf`]) constructed, evaluated and sampled eight
-//! shading points at a time, in AoSoA form (`[f32; 8]` columns). Evaluation and sampling are loops
-//! over the lanes around [`SeenBsdf`]'s branch-free methods, the very code [`Bsdf::eval`] and
-//! [`Bsdf::sample`] run, on [`BsdfLanes`] (a `SeenBsdf` transposed), so each lane equals the scalar
+//! shading points at a time, in AoSoA form (`[f32; 8]` columns). Each kernel is loops over the lanes
+//! around the branch-free code the scalar BSDF runs ([`Bsdf::from_lane`], [`SeenBsdf`]'s methods)
+//! on [`InputLanes`] and [`BsdfLanes`] (a `SeenBsdf` transposed), so each lane equals the scalar
 //! result by construction (the tests check it on random inputs, NaN and infinities included).
 //! LLVM vectorises the loops to 8-wide AVX2 under [`multiversion`] (chosen at run time, generic
 //! fallback elsewhere); the albedo tables' lookups and the sample's sines and cosines
@@ -14,17 +14,18 @@
 //! probabilities as [`BsdfLanes`] columns, an AVX-512VL clone, a variant for all-diffuse groups;
 //! measurements: `docs/perf.md#bsdf-lanes-bsdflanesrs`.
 
-use crate::bsdf::{albedo, view_halves, Bsdf, BsdfSample, SampleStart, SampledDirection, SeenBsdf};
+use crate::bsdf::{albedo, view_halves, Bsdf, BsdfSample};
 use crate::shading::ShadingInputs;
 use glam::Vec3;
 
-use lanekit::{Lanes, Lanes3, LANES, V};
+use lanekit::{Lanes, Lanes3, LANES};
 
 lanekit::soa! {
-    /// Eight BSDFs and their outgoing directions, transposed.
+    /// Eight BSDFs seen from their outgoing directions ([`SeenBsdf`]: one lane, whose methods are
+    /// the BSDF's mathematics), transposed.
     #[derive(Clone, Copy, Debug)]
     #[repr(C, align(32))]
-    pub struct BsdfLanes for SeenBsdf {
+    pub struct BsdfLanes for struct SeenBsdf {
         /// Shading frame tangent.
         pub t: Vec3 as [f32; 3],
         /// Shading frame bitangent.
@@ -91,82 +92,46 @@ lanekit::soa! {
     }
 }
 
-impl InputLanes {
-    /// Writes `inputs` at a point with normals `ns` and `ng` into lane `k` (the inputs the BSDF
-    /// reads: not emission, opacity or the normal map, which phase 1 has applied).
-    #[inline]
-    pub fn set_inputs(&mut self, k: usize, inputs: &ShadingInputs, ns: Vec3, ng: Vec3) {
-        self.set(
-            k,
-            &InputLane {
-                diffuse_color: inputs.diffuse_color,
-                specular_color: inputs.specular_color,
-                use_specular_workflow: inputs.use_specular_workflow,
-                roughness: inputs.roughness,
-                metallic: inputs.metallic,
-                ior: inputs.ior,
-                clearcoat: inputs.clearcoat,
-                clearcoat_roughness: inputs.clearcoat_roughness,
-                ns,
-                ng,
-            },
-        );
+impl InputLane {
+    /// The inputs the BSDF reads of `inputs` at a point with normals `ns` and `ng` (not emission,
+    /// opacity or the normal map, which phase 1 has applied).
+    #[inline(always)]
+    pub fn new(inputs: &ShadingInputs, ns: Vec3, ng: Vec3) -> Self {
+        InputLane {
+            diffuse_color: inputs.diffuse_color,
+            specular_color: inputs.specular_color,
+            use_specular_workflow: inputs.use_specular_workflow,
+            roughness: inputs.roughness,
+            metallic: inputs.metallic,
+            ior: inputs.ior,
+            clearcoat: inputs.clearcoat,
+            clearcoat_roughness: inputs.clearcoat_roughness,
+            ns,
+            ng,
+        }
     }
 }
 
-/// [`Bsdf::from_inputs`] on eight lanes: writes every field of `out` but `wo`. Both workflows are
-/// computed and selected per lane; glam's `Vec3::clamp` (`max` then `min` by comparison, NaN → the
-/// bound) and `f32::clamp` (NaN passes) are kept apart as the scalar code uses them.
-#[allow(clippy::needless_range_loop)]
+impl InputLanes {
+    /// Writes `inputs` at a point with normals `ns` and `ng` into lane `k` ([`InputLane::new`]).
+    #[inline]
+    pub fn set_inputs(&mut self, k: usize, inputs: &ShadingInputs, ns: Vec3, ng: Vec3) {
+        self.set(k, &InputLane::new(inputs, ns, ng));
+    }
+}
+
+/// [`Bsdf::from_inputs`] on eight lanes, seen from the directions `out.wo` already holds: the
+/// BSDFs ([`Bsdf::from_lane`]) in one loop, their view halves (table lookups) in another.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
-    // glam's `Vec3::clamp(ZERO, ONE)` on one component.
-    let unit = |x: f32| {
-        let m = if x > 0.0 { x } else { 0.0 };
-        if m < 1.0 {
-            m
-        } else {
-            1.0
-        }
-    };
+    for k in 0..LANES {
+        let wo = at(&out.wo, k);
+        out.set(k, &Bsdf::from_lane(&inp.get(k)).seen_with(wo, [Vec3::ZERO; 3]));
+    }
     let tables = albedo::tables();
     for k in 0..LANES {
-        // `Frame::new(ns)` (Duff et al. 2017), in its operation order.
-        let n = V::at(&inp.ns, k);
-        let sign = 1.0f32.copysign(n.z);
-        let a = -1.0 / (sign + n.z);
-        let b = n.x * n.y * a;
-        V { x: 1.0 + sign * n.x * n.x * a, y: sign * b, z: -sign * n.x }.store(&mut out.t, k);
-        V { x: b, y: sign + n.y * n.y * a, z: -n.y }.store(&mut out.b, k);
-        n.store(&mut out.n, k);
-        V::at(&inp.ng, k).store(&mut out.ng, k);
-
-        let dc = V::at(&inp.diffuse_color, k);
-        let base = V { x: unit(dc.x), y: unit(dc.y), z: unit(dc.z) };
-        let sc = V::at(&inp.specular_color, k);
-        let specular = V { x: unit(sc.x), y: unit(sc.y), z: unit(sc.z) };
-        let metallic = inp.metallic[k].clamp(0.0, 1.0);
-        let ior = inp.ior[k];
-        let r = (ior - 1.0) / (ior + 1.0);
-        let dielectric = if r.is_finite() { (r * r).min(1.0) } else { 0.04 };
-        let keep = 1.0 - metallic;
-        // `Vec3::splat(dielectric).lerp(base, metallic)`: `self * (1 − s) + rhs * s`.
-        let f0_metal = V {
-            x: dielectric * keep + base.x * metallic,
-            y: dielectric * keep + base.y * metallic,
-            z: dielectric * keep + base.z * metallic,
-        };
-        let specular_workflow = inp.use_specular_workflow[k] != 0;
-        V::select(specular_workflow, base, base.scale(keep)).store(&mut out.diffuse, k);
-        V::select(specular_workflow, specular, f0_metal).store(&mut out.f0, k);
-        let roughness = inp.roughness[k].clamp(0.0, 1.0);
-        let cc_roughness = inp.clearcoat_roughness[k].clamp(0.0, 1.0);
-        out.alpha[k] = (roughness * roughness).max(crate::bsdf::MIN_ALPHA);
-        out.clearcoat[k] = inp.clearcoat[k].clamp(0.0, 1.0);
-        out.clearcoat_alpha[k] = (cc_roughness * cc_roughness).max(crate::bsdf::MIN_ALPHA);
-        // The view halves at the local `wo.z`, as `to_local` computes it.
-        let (d, f0, n) = (at(&out.diffuse, k), at(&out.f0, k), at(&out.n, k));
-        let [dv, mv, fm] = view_halves(tables, d, f0, out.alpha[k], at(&out.wo, k).dot(n));
+        let (d, f0, n, wo) = (at(&out.diffuse, k), at(&out.f0, k), at(&out.n, k), at(&out.wo, k));
+        let [dv, mv, fm] = view_halves(tables, d, f0, out.alpha[k], wo.dot(n));
         for c in 0..3 {
             (out.diffuse_view[c][k], out.ms_view[c][k], out.ms_fresnel[c][k]) = (dv[c], mv[c], fm[c]);
         }
@@ -254,22 +219,29 @@ lanekit::soa! {
     /// Eight samples' first steps ([`SeenBsdf::sample_start`]).
     #[derive(Clone, Copy, Debug)]
     #[repr(C, align(32))]
-    struct StartLanes for SampleStart {
-        wo: Vec3 as [f32; 3],
-        probs: [f32; 3],
-        diffuse: bool,
-        angle: f32,
+    pub struct StartLanes for struct SampleStart {
+        /// Local `wo`.
+        pub wo: Vec3 as [f32; 3],
+        /// Lobe probabilities (diffuse, specular, clearcoat).
+        pub probs: [f32; 3],
+        /// Whether the diffuse lobe was chosen.
+        pub diffuse: bool,
+        /// The angle whose sine and cosine the chosen lobe needs.
+        pub angle: f32,
     }
 }
 
 lanekit::soa! {
-    /// Eight sampled directions ([`SeenBsdf::sample_direction`]).
+    /// Eight sampled directions before their evaluation ([`SeenBsdf::sample_direction`]).
     #[derive(Clone, Copy, Debug)]
     #[repr(C, align(32))]
-    struct DirectionLanes for SampledDirection {
-        wi: Vec3 as [f32; 3],
-        local: Vec3 as [f32; 3],
-        lobe_alpha: f32,
+    pub struct DirectionLanes for struct SampledDirection {
+        /// World space, unit.
+        pub wi: Vec3 as [f32; 3],
+        /// Local (shading frame).
+        pub local: Vec3 as [f32; 3],
+        /// GGX α of the chosen lobe (1 for the diffuse lobe).
+        pub lobe_alpha: f32,
     }
 }
 

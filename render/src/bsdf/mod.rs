@@ -54,6 +54,7 @@ pub struct Frame {
 
 impl Frame {
     /// A basis around `n` (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+    #[inline(always)]
     pub fn new(n: Vec3) -> Self {
         let sign = 1.0f32.copysign(n.z);
         let a = -1.0 / (sign + n.z);
@@ -244,62 +245,12 @@ pub(crate) fn view_halves(t: &albedo::Tables, d: Vec3, f0: Vec3, alpha: f32, mu_
     [Vec3::new(dx, dy, dz), Vec3::new(mx, my, mz), Vec3::new(fx, fy, fz)]
 }
 
-/// A [`Bsdf`] seen from one outgoing direction `wo`: the frame as its three axes, the parameters,
-/// `wo` and the view halves of the energy-conserving lobes (they depend on `wo` only). Its methods
-/// are the BSDF's mathematics, branch-free; [`lanes::BsdfLanes`] is this struct transposed.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SeenBsdf {
-    /// Shading frame tangent.
-    pub t: Vec3,
-    /// Shading frame bitangent.
-    pub b: Vec3,
-    /// Shading normal.
-    pub n: Vec3,
-    /// Geometric normal on the side of `wo`.
-    pub ng: Vec3,
-    /// Diffuse colour.
-    pub diffuse: Vec3,
-    /// Specular F0.
-    pub f0: Vec3,
-    /// GGX α of the specular lobe.
-    pub alpha: f32,
-    /// Clearcoat weight.
-    pub clearcoat: f32,
-    /// GGX α of the clearcoat.
-    pub clearcoat_alpha: f32,
-    /// World-space direction towards the viewer.
-    pub wo: Vec3,
-    /// The diffuse lobe's view half at `wo` ([`albedo::view_terms`] per channel).
-    pub diffuse_view: Vec3,
-    /// The multiple-scattering lobe's view half at `wo`.
-    pub ms_view: Vec3,
-    /// The multiple-scattering Fresnel ([`albedo::ms_fresnel`]).
-    pub ms_fresnel: Vec3,
-}
-
-/// What [`SeenBsdf::sample_start`] finds before the sample's trigonometry.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SampleStart {
-    /// Local `wo`.
-    pub wo: Vec3,
-    /// Lobe probabilities (diffuse, specular, clearcoat).
-    pub probs: [f32; 3],
-    /// Whether the diffuse lobe was chosen.
-    pub diffuse: bool,
-    /// The angle whose sine and cosine the chosen lobe needs.
-    pub angle: f32,
-}
-
-/// A sampled direction before its evaluation ([`SeenBsdf::sample_direction`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SampledDirection {
-    /// World space, unit.
-    pub wi: Vec3,
-    /// Local (shading frame).
-    pub local: Vec3,
-    /// GGX α of the chosen lobe (1 for the diffuse lobe).
-    pub lobe_alpha: f32,
-}
+/// A [`Bsdf`] seen from one outgoing direction `wo` (declared with its lanes, [`lanes::BsdfLanes`]):
+/// the frame as its three axes, the parameters, `wo` and the view halves of the energy-conserving
+/// lobes (they depend on `wo` only). Its methods are the BSDF's mathematics, branch-free.
+pub use lanes::SeenBsdf;
+/// The steps of a sample (declared with their lanes).
+pub use lanes::{SampleStart, SampledDirection};
 
 impl SeenBsdf {
     /// World → local (the shading frame).
@@ -401,20 +352,26 @@ impl Bsdf {
 
     /// Resolves evaluated shading inputs (constants or a material program's output); see [`Bsdf::new`].
     pub fn from_inputs(mat: &crate::shading::ShadingInputs, ns: Vec3, ng: Vec3) -> Self {
+        Self::from_lane(&lanes::InputLane::new(mat, ns, ng))
+    }
+
+    /// [`Bsdf::from_inputs`] of one lane's inputs ([`lanes::from_inputs_lanes`] runs it per lane):
+    /// both workflows computed, one selected.
+    #[inline(always)]
+    pub(crate) fn from_lane(mat: &lanes::InputLane) -> Self {
         let base = mat.diffuse_color.clamp(Vec3::ZERO, Vec3::ONE);
-        let (diffuse, f0) = if mat.use_specular_workflow {
-            (base, mat.specular_color.clamp(Vec3::ZERO, Vec3::ONE))
-        } else {
-            let metallic = mat.metallic.clamp(0.0, 1.0);
-            let r = (mat.ior - 1.0) / (mat.ior + 1.0);
-            let dielectric = if r.is_finite() { (r * r).min(1.0) } else { 0.04 };
-            (base * (1.0 - metallic), Vec3::splat(dielectric).lerp(base, metallic))
-        };
+        let specular = mat.specular_color.clamp(Vec3::ZERO, Vec3::ONE);
+        let metallic = mat.metallic.clamp(0.0, 1.0);
+        let r = (mat.ior - 1.0) / (mat.ior + 1.0);
+        let dielectric = if r.is_finite() { (r * r).min(1.0) } else { 0.04 };
+        let workflow = mat.use_specular_workflow;
+        let diffuse = select(workflow, base, base * (1.0 - metallic));
+        let f0 = select(workflow, specular, Vec3::splat(dielectric).lerp(base, metallic));
         let roughness = mat.roughness.clamp(0.0, 1.0);
         let cc_roughness = mat.clearcoat_roughness.clamp(0.0, 1.0);
         Bsdf {
-            frame: Frame::new(ns),
-            ng,
+            frame: Frame::new(mat.ns),
+            ng: mat.ng,
             diffuse,
             f0,
             alpha: (roughness * roughness).max(MIN_ALPHA),
@@ -431,9 +388,15 @@ impl Bsdf {
     /// This BSDF seen from world direction `wo` (towards the viewer).
     #[inline(always)]
     pub fn seen_from(&self, wo: Vec3) -> SeenBsdf {
+        let view = view_halves(albedo::tables(), self.diffuse, self.f0, self.alpha, wo.dot(self.frame.n));
+        self.seen_with(wo, view)
+    }
+
+    /// [`Bsdf::seen_from`] with the view halves known ([`view_halves`]).
+    #[inline(always)]
+    pub(crate) fn seen_with(&self, wo: Vec3, view: [Vec3; 3]) -> SeenBsdf {
         let Bsdf { frame, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha } = *self;
-        let [diffuse_view, ms_view, ms_fresnel] =
-            view_halves(albedo::tables(), diffuse, f0, alpha, wo.dot(frame.n));
+        let [diffuse_view, ms_view, ms_fresnel] = view;
         #[rustfmt::skip]
         let seen = SeenBsdf {
             t: frame.t, b: frame.b, n: frame.n, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha, wo,
