@@ -286,17 +286,17 @@ fn sample_group<const COAT: bool>(l: &BsdfLanes, u: &SampleInputs, out: &mut Sam
 
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)] // lane-indexed comparisons read clearest as index loops
-mod tests {
+pub(super) mod tests {
     use super::*;
     use std::f32::consts::TAU;
 
-    struct Rng(u32);
+    pub(in crate::bsdf) struct Rng(pub(in crate::bsdf) u32);
     impl Rng {
-        fn f(&mut self) -> f32 {
+        pub(in crate::bsdf) fn f(&mut self) -> f32 {
             self.0 = crate::sampler::hash_u32(self.0);
             (self.0 >> 8) as f32 / 16_777_216.0
         }
-        fn dir(&mut self) -> Vec3 {
+        pub(in crate::bsdf) fn dir(&mut self) -> Vec3 {
             let z = 2.0 * self.f() - 1.0;
             let r = (1.0 - z * z).max(0.0).sqrt();
             let phi = TAU * self.f();
@@ -312,7 +312,7 @@ mod tests {
 
     /// Shading inputs with NaN, zero, one and out-of-range values among them, and a shading normal
     /// tilted off the geometric one (sometimes past it).
-    fn random_inputs(rng: &mut Rng) -> (ShadingInputs, Vec3, Vec3) {
+    pub(in crate::bsdf) fn random_inputs(rng: &mut Rng) -> (ShadingInputs, Vec3, Vec3) {
         let pick = |rng: &mut Rng, special: bool| {
             if special && rng.f() < 0.1 {
                 [0.0, 1.0, 0.0, 1.0, f32::NAN, 2.0][(rng.f() * 6.0) as usize % 6]

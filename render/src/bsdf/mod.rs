@@ -34,6 +34,8 @@
 pub mod albedo;
 pub mod dielectric;
 pub mod lanes;
+#[cfg(test)]
+mod reference_tests;
 
 use glam::{BVec3, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
