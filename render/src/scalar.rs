@@ -5,18 +5,20 @@
 //! heuristic), resolve stochastic transparency, sample one light (next-event estimation, MIS-weighted
 //! against BSDF sampling), sample the BSDF, and after [`RR_START_BOUNCE`] bounces play unbiased Russian
 //! roulette on the throughput. Every random number is [`sample_1d`]/[`sample_2d`] of the path's
-//! [`SampleKey`], its vertex counter and a fixed dimension (see [`crate::sampler::dim`]), so the result is
+//! [`SampleKey`] ([`vertex_samples`] for a scattering vertex's), its vertex counter and a fixed dimension (see [`crate::sampler::dim`]), so the result is
 //! a pure function of the keys.
 
 use crate::camera::Camera;
 use crate::camera::RayCone;
 use crate::film::{Sampling, TileJob, TileResult};
+use crate::lights::mis::{self, NeeLane};
 use crate::lights::power_heuristic;
+use crate::path::roulette::{self, RouletteLane};
 use crate::path::{
     shadow_tmax, FirstHit, PathResult, PathSettings, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS,
     RR_START_BOUNCE,
 };
-use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
+use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, vertex_samples, SampleKey};
 use crate::scene::Scene;
 use crate::stats::{Phase, PhaseClock};
 use glam::Vec3;
@@ -70,6 +72,7 @@ impl Scene<'_> {
         clock.lap(Phase::Overhead);
         let max_depth = settings.max_depth;
         let filter = settings.filter;
+        let seed_hash = hash_u32(key.seed);
         let mut result = PathResult::default();
         let mut beta = Vec3::ONE;
         let mut radiance = Vec3::ZERO;
@@ -78,7 +81,7 @@ impl Scene<'_> {
         let mut bounces = 0u32;
         let mut vertex = 0u32;
         let mut travelled = 0.0f32;
-        let shadow_seed = hash_combine(hash_combine(hash_u32(key.seed), key.pixel), key.sample);
+        let shadow_seed = hash_combine(hash_combine(seed_hash, key.pixel), key.sample);
         rays.camera += 1;
         loop {
             let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
@@ -154,17 +157,22 @@ impl Scene<'_> {
                 break;
             }
 
+            // Every other random number of the vertex, at once (the lanes draw the same).
+            let u = vertex_samples(seed_hash, key.pixel, key.sample, vertex);
+            let d = |d: u32| u[d as usize];
+
             // Next-event estimation.
-            let u_select = sample_1d(key, vertex, dim::LIGHT_SELECT);
-            let u_light = sample_2d(key, vertex, dim::LIGHT_UV);
+            let u_select = d(dim::LIGHT_SELECT);
+            let u_light = [d(dim::LIGHT_UV), d(dim::LIGHT_UV + 1)];
             if let Some(mut ls) = self.lights.sample(s.p, u_select, u_light) {
                 if let Some((tri, [b1, b2])) = ls.emitter {
                     ls.li = self.emission_at(tri, b1, b2, filter, touch);
                 }
                 let (f, bsdf_pdf) = bsdf.eval(wo, ls.wi);
-                let contribution = beta * f * ls.li * (s.ns.dot(ls.wi).abs() / ls.pdf);
-                if contribution.max_element() > 0.0 {
-                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
+                let cos = s.ns.dot(ls.wi).abs();
+                let (li, light_pdf, delta) = (ls.li, ls.pdf, ls.delta as u32);
+                let weighed = mis::weigh(&NeeLane { beta, f, li, cos, light_pdf, bsdf_pdf, delta });
+                if weighed.keep {
                     let shadow_origin = s.spawn(ls.wi);
                     let tmax = shadow_tmax(ls.distance, shadow_origin, s.p);
                     rays.shadow += 1;
@@ -183,25 +191,24 @@ impl Scene<'_> {
                     }
                     clock.lap(Phase::Intersect);
                     if kept > 0.0 {
-                        radiance += contribution * w * kept;
+                        radiance += weighed.contribution * kept;
                     }
                 }
             }
 
             // BSDF sampling.
-            let u_lobe = sample_1d(key, vertex, dim::LOBE);
-            let u_bsdf = sample_2d(key, vertex, dim::BSDF_UV);
+            let u_lobe = d(dim::LOBE);
+            let u_bsdf = [d(dim::BSDF_UV), d(dim::BSDF_UV + 1)];
             let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else { break };
-            beta *= bs.f * (s.ns.dot(bs.wi).abs() / bs.pdf);
             prev = Some((s.p, bs.pdf));
             bounces += 1;
-            if bounces >= RR_START_BOUNCE {
-                let survive = beta.max_element().min(0.95);
-                if sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) >= survive {
-                    break;
-                }
-                beta /= survive;
+            let play = bounces >= RR_START_BOUNCE;
+            let (f, cos, pdf, u) = (bs.f, s.ns.dot(bs.wi).abs(), bs.pdf, d(dim::RUSSIAN_ROULETTE));
+            let next = roulette::continue_path(&RouletteLane { beta, f, cos, pdf, u, play });
+            if !next.alive {
+                break;
             }
+            beta = next.beta;
             vertex += 1;
             origin = s.spawn(bs.wi);
             dir = bs.wi;

@@ -1,35 +1,31 @@
-//! The 8-lane MIS kernel of next-event estimation, in AoSoA form (`[f32; 8]` columns), beside its
-//! scalar reference.
+//! The MIS weight of next-event estimation: one branch-free body, [`weigh`], that both
+//! integrators call per light sample and [`weigh_lanes`] calls per lane (AoSoA `[f32; 8]`
+//! columns, compiled for x86-64 AVX2+FMA with a generic fallback, [`multiversion`]).
 //!
 //! Per candidate: `contribution = β · f · Lᵢ · (|cos θ| / p_light)`, kept when its largest channel is
-//! positive, weighted by the power heuristic against the BSDF pdf (1 for delta lights). The lane kernel
-//! performs the same IEEE operations in the same order as [`weigh_scalar`] (and as
-//! [`crate::scalar`]): no FMA contraction happens without fast-math, so lanes equal scalar bit for
-//! bit and the wavefront image stays equal to the scalar one. It is compiled for x86-64 AVX2+FMA with a
-//! generic fallback and chosen at run time ([`multiversion`]).
-//!
-//! Both kernels here are branch-free so that they run 8-wide: [`weigh_lanes`] took 4.08 M
-//! instructions on the tractor (callgrind, 120×80, 8 spp), its power heuristic a scalar loop with a
-//! branch and a `divss` per lane, and now takes 0.67 M (shading-heavy 4.19 → 0.68 M);
-//! [`crate::accel::ray::offset_origin_lanes`] 2.41 → 0.78 M (2.47 → 0.80 M), its saturating `f32 as i32` casts now
-//! `saturating_i32`'s clamp, one `cvttps2dq` and integer selects instead of a `cvttss2si` and
-//! compares per lane.
+//! positive, weighted by the power heuristic against the BSDF pdf (1 for delta lights).
+//! [`power_heuristic`] is written with selects, not a short-circuit chain: as a chain it compiled to
+//! a scalar loop with a branch and a `divss` per lane (figures:
+//! `docs/perf.md#russian-roulette-and-mis-pathroulettersrs-lightsmisrs`).
 //!
 //! Candidates arrive AoS from shading (sorted by material and texture, not by lane), are transposed
 //! eight at a time into [`NeeLanes`], weighed, and scattered back.
 
 use glam::Vec3;
 
-/// Power heuristic (β = 2) weight of a strategy with pdf `a` against one with pdf `b`.
-#[inline]
+/// Power heuristic (β = 2) weight of a strategy with pdf `a` against one with pdf `b`: `a²/(a²+b²)`
+/// where that sum is a positive number, else 1 for an infinite `a` (a delta strategy) and 0.
+// Selects, not `&&` and early returns, so that it runs eight lanes wide in [`weigh_lanes`].
+#[inline(always)]
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 && (a2 + b2).is_finite() {
-        a2 / (a2 + b2)
-    } else if a.is_infinite() {
-        1.0
+    let sum = a2 + b2;
+    let regular = (sum > 0.0) & sum.is_finite();
+    let fallback = if a.is_infinite() { 1.0 } else { 0.0 };
+    if regular {
+        a2 / sum
     } else {
-        0.0
+        fallback
     }
 }
 
@@ -98,16 +94,13 @@ lanekit::soa! {
     }
 }
 
-/// The scalar reference: the weighted contribution, or `None` when it is black.
-#[inline]
-pub fn weigh_scalar(c: &NeeCandidate) -> Option<Vec3> {
+/// One light sample's MIS-weighted contribution, zero and `keep == false` where it is black.
+#[inline(always)]
+pub fn weigh(c: &NeeLane) -> NeeWeighed {
     let contribution = c.beta * c.f * c.li * (c.cos / c.light_pdf);
-    if contribution.max_element() > 0.0 {
-        let w = if c.delta != 0 { 1.0 } else { power_heuristic(c.light_pdf, c.bsdf_pdf) };
-        Some(contribution * w)
-    } else {
-        None
-    }
+    let keep = contribution.max_element() > 0.0;
+    let w = if c.delta != 0 { 1.0 } else { power_heuristic(c.light_pdf, c.bsdf_pdf) };
+    NeeWeighed { contribution: if keep { contribution * w } else { Vec3::ZERO }, keep }
 }
 
 /// Transposes up to eight candidates into lanes (missing lanes stay zero and come out dropped).
@@ -120,35 +113,11 @@ pub fn transpose(cands: &[NeeCandidate]) -> NeeLanes {
     l
 }
 
-/// The lane kernel: [`weigh_scalar`] on eight candidates at once. The loops run over lanes with the
-/// channel index inside (column form, so LLVM emits one 8-wide op per scalar op).
-///
-/// Branch-free on purpose: the power heuristic's `if sum > 0 && sum.is_finite()` chain, written with
-/// short-circuit conditions, compiled to a scalar loop with one branch and one `divss` per lane (367
-/// instructions per call on the tractor, callgrind); here every lane divides and the conditions
-/// are masks (`!(|x| < ∞)` is `!is_finite`, NaN included), so the whole kernel runs 8-wide.
-#[allow(clippy::needless_range_loop)]
+/// [`weigh`] on eight candidates.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn weigh_lanes(l: &NeeLanes, out: &mut NeeOut) {
     for k in 0..LANES {
-        let s = l.cos[k] / l.light_pdf[k];
-        let c = [0, 1, 2].map(|ch| l.beta[ch][k] * l.f[ch][k] * l.li[ch][k] * s);
-        // glam's `max_element`, NaN handling included: `if a > b { a } else { b }`, right to left.
-        let gt = |a: f32, b: f32| if a > b { a } else { b };
-        let keep = gt(c[0], gt(c[1], c[2])) > 0.0;
-        // `power_heuristic(light_pdf, bsdf_pdf)`, its three cases as selects.
-        let (a, b) = (l.light_pdf[k], l.bsdf_pdf[k]);
-        let (a2, b2) = (a * a, b * b);
-        let sum = a2 + b2;
-        let ratio = a2 / sum;
-        let regular = (sum > 0.0) & (sum.abs() < f32::INFINITY);
-        let fallback = if a.abs() == f32::INFINITY { 1.0 } else { 0.0 };
-        let ph = if regular { ratio } else { fallback };
-        let w = if l.delta[k] != 0 { 1.0 } else { ph };
-        out.keep[k] = keep as u32;
-        for ch in 0..3 {
-            out.contribution[ch][k] = if keep { c[ch] * w } else { 0.0 };
-        }
+        out.set(k, &weigh(&l.get(k)));
     }
 }
 
@@ -170,6 +139,51 @@ pub fn weigh_all(cands: &[NeeCandidate], mut emit: impl FnMut(&NeeCandidate, Vec
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The power heuristic as first written, with its short-circuit chain: the specification.
+    fn power_heuristic_reference(a: f32, b: f32) -> f32 {
+        let (a2, b2) = (a * a, b * b);
+        if a2 + b2 > 0.0 && (a2 + b2).is_finite() {
+            a2 / (a2 + b2)
+        } else if a.is_infinite() {
+            1.0
+        } else {
+            0.0
+        }
+    }
+
+    /// The weight as the integrator first wrote it, with its early return: the specification.
+    fn weigh_reference(c: &NeeCandidate) -> Option<Vec3> {
+        let contribution = c.beta * c.f * c.li * (c.cos / c.light_pdf);
+        if contribution.max_element() > 0.0 {
+            let w = if c.delta != 0 { 1.0 } else { power_heuristic_reference(c.light_pdf, c.bsdf_pdf) };
+            Some(contribution * w)
+        } else {
+            None
+        }
+    }
+
+    #[test]
+    fn power_heuristic_equals_the_reference_bit_for_bit() {
+        let special =
+            [0.0, -0.0, 1e-30, 1e30, 3e19, f32::MAX, f32::INFINITY, -f32::INFINITY, f32::NAN, 0.5, 2.0];
+        let mut x = 7u32;
+        let mut values = special.to_vec();
+        for _ in 0..2000 {
+            x = crate::sampler::hash_u32(x);
+            values.push(f32::from_bits(x));
+        }
+        let bits = |v: f32| if v.is_nan() { u32::MAX } else { v.to_bits() };
+        let mut regular = 0;
+        for &a in &values {
+            for &b in values.iter().step_by(7).chain(&special) {
+                let (got, want) = (power_heuristic(a, b), power_heuristic_reference(a, b));
+                assert_eq!(bits(got), bits(want), "power_heuristic({a}, {b})");
+                regular += (want > 0.0 && want < 1.0) as u32;
+            }
+        }
+        assert!(regular > 10_000, "{regular} weights strictly between 0 and 1");
+    }
 
     #[test]
     fn lanes_equal_scalar_bit_for_bit_on_random_inputs() {
@@ -206,7 +220,7 @@ mod tests {
         let mut got = Vec::new();
         weigh_all(&cands, |c, v| got.push((c.index, bits(v))));
         let expected: Vec<_> =
-            cands.iter().filter_map(|c| weigh_scalar(c).map(|v| (c.index, bits(v)))).collect();
+            cands.iter().filter_map(|c| weigh_reference(c).map(|v| (c.index, bits(v)))).collect();
         assert!(expected.len() > 3000);
         for (g, e) in got.iter().zip(&expected) {
             assert_eq!(g, e, "{:?}", cands[e.0 as usize]);

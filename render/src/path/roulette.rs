@@ -1,18 +1,15 @@
-//! The throughput update after a BSDF sample and Russian roulette, eight paths at a time, beside the
-//! scalar reference (the integrator's own lines, [`continue_scalar`]).
+//! The throughput update after a BSDF sample and Russian roulette: one branch-free body,
+//! [`continue_path`], that both integrators call per bounce and [`continue_lanes`] calls per lane.
 //!
 //! `β ← β · f · (|n·ωᵢ| / pdf)`; from [`crate::path::RR_START_BOUNCE`] bounces on, the path
-//! survives with probability `q = min(max(β), 0.95)` and then `β ← β / q`. Same IEEE operations in the
-//! same order as the scalar code, so lanes equal it bit for bit.
+//! survives with probability `q = min(max(β), 0.95)` and then `β ← β / q`.
 //!
-//! Groups where no lane plays roulette skip the three divisions by `q` (the kernel is a chain of
-//! two divisions, `cos / pdf` then `β / q`, so it is latency-bound). One-process timing against
-//! the frozen old kernel (2048 groups, min of 60 alternating rounds, contended), per group: no lane
-//! playing 5.2–8.0 → 4.2–6.1 ns (−21 to −24 %), half the groups playing −9 to −11 %, every group
-//! playing −3 to −10 % (the throughput products written out: as `[0, 1, 2].map(..)` they became
-//! an out-of-line call in the two-variant kernel).
+//! Groups where no lane plays roulette (the first bounces, the most numerous) run the body with
+//! `play` fixed to false, so the three divisions by `q` that the selects would discard are not
+//! computed: the kernel is a chain of two divisions, `cos / pdf` then `β / q`, so it is
+//! latency-bound (figures: `docs/perf.md#russian-roulette-and-mis-pathroulettersrs-lightsmisrs`).
 
-use glam::Vec3;
+use glam::{BVec3, Vec3};
 use lanekit::LANES;
 
 lanekit::soa! {
@@ -47,26 +44,26 @@ lanekit::soa! {
     }
 }
 
-/// The scalar reference: the new throughput, or `None` when roulette ends the path.
-#[inline]
-pub fn continue_scalar(beta: Vec3, f: Vec3, cos: f32, pdf: f32, play: bool, u: f32) -> Option<Vec3> {
-    let mut beta = beta;
-    beta *= f * (cos / pdf);
-    if play {
-        let survive = beta.max_element().min(0.95);
-        if u >= survive {
-            return None;
-        }
-        beta /= survive;
+/// One path's bounce: the new throughput and whether roulette lets the path go on. Branch-free
+/// (selects, no early return), so that [`continue_lanes`] runs it eight lanes wide.
+///
+/// Where `alive` is false the throughput is the one divided by `q`, never read.
+// `!(a >= b)` on purpose: a NaN `q` or `u` keeps the path, as the early return it replaced did.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[inline(always)]
+pub fn continue_path(l: &RouletteLane) -> RouletteResult {
+    let beta = l.beta * (l.f * (l.cos / l.pdf));
+    let survive = beta.max_element().min(0.95);
+    // Per-component selects and `|`: a whole-vector `if` or `||` became a branch per lane, which
+    // kept the loop scalar.
+    let divided = beta / survive;
+    RouletteResult {
+        beta: Vec3::select(BVec3::splat(l.play), divided, beta),
+        alive: !l.play | !(l.u >= survive),
     }
-    Some(beta)
 }
 
-/// [`continue_scalar`] on eight lanes.
-///
-/// Groups where no lane plays roulette (all before [`crate::path::RR_START_BOUNCE`]: the
-/// first bounces, the most numerous) take a variant without the three divisions by the survival
-/// probability, which the selects would discard.
+/// [`continue_path`] on eight lanes.
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 pub fn continue_lanes(l: &RouletteLanes, out: &mut RouletteOut) {
     if l.play.iter().any(|&p| p != 0) {
@@ -76,36 +73,37 @@ pub fn continue_lanes(l: &RouletteLanes, out: &mut RouletteOut) {
     }
 }
 
-// `!(a <= b)` on purpose: it is how the scalar code's early return treats NaN (it does not return).
-#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 #[inline(always)]
 fn continue_group<const PLAY: bool>(l: &RouletteLanes, out: &mut RouletteOut) {
     for k in 0..LANES {
-        let s = l.cos[k] / l.pdf[k];
-        // Written out: `[0, 1, 2].map(..)` stayed an out-of-line call in the two variants.
-        let b =
-            [l.beta[0][k] * (l.f[0][k] * s), l.beta[1][k] * (l.f[1][k] * s), l.beta[2][k] * (l.f[2][k] * s)];
-        if !PLAY {
-            for c in 0..3 {
-                out.beta[c][k] = b[c];
-            }
-            out.alive[k] = 1;
-            continue;
-        }
-        // glam's `max_element`: `if a > b { a } else { b }`, right to left.
-        let gt = |a: f32, b: f32| if a > b { a } else { b };
-        let survive = gt(b[0], gt(b[1], b[2])).min(0.95);
-        let play = l.play[k] != 0;
-        for c in 0..3 {
-            out.beta[c][k] = if play { b[c] / survive } else { b[c] };
-        }
-        out.alive[k] = (!play || !(l.u[k] >= survive)) as u32;
+        let mut lane = l.get(k);
+        lane.play &= PLAY;
+        out.set(k, &continue_path(&lane));
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The update as the integrator first wrote it, with its early return: the specification.
+    fn continue_reference(beta: Vec3, f: Vec3, cos: f32, pdf: f32, play: bool, u: f32) -> Option<Vec3> {
+        let mut beta = beta;
+        beta *= f * (cos / pdf);
+        if play {
+            let survive = beta.max_element().min(0.95);
+            if u >= survive {
+                return None;
+            }
+            beta /= survive;
+        }
+        Some(beta)
+    }
+
+    /// Bits, with every NaN one value (IEEE leaves a NaN's sign and payload open).
+    fn bits(v: Vec3) -> [u32; 3] {
+        v.to_array().map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() })
+    }
 
     #[test]
     fn lanes_equal_the_scalar_roulette_bit_for_bit_on_random_inputs() {
@@ -137,11 +135,11 @@ mod tests {
             continue_lanes(&l, &mut out);
             for k in 0..LANES {
                 let (i, o) = (l.get(k), out.get(k));
-                let expected = continue_scalar(i.beta, i.f, i.cos, i.pdf, i.play, i.u);
+                let expected = continue_reference(i.beta, i.f, i.cos, i.pdf, i.play, i.u);
                 assert_eq!(o.alive, expected.is_some(), "lane {k}");
+                let body = continue_path(&i);
+                assert_eq!((body.alive, bits(body.beta)), (o.alive, bits(o.beta)), "body, lane {k}");
                 if let Some(b) = expected {
-                    let bits =
-                        |v: Vec3| v.to_array().map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() });
                     assert_eq!(bits(o.beta), bits(b), "lane {k}");
                     alive += 1;
                 }

@@ -1,32 +1,18 @@
 //! The sampler ([`crate::sampler`]) for eight paths at once: the random numbers one path vertex uses
-//! (light selection, light position, lobe, roulette, BSDF direction) and the camera's pixel position,
-//! with the scalar [`crate::sampler::sample_1d`] / [`crate::sampler::sample_2d`] as the reference.
+//! ([`crate::sampler::vertex_samples`]) and the camera's pixel position ([`PairSeeds::sample_2d`]).
+//! Each kernel is a loop over the lanes around the scalar function itself; integer hashing is exact,
+//! so lanes equal the scalar values bit for bit.
 //!
-//! Integer hashing is exact, so lanes equal the scalar values bit for bit. Besides running eight paths
-//! per instruction, the lanes hash the (seed, pixel, vertex) prefix of the pair seeds once per vertex
-//! instead of once per dimension as each scalar call does.
-//!
-//! # Vectorisation
-//! Each kernel is a sequence of loops over the eight lanes with the scalar sampler's per-coordinate
-//! functions (`pair_index`, `unit_from_reversed`, `sobol1_reversed`) inlined into them (column
-//! form), so LLVM emits 8-wide AVX2 integer code: `vpmulld` for the hashes,
-//! `vpshufb` nibble tables for `reverse_bits`. The first version looped over the dimensions inside a
-//! loop over lanes and read Sobol's dimension 1 from byte tables: `objdump -d` showed no `ymm`
-//! register in it (scalar code run eight times). Dimension 1 now comes from
-//! [`crate::sampler::sobol1_reversed`] (shift-and-XOR, no tables), and the bit reversals that
-//! cancel (Sobol values are produced reversed and the scrambler reverses its input) are left out, in
-//! the scalar sampler too. The opacity dimension is not drawn: phase 1 draws it per hit,
-//! before the lanes run.
-//!
-//! The kernels that reverse bits ([`vertex_lanes`], [`pair_lanes`]) have a GFNI clone ahead of the
-//! AVX2 one (a byte swap and one `vgf2p8affineqb` per reversal; same integer operations, same bits);
-//! an AVX-512VL clone was dropped (3 % for a third clone); measurements: `docs/perf.md#sampler-lanes-samplerlanesrs`.
+//! LLVM emits the loops as 8-wide AVX2 integer code (`vpmulld` for the hashes, `vpshufb` nibble
+//! tables for `reverse_bits`) because the per-coordinate functions have no tables (Sobol's
+//! dimension 1 is [`crate::sampler::sobol1_reversed`]'s shift-and-XOR) and no reversal that
+//! cancels. The kernels that reverse bits ([`vertex_lanes`], [`pair_lanes`]) have a GFNI clone
+//! ahead of the AVX2 one (a byte swap and one `vgf2p8affineqb` per reversal; same integer
+//! operations, same bits). Measurements: `docs/perf.md#sampler-lanes-samplerlanesrs`.
 
-use crate::sampler::{dim, hash_combine, pair_index, sobol1_reversed, unit_from_reversed, PairSeeds};
+pub use crate::sampler::DIMS;
+use crate::sampler::{dim, vertex_samples, PairSeeds};
 use lanekit::{Lanes, U32Lanes, LANES};
-
-/// Dimensions of a vertex: `vertex_lanes` writes `out[d]` for `d < DIMS`, except `dim::OPACITY`.
-pub const DIMS: usize = 8;
 
 lanekit::soa! {
     /// Eight paths' keys at their current vertex.
@@ -42,40 +28,16 @@ lanekit::soa! {
     }
 }
 
-/// Dimension `2·pair` of a path whose pair-seed prefix is `prefix`.
-#[inline(always)]
-fn first_of_pair(prefix: u32, pair: u32, sample: u32) -> f32 {
-    let pair_seed = hash_combine(prefix, pair);
-    let index = pair_index(sample, pair_seed);
-    unit_from_reversed(index, hash_combine(pair_seed, 0))
-}
-
-/// Dimensions `2·pair` and `2·pair + 1` of a path whose pair-seed prefix is `prefix`.
-#[inline(always)]
-fn both_of_pair(prefix: u32, pair: u32, sample: u32) -> [f32; 2] {
-    let pair_seed = hash_combine(prefix, pair);
-    let index = pair_index(sample, pair_seed);
-    [
-        unit_from_reversed(index, hash_combine(pair_seed, 0)),
-        unit_from_reversed(sobol1_reversed(index), hash_combine(pair_seed, 1)),
-    ]
-}
-
-/// `out[d][k]` = `sample_1d(key_k, vertex_k, d)` for `d < DIMS`, `d != dim::OPACITY` (left as it
-/// was); `seed_hash` is `hash_u32(seed)`.
+/// `out[d][k]` = `sample_1d(key_k, vertex_k, d)` for `d < DIMS`, `d != dim::OPACITY` (left as it was):
+/// [`vertex_samples`] per lane; `seed_hash` is `hash_u32(seed)`.
 #[allow(clippy::needless_range_loop)]
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma+gfni", "x86_64+avx+avx2+fma"))]
 pub fn vertex_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [Lanes; DIMS]) {
-    let mut prefix = [0u32; LANES];
     for k in 0..LANES {
-        prefix[k] = hash_combine(hash_combine(seed_hash, keys.pixel[k]), keys.vertex[k]);
-    }
-    const _: () = assert!(dim::LIGHT_SELECT == 0 && dim::OPACITY == 1);
-    for k in 0..LANES {
-        out[0][k] = first_of_pair(prefix[k], 0, keys.sample[k]);
-        [out[2][k], out[3][k]] = both_of_pair(prefix[k], 1, keys.sample[k]);
-        [out[4][k], out[5][k]] = both_of_pair(prefix[k], 2, keys.sample[k]);
-        [out[6][k], out[7][k]] = both_of_pair(prefix[k], 3, keys.sample[k]);
+        let u = vertex_samples(seed_hash, keys.pixel[k], keys.sample[k], keys.vertex[k]);
+        for d in (0..DIMS).filter(|&d| d != dim::OPACITY as usize) {
+            out[d][k] = u[d];
+        }
     }
 }
 
@@ -105,10 +67,7 @@ pub fn pair_seed_lanes(
     out: &mut PairSeedLanes,
 ) {
     for k in 0..LANES {
-        let pair_seed = hash_combine(hash_combine(hash_combine(seed_hash, pixel[k]), vertex), dimension / 2);
-        out.index[k] = pair_seed;
-        out.first[k] = hash_combine(pair_seed, 0);
-        out.second[k] = hash_combine(pair_seed, 1);
+        out.set(k, &PairSeeds::new(seed_hash, pixel[k], vertex, dimension));
     }
 }
 
@@ -123,9 +82,7 @@ pub fn pair_seed_lanes(
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma+gfni", "x86_64+avx+avx2+fma"))]
 pub fn pair_lanes(seeds: &PairSeedLanes, sample: &U32Lanes, out: &mut [Lanes; 2]) {
     for k in 0..LANES {
-        let index = pair_index(sample[k], seeds.index[k]);
-        out[0][k] = unit_from_reversed(index, seeds.first[k]);
-        out[1][k] = unit_from_reversed(sobol1_reversed(index), seeds.second[k]);
+        [out[0][k], out[1][k]] = seeds.get(k).sample_2d(sample[k]);
     }
 }
 
@@ -133,7 +90,8 @@ pub fn pair_lanes(seeds: &PairSeedLanes, sample: &U32Lanes, out: &mut [Lanes; 2]
 #[allow(clippy::needless_range_loop)] // lane-indexed comparisons read clearest as index loops
 mod tests {
     use super::*;
-    use crate::sampler::{hash_u32, sample_1d, sample_2d, SampleKey};
+    use crate::sampler::{dim, hash_combine, hash_u32, pair_index, sample_1d, sample_2d, SampleKey};
+    use crate::sampler::{sobol1_reversed, unit_from_reversed};
 
     #[test]
     fn lanes_equal_the_scalar_sampler_bit_for_bit() {

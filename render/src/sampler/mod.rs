@@ -176,6 +176,33 @@ pub fn sample_2d(key: SampleKey, vertex: u32, dimension: u32) -> [f32; 2] {
     PairSeeds::new(hash_u32(key.seed), key.pixel, vertex, dimension).sample_2d(key.sample)
 }
 
+/// The dimensions a path vertex draws with [`vertex_samples`]: `0..DIMS`, of which
+/// [`dim::OPACITY`] is left 0 (it decides whether the vertex scatters at all, so it is drawn first,
+/// on its own, with [`sample_1d`]).
+pub const DIMS: usize = 8;
+
+/// `out[d]` = `sample_1d(key, vertex, d)` for `d < DIMS` but [`dim::OPACITY`] (0), for the path of
+/// `pixel`, `sample` under the seed whose `hash_u32` is `seed_hash`: every random number a
+/// scattering vertex uses, with the (seed, pixel, vertex) prefix of the pair seeds hashed once
+/// rather than once per dimension. Integer hashing only, so it is the same per lane: both
+/// integrators call it once per vertex, [`lanes::vertex_lanes`] once per lane.
+#[inline(always)]
+pub fn vertex_samples(seed_hash: u32, pixel: u32, sample: u32, vertex: u32) -> [f32; DIMS] {
+    const _: () = assert!(dim::LIGHT_SELECT == 0 && dim::OPACITY == 1 && dim::BSDF_UV + 2 == DIMS as u32);
+    let prefix = vertex_prefix(seed_hash, pixel, vertex);
+    let light_select = coordinate(sample, hash_combine(prefix, 0), 0);
+    let [u2, u3] = PairSeeds::of_pair(prefix, 1).sample_2d(sample);
+    let [u4, u5] = PairSeeds::of_pair(prefix, 2).sample_2d(sample);
+    let [u6, u7] = PairSeeds::of_pair(prefix, 3).sample_2d(sample);
+    [light_select, 0.0, u2, u3, u4, u5, u6, u7]
+}
+
+/// The (seed, pixel, vertex) prefix every pair seed of a vertex starts from.
+#[inline(always)]
+fn vertex_prefix(seed_hash: u32, pixel: u32, vertex: u32) -> u32 {
+    hash_combine(hash_combine(seed_hash, pixel), vertex)
+}
+
 /// The hashes of one (seed, pixel, vertex, pair) that every sample of the pixel shares: the pair
 /// seed that shuffles the Sobol index and the scramble seeds of its two coordinates. Five of the
 /// seven hashes of a 2D sample, so a caller drawing many samples of one pixel computes them once
@@ -193,9 +220,15 @@ pub struct PairSeeds {
 impl PairSeeds {
     /// The seeds of dimensions `dimension`, `dimension + 1` (even) at `vertex` of `pixel`'s paths;
     /// `seed_hash` is `hash_u32(seed)`.
-    #[inline]
+    #[inline(always)]
     pub fn new(seed_hash: u32, pixel: u32, vertex: u32, dimension: u32) -> Self {
-        let pair_seed = hash_combine(hash_combine(hash_combine(seed_hash, pixel), vertex), dimension / 2);
+        Self::of_pair(vertex_prefix(seed_hash, pixel, vertex), dimension / 2)
+    }
+
+    /// The seeds of pair `pair` of the vertex whose prefix ([`vertex_prefix`]) is `prefix`.
+    #[inline(always)]
+    fn of_pair(prefix: u32, pair: u32) -> Self {
+        let pair_seed = hash_combine(prefix, pair);
         PairSeeds { index: pair_seed, first: hash_combine(pair_seed, 0), second: hash_combine(pair_seed, 1) }
     }
 
@@ -220,7 +253,7 @@ fn sample_1d_reference(key: SampleKey, vertex: u32, dimension: u32) -> f32 {
 
 #[inline]
 fn pair_seed(key: SampleKey, vertex: u32, pair: u32) -> u32 {
-    hash_combine(hash_combine(hash_combine(hash_u32(key.seed), key.pixel), vertex), pair)
+    hash_combine(vertex_prefix(hash_u32(key.seed), key.pixel, vertex), pair)
 }
 
 #[cfg(test)]
@@ -247,6 +280,25 @@ mod tests {
             let [a, b] = sample_2d(key, vertex, dim::BSDF_UV);
             assert_eq!(a.to_bits(), sample_1d_reference(key, vertex, dim::BSDF_UV).to_bits());
             assert_eq!(b.to_bits(), sample_1d_reference(key, vertex, dim::BSDF_UV + 1).to_bits());
+        }
+    }
+
+    #[test]
+    fn vertex_samples_equal_sample_1d_in_every_dimension_but_opacity() {
+        let mut x = 11u32;
+        for round in 0..5_000u32 {
+            x = hash_u32(x);
+            let key = SampleKey { pixel: x % 1_000_000, sample: hash_u32(x ^ 3) % 65_536, seed: round % 4 };
+            let vertex = x % 70;
+            let got = vertex_samples(hash_u32(key.seed), key.pixel, key.sample, vertex);
+            for d in 0..DIMS as u32 {
+                let want = if d == dim::OPACITY { 0.0 } else { sample_1d_reference(key, vertex, d) };
+                assert_eq!(
+                    got[d as usize].to_bits(),
+                    want.to_bits(),
+                    "{key:?} vertex {vertex} dimension {d}"
+                );
+            }
         }
     }
 

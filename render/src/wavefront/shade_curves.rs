@@ -24,7 +24,9 @@ use super::{Context, ShadowRay, StageParts};
 use crate::bsdf::lanes::{EvalLanes, SampleInputs, SampleLanes};
 use crate::bsdf::BsdfSample;
 use crate::hair::lanes::{eval_lanes, sample_lanes, HairLanes};
+use crate::lights::mis::{self, NeeLane};
 use crate::lights::{power_heuristic, LightSample};
+use crate::path::roulette::{self, RouletteLane};
 use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
 use crate::stats::Phase;
@@ -268,9 +270,10 @@ fn finish<T: Touch>(
 
     // Next-event estimation.
     if let (Some(ls), Some((f, bsdf_pdf))) = (light, eval) {
-        let contribution = st.beta * f * ls.li * (s.ns.dot(ls.wi).abs() / ls.pdf);
-        if contribution.max_element() > 0.0 {
-            let mis = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf_pdf) };
+        let (beta, cos, li, light_pdf, delta) =
+            (st.beta, s.ns.dot(ls.wi).abs(), ls.li, ls.pdf, ls.delta as u32);
+        let weighed = mis::weigh(&NeeLane { beta, f, li, cos, light_pdf, bsdf_pdf, delta });
+        if weighed.keep {
             let origin = s.spawn(ls.wi);
             let tmax = shadow_tmax(ls.distance, origin, s.p);
             let seed = hash_combine(hash_combine(hash_u32(ctx.sampling.seed), st.pixel), st.sample) ^ vertex;
@@ -278,7 +281,7 @@ fn finish<T: Touch>(
                 origin,
                 dir: ls.wi,
                 tmax,
-                contribution: contribution * mis,
+                contribution: weighed.contribution,
                 seed,
                 delta: ls.delta,
             };
@@ -288,16 +291,16 @@ fn finish<T: Touch>(
 
     // BSDF sampling, throughput and Russian roulette.
     let Some(bs) = sample else { return };
-    st.beta *= bs.f * (s.ns.dot(bs.wi).abs() / bs.pdf);
     st.prev_p = s.p;
     st.prev_pdf = bs.pdf;
     st.bounces += 1;
-    if st.bounces >= RR_START_BOUNCE {
-        let survive = st.beta.max_element().min(0.95);
-        if sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) >= survive {
-            return;
-        }
-        st.beta /= survive;
+    let play = st.bounces >= RR_START_BOUNCE;
+    let u = if play { sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) } else { 0.0 };
+    let (beta, f, cos, pdf) = (st.beta, bs.f, s.ns.dot(bs.wi).abs(), bs.pdf);
+    let next = roulette::continue_path(&RouletteLane { beta, f, cos, pdf, u, play });
+    st.beta = next.beta;
+    if !next.alive {
+        return;
     }
     st.vertex += 1;
     st.origin = s.spawn(bs.wi);
