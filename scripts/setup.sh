@@ -10,9 +10,9 @@ if ! command -v cargo >/dev/null 2>&1; then
 fi
 
 # Debian packages: a C/C++ toolchain for crates that build C, OpenSubdiv (subdiv/ links it),
-# Python's venv module, and qemu-user (scripts/test-fallback.sh runs the kernel tests on emulated CPUs
-# without AVX2).
-apt_packages=(build-essential pkg-config python3-venv libosd-dev qemu-user)
+# Python's venv module, qemu-user (scripts/test-fallback.sh runs the kernel tests on emulated CPUs
+# without AVX2), and Slurm with munge (the farm tests run on a one-node cluster, scripts/slurm-local.sh).
+apt_packages=(build-essential pkg-config python3-venv libosd-dev qemu-user slurm-wlm munge)
 missing=()
 for p in "${apt_packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

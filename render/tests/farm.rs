@@ -260,3 +260,141 @@ fn merges_refuse_gaps_overlaps_other_blobs_and_broken_parts() {
     assert!(!out.exists(), "no output from a failed merge");
     assert!(merge(&[&t0, &t1, &t2], &out).status.success(), "the three tiles merge");
 }
+
+#[test]
+fn farm_dry_runs_print_the_jobs_and_resubmit_only_missing_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = blob(dir.path());
+    let out = dir.path().join("beauty.exr");
+    let dry = || {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/farm.sh");
+        let run = Command::new("bash")
+            .arg(script)
+            .args(["--render", env!("CARGO_BIN_EXE_render"), "--dry-run", "--tiles", "3", "--cpus", "2"])
+            .args([blob.to_str().unwrap(), "-o", out.to_str().unwrap(), "--spp", "8"])
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", stderr(&run));
+        String::from_utf8(run.stdout).unwrap()
+    };
+    let all = dry();
+    assert!(all.contains("--array=0,1,2 --cpus-per-task=2"), "{all}");
+    assert!(all.contains("1) unit=\"--tile 1/3\""), "{all}");
+    assert!(all.contains("--dependency=afterok:ARRAY --kill-on-invalid-dep=yes"), "{all}");
+    assert!(all.contains("--dependency=afternotok:ARRAY"), "{all}");
+    // Part 1 already rendered: only 0 and 2 are submitted again.
+    let parts = dir.path().join("beauty.exr.parts");
+    let run = render(&blob, &parts.join("part-1.exr"), &["--spp", "8", "--tile", "1/3"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let again = dry();
+    assert!(again.contains("--array=0,2 "), "{again}");
+}
+
+/// The farm on a real Slurm cluster (`scripts/slurm-local.sh start`, which the README's test command
+/// runs): only with `FARM_SLURM=1`, since it submits jobs.
+mod slurm {
+    use super::*;
+    use std::time::{Duration, Instant};
+
+    fn enabled() -> bool {
+        let on = std::env::var_os("FARM_SLURM").is_some();
+        if !on {
+            eprintln!("skipped: FARM_SLURM is unset (scripts/test.sh sets it once Slurm is up)");
+        }
+        on
+    }
+
+    /// `scripts/farm.sh ARGS` with this build's render; its stdout.
+    fn farm(args: &[&str]) -> String {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/farm.sh");
+        let out = Command::new("bash")
+            .arg(script)
+            .args(["--render", env!("CARGO_BIN_EXE_render")])
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "farm.sh: {}", stderr(&out));
+        String::from_utf8(out.stdout).unwrap()
+    }
+
+    /// Waits until `path` exists and no job of ours is queued or running (two minutes at most).
+    fn wait_for(path: &Path) {
+        let start = Instant::now();
+        loop {
+            let queue = Command::new("squeue").args(["-h", "-o", "%i"]).output().unwrap();
+            if path.exists() && queue.stdout.is_empty() {
+                return;
+            }
+            assert!(start.elapsed() < Duration::from_secs(120), "no {} after two minutes", path.display());
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+
+    fn array_id(farm_output: &str) -> String {
+        let at = farm_output.find("render array ").expect("an array id") + "render array ".len();
+        farm_output[at..].split_whitespace().next().unwrap().to_string()
+    }
+
+    #[test]
+    fn tiles_slices_and_a_cancelled_task_merge_to_the_single_render() {
+        if !enabled() {
+            return;
+        }
+        let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap();
+        let blob = blob(dir.path());
+        let b = blob.to_str().unwrap();
+        let whole = dir.path().join("whole.exr");
+        assert!(render(&blob, &whole, &["--spp", "32"]).status.success());
+
+        // Four tiles, one task each: the merge is the single render byte for byte.
+        let tiled = dir.path().join("tiled.exr");
+        let out = farm(&["--tiles", "4", b, "-o", tiled.to_str().unwrap(), "--res", "40x30", "--spp", "32"]);
+        assert!(out.contains("units 0,1,2,3 of 4"), "{out}");
+        wait_for(&tiled);
+        assert!(std::fs::read(&tiled).unwrap() == std::fs::read(&whole).unwrap(), "tiled merge differs");
+
+        // Two sample slices: equal within the merge's rounding bound.
+        let split = dir.path().join("split.exr");
+        farm(&["--samples", "2", b, "-o", split.to_str().unwrap(), "--res", "40x30", "--spp", "32"]);
+        wait_for(&split);
+        let (m, w) = (red(&split), red(&whole));
+        let worst = m.iter().zip(&w).map(|(m, w)| ((m - w) / w.max(1e-3)).abs()).fold(0.0f32, f32::max);
+        assert!(worst <= 1e-5, "sample split: largest relative difference {worst}");
+
+        // A task cancelled while it runs is resubmitted once; the result is still the single render.
+        let big = ["--res", "200x150", "--spp", "256"];
+        let reference = dir.path().join("big.exr");
+        let run = Command::new(env!("CARGO_BIN_EXE_render"))
+            .args([b, "-o", reference.to_str().unwrap(), "--threads", "2"])
+            .args(big)
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", stderr(&run));
+        let cancelled = dir.path().join("cancelled.exr");
+        let out = farm(&[&["--tiles", "2", b, "-o", cancelled.to_str().unwrap()][..], &big].concat());
+        let array = array_id(&out);
+        let start = Instant::now();
+        let running = loop {
+            let q =
+                Command::new("squeue").args(["-h", "-t", "R", "-j", &array, "-o", "%i"]).output().unwrap();
+            let ids = String::from_utf8(q.stdout).unwrap();
+            if let Some(id) = ids.split_whitespace().next() {
+                break id.to_string();
+            }
+            assert!(start.elapsed() < Duration::from_secs(60), "no task of array {array} started");
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        assert!(Command::new("scancel").arg(&running).status().unwrap().success());
+        wait_for(&cancelled);
+        let jobs = dir.path().join("cancelled.exr.parts/jobs");
+        let retried = std::fs::read_dir(&jobs)
+            .unwrap()
+            .flatten()
+            .any(|e| e.file_name().to_string_lossy().starts_with("retry-"));
+        assert!(retried, "the retry job ran after {running} was cancelled");
+        assert!(
+            std::fs::read(&cancelled).unwrap() == std::fs::read(&reference).unwrap(),
+            "retried merge differs"
+        );
+    }
+}
