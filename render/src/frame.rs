@@ -83,6 +83,7 @@ fn render_with_touch<T: texture::Touch + Sync>(
         return Err(RenderError::Memory { width, height, needed, limit });
     }
     let camera = scene.camera(camera_index, width, height);
+    let camera = if options.depth_of_field { camera } else { camera.without_lens() };
     let mut scene = scene.clone();
     if options.curve_shape.is_some() {
         scene.curves.shape = options.curve_shape;

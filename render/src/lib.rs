@@ -43,6 +43,8 @@ pub mod camera;
 #[cfg(test)]
 mod dispatch_tests;
 #[cfg(test)]
+mod dof_tests;
+#[cfg(test)]
 mod dome_tests;
 pub mod error;
 pub mod film;

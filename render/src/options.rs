@@ -37,6 +37,9 @@ pub struct RenderOptions {
     /// ([`crate::film::memory_estimate`]); `None` for [`crate::film::default_max_memory`] (3/4 of the
     /// physical memory).
     pub max_memory: Option<u64>,
+    /// Render the camera's depth of field (its `fStop`); `false` renders it as a pinhole
+    /// (`--no-dof`).
+    pub depth_of_field: bool,
 }
 
 /// The path-tracing integrator: depth-first scalar or breadth-first wavefront (same estimator, same
@@ -79,6 +82,7 @@ impl Default for RenderOptions {
             integrator: Integrator::Wavefront,
             max_memory: None,
             phase_stats: false,
+            depth_of_field: true,
         }
     }
 }

@@ -28,6 +28,7 @@
 
 mod compat;
 mod curves;
+mod lens;
 mod lux;
 mod material;
 mod mesh;

@@ -9,6 +9,10 @@
 //! bit-exact against the scalar film loop's `sample_2d`, `generate_ray` and `pixel_cone` (tested in
 //! their modules on random inputs; the equivalence tests compare whole images).
 //!
+//! A camera with a lens then replaces the group's rays by [`camera::lens_ray_lanes`]' (the scalar
+//! lens ray per lane, its lens sample from `sample_2d` per lane): equal to the film loop by
+//! construction, and pinhole cameras never reach it.
+//!
 //! The keys of [`BATCH`] groups are written before the first group runs (a vector load cannot be
 //! forwarded from eight pending scalar stores), and the jitter's pair seeds are hashed once per
 //! pixel, eight pixels of a tile row at a time ([`crate::sampler::lanes::pair_seed_lanes`]). Left as
@@ -21,7 +25,7 @@ use crate::camera::{self, CameraLanes, RayLanes};
 use crate::film::Tile;
 use crate::path::RayCounts;
 use crate::sampler::lanes as sampler_lanes;
-use crate::sampler::{dim, hash_u32, PairSeeds};
+use crate::sampler::{dim, hash_u32, sample_2d, PairSeeds, SampleKey};
 use glam::Vec3;
 use lanekit::LANES;
 
@@ -69,12 +73,29 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
         ctx.sampling.height,
         ctx.sampling.footprint_scale,
     );
-    let seed_hash = hash_u32(ctx.sampling.seed);
+    let seed = ctx.sampling.seed;
+    let seed_hash = hash_u32(seed);
     let mut jitter = [[0.0f32; LANES]; 2];
     let mut out = RayLanes::default();
     let mut flush = |keys: &PathKeys, len: usize, put: &mut F| {
         sampler_lanes::pair_lanes(&keys.jitter_seeds, &keys.sample, &mut jitter);
         camera::camera_ray_lanes(&cam, &keys.x, &keys.y, &jitter[0], &jitter[1], &mut out);
+        if ctx.camera.lens().is_some() {
+            let lens_uv = std::array::from_fn(|k| {
+                sample_2d(SampleKey { pixel: keys.pixel[k], sample: keys.sample[k], seed }, 0, dim::LENS)
+            });
+            camera::lens_ray_lanes(
+                ctx.camera,
+                ctx.sampling.forward,
+                [ctx.sampling.width, ctx.sampling.height],
+                ctx.sampling.footprint_scale,
+                (&keys.x, &keys.y),
+                (&jitter[0], &jitter[1]),
+                &lens_uv,
+                len,
+                &mut out,
+            );
+        }
         let at = |c: &[[f32; LANES]; 3], k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
         for k in 0..len {
             put(
@@ -174,23 +195,31 @@ mod tests {
     use super::*;
     use crate::options::RenderOptions;
     use crate::path::PathSettings;
-    use crate::sampler::{sample_2d, SampleKey};
     use crate::scene::Scene;
     use crate::testscene::{self, camera_looking_down_z, card};
     use crate::wavefront::POOL_PATHS;
 
     /// Every path of a chunk holds the camera ray the scalar film loop generates for its pixel and
     /// sample, in pixel-then-sample order: odd tile sizes and sample counts leave a partly filled last
-    /// group, and the chunk starts at a sample other than 0.
+    /// group, and the chunk starts at a sample other than 0; a pinhole, a round and a polygonal lens.
     #[test]
     fn chunks_hold_the_scalar_film_loops_camera_rays() {
         let mut camera = camera_looking_down_z(glam::Vec3::new(0.3, -0.2, 4.0), 18.0);
         camera.world_from_camera *= glam::Mat4::from_rotation_y(0.3) * glam::Mat4::from_rotation_x(-0.2);
         camera.horizontal_aperture_offset = 1.5;
+        let mut round = camera.clone();
+        round.lens = scene_pack::Lens { f_stop: 1.2, focus_distance: 3.5, ..Default::default() };
+        let mut polygon = camera.clone();
+        polygon.lens = scene_pack::Lens {
+            f_stop: 2.0,
+            focus_distance: 6.0,
+            aperture_blades: 7,
+            aperture_rotation: -40.0,
+        };
         let ingest_scene = scene_pack::Scene {
             meshes: vec![card(0.0, 1.0, 0)],
             materials: vec![testscene::lambert(0.5)],
-            cameras: vec![camera],
+            cameras: vec![camera, round, polygon],
             default_camera: Some(0),
             meters_per_unit: 1.0,
             ..scene_pack::Scene::default()
@@ -199,9 +228,12 @@ mod tests {
         let view = blob::SceneView::parse(&bytes).expect("valid blob");
         let scene = Scene::new(view);
         let (width, height) = (37, 23);
-        let cam = scene.camera(Some(0), width, height);
         let mut cases = 0;
-        for (seed, scale) in [(0, 1.0), (9, 0.25), (0xdead_beef, 0.0)] {
+        for (seed, scale, camera) in
+            [(0, 1.0, 0), (9, 0.25, 0), (0xdead_beef, 0.0, 0), (3, 1.0, 1), (4, 0.5, 2)]
+        {
+            let cam = scene.camera(Some(camera), width, height);
+            assert_eq!(cam.lens().is_some(), camera > 0);
             let options = RenderOptions { seed, texture_footprint_scale: scale, ..RenderOptions::default() };
             let ctx = Context {
                 scene: &scene,
@@ -230,9 +262,12 @@ mod tests {
                             // The scalar tile loop (`scalar::render_tile`).
                             let key = SampleKey { pixel, sample, seed };
                             let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
-                            let (o, d) = cam.generate_ray(
+                            let lens_uv =
+                                if cam.lens().is_some() { sample_2d(key, 0, dim::LENS) } else { [0.0; 2] };
+                            let (o, d) = cam.generate_lens_ray(
                                 (x as f32 + jx) / width as f32,
                                 (y as f32 + jy) / height as f32,
+                                lens_uv,
                             );
                             let mut cone = cam.pixel_cone(d.dot(ctx.sampling.forward));
                             cone.width *= scale;
@@ -253,6 +288,6 @@ mod tests {
                 }
             }
         }
-        assert!(cases > 3 * POOL_PATHS, "{cases}");
+        assert!(cases > 5 * POOL_PATHS, "{cases}");
     }
 }

@@ -57,6 +57,9 @@ pub struct Args {
     /// every bench scene) or scalar (depth first, the reference); same image bit for bit.
     #[arg(long, default_value = "wavefront")]
     pub integrator: render::Integrator,
+    /// Render the camera as a pinhole, ignoring its depth of field (`fStop`).
+    #[arg(long)]
+    pub no_dof: bool,
 }
 
 fn parse_filter(s: &str) -> Result<texture::Filter, String> {
@@ -156,6 +159,7 @@ impl Args {
                 curve_shape: self.curve_shape,
                 integrator: self.integrator,
                 max_memory: self.max_memory,
+                depth_of_field: !self.no_dof,
                 ..RenderOptions::default()
             },
         })
@@ -185,6 +189,10 @@ mod tests {
         assert_eq!(output, PathBuf::from("o.exr"));
         assert_eq!((options.spp, options.resolution, options.threads), (4, Some([64, 32]), 2));
         assert_eq!(options.integrator, render::Integrator::Wavefront);
+        assert!(options.depth_of_field, "depth of field is on unless --no-dof");
+        let pinhole = Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--no-dof"]).unwrap();
+        let Command::Render { options, .. } = pinhole.into_command().unwrap() else { panic!() };
+        assert!(!options.depth_of_field);
         let scalar =
             Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "scalar"]).unwrap();
         let Command::Render { options, .. } = scalar.into_command().unwrap() else { panic!() };
