@@ -671,7 +671,7 @@ fn check_thin_lens(c: &Camera) -> Result<(), &'static str> {
     if c.aperture_blades != 0 && !(3..=MAX_APERTURE_BLADES).contains(&c.aperture_blades) {
         return Err("aperture blades not 0 (round) or 3..=64");
     }
-    if !(c.aperture_rotation.abs() <= 360.0) {
+    if c.aperture_rotation.is_nan() || c.aperture_rotation.abs() > 360.0 {
         return Err("aperture rotation not within ±360 degrees (or NaN)");
     }
     Ok(())
