@@ -389,7 +389,7 @@ pub fn camera_ray_lanes(
 
 /// Replaces lanes `0..len` of `out` (rays [`camera_ray_lanes`] made for pixels (`x[k]`, `y[k]`) of a
 /// `width × height` image with jitter (`jx[k]`, `jy[k]`)) by the rays through the camera's lens at
-/// lens samples `lens_uv[k]`, each exactly the film loop's [`Camera::generate_lens_ray`] and
+/// lens samples (`lens_u[k]`, `lens_v[k]`), each exactly the film loop's [`Camera::generate_lens_ray`] and
 /// [`Camera::pixel_cone`] of it scaled by `footprint_scale`: the scalar code runs per lane.
 #[allow(clippy::too_many_arguments)]
 pub fn lens_ray_lanes(
@@ -399,7 +399,7 @@ pub fn lens_ray_lanes(
     footprint_scale: f32,
     (x, y): (&U32Lanes, &U32Lanes),
     (jx, jy): (&Lanes, &Lanes),
-    lens_uv: &[[f32; 2]; LANES],
+    (lens_u, lens_v): (&Lanes, &Lanes),
     len: usize,
     out: &mut RayLanes,
 ) {
@@ -407,7 +407,7 @@ pub fn lens_ray_lanes(
         let (o, d) = camera.generate_lens_ray(
             (x[k] as f32 + jx[k]) / size[0] as f32,
             (y[k] as f32 + jy[k]) / size[1] as f32,
-            lens_uv[k],
+            [lens_u[k], lens_v[k]],
         );
         let mut cone = camera.pixel_cone(d.dot(forward));
         cone.width *= footprint_scale;
