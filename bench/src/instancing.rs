@@ -77,6 +77,7 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
         horizontal_aperture_offset: 0.0,
         vertical_aperture_offset: 0.0,
         clipping_range: [0.1, 1000.0],
+        lens: Default::default(),
     });
     scene.default_camera = Some(0);
     scene

@@ -199,6 +199,7 @@ fn camera(eye: Vec3, target: Vec3) -> ingest::Camera {
         horizontal_aperture_offset: 0.0,
         vertical_aperture_offset: 0.0,
         clipping_range: [0.01, 1e6],
+        lens: Default::default(),
     }
 }
 

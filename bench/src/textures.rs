@@ -71,6 +71,7 @@ fn plane_scene() -> ingest::Scene {
         horizontal_aperture_offset: 0.0,
         vertical_aperture_offset: 0.0,
         clipping_range: [0.01, 1e6],
+        lens: Default::default(),
     };
     let dome = ingest::Light {
         path: "/Dome".into(),

@@ -79,6 +79,6 @@ pub use scene_pack::{curves, instancing, pack, scene};
 
 pub use error::IngestError;
 pub use scene::{
-    BezierSegment, Camera, CurveKind, Curves, Light, LightKind, Material, Mesh, PointSphere, Scene,
+    BezierSegment, Camera, CurveKind, Curves, Lens, Light, LightKind, Material, Mesh, PointSphere, Scene,
     Subdivision, UpAxis, Warning,
 };

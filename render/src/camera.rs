@@ -1,17 +1,32 @@
 //! Camera rays from UsdGeomCamera parameters.
 //!
 //! USD cameras look down their local −Z with +Y up; `focalLength` and the apertures share a unit, so only
-//! their ratios matter for a perspective camera. An orthographic camera's apertures are in tenths of a
-//! scene unit (USD's lens-unit convention). When the image aspect differs from the aperture aspect the
-//! horizontal aperture is kept and the vertical one follows the image ("fit horizontal").
+//! their ratios matter for a perspective camera's framing. An orthographic camera's apertures are in
+//! tenths of a scene unit (USD's lens-unit convention). When the image aspect differs from the aperture
+//! aspect the horizontal aperture is kept and the vertical one follows the image ("fit horizontal").
 //! `clippingRange` is not applied (a path tracer has no near/far plane to honour).
 //!
-//! [`camera_ray_lanes`] generates eight rays at once (the wavefront integrator's camera stage) with
-//! the scalar film loop's IEEE operations in the same order: [`Camera::generate_ray`],
-//! [`Camera::pixel_cone`] of the ray's cosine to the axis, times the footprint scale. The camera has
-//! no lens and no pixel filter (the pixel position is a uniform jitter), so no trigonometry is
-//! involved; the parts that do not depend on the pixel (a pinhole's origin, an orthographic
-//! camera's direction and cone) are computed once by the scalar code.
+//! Depth of field is a thin lens ([`ThinLens`]) in the camera's XY plane: the ray through film point
+//! `x` starts at a point `l` of the aperture and passes through the point the pinhole ray through `x`
+//! reaches on the focus plane `z = −focusDistance`, so everything on that plane stays sharp. The
+//! aperture radius is `focalLength / (2 · fStop)` with `focalLength` turned into scene units (it is in
+//! tenths of one, UsdGeomCamera's lens unit; `metersPerUnit` does not enter, see
+//! `ingest::usd::lens`). The field of view stays the one `focalLength` and the apertures define (no
+//! focus breathing, as pbrt and Cycles do), so a point at distance `d` spreads into a disc of
+//! diameter `2r · focal · |1/focus − 1/d|` on the film, in aperture units. The lens point comes from
+//! the sampler's [`crate::sampler::dim::LENS`] pair through a concentric disc map (Shirley and Chiu
+//! 1997: strata stay compact) or, for a `ri:apertureNSides` polygon, a sector then a uniform point of
+//! its triangle. Orthographic cameras have no lens (ingest stores them as pinholes, and
+//! [`Camera::from_blob`] ignores an f-stop on one).
+//!
+//! [`camera_ray_lanes`] generates eight pinhole rays at once (the wavefront integrator's camera stage)
+//! with the scalar film loop's IEEE operations in the same order: [`Camera::generate_ray`],
+//! [`Camera::pixel_cone`] of the ray's cosine to the axis, times the footprint scale. There is no pixel
+//! filter (the pixel position is a uniform jitter), so no trigonometry is involved; the parts that do
+//! not depend on the pixel (a pinhole's origin, an orthographic camera's direction and cone) are
+//! computed once by the scalar code. [`lens_ray_lanes`] replaces those rays when the camera has a lens:
+//! it calls [`Camera::generate_lens_ray`] per lane, so it equals the scalar loop by construction (its
+//! square root and sine per ray are not worth a rewritten twin).
 
 use glam::{Affine3A, Vec3, Vec3A};
 
@@ -26,6 +41,79 @@ pub struct Camera {
     focal: f32,
     /// Image width in pixels (the window is split into this many pixel steps).
     width: u32,
+    /// Depth of field, or `None` for a pinhole.
+    lens: Option<ThinLens>,
+}
+
+/// A thin lens in camera space: an aperture of `radius` (round or a regular polygon) at the origin of
+/// the camera's XY plane, focused on the plane `z = −focus_distance`. Lengths in scene units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinLens {
+    /// Aperture radius (a polygon's corners lie on this circle).
+    pub radius: f32,
+    /// Distance of the plane in focus.
+    pub focus_distance: f32,
+    /// Blades of a polygonal aperture, or 0 for a round one.
+    pub blades: u32,
+    /// Angle of the polygon's first corner from the camera's +X, radians.
+    pub rotation: f32,
+}
+
+impl ThinLens {
+    /// The lens of a blob camera, or `None` for a pinhole (`f_stop` 0) or an orthographic camera.
+    /// `focal` is the focal length the film loop uses (tenths of a scene unit).
+    fn from_blob(cam: &blob::Camera, focal: f32) -> Option<Self> {
+        if cam.f_stop <= 0.0 || cam.projection == blob::PROJECTION_ORTHOGRAPHIC {
+            return None;
+        }
+        // `focalLength` is in tenths of a scene unit (UsdGeomCamera); the f-number is focal length
+        // over aperture diameter.
+        let focal_scene = 0.1 * focal;
+        Some(ThinLens {
+            radius: focal_scene / (2.0 * cam.f_stop),
+            focus_distance: cam.focus_distance,
+            blades: cam.aperture_blades,
+            rotation: cam.aperture_rotation.to_radians(),
+        })
+    }
+
+    /// The point of the aperture for the lens sample `u` ∈ [0, 1)², in camera space (z = 0).
+    pub fn point(&self, u: [f32; 2]) -> [f32; 2] {
+        let [x, y] =
+            if self.blades == 0 { concentric_disc(u) } else { polygon(self.blades, self.rotation, u) };
+        [x * self.radius, y * self.radius]
+    }
+}
+
+/// Shirley and Chiu's concentric map of [0, 1)² onto the unit disc: squares of the sample space go
+/// to annular sectors, so the sampler's 2D stratification carries over to the lens.
+pub fn concentric_disc(u: [f32; 2]) -> [f32; 2] {
+    let (a, b) = (2.0 * u[0] - 1.0, 2.0 * u[1] - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return [0.0, 0.0];
+    }
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, std::f32::consts::FRAC_PI_4 * (b / a))
+    } else {
+        (b, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b))
+    };
+    let (sin, cos) = crate::trig::sin_cos(phi);
+    [r * cos, r * sin]
+}
+
+/// A uniform point of the regular `blades`-gon inscribed in the unit circle, first corner at angle
+/// `rotation`: `u[0]` picks one of its `blades` equal triangles (fan from the centre) and is reused,
+/// rescaled, with `u[1]` for a uniform point of that triangle (`√s` along the radius).
+fn polygon(blades: u32, rotation: f32, u: [f32; 2]) -> [f32; 2] {
+    let n = blades as f32;
+    let scaled = u[0] * n;
+    let sector = scaled.floor().min(n - 1.0);
+    let s = (scaled - sector).clamp(0.0, 1.0).sqrt();
+    let step = std::f32::consts::TAU / n;
+    let (s0, c0) = crate::trig::sin_cos(rotation + sector * step);
+    let (s1, c1) = crate::trig::sin_cos(rotation + (sector + 1.0) * step);
+    let t = u[1];
+    [s * ((1.0 - t) * c0 + t * c1), s * ((1.0 - t) * s0 + t * s1)]
 }
 
 /// A ray cone (Akenine-Möller et al., "Texture Level of Detail Strategies for Real-Time Ray Tracing",
@@ -66,14 +154,26 @@ impl Camera {
         let scale = if orthographic { 0.1 } else { 1.0 };
         let centre = [cam.horizontal_aperture_offset * scale, cam.vertical_aperture_offset * scale];
         let size = [h_ap * scale, v_ap * scale];
+        let focal = if cam.focal_length > 0.0 { cam.focal_length } else { 50.0 };
         Camera {
             world_from_camera: affine_from_rows(&cam.world_from_camera),
             orthographic,
             window_min: [centre[0] - 0.5 * size[0], centre[1] - 0.5 * size[1]],
             window_size: size,
-            focal: if cam.focal_length > 0.0 { cam.focal_length } else { 50.0 },
+            focal,
             width: width.max(1),
+            lens: ThinLens::from_blob(cam, focal),
         }
+    }
+
+    /// The thin lens, or `None` for a pinhole.
+    pub fn lens(&self) -> Option<&ThinLens> {
+        self.lens.as_ref()
+    }
+
+    /// This camera as a pinhole (`render --no-dof`).
+    pub fn without_lens(self) -> Self {
+        Camera { lens: None, ..self }
     }
 
     /// A perspective camera (45° horizontal field of view) framing `bounds` from the +Z side, or from −Y
@@ -105,6 +205,7 @@ impl Camera {
             window_size: [h_ap, v_ap],
             focal,
             width: width.max(1),
+            lens: None,
         }
     }
 
@@ -138,6 +239,22 @@ impl Camera {
         };
         let o = self.world_from_camera.transform_point3a(origin);
         let d = self.world_from_camera.transform_vector3a(dir).normalize();
+        (o.into(), d.into())
+    }
+
+    /// [`Camera::generate_ray`] through the lens point of sample `lens_uv` ∈ [0, 1)²: the ray from
+    /// that point of the aperture towards where the pinhole ray meets the focus plane. Without a lens,
+    /// exactly `generate_ray(fx, fy)` (`lens_uv` unused).
+    pub fn generate_lens_ray(&self, fx: f32, fy: f32, lens_uv: [f32; 2]) -> (Vec3, Vec3) {
+        let Some(lens) = &self.lens else { return self.generate_ray(fx, fy) };
+        let x = self.window_min[0] + fx * self.window_size[0];
+        let y = self.window_min[1] + (1.0 - fy) * self.window_size[1];
+        // The pinhole direction scaled to reach z = −focus_distance.
+        let focus = Vec3A::new(x, y, -self.focal) * (lens.focus_distance / self.focal);
+        let [lx, ly] = lens.point(lens_uv);
+        let on_lens = Vec3A::new(lx, ly, 0.0);
+        let o = self.world_from_camera.transform_point3a(on_lens);
+        let d = self.world_from_camera.transform_vector3a(focus - on_lens).normalize();
         (o.into(), d.into())
     }
 }
@@ -270,6 +387,35 @@ pub fn camera_ray_lanes(
     }
 }
 
+/// Replaces lanes `0..len` of `out` (rays [`camera_ray_lanes`] made for pixels (`x[k]`, `y[k]`) of a
+/// `width × height` image with jitter (`jx[k]`, `jy[k]`)) by the rays through the camera's lens at
+/// lens samples (`lens_u[k]`, `lens_v[k]`), each exactly the film loop's [`Camera::generate_lens_ray`] and
+/// [`Camera::pixel_cone`] of it scaled by `footprint_scale`: the scalar code runs per lane.
+#[allow(clippy::too_many_arguments)]
+pub fn lens_ray_lanes(
+    camera: &Camera,
+    forward: Vec3,
+    size: [u32; 2],
+    footprint_scale: f32,
+    (x, y): (&U32Lanes, &U32Lanes),
+    (jx, jy): (&Lanes, &Lanes),
+    (lens_u, lens_v): (&Lanes, &Lanes),
+    len: usize,
+    out: &mut RayLanes,
+) {
+    for k in 0..len {
+        let (o, d) = camera.generate_lens_ray(
+            (x[k] as f32 + jx[k]) / size[0] as f32,
+            (y[k] as f32 + jy[k]) / size[1] as f32,
+            [lens_u[k], lens_v[k]],
+        );
+        let mut cone = camera.pixel_cone(d.dot(forward));
+        cone.width *= footprint_scale;
+        cone.spread *= footprint_scale;
+        out.set(k, &CameraRay { origin: o, dir: d, cone_width: cone.width, cone_spread: cone.spread });
+    }
+}
+
 /// Default image height for `width` pixels from the aperture aspect of `cam`.
 pub fn default_height(cam: Option<&blob::Camera>, width: u32) -> u32 {
     let aspect = cam
@@ -324,6 +470,89 @@ mod tests {
         let cam = Camera::framing(Vec3::splat(-1.0), Vec3::splat(1.0), true, 64, 64);
         let (o, d) = cam.generate_ray(0.5, 0.0);
         assert!(o.y < -3.0 && d.y > 0.9 && d.z > 0.0);
+    }
+
+    /// Moments and support of the aperture samplers over a stratified grid: a disc of radius `R` has
+    /// `⟨r²⟩ = R²/2`; a regular `n`-gon of circumradius `R` (fan of triangles `0, A, B` with
+    /// `⟨r²⟩ = (|A|² + |B|² + A·B) / 6`) has `R²(2 + cos(2π/n)) / 6`; every point lies inside.
+    #[test]
+    fn apertures_are_uniform_over_their_shapes() {
+        // 504 rows divide evenly among 3, 6 and 9 sectors.
+        let n = 504;
+        for (blades, rotation) in [(0, 0.0), (3, 0.0), (6, 0.4), (9, -1.0)] {
+            let lens = ThinLens { radius: 2.0, focus_distance: 1.0, blades, rotation };
+            let (mut r2, mut cx, mut cy) = (0.0f64, 0.0f64, 0.0f64);
+            for i in 0..n {
+                for j in 0..n {
+                    let u = [(i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32];
+                    let [x, y] = lens.point(u);
+                    let r = (x * x + y * y).sqrt();
+                    assert!(r <= 2.0 * (1.0 + 1e-6), "{blades} blades: {x}, {y} outside the aperture");
+                    if blades > 0 {
+                        // Inside every edge: the apothem along each edge normal.
+                        let step = std::f32::consts::TAU / blades as f32;
+                        let apothem = 2.0 * (step / 2.0).cos();
+                        for k in 0..blades {
+                            let normal_angle = rotation + (k as f32 + 0.5) * step;
+                            let along = x * normal_angle.cos() + y * normal_angle.sin();
+                            assert!(
+                                along <= apothem * (1.0 + 1e-5),
+                                "{blades} blades: {x}, {y} past edge {k}"
+                            );
+                        }
+                    }
+                    r2 += f64::from(r * r);
+                    (cx, cy) = (cx + f64::from(x), cy + f64::from(y));
+                }
+            }
+            let count = f64::from(n * n);
+            let expected = if blades == 0 {
+                4.0 / 2.0
+            } else {
+                4.0 * (2.0 + (std::f64::consts::TAU / f64::from(blades)).cos()) / 6.0
+            };
+            let mean = r2 / count;
+            assert!((mean / expected - 1.0).abs() < 1e-3, "{blades} blades: <r²> {mean} vs {expected}");
+            let (cx, cy) = (cx / count, cy / count);
+            assert!(cx.abs() < 1e-4 && cy.abs() < 1e-4, "{blades} blades centred: {cx}, {cy}");
+        }
+        assert_eq!(concentric_disc([0.5, 0.5]), [0.0, 0.0]);
+        // The corners of the sample square go to the circle.
+        let [x, y] = concentric_disc([1.0, 1.0]);
+        assert!(((x * x + y * y).sqrt() - 1.0).abs() < 1e-6);
+    }
+
+    /// Every lens ray through one film point meets the pinhole ray through it on the focus plane; the
+    /// lens ray starts on the aperture; a pinhole and an orthographic camera ignore the lens sample.
+    #[test]
+    fn lens_rays_converge_on_the_focus_plane() {
+        let mut cam = blob_camera(blob::PROJECTION_PERSPECTIVE);
+        (cam.f_stop, cam.focus_distance) = (2.0, 7.0);
+        let camera = Camera::from_blob(&cam, 200, 100);
+        let lens = *camera.lens().expect("a lens");
+        // 50 tenths of a unit at f/2: a 2.5-unit aperture.
+        assert_eq!((lens.radius, lens.focus_distance), (1.25, 7.0));
+        let eye = Vec3::new(1.0, 2.0, 3.0);
+        for (fx, fy) in [(0.5, 0.5), (0.1, 0.9), (0.97, 0.2)] {
+            let (o, d) = camera.generate_ray(fx, fy);
+            let focus = o + d * (7.0 / -d.z);
+            for uv in [[0.1, 0.2], [0.9, 0.5], [0.5, 0.99], [0.0, 0.0]] {
+                let (lo, ld) = camera.generate_lens_ray(fx, fy, uv);
+                assert!((lo.z - eye.z).abs() < 1e-6 && (lo - eye).length() <= 1.25 * (1.0 + 1e-6));
+                assert!((ld.length() - 1.0).abs() < 1e-6);
+                let hit = lo + ld * ((lo.z - focus.z) / -ld.z);
+                assert!((hit - focus).length() < 1e-5 * 7.0, "{hit} vs {focus}");
+            }
+        }
+        assert_eq!(
+            camera.without_lens().generate_lens_ray(0.3, 0.4, [0.9, 0.1]),
+            camera.generate_ray(0.3, 0.4)
+        );
+        let mut ortho = cam;
+        ortho.projection = blob::PROJECTION_ORTHOGRAPHIC;
+        let ortho = Camera::from_blob(&ortho, 200, 100);
+        assert!(ortho.lens().is_none());
+        assert_eq!(ortho.generate_lens_ray(0.3, 0.4, [0.9, 0.1]), ortho.generate_ray(0.3, 0.4));
     }
 
     /// A random camera: either projection, a rotated, scaled and moved frame, random apertures,

@@ -22,7 +22,8 @@ use std::path::Path;
 pub struct Provenance {
     /// The blob's identity ([`blob_id`]).
     pub blob: u64,
-    /// The options that change pixels, as text (seed, depth, camera, filters, curve shape).
+    /// The options that change pixels, as text (seed, depth, camera, filters, curve shape, depth of
+    /// field).
     pub settings: String,
 }
 
@@ -30,13 +31,14 @@ impl Provenance {
     /// The provenance of a render of the blob `bytes` with `options`.
     pub fn of(bytes: &[u8], options: &RenderOptions) -> Self {
         let settings = format!(
-            "seed {} max_depth {} camera {:?} texture_filter {:?} footprint {} curve_shape {:?}",
+            "seed {} max_depth {} camera {:?} texture_filter {:?} footprint {} curve_shape {:?} dof {}",
             options.seed,
             options.max_depth,
             options.camera,
             options.texture_filter,
             options.texture_footprint_scale,
-            options.curve_shape
+            options.curve_shape,
+            options.depth_of_field
         );
         Provenance { blob: blob_id(bytes), settings }
     }

@@ -300,6 +300,7 @@ fn render_pass<T: texture::Touch + Sync>(
     let (window, [width, height]) = (film.window, film.frame);
     let camera_index = scene.camera_index(options.camera.as_deref())?;
     let camera = scene.camera(camera_index, width, height);
+    let camera = if options.depth_of_field { camera } else { camera.without_lens() };
     let mut scene = scene.clone();
     if options.curve_shape.is_some() {
         scene.curves.shape = options.curve_shape;

@@ -41,10 +41,58 @@ pub struct SceneSummary {
     pub lights: usize,
     /// Cameras.
     pub cameras: usize,
+    /// Each camera's lens, in the cameras section's order.
+    pub lenses: Vec<LensSummary>,
     /// World bounds minimum.
     pub bounds_min: [f32; 3],
     /// World bounds maximum.
     pub bounds_max: [f32; 3],
+}
+
+/// One camera's lens as the renderer builds it ([`crate::camera::Camera::from_blob`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LensSummary {
+    /// Camera prim path.
+    pub camera: String,
+    /// `perspective` or `orthographic`.
+    pub projection: &'static str,
+    /// `focalLength`, tenths of a scene unit.
+    pub focal_length: f32,
+    /// `fStop`; 0 is a pinhole.
+    pub f_stop: f32,
+    /// `focusDistance`, scene units.
+    pub focus_distance: f32,
+    /// Radius of the aperture in scene units (`0.1 · focalLength / (2 · fStop)`); 0 for a pinhole
+    /// (no depth of field: `fStop` 0, or an orthographic camera).
+    pub aperture_radius: f32,
+    /// Blades of a polygonal aperture, 0 for a round one.
+    pub aperture_blades: u32,
+    /// Rotation of the polygonal aperture, degrees.
+    pub aperture_rotation: f32,
+}
+
+/// See [`LensSummary`].
+fn lenses(view: &SceneView) -> Vec<LensSummary> {
+    view.cameras
+        .iter()
+        .map(|c| {
+            let lens = crate::camera::Camera::from_blob(c, 1, 1).lens().copied();
+            LensSummary {
+                camera: view.string(c.name).to_string(),
+                projection: if c.projection == blob::PROJECTION_ORTHOGRAPHIC {
+                    "orthographic"
+                } else {
+                    "perspective"
+                },
+                focal_length: c.focal_length,
+                f_stop: c.f_stop,
+                focus_distance: c.focus_distance,
+                aperture_radius: lens.map_or(0.0, |l| l.radius),
+                aperture_blades: c.aperture_blades,
+                aperture_rotation: c.aperture_rotation,
+            }
+        })
+        .collect()
 }
 
 /// Materials counted by the surface the renderer makes of them (a UsdPreviewSurface's `opacity`,
@@ -108,6 +156,7 @@ pub fn summarize(view: &SceneView) -> SceneSummary {
         material_models: material_models(view),
         lights: view.lights.len(),
         cameras: view.cameras.len(),
+        lenses: lenses(view),
         bounds_min: view.info.bounds_min,
         bounds_max: view.info.bounds_max,
     }
@@ -169,6 +218,44 @@ mod tests {
         }
         assert_eq!((json["prototypes"].clone(), json["bytes_saved"].clone()), (0.into(), 0.into()));
         assert_eq!(json["material_models"]["opaque"], 1);
+    }
+
+    #[test]
+    fn info_shows_each_cameras_lens() {
+        let mut scene = testscene::instanced_spheres(1, 5);
+        let mut pinhole = testscene::camera_looking_down_z(glam::Vec3::Z, 50.0);
+        let mut lens = pinhole.clone();
+        lens.path = "/lens".into();
+        lens.lens = scene_pack::Lens {
+            f_stop: 2.0,
+            focus_distance: 7.5,
+            aperture_blades: 6,
+            aperture_rotation: 15.0,
+        };
+        let mut ortho = lens.clone();
+        (ortho.path, ortho.orthographic) = ("/ortho".into(), true);
+        pinhole.path = "/pinhole".into();
+        scene.cameras = vec![pinhole, lens, ortho];
+        let bytes = testscene::bytes(&scene);
+        let view = SceneView::parse(&bytes).unwrap();
+        let json = serde_json::to_value(summarize(&view)).unwrap();
+        let lenses = json["lenses"].as_array().unwrap();
+        assert_eq!(lenses.len(), 3);
+        assert_eq!(
+            (lenses[0]["camera"].as_str(), lenses[0]["aperture_radius"].as_f64()),
+            (Some("/pinhole"), Some(0.0))
+        );
+        // 50 tenths of a unit at f/2: a 2.5-unit aperture, radius 1.25.
+        assert_eq!(lenses[1]["aperture_radius"].as_f64(), Some(1.25));
+        assert_eq!(lenses[1]["focus_distance"].as_f64(), Some(7.5));
+        assert_eq!(
+            (lenses[1]["aperture_blades"].as_u64(), lenses[1]["f_stop"].as_f64()),
+            (Some(6), Some(2.0))
+        );
+        assert_eq!(
+            (lenses[2]["projection"].as_str(), lenses[2]["aperture_radius"].as_f64()),
+            (Some("orthographic"), Some(0.0))
+        );
     }
 
     #[test]

@@ -44,6 +44,8 @@ pub mod checkpoint;
 #[cfg(test)]
 mod dispatch_tests;
 #[cfg(test)]
+mod dof_tests;
+#[cfg(test)]
 mod dome_tests;
 pub mod error;
 pub mod film;

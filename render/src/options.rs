@@ -46,6 +46,9 @@ pub struct RenderOptions {
     pub band: Option<[u32; 2]>,
     /// Trace samples `first_sample .. spp` of each pixel (a farm's sample slice; 0 for a whole render).
     pub first_sample: u32,
+    /// Render the camera's depth of field (its `fStop`); `false` renders it as a pinhole
+    /// (`--no-dof`).
+    pub depth_of_field: bool,
 }
 
 /// The path-tracing integrator: depth-first scalar or breadth-first wavefront (same estimator, same
@@ -91,6 +94,7 @@ impl Default for RenderOptions {
             crop: None,
             band: None,
             first_sample: 0,
+            depth_of_field: true,
         }
     }
 }

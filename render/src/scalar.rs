@@ -247,8 +247,13 @@ pub(crate) fn render_tile<T: Touch>(
             for sample in samples[0]..samples[1] {
                 let key = SampleKey { pixel, sample, seed: sampling.seed };
                 let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
-                let (o, d) =
-                    camera.generate_ray((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
+                // A pinhole draws no lens sample (its images keep their numbers).
+                let lens_uv = if camera.lens().is_some() { sample_2d(key, 0, dim::LENS) } else { [0.0; 2] };
+                let (o, d) = camera.generate_lens_ray(
+                    (x as f32 + jx) / width as f32,
+                    (y as f32 + jy) / height as f32,
+                    lens_uv,
+                );
                 let mut cone = camera.pixel_cone(d.dot(forward));
                 cone.width *= sampling.footprint_scale;
                 cone.spread *= sampling.footprint_scale;

@@ -110,6 +110,7 @@ pub fn camera_looking_down_z(eye: Vec3, focal: f32) -> Camera {
         horizontal_aperture_offset: 0.0,
         vertical_aperture_offset: 0.0,
         clipping_range: [0.01, 1.0e6],
+        lens: Default::default(),
     }
 }
 

@@ -101,6 +101,7 @@ impl DicingCamera {
             vertical_aperture_offset: 0.0,
             // No clipping in `render`; the near distance only bounds the projection.
             clipping_range: [(distance * 1e-3) as f32, f32::MAX],
+            lens: Default::default(),
         };
         DicingCamera::new(&camera, Some([DEFAULT_WIDTH, DEFAULT_WIDTH]))
     }
@@ -246,6 +247,7 @@ pub fn test_camera(eye: glam::Vec3, orthographic: bool) -> Camera {
         horizontal_aperture_offset: 0.0,
         vertical_aperture_offset: 0.0,
         clipping_range: [0.1, 1000.0],
+        lens: Default::default(),
     }
 }
 

@@ -838,6 +838,22 @@ pub struct Camera {
     pub vertical_aperture_offset: f32,
     /// `clippingRange` (fallback (1, 1000000)).
     pub clipping_range: [f32; 2],
+    /// Depth of field; the default is a pinhole.
+    pub lens: Lens,
+}
+
+/// A camera's thin lens, in UsdGeomCamera's units (see `blob::Camera`). The default (`f_stop` 0)
+/// is a pinhole, USD's fallback.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Lens {
+    /// `fStop`; 0 turns depth of field off.
+    pub f_stop: f32,
+    /// `focusDistance`, scene units.
+    pub focus_distance: f32,
+    /// `ri:apertureNSides`: 0 for a round aperture, else 3..=64 blades.
+    pub aperture_blades: u32,
+    /// `ri:apertureAngle`, degrees.
+    pub aperture_rotation: f32,
 }
 
 impl Scene {

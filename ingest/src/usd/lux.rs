@@ -189,16 +189,19 @@ impl Reader<'_> {
             .attr(path, "clippingRange")?
             .and_then(|v| v.as_tuple::<2>())
             .map_or(fallback::CLIPPING_RANGE, |r| [r[0] as f32, r[1] as f32]);
+        let orthographic = self.token(path, "projection")?.as_deref() == Some("orthographic");
+        let lens = self.read_lens(path, orthographic)?;
         let camera = Camera {
             path: path.to_string(),
             world_from_camera: state.world_from_local.as_mat4(),
-            orthographic: self.token(path, "projection")?.as_deref() == Some("orthographic"),
+            orthographic,
             focal_length: f(self, "focalLength", fallback::FOCAL_LENGTH)?,
             horizontal_aperture: f(self, "horizontalAperture", fallback::HORIZONTAL_APERTURE)?,
             vertical_aperture: f(self, "verticalAperture", fallback::VERTICAL_APERTURE)?,
             horizontal_aperture_offset: f(self, "horizontalApertureOffset", 0.0)?,
             vertical_aperture_offset: f(self, "verticalApertureOffset", 0.0)?,
             clipping_range,
+            lens,
         };
         self.scene.cameras.push(camera);
         Ok(())

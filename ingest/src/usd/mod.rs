@@ -28,9 +28,11 @@
 
 mod compat;
 mod curves;
+mod lens;
 mod lux;
 mod material;
 mod mesh;
+mod motion;
 mod mtlx_document;
 mod renderman;
 mod resolver;
@@ -849,6 +851,7 @@ impl<'a> Reader<'a> {
         if self.scene.default_camera.is_none() && !self.scene.cameras.is_empty() {
             self.scene.default_camera = Some(0);
         }
+        self.warn_ignored_motion()?;
         self.check_default_camera_image()
     }
 

@@ -566,6 +566,16 @@ impl Stage {
         Ok(value.map(Value::from))
     }
 
+    /// How many time samples the attribute has (0 when unauthored, unreadable or only a default).
+    pub(crate) fn time_sample_count(&self, prim: &str, name: &str) -> usize {
+        self.attr_handle(prim, name).ok().and_then(|h| h.num_time_samples().ok()).unwrap_or(0)
+    }
+
+    /// The time code attributes are evaluated at.
+    pub(crate) fn time(&self) -> f64 {
+        self.time
+    }
+
     /// Drains the non-fatal problems recorded while reading values, as (prim, message).
     pub(crate) fn take_notes(&self) -> Vec<(String, String)> {
         std::mem::take(&mut self.notes.borrow_mut())

@@ -178,7 +178,19 @@ pub const PROJECTION_PERSPECTIVE: u32 = 0;
 /// See [`PROJECTION_PERSPECTIVE`].
 pub const PROJECTION_ORTHOGRAPHIC: u32 = 1;
 
-/// One UsdGeomCamera. 96 bytes.
+/// Most aperture blades [`Camera::aperture_blades`] may name; a polygon of more sides is a disc to
+/// any pixel, and the bound keeps the lens sampler's sector index small.
+pub const MAX_APERTURE_BLADES: u32 = 64;
+
+/// Largest [`Camera::f_stop`] validation accepts. Real lenses stop at f/64–f/128; a larger number is
+/// a pinhole in all but name and most likely a unit mistake.
+pub const MAX_F_STOP: f32 = 1.0e6;
+
+/// One UsdGeomCamera. 104 bytes.
+///
+/// Lens units follow UsdGeomCamera: `focalLength` and the apertures are in tenths of a scene unit,
+/// `focusDistance` and `clippingRange` in scene units (see `render::camera` for how the thin lens
+/// is built from them).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Camera {
@@ -186,7 +198,7 @@ pub struct Camera {
     pub name: StrRef,
     /// [`PROJECTION_PERSPECTIVE`] or [`PROJECTION_ORTHOGRAPHIC`].
     pub projection: u32,
-    /// `focalLength` (same unit as the apertures).
+    /// `focalLength`, tenths of a scene unit (the apertures' unit).
     pub focal_length: f32,
     /// `horizontalAperture`.
     pub horizontal_aperture: f32,
@@ -198,12 +210,20 @@ pub struct Camera {
     pub vertical_aperture_offset: f32,
     /// `clippingRange` (near, far) in scene units.
     pub clipping_range: [f32; 2],
-    /// Reserved, zero.
-    pub reserved: [f32; 2],
+    /// `fStop`: 0 is a pinhole (no depth of field, USD's fallback); otherwise in (0, [`MAX_F_STOP`]].
+    pub f_stop: f32,
+    /// `focusDistance` in scene units; positive whenever `f_stop` is.
+    pub focus_distance: f32,
+    /// Blades of a polygonal aperture (`ri:apertureNSides`): 0 for a round aperture, else
+    /// 3..=[`MAX_APERTURE_BLADES`].
+    pub aperture_blades: u32,
+    /// Rotation of the polygonal aperture (`ri:apertureAngle`), degrees counter-clockwise from the
+    /// camera's +X to the first corner; finite, within ±360.
+    pub aperture_rotation: f32,
     /// Row-major 3×4 affine `world_from_camera`; the camera looks down its −Z with +Y up.
     pub world_from_camera: [[f32; 4]; 3],
 }
-const _: () = assert!(std::mem::size_of::<Camera>() == 96);
+const _: () = assert!(std::mem::size_of::<Camera>() == 104);
 
 /// A triangle with nonzero emission, for next-event estimation. 16 bytes.
 #[repr(C)]

@@ -512,6 +512,9 @@ impl<'a> SceneView<'a> {
             if !all_sane(bytemuck::cast_slice(&c.world_from_camera)) || !all_sane(&lens) {
                 return bad(K::Cameras, i, "non-finite or huge transform, focal length or aperture");
             }
+            if let Err(what) = check_thin_lens(c) {
+                return bad(K::Cameras, i, what);
+            }
         }
         // Emissive triangles and the world BVH address only the top-level triangles: prototype
         // triangles are in prototype space and reached through their instances.
@@ -656,6 +659,28 @@ fn check_layout(bytes: &[u8], table_end: usize, found: &[Option<SectionEntry>]) 
     }
     if bytes[cursor..].iter().any(|&b| b != 0) {
         return Err(BlobError::Padding { offset: cursor as u64 });
+    }
+    Ok(())
+}
+
+/// The depth-of-field fields of a camera: a pinhole (`f_stop` 0) or a thin lens with a positive
+/// f-stop up to [`MAX_F_STOP`] and a positive focus distance, and an aperture that is round or a
+/// polygon of 3..=[`MAX_APERTURE_BLADES`] blades with a bounded rotation.
+fn check_thin_lens(c: &Camera) -> Result<(), &'static str> {
+    if !(c.f_stop >= 0.0 && c.f_stop <= MAX_F_STOP) {
+        return Err("fStop not in [0, 1e6] (or NaN)");
+    }
+    if !(c.focus_distance >= 0.0 && crate::tree::sane(c.focus_distance)) {
+        return Err("focusDistance negative, NaN or huge");
+    }
+    if c.f_stop > 0.0 && c.focus_distance == 0.0 {
+        return Err("focusDistance 0 with a nonzero fStop (the thin lens needs a focus plane)");
+    }
+    if c.aperture_blades != 0 && !(3..=MAX_APERTURE_BLADES).contains(&c.aperture_blades) {
+        return Err("aperture blades not 0 (round) or 3..=64");
+    }
+    if c.aperture_rotation.is_nan() || c.aperture_rotation.abs() > 360.0 {
+        return Err("aperture rotation not within ±360 degrees (or NaN)");
     }
     Ok(())
 }

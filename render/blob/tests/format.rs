@@ -795,6 +795,42 @@ fn huge_or_non_finite_floats_and_resolutions_are_rejected() {
     assert!(crafted_error(&s, K::Instances).contains("beyond ±1e12"));
 }
 
+/// The thin-lens fields: a pinhole (f-stop 0), a lens with a focus plane, round or 3..=64 blades;
+/// every bad value names the field.
+#[test]
+fn camera_lens_fields_are_validated() {
+    use SectionKind as K;
+    let lens = |f_stop: f32, focus_distance: f32, blades: u32, rotation: f32| {
+        let mut s = sample_scene();
+        let c = &mut s.cameras[0];
+        (c.f_stop, c.focus_distance, c.aperture_blades, c.aperture_rotation) =
+            (f_stop, focus_distance, blades, rotation);
+        s
+    };
+    for ok in
+        [lens(0.0, 0.0, 0, 0.0), lens(2.8, 5.0, 0, 0.0), lens(1.4, 0.5, 6, -30.0), lens(0.0, 3.0, 64, 360.0)]
+    {
+        let bytes = AlignedBytes::copy_from(&ok.encode());
+        let view = SceneView::parse(&bytes).expect("valid lens");
+        assert_eq!(view.cameras[0], ok.cameras[0]);
+    }
+    let cases = [
+        (lens(-1.0, 5.0, 0, 0.0), "fStop not in [0, 1e6] (or NaN)"),
+        (lens(f32::NAN, 5.0, 0, 0.0), "fStop not in [0, 1e6] (or NaN)"),
+        (lens(2e6, 5.0, 0, 0.0), "fStop not in [0, 1e6] (or NaN)"),
+        (lens(2.8, -5.0, 0, 0.0), "focusDistance negative, NaN or huge"),
+        (lens(2.8, f32::INFINITY, 0, 0.0), "focusDistance negative, NaN or huge"),
+        (lens(2.8, 0.0, 0, 0.0), "focusDistance 0 with a nonzero fStop (the thin lens needs a focus plane)"),
+        (lens(2.8, 5.0, 2, 0.0), "aperture blades not 0 (round) or 3..=64"),
+        (lens(2.8, 5.0, 65, 0.0), "aperture blades not 0 (round) or 3..=64"),
+        (lens(2.8, 5.0, 5, f32::NAN), "aperture rotation not within ±360 degrees (or NaN)"),
+        (lens(2.8, 5.0, 5, 400.0), "aperture rotation not within ±360 degrees (or NaN)"),
+    ];
+    for (scene, what) in cases {
+        assert_eq!(crafted_error(&scene, K::Cameras), format!("section Cameras record 0: {what}"));
+    }
+}
+
 #[test]
 fn reseal_lets_byte_level_mutations_reach_structural_validation() {
     let scene = sample_scene();

@@ -40,6 +40,9 @@ pub mod dim {
     pub const BSDF_UV: u32 = 6;
     /// Position inside the pixel (2D, vertex 0 only).
     pub const PIXEL: u32 = 8;
+    /// Position on the camera's lens (2D, vertex 0 only; drawn only when the camera has depth of
+    /// field, so pinhole images keep their numbers).
+    pub const LENS: u32 = 10;
 }
 
 /// Sobol direction numbers for the first two dimensions, most significant bit first.

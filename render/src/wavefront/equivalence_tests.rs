@@ -21,7 +21,7 @@ fn textured(metallic: f32, clearcoat: f32) -> Material {
     m
 }
 
-fn scene() -> Scene {
+pub(crate) fn scene() -> Scene {
     let n = 64u32;
     let texels: Vec<u8> = (0..n * n)
         .flat_map(|i| {
@@ -91,7 +91,7 @@ fn scene() -> Scene {
 }
 
 /// 48 × 48 at 16 spp in 16-pixel tiles, paths up to 6 bounces (Russian roulette from the third).
-fn options() -> RenderOptions {
+pub(crate) fn options() -> RenderOptions {
     RenderOptions {
         spp: 16,
         resolution: Some([48, 48]),

@@ -371,6 +371,7 @@ mod tests {
                 horizontal_aperture_offset: 0.0,
                 vertical_aperture_offset: 0.0,
                 clipping_range: [0.1, 1000.0],
+                lens: Default::default(),
             }],
             default_camera: Some(0),
             resolution: Some([256, 256]),

@@ -142,7 +142,10 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
             horizontal_aperture_offset: c.horizontal_aperture_offset,
             vertical_aperture_offset: c.vertical_aperture_offset,
             clipping_range: c.clipping_range,
-            reserved: [0.0; 2],
+            f_stop: c.lens.f_stop,
+            focus_distance: c.lens.focus_distance,
+            aperture_blades: c.lens.aperture_blades,
+            aperture_rotation: c.lens.aperture_rotation,
             world_from_camera: affine_rows(&c.world_from_camera),
         });
     }

@@ -86,6 +86,9 @@ pub struct Args {
     /// at most --spp's range) and write a part for `render merge`. Overrides --spp.
     #[arg(long, value_name = "A..B", value_parser = parse_sample_range)]
     pub sample_range: Option<[u32; 2]>,
+    /// Render the camera as a pinhole, ignoring its depth of field (`fStop`).
+    #[arg(long)]
+    pub no_dof: bool,
 }
 
 /// `render merge PARTS... -o OUT.exr`.
@@ -270,6 +273,7 @@ impl Args {
                 integrator: self.integrator,
                 max_memory: self.max_memory,
                 crop: self.crop,
+                depth_of_field: !self.no_dof,
                 ..RenderOptions::default()
             }),
         })
@@ -299,6 +303,10 @@ mod tests {
         assert_eq!(output, PathBuf::from("o.exr"));
         assert_eq!((options.spp, options.resolution, options.threads), (4, Some([64, 32]), 2));
         assert_eq!(options.integrator, render::Integrator::Wavefront);
+        assert!(options.depth_of_field, "depth of field is on unless --no-dof");
+        let pinhole = Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--no-dof"]).unwrap();
+        let Command::Render { options, .. } = pinhole.into_command().unwrap() else { panic!() };
+        assert!(!options.depth_of_field);
         let scalar =
             Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--integrator", "scalar"]).unwrap();
         let Command::Render { options, .. } = scalar.into_command().unwrap() else { panic!() };
