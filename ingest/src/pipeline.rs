@@ -148,7 +148,9 @@ fn polygon_triangles(scene: &Scene) -> u64 {
 }
 
 /// The `--dump-json` listing: every rendered gprim with its world bounds, triangle count and
-/// material. A subdivision surface is listed from its plan, so that the listing needs no
+/// material; when some light's `lightLink` or `shadowLink` collection leaves gprims out, every
+/// gprim also lists the lights that light it (`light_link`) and whose shadow rays it blocks
+/// (`shadow_link`), by prim path. A subdivision surface is listed from its plan, so that the listing needs no
 /// tessellation and reads the same with or without one: its triangles as diced
 /// ([`crate::scene::Subdivision::triangles`]), the materials of the cage faces that make them,
 /// and its cage's world bounds (USD's extent; the limit surface lies inside). Subdivision
@@ -186,6 +188,13 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
                 "bounds_max": hi.to_array(),
                 "materials": materials,
             });
+            if let Some(set) = scene.light_sets.get(m.light_set as usize) {
+                let named = |on: &[bool]| -> Vec<&str> {
+                    scene.lights.iter().zip(on).filter(|(_, &on)| on).map(|(l, _)| l.path.as_str()).collect()
+                };
+                entry["light_link"] = named(&set.lit_by).into();
+                entry["shadow_link"] = named(&set.shadows).into();
+            }
             if let Some(s) = subdivision {
                 entry["scheme"] = crate::dicing::scheme_token(s.topology.options().scheme).into();
                 entry["subdiv_level"] = s.level.into();

@@ -11,6 +11,7 @@
 use crate::camera::Camera;
 use crate::camera::RayCone;
 use crate::film::{Sampling, Tile, TileResult};
+use crate::lights::links::UNLINKED;
 use crate::lights::power_heuristic;
 use crate::path::{
     shadow_tmax, FirstHit, PathResult, PathSettings, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS,
@@ -75,6 +76,8 @@ impl Scene<'_> {
         let mut radiance = Vec3::ZERO;
         // Previous scattering vertex and BSDF pdf, for MIS of emission found by BSDF sampling.
         let mut prev: Option<(Vec3, f32)> = None;
+        // The previous vertex's light set, for light linking of the emission BSDF sampling finds.
+        let mut prev_set = UNLINKED;
         let mut bounces = 0u32;
         let mut vertex = 0u32;
         let mut travelled = 0.0f32;
@@ -86,7 +89,7 @@ impl Scene<'_> {
             let curve_hit = self.curves.closest_hit(origin, dir, hit.map_or(f32::INFINITY, |h| h.t));
             let t_hit = curve_hit.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
             clock.lap(Phase::Intersect);
-            radiance += beta * self.lights.area_emission(origin, dir, t_hit, prev);
+            radiance += beta * self.lights.area_emission_linked(origin, dir, t_hit, prev, prev_set);
             let wo = -dir;
             let footprint = cone.width_at(t_hit);
             let mut s = match (curve_hit, hit) {
@@ -96,7 +99,7 @@ impl Scene<'_> {
                     None => break,
                 },
                 (None, None) => {
-                    radiance += beta * self.lights.escaped_emission(dir, prev.map(|p| p.1));
+                    radiance += beta * self.lights.escaped_emission_linked(dir, prev.map(|p| p.1), prev_set);
                     // Shading, as the area emission above (the wavefront charges both there).
                     clock.lap(Phase::Shading);
                     break;
@@ -154,10 +157,18 @@ impl Scene<'_> {
                 break;
             }
 
-            // Next-event estimation.
+            // Next-event estimation. With light linking, a light that does not light this point
+            // contributes nothing (its selection pdf unchanged), and its shadow rays ignore the
+            // blockers that do not shadow it.
             let u_select = sample_1d(key, vertex, dim::LIGHT_SELECT);
             let u_light = sample_2d(key, vertex, dim::LIGHT_UV);
-            if let Some(mut ls) = self.lights.sample(s.p, u_select, u_light) {
+            let set = self.lights.links().map_or(UNLINKED, |l| l.set_of(s.triangle));
+            let linked = self.lights.linked_choice(set, s.p, u_select);
+            let sample = match linked {
+                Some(None) => None,
+                _ => self.lights.sample(s.p, u_select, u_light),
+            };
+            if let Some(mut ls) = sample {
                 if let Some((tri, [b1, b2])) = ls.emitter {
                     ls.li = self.emission_at(tri, b1, b2, filter, touch);
                 }
@@ -175,6 +186,7 @@ impl Scene<'_> {
                         tmax,
                         shadow_seed ^ vertex,
                         ls.delta,
+                        linked.flatten(),
                         filter,
                         touch,
                     );
@@ -194,6 +206,7 @@ impl Scene<'_> {
             let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else { break };
             beta *= bs.f * (s.ns.dot(bs.wi).abs() / bs.pdf);
             prev = Some((s.p, bs.pdf));
+            prev_set = set;
             bounces += 1;
             if bounces >= RR_START_BOUNCE {
                 let survive = beta.max_element().min(0.95);

@@ -61,6 +61,6 @@ pub mod pack;
 pub mod scene;
 
 pub use scene::{
-    BezierSegment, Camera, CurveKind, Curves, Light, LightKind, Material, Mesh, PointSphere, Scene,
+    BezierSegment, Camera, CurveKind, Curves, Light, LightKind, LightSet, Material, Mesh, PointSphere, Scene,
     Subdivision, UpAxis, Warning,
 };
