@@ -147,6 +147,22 @@ fn polygon_triangles(scene: &Scene) -> u64 {
     scene.triangle_count() as u64 - diced
 }
 
+/// The warning the `ingest` binary prints for a stage nothing lights (it renders black): no
+/// UsdLux light read and no material that emits (a constant `emissiveColor` above zero, or a
+/// program writing it). Printed by the binary, not kept in [`Scene::warnings`]: library callers
+/// build unlit scenes on purpose (listings, geometry tests).
+pub fn unlit_warning(scene: &Scene) -> Option<&'static str> {
+    use crate::scene::{ShaderNode, ShadingInput};
+    let emits = |m: &crate::scene::Material| {
+        m.emissive_color.max_element() > 0.0
+            || m.program
+                .iter()
+                .any(|n| matches!(n, ShaderNode::Output { input: ShadingInput::EmissiveColor, .. }))
+    };
+    (scene.lights.is_empty() && !scene.materials.iter().any(emits))
+        .then_some("the stage has no light (no UsdLux light read, no emissive material): it renders black")
+}
+
 /// The `--dump-json` listing: every rendered gprim with its world bounds, triangle count and
 /// material; when some light's `lightLink` or `shadowLink` collection leaves gprims out, every
 /// gprim also lists the lights that light it (`light_link`) and whose shadow rays it blocks
@@ -235,6 +251,23 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
 mod tests {
     use super::*;
     use crate::dicing::{SubdivOptions, SubdivOptionsError};
+
+    #[test]
+    fn unlit_stages_are_warned_about_and_lit_ones_are_not() {
+        let mut scene = Scene { materials: vec![crate::scene::Material::default()], ..Scene::default() };
+        assert!(unlit_warning(&scene).is_some_and(|w| w.contains("no light")));
+        scene.materials[0].emissive_color = glam::Vec3::new(0.0, 0.5, 0.0);
+        assert_eq!(unlit_warning(&scene), None, "an emissive material lights the stage");
+        scene.materials[0].emissive_color = glam::Vec3::ZERO;
+        scene.lights.push(crate::scene::Light {
+            path: "/Sun".into(),
+            kind: crate::scene::LightKind::Distant { angle_degrees: 0.53 },
+            radiance: glam::Vec3::ONE,
+            normalize: false,
+            world_from_light: glam::Mat4::IDENTITY,
+        });
+        assert_eq!(unlit_warning(&scene), None);
+    }
 
     #[test]
     fn out_of_range_subdivision_options_are_refused_before_reading() {

@@ -50,6 +50,8 @@ pub struct Scene {
     /// The distinct light sets of the gprims ([`Mesh::light_set`]); empty when no light links or
     /// shadow-links anything short of every gprim.
     pub light_sets: Vec<LightSet>,
+    /// Indices into `lights` of the lights camera rays do not see (ascending).
+    pub camera_hidden_lights: Vec<usize>,
 }
 
 /// A texture a bound material reads, already decoded and baked (mip chain, tiles) at read time, so

@@ -12,21 +12,27 @@ import pytest
 from pxr import Sdf, Usd, UsdGeom, UsdLux
 
 STAGE = Path(__file__).resolve().parents[1] / "assets" / "light_linking" / "linked.usda"
+# Pixar's own linking test stage (includes, excludes, includeRoot off, a face-set target).
+PIXAR = (
+    Path(__file__).resolve().parents[3] / "shared" / "assets" / "openusd_lights_cameras" / "pxr" / "usd"
+    / "usdLux" / "testenv" / "testUsdLuxLinkingAPI" / "linking_example.usda"
+)
 
 
-def _membership(stage: Usd.Stage) -> dict[str, tuple[list[str], list[str]]]:
-    """Per gprim (instance proxies included): the lights whose lightLink and shadowLink hold it."""
-    lights = [p for p in stage.Traverse() if p.HasAPI(UsdLux.LightAPI)]
+def _membership(stage: Usd.Stage, gprims) -> dict[str, tuple[list[str], list[str]]]:
+    """Per gprim path: the lights (traversal order) whose lightLink and shadowLink hold it."""
+    lights = [
+        p for p in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies())
+        if p.HasAPI(UsdLux.LightAPI) and p.GetTypeName() in ("DistantLight", "SphereLight", "RectLight", "DiskLight", "DomeLight")
+    ]
     queries = {
         name: [(str(l.GetPath()), Usd.CollectionAPI(l, name).ComputeMembershipQuery()) for l in lights]
         for name in ("lightLink", "shadowLink")
     }
-    out = {}
-    for prim in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()):
-        if prim.IsA(UsdGeom.Mesh):
-            path = prim.GetPath()
-            out[str(path)] = tuple([l for l, q in queries[name] if q.IsPathIncluded(path)] for name in ("lightLink", "shadowLink"))
-    return out
+    return {
+        path: tuple([l for l, q in queries[name] if q.IsPathIncluded(Sdf.Path(path))] for name in ("lightLink", "shadowLink"))
+        for path in gprims
+    }
 
 
 def _listed(dump: dict) -> dict[str, tuple[list[str], list[str]]]:
@@ -35,11 +41,23 @@ def _listed(dump: dict) -> dict[str, tuple[list[str], list[str]]]:
 
 def test_light_sets_equal_usd_core_membership(ingest):
     result = ingest(STAGE).ok()
-    expected = _membership(Usd.Stage.Open(str(STAGE)))
-    assert len(expected) == 7
+    stage = Usd.Stage.Open(str(STAGE))
+    meshes = [str(p.GetPath()) for p in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()) if p.IsA(UsdGeom.Mesh)]
+    assert sorted(_listed(result.dump)) == sorted(meshes) and len(meshes) == 7
+    expected = _membership(stage, meshes)
     assert _listed(result.dump) == expected
     # The stage really links: some gprim is left out of some light's collections.
     assert any(len(lit) < 4 or len(shadows) < 4 for lit, shadows in expected.values())
+
+
+@pytest.mark.skipif(not PIXAR.is_file(), reason="shared asset library not present")
+def test_pixars_linking_example_equals_usd_core_membership(ingest):
+    result = ingest(PIXAR).ok()
+    listed = _listed(result.dump)
+    assert sorted(listed) == ["/Geom/a", "/Geom/b", "/Geom/meshWithFaceSet"]
+    assert listed == _membership(Usd.Stage.Open(str(PIXAR)), listed)
+    # The face-set target links no whole gprim (usd-core agrees); ingest says so.
+    assert "face subsets" in result.stderr or "GeomSubset" in result.stderr
 
 
 @pytest.mark.parametrize("edit", ["exclude_below_include", "explicit_with_root", "include_inside_exclude"])
@@ -61,4 +79,18 @@ def test_edited_collections_equal_usd_core_membership(ingest, tmp_path, edit):
     path = tmp_path / f"{edit}.usda"
     stage.GetRootLayer().Export(str(path))
     result = ingest(path).ok()
-    assert _listed(result.dump) == _membership(Usd.Stage.Open(str(path)))
+    listed = _listed(result.dump)
+    assert len(listed) == 7
+    assert listed == _membership(Usd.Stage.Open(str(path)), listed)
+
+
+def test_a_stage_without_lights_is_warned_about(ingest, tmp_path):
+    stage = Usd.Stage.CreateNew(str(tmp_path / "dark.usda"))
+    UsdGeom.Sphere.Define(stage, "/Ball")
+    stage.Save()
+    result = ingest(tmp_path / "dark.usda").ok()
+    assert "/: the stage has no light" in result.stderr, result.stderr
+    UsdLux.DistantLight.Define(stage, "/Sun")
+    stage.Save()
+    result = ingest(tmp_path / "dark.usda").ok()
+    assert "no light" not in result.stderr, result.stderr

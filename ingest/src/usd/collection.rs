@@ -17,7 +17,9 @@
 //!   `includeRoot = true`, so an unauthored collection holds everything);
 //! - not supported: a target naming another collection (`</Light.collection:other>`, usd-core's
 //!   nested collections; the target is ignored) and `membershipExpression` (path expressions; the
-//!   rule map above is used as if it were not authored).
+//!   rule map above is used as if it were not authored); a target naming a GeomSubset (face-set
+//!   linking, which usd-core's membership does not extend to the gprim either) is kept as a path,
+//!   with a warning that the gprim's own membership decides.
 
 use std::collections::HashMap;
 

@@ -161,6 +161,9 @@ impl Reader<'_> {
             shadow: self.read_light_collection(path, "shadowLink")?,
         };
         self.light_links.push(links);
+        if !self.light_camera_visible(path)? {
+            self.scene.camera_hidden_lights.push(self.scene.lights.len());
+        }
         self.scene.lights.push(Light {
             path: path.to_string(),
             kind,
@@ -169,6 +172,32 @@ impl Reader<'_> {
             world_from_light: state.world_from_local.as_mat4(),
         });
         Ok(())
+    }
+
+    /// Whether camera rays see light `path`. UsdLux has no such attribute; the renderer-specific
+    /// spellings assets author are read, each only where authored (every light is visible by
+    /// default, as in usd-core's Storm and in RenderMan):
+    /// - Karma: `karma:light:renderlightgeo` (also as a primvar), "Render Light Geometry": 0 hides;
+    /// - RenderMan: `primvars:ri:attributes:visibility:camera` (also `ri:visibility:camera`): 0 hides;
+    /// - Arnold: `primvars:arnold:camera` (also `arnold:camera`), the camera-ray weight: 0 hides
+    ///   (other weights are read as visible: the camera sees a light fully or not at all).
+    ///
+    /// The first authored one in that order decides.
+    fn light_camera_visible(&self, path: &str) -> Result<bool, UsdError> {
+        const SPELLINGS: [&str; 6] = [
+            "karma:light:renderlightgeo",
+            "primvars:karma:light:renderlightgeo",
+            "primvars:ri:attributes:visibility:camera",
+            "ri:visibility:camera",
+            "primvars:arnold:camera",
+            "arnold:camera",
+        ];
+        for name in SPELLINGS {
+            if let Some(v) = self.f64(path, name)? {
+                return Ok(v != 0.0);
+            }
+        }
+        Ok(true)
     }
 
     /// A UsdLuxLightAPI collection of light `path` (`lightLink` or `shadowLink`), with the schema's
@@ -199,6 +228,12 @@ impl Reader<'_> {
                     self.scene.warn(
                         path,
                         format!("{prefix}:{rel} target <{p}> is a collection (nested collections not supported yet); ignored"),
+                    );
+                }
+                if !nested && self.stage.type_name(p) == "GeomSubset" {
+                    self.scene.warn(
+                        path,
+                        format!("{prefix}:{rel} target <{p}> is a GeomSubset: linking of face subsets not supported yet (its gprim's own membership is used)"),
                     );
                 }
                 !nested

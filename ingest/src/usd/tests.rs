@@ -996,3 +996,19 @@ def DistantLight "Sun" {{
     let set = &scene.light_sets[mesh(&scene, "/M").light_set as usize];
     assert_eq!((set.lit_by.as_slice(), set.shadows.as_slice()), (&[true][..], &[false][..]));
 }
+
+/// Camera visibility of lights, as the renderers' attributes author it (only where authored).
+#[test]
+fn lights_hidden_from_the_camera_by_karma_renderman_and_arnold_attributes() {
+    let scene = load_text(&usda(
+        r#"def SphereLight "Plain" {}
+def SphereLight "KarmaOn" { bool karma:light:renderlightgeo = 1 }
+def SphereLight "KarmaOff" { bool karma:light:renderlightgeo = 0 }
+def SphereLight "RiOff" { int primvars:ri:attributes:visibility:camera = 0 }
+def SphereLight "ArnoldOff" { float primvars:arnold:camera = 0 }
+def SphereLight "ArnoldHalf" { float primvars:arnold:camera = 0.5 }"#,
+    ));
+    let hidden: Vec<&str> =
+        scene.camera_hidden_lights.iter().map(|&l| scene.lights[l].path.as_str()).collect();
+    assert_eq!(hidden, ["/KarmaOff", "/RiOff", "/ArnoldOff"]);
+}

@@ -153,6 +153,9 @@ pub mod light_kind {
 pub const LIGHT_NORMALIZE: u32 = 1;
 /// `treatAsPoint` on a sphere light.
 pub const LIGHT_TREAT_AS_POINT: u32 = 2;
+/// Camera rays do not see the light (it still lights the scene, and shows in reflections);
+/// format 8.
+pub const LIGHT_CAMERA_HIDDEN: u32 = 4;
 
 /// One UsdLux light. 96 bytes.
 #[repr(C)]

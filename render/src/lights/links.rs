@@ -204,3 +204,66 @@ mod tests {
         assert_close("ground outside the shadow", mean_where(&image, open), term(1.0) + term(2.0), 1e-4);
     }
 }
+
+#[cfg(test)]
+mod camera_visibility_tests {
+    use crate::testscene::{self, camera_looking_down_z, card, lambert};
+    use crate::wavefront::equivalence_tests::both_integrators;
+    use crate::RenderOptions;
+    use glam::{Mat4, Vec3};
+    use scene_pack::{Light, LightKind, Scene};
+
+    /// A bright sphere light between the camera and a ground card: visible, the middle pixels
+    /// read its radiance; hidden from the camera (`LIGHT_CAMERA_HIDDEN`), they read the ground it
+    /// lights, and every pixel the sphere does not cover keeps its bytes (the light still lights
+    /// the scene the same way). Both integrators, equal bit for bit.
+    #[test]
+    fn a_light_hidden_from_the_camera_still_lights_the_scene() {
+        let mut scene = Scene {
+            meshes: vec![card(0.0, 3.0, 0)],
+            materials: vec![lambert(0.5)],
+            lights: vec![Light {
+                path: "/bulb".into(),
+                kind: LightKind::Sphere { radius: 0.2, treat_as_point: false },
+                radiance: Vec3::splat(20.0),
+                normalize: false,
+                world_from_light: Mat4::from_translation(Vec3::new(0.0, 0.0, 1.0)),
+            }],
+            cameras: vec![camera_looking_down_z(Vec3::new(0.0, 0.0, 3.0), 20.0)],
+            default_camera: Some(0),
+            ..Scene::default()
+        };
+        let options =
+            RenderOptions { spp: 16, resolution: Some([24, 24]), threads: 2, ..RenderOptions::default() };
+        let render = |scene: &Scene, what: &str| {
+            let bytes = testscene::bytes(scene);
+            let view = blob::SceneView::parse(&bytes).expect("valid blob");
+            both_integrators(&view, &options, what).0
+        };
+        let visible = render(&scene, "bulb seen by the camera");
+        scene.camera_hidden_lights = vec![0];
+        let hidden = render(&scene, "bulb hidden from the camera");
+        // The sphere (radius 0.2 at distance 2, half-width tan 0.5) covers |f| < 0.2 of the frame.
+        let (mut covered, mut kept) = (0, 0);
+        for y in 0..24u32 {
+            for x in 0..24u32 {
+                let fx = (x as f32 + 0.5) / 12.0 - 1.0;
+                let fy = 1.0 - (y as f32 + 0.5) / 12.0;
+                let r = (fx * fx + fy * fy).sqrt();
+                let (v, h) = (visible.rgb(x, y)[0], hidden.rgb(x, y)[0]);
+                if r < 0.12 {
+                    covered += 1;
+                    assert!(v > 19.0, "pixel {x},{y} sees the bulb: {v}");
+                    assert!(
+                        h > 0.05 && h < 2.0,
+                        "pixel {x},{y} sees the lit ground through the hidden bulb: {h}"
+                    );
+                } else if r > 0.3 {
+                    kept += 1;
+                    assert_eq!(v.to_bits(), h.to_bits(), "pixel {x},{y} away from the bulb");
+                }
+            }
+        }
+        assert!(covered >= 4 && kept > 300, "{covered} covered, {kept} kept");
+    }
+}

@@ -67,6 +67,9 @@ pub struct Lights<'a> {
     materials: &'a [blob::Material],
     /// Light and shadow linking ([`links`]); `None` when nothing is linked.
     links: Option<LightLinks<'a>>,
+    /// Per entry of `lights`: camera rays do not see it ([`blob::LIGHT_CAMERA_HIDDEN`]); empty
+    /// when every light is visible.
+    camera_hidden: Vec<bool>,
 }
 
 impl<'a> Lights<'a> {
@@ -105,6 +108,11 @@ impl<'a> Lights<'a> {
                 _ => false,
             })
             .collect();
+        let mut camera_hidden: Vec<bool> =
+            view.lights.iter().map(|l| l.flags & blob::LIGHT_CAMERA_HIDDEN != 0).collect();
+        if !camera_hidden.contains(&true) {
+            camera_hidden.clear();
+        }
         let mut emissive_by_triangle: Vec<(u32, u32)> =
             view.emissive_triangles.iter().enumerate().map(|(i, e)| (e.triangle, i as u32)).collect();
         emissive_by_triangle.sort_unstable();
@@ -140,7 +148,22 @@ impl<'a> Lights<'a> {
             triangle_materials: view.triangle_materials,
             materials: view.materials,
             links: LightLinks::new(view),
+            camera_hidden,
         }
+    }
+
+    /// Whether [`Lights::area_emission_linked`] and [`Lights::escaped_emission_linked`] differ
+    /// from the unlinked sums for some ray (light sets, or lights camera rays do not see): the
+    /// wavefront then sums emission per ray with them instead of its lane kernel.
+    #[inline]
+    pub fn emission_per_ray(&self) -> bool {
+        self.links.is_some() || !self.camera_hidden.is_empty()
+    }
+
+    /// Whether camera rays see light `light` (an index into [`Lights::lights`]).
+    #[inline]
+    fn camera_sees(&self, light: usize) -> bool {
+        !self.camera_hidden.get(light).copied().unwrap_or(false)
     }
 
     /// Light and shadow linking, when the scene has any.
@@ -377,8 +400,8 @@ impl<'a> Lights<'a> {
     }
 
     /// [`Lights::area_emission`] of the lights that light the previous vertex, whose light set is
-    /// `prev_set`: every light for camera rays (`prev = None`, whatever `prev_set` holds) and
-    /// without linking.
+    /// `prev_set`: for camera rays (`prev = None`, whatever `prev_set` holds) every light camera
+    /// rays see; every light without linking.
     pub fn area_emission_linked(
         &self,
         o: Vec3,
@@ -390,6 +413,9 @@ impl<'a> Lights<'a> {
         match (&self.links, prev) {
             (Some(links), Some(_)) => {
                 self.area_emission_where(o, d, tmax, prev, |light| links.lights(prev_set, light))
+            }
+            (_, None) if !self.camera_hidden.is_empty() => {
+                self.area_emission_where(o, d, tmax, prev, |light| self.camera_sees(light))
             }
             _ => self.area_emission(o, d, tmax, prev),
         }
@@ -465,8 +491,8 @@ impl<'a> Lights<'a> {
     }
 
     /// [`Lights::escaped_emission`] of the lights that light the previous vertex, whose light set
-    /// is `prev_set`: every light for camera rays (`bsdf_pdf = None`, whatever `prev_set` holds)
-    /// and without linking.
+    /// is `prev_set`: for camera rays (`bsdf_pdf = None`, whatever `prev_set` holds) every light
+    /// camera rays see; every light without linking.
     pub fn escaped_emission_linked(&self, d: Vec3, bsdf_pdf: Option<f32>, prev_set: u32) -> Vec3 {
         let mut sum = [Vec3::ZERO];
         match (&self.links, bsdf_pdf) {
@@ -584,6 +610,7 @@ mod tests {
             triangle_materials: &[],
             materials: &[],
             links: None,
+            camera_hidden: vec![],
         }
     }
 

@@ -102,10 +102,11 @@ fn emission(
         emission_lanes::Ray { o: st.origin.to_array(), d: st.dir.to_array(), tmax: hits[i].t }
     };
     let prev_sets = &pool.prev_light_set[..];
-    // With light linking each ray sums only the lights that light its previous vertex: the
-    // scalar function per ray (linked scenes give up the lane kernel for exactness).
+    // With light linking each ray sums only the lights that light its previous vertex, and camera
+    // rays only the lights they see: the scalar function per ray (such scenes give up the lane
+    // kernel for exactness).
     let mut linked = [glam::Vec3::ZERO; BATCH];
-    let area: &[glam::Vec3] = if scene.lights.links().is_some() {
+    let area: &[glam::Vec3] = if scene.lights.emission_per_ray() {
         for (j, &i) in batch.iter().enumerate() {
             let (st, hit) = (&states[i as usize], &hits[i as usize]);
             let set = prev_sets[i as usize];
@@ -142,7 +143,7 @@ fn emission(
     // simple 6.06 M); per light over the batch 3.33 M (3.24 M, 1.73 M); see `shade`'s module docs.
     if n > 0 {
         let mut sums = [glam::Vec3::ZERO; BATCH];
-        if scene.lights.links().is_some() {
+        if scene.lights.emission_per_ray() {
             for j in 0..n {
                 let set = pool.prev_light_set[paths[j] as usize];
                 sums[j] = scene.lights.escaped_emission_linked(dirs[j], pdfs[j], set);

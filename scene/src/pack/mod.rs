@@ -86,7 +86,8 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
             name,
             radiance: light.radiance.to_array(),
             world_from_light: affine_rows(&light.world_from_light),
-            flags: if light.normalize { rec::LIGHT_NORMALIZE } else { 0 },
+            flags: if light.normalize { rec::LIGHT_NORMALIZE } else { 0 }
+                | if scene.camera_hidden_lights.contains(&i) { rec::LIGHT_CAMERA_HIDDEN } else { 0 },
             ..rec::Light::default()
         };
         match light.kind {
@@ -531,6 +532,9 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
         .find(|(_, s)| s.lit_by.len() != lights || s.shadows.len() != lights)
     {
         return fail("/", format!("light set {i} does not have one entry per light ({lights})"));
+    }
+    if let Some(&l) = scene.camera_hidden_lights.iter().find(|&&l| l >= lights) {
+        return fail("/", format!("camera-hidden light {l} out of range ({lights} lights)"));
     }
     let sets = scene.light_sets.len().max(1);
     if let Some(m) = scene.meshes.iter().find(|m| m.light_set as usize >= sets) {
