@@ -427,11 +427,7 @@ impl<'a> SceneView<'a> {
     /// The number of light sets (0: nothing is linked).
     pub fn light_set_count(&self) -> usize {
         let per_set = 2 * crate::light_set_words(self.lights.len());
-        if per_set == 0 {
-            0
-        } else {
-            self.light_sets.len() / per_set
-        }
+        self.light_sets.len().checked_div(per_set).unwrap_or(0)
     }
 
     /// Light sets: whole sets of `2 × light_set_words` words, no bit set past the last light, and
@@ -440,7 +436,7 @@ impl<'a> SceneView<'a> {
         use SectionKind as K;
         let bad = |kind, record: usize, what| Err(BlobError::BadIndex { kind, record: record as u64, what });
         let words = crate::light_set_words(self.lights.len());
-        if !self.light_sets.is_empty() && (words == 0 || self.light_sets.len() % (2 * words) != 0) {
+        if !self.light_sets.is_empty() && (words == 0 || !self.light_sets.len().is_multiple_of(2 * words)) {
             return bad(K::LightSets, 0, "not a whole number of light sets for the blob's lights");
         }
         let tail = self.lights.len() % 32;

@@ -16,6 +16,9 @@
 //!   of the same power (intensity I = L·πr²).
 //! * Area lights (rect, disk, sphere) are not in the BVH: they are intersected analytically by every
 //!   camera and BSDF ray, and neither block rays nor shadow rays (lights are not geometry).
+//! * A light flagged [`blob::LIGHT_CAMERA_HIDDEN`] is not seen by camera rays (no previous
+//!   vertex: straight from the camera or through cut-outs); it lights the scene and shows in
+//!   reflections as any other. Light and shadow linking: [`links`].
 //!
 //! The selection list holds the UsdLux lights plus one entry standing for all emissive triangles
 //! (which are then chosen by the blob's power-proportional distribution). A light is selected by
