@@ -64,6 +64,7 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
                 triangles: triangles.clone(),
             }),
             placed: None,
+            light_set: 0,
         });
     }
     scene.instance_count = count as u32;

@@ -57,6 +57,7 @@ fn plane_scene() -> ingest::Scene {
         instance: None,
         placed: None,
         primvars: Vec::new(),
+        light_set: 0,
     };
     let mut material =
         ingest::Material { path: "/Looks/Ground".into(), ior: 1.0, ..ingest::Material::default() };

@@ -134,6 +134,9 @@ fn run(args: Args) -> anyhow::Result<()> {
         // The file, then the prim and the feature (`warning: a.usda: /World/Cyl: Cylinder prims ...`).
         eprintln!("warning: {}: {w}", args.asset.display());
     }
+    if let Some(w) = ingest::pipeline::unlit_warning(&scene) {
+        eprintln!("warning: {}: /: {w}", args.asset.display());
+    }
     if let Some(path) = &args.dump_json {
         ingest::pipeline::write_dump(&scene, path)?;
     }
@@ -179,6 +182,9 @@ fn list_only(args: &Args, options: &ingest::usd::LoadOptions) -> anyhow::Result<
     let load_seconds = start.elapsed().as_secs_f64();
     for w in &scene.warnings {
         eprintln!("warning: {}: {}", w.prim, w.message);
+    }
+    if let Some(w) = ingest::pipeline::unlit_warning(&scene) {
+        eprintln!("warning: /: {w}");
     }
     ingest::pipeline::write_dump(&scene, path)?;
     // The process ends here: its memory goes back at exit, not one allocation at a time.

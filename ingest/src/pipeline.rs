@@ -147,8 +147,26 @@ fn polygon_triangles(scene: &Scene) -> u64 {
     scene.triangle_count() as u64 - diced
 }
 
+/// The warning the `ingest` binary prints for a stage nothing lights (it renders black): no
+/// UsdLux light read and no material that emits (a constant `emissiveColor` above zero, or a
+/// program writing it). Printed by the binary, not kept in [`Scene::warnings`]: library callers
+/// build unlit scenes on purpose (listings, geometry tests).
+pub fn unlit_warning(scene: &Scene) -> Option<&'static str> {
+    use crate::scene::{ShaderNode, ShadingInput};
+    let emits = |m: &crate::scene::Material| {
+        m.emissive_color.max_element() > 0.0
+            || m.program
+                .iter()
+                .any(|n| matches!(n, ShaderNode::Output { input: ShadingInput::EmissiveColor, .. }))
+    };
+    (scene.lights.is_empty() && !scene.materials.iter().any(emits))
+        .then_some("the stage has no light (no UsdLux light read, no emissive material): it renders black")
+}
+
 /// The `--dump-json` listing: every rendered gprim with its world bounds, triangle count and
-/// material. A subdivision surface is listed from its plan, so that the listing needs no
+/// material; when some light's `lightLink` or `shadowLink` collection leaves gprims out, every
+/// gprim also lists the lights that light it (`light_link`) and whose shadow rays it blocks
+/// (`shadow_link`), by prim path. A subdivision surface is listed from its plan, so that the listing needs no
 /// tessellation and reads the same with or without one: its triangles as diced
 /// ([`crate::scene::Subdivision::triangles`]), the materials of the cage faces that make them,
 /// and its cage's world bounds (USD's extent; the limit surface lies inside). Subdivision
@@ -186,6 +204,13 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
                 "bounds_max": hi.to_array(),
                 "materials": materials,
             });
+            if let Some(set) = scene.light_sets.get(m.light_set as usize) {
+                let named = |on: &[bool]| -> Vec<&str> {
+                    scene.lights.iter().zip(on).filter(|(_, &on)| on).map(|(l, _)| l.path.as_str()).collect()
+                };
+                entry["light_link"] = named(&set.lit_by).into();
+                entry["shadow_link"] = named(&set.shadows).into();
+            }
             if let Some(s) = subdivision {
                 entry["scheme"] = crate::dicing::scheme_token(s.topology.options().scheme).into();
                 entry["subdiv_level"] = s.level.into();
@@ -226,6 +251,23 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
 mod tests {
     use super::*;
     use crate::dicing::{SubdivOptions, SubdivOptionsError};
+
+    #[test]
+    fn unlit_stages_are_warned_about_and_lit_ones_are_not() {
+        let mut scene = Scene { materials: vec![crate::scene::Material::default()], ..Scene::default() };
+        assert!(unlit_warning(&scene).is_some_and(|w| w.contains("no light")));
+        scene.materials[0].emissive_color = glam::Vec3::new(0.0, 0.5, 0.0);
+        assert_eq!(unlit_warning(&scene), None, "an emissive material lights the stage");
+        scene.materials[0].emissive_color = glam::Vec3::ZERO;
+        scene.lights.push(crate::scene::Light {
+            path: "/Sun".into(),
+            kind: crate::scene::LightKind::Distant { angle_degrees: 0.53 },
+            radiance: glam::Vec3::ONE,
+            normalize: false,
+            world_from_light: glam::Mat4::IDENTITY,
+        });
+        assert_eq!(unlit_warning(&scene), None);
+    }
 
     #[test]
     fn out_of_range_subdivision_options_are_refused_before_reading() {

@@ -68,6 +68,9 @@ def Material "Look"
         float3 outputs:rgb
     }
 }
+def DistantLight "Sun"
+{
+}
 "#;
 
 const PART: &str = r#"#usda 1.0

@@ -11,6 +11,7 @@
 use crate::camera::Camera;
 use crate::camera::RayCone;
 use crate::film::{Sampling, TileJob, TileResult};
+use crate::lights::links::UNLINKED;
 use crate::lights::mis::{self, NeeLane};
 use crate::lights::power_heuristic;
 use crate::path::roulette::{self, RouletteLane};
@@ -78,6 +79,8 @@ impl Scene<'_> {
         let mut radiance = Vec3::ZERO;
         // Previous scattering vertex and BSDF pdf, for MIS of emission found by BSDF sampling.
         let mut prev: Option<(Vec3, f32)> = None;
+        // The previous vertex's light set, for light linking of the emission BSDF sampling finds.
+        let mut prev_set = UNLINKED;
         let mut bounces = 0u32;
         let mut vertex = 0u32;
         let mut travelled = 0.0f32;
@@ -89,7 +92,7 @@ impl Scene<'_> {
             let curve_hit = self.curves.closest_hit(origin, dir, hit.map_or(f32::INFINITY, |h| h.t));
             let t_hit = curve_hit.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
             clock.lap(Phase::Intersect);
-            radiance += beta * self.lights.area_emission(origin, dir, t_hit, prev);
+            radiance += beta * self.lights.area_emission_linked(origin, dir, t_hit, prev, prev_set);
             let wo = -dir;
             let footprint = cone.width_at(t_hit);
             let mut s = match (curve_hit, hit) {
@@ -99,7 +102,7 @@ impl Scene<'_> {
                     None => break,
                 },
                 (None, None) => {
-                    radiance += beta * self.lights.escaped_emission(dir, prev.map(|p| p.1));
+                    radiance += beta * self.lights.escaped_emission_linked(dir, prev.map(|p| p.1), prev_set);
                     // Shading, as the area emission above (the wavefront charges both there).
                     clock.lap(Phase::Shading);
                     break;
@@ -161,10 +164,18 @@ impl Scene<'_> {
             let u = vertex_samples(seed_hash, key.pixel, key.sample, vertex);
             let d = |d: u32| u[d as usize];
 
-            // Next-event estimation.
+            // Next-event estimation. With light linking, a light that does not light this point
+            // contributes nothing (its selection pdf unchanged), and its shadow rays ignore the
+            // blockers that do not shadow it.
             let u_select = d(dim::LIGHT_SELECT);
             let u_light = [d(dim::LIGHT_UV), d(dim::LIGHT_UV + 1)];
-            if let Some(mut ls) = self.lights.sample(s.p, u_select, u_light) {
+            let set = self.lights.links().map_or(UNLINKED, |l| l.set_of(s.triangle));
+            let linked = self.lights.linked_choice(set, s.p, u_select);
+            let sample = match linked {
+                Some(None) => None,
+                _ => self.lights.sample(s.p, u_select, u_light),
+            };
+            if let Some(mut ls) = sample {
                 if let Some((tri, [b1, b2])) = ls.emitter {
                     ls.li = self.emission_at(tri, b1, b2, filter, touch);
                 }
@@ -183,6 +194,7 @@ impl Scene<'_> {
                         tmax,
                         shadow_seed ^ vertex,
                         ls.delta,
+                        linked.flatten(),
                         filter,
                         touch,
                     );
@@ -201,6 +213,7 @@ impl Scene<'_> {
             let u_bsdf = [d(dim::BSDF_UV), d(dim::BSDF_UV + 1)];
             let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else { break };
             prev = Some((s.p, bs.pdf));
+            prev_set = set;
             bounces += 1;
             let play = bounces >= RR_START_BOUNCE;
             let (f, cos, pdf, u) = (bs.f, s.ns.dot(bs.wi).abs(), bs.pdf, d(dim::RUSSIAN_ROULETTE));

@@ -95,6 +95,7 @@ pub fn card(z: f32, half: f32, material: u32) -> Mesh {
         instance: None,
         placed: None,
         primvars: Vec::new(),
+        light_set: 0,
     }
 }
 

@@ -4,8 +4,8 @@
 //! entry) as a reference to interned local-space geometry plus its transforms
 //! ([`crate::scene::PlacedMesh`]); hand-built scenes may give an instance-space copy instead
 //! ([`crate::scene::InstancedMesh`]). Here the instances whose gprims are identical in the
-//! instance's space — same points, normals, uvs, triangles, primvars, double-sidedness and
-//! materials equal in value — are grouped into one prototype, so 1,000 instances of a mesh store
+//! instance's space — same points, normals, uvs, triangles, primvars, double-sidedness,
+//! light set (light and shadow linking) and materials equal in value — are grouped into one prototype, so 1,000 instances of a mesh store
 //! one mesh plus 1,000 transforms.
 //!
 //! Kept in world space ("top level"), with the reason:
@@ -93,8 +93,13 @@ pub fn plan(scene: &Scene, emissive: &[bool], canonical: &[u32]) -> Instancing {
     }
     let shapes = Shapes::of(scene, &members);
     // Prototype candidates by key hash; equal hashes are confirmed by comparing keys.
-    let key = |meshes: &[usize]| -> Vec<(u32, bool)> {
-        meshes.iter().map(|&m| (shapes.id[&m], scene.meshes[m].double_sided)).collect()
+    // The light set is part of the key: a prototype's meshes carry one light set for all its
+    // instances, so instances linked differently get prototypes of their own.
+    let key = |meshes: &[usize]| -> Vec<(u32, bool, u32)> {
+        meshes
+            .iter()
+            .map(|&m| (shapes.id[&m], scene.meshes[m].double_sided, scene.meshes[m].light_set))
+            .collect()
     };
     let same_materials = |a: &[usize], b: &[usize]| {
         a.iter().zip(b).all(|(&x, &y)| {

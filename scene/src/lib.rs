@@ -61,6 +61,7 @@ pub mod pack;
 pub mod scene;
 
 pub use scene::{
-    BezierSegment, Camera, CurveKind, Curves, Lens, Light, LightKind, Material, Mesh, PointSphere, Scene,
+    BezierSegment, Camera, CurveKind, Curves, Lens, Light, LightKind, LightSet, Material, Mesh, PointSphere,
+    Scene,
     Subdivision, UpAxis, Warning,
 };

@@ -49,6 +49,11 @@ pub struct Scene {
     pub subdivisions: Vec<Subdivision>,
     /// Baked textures read by the materials' programs ([`ShaderNode::Texture`] indexes this).
     pub textures: Vec<SceneTexture>,
+    /// The distinct light sets of the gprims ([`Mesh::light_set`]); empty when no light links or
+    /// shadow-links anything short of every gprim.
+    pub light_sets: Vec<LightSet>,
+    /// Indices into `lights` of the lights camera rays do not see (ascending).
+    pub camera_hidden_lights: Vec<usize>,
 }
 
 /// A texture a bound material reads, already decoded and baked (mip chain, tiles) at read time, so
@@ -311,6 +316,8 @@ pub struct Mesh {
     pub instance: Option<InstancedMesh>,
     /// The primvars the mesh's materials read ([`ShaderNode::Primvar`]), sorted by name.
     pub primvars: Vec<MeshPrimvar>,
+    /// Index into [`Scene::light_sets`] (light and shadow linking); 0 when the scene has none.
+    pub light_set: u32,
     /// For a gprim inside an instance as the USD reader keeps it: its geometry by reference, in
     /// local space, with its transforms. `positions`, `normals`, `uvs`, `triangles` and `primvars`
     /// are then empty (see [`Mesh::in_world`]); `triangle_materials` is the instance's own.
@@ -523,6 +530,7 @@ impl Mesh {
             double_sided: self.double_sided,
             instance: None,
             primvars: t.primvars,
+            light_set: self.light_set,
             placed: None,
         }
     }
@@ -779,6 +787,24 @@ pub struct Light {
     pub normalize: bool,
     /// Light-to-world transform (the light's local frame: emission along −Z for distant/rect/disk).
     pub world_from_light: Mat4,
+}
+
+/// Which lights light a gprim and which lights' shadow rays it blocks (UsdLux light linking and
+/// shadow linking), indexed like [`Scene::lights`]. [`Scene::light_sets`] is empty when nothing is
+/// linked; otherwise set 0 is every light in both.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct LightSet {
+    /// `lit_by[l]`: light `l`'s `lightLink` collection includes the gprim.
+    pub lit_by: Vec<bool>,
+    /// `shadows[l]`: light `l`'s `shadowLink` collection includes the gprim.
+    pub shadows: Vec<bool>,
+}
+
+impl LightSet {
+    /// Every one of `lights` lights and is shadowed by the gprim.
+    pub fn everything(lights: usize) -> Self {
+        LightSet { lit_by: vec![true; lights], shadows: vec![true; lights] }
+    }
 }
 
 /// Light kinds with their shape parameters, in the light's local space.

@@ -5,10 +5,20 @@ use std::path::PathBuf;
 use glam::Vec3;
 use openusd::ar;
 
+use super::collection::{ExpansionRule, Membership};
 use super::stage::Value;
 use super::{fallback, Inherited, Reader, UsdError};
 use crate::dicing::DEFAULT_WIDTH;
-use crate::scene::{Camera, Light, LightKind, SceneTexture, TextureData};
+use crate::scene::{Camera, Light, LightKind, LightSet, SceneTexture, TextureData};
+
+/// A light's two UsdLuxLightAPI collections: which gprims it lights (`collection:lightLink`) and
+/// which gprims block its shadow rays (`collection:shadowLink`). Both fall back to
+/// `includeRoot = true` (UsdLux's schema), so an unauthored light links everything.
+#[derive(Clone, Debug)]
+pub(super) struct LightLinks {
+    light: Membership,
+    shadow: Membership,
+}
 
 /// Largest image side ingest dices for (a RenderSettings resolution, or the image a camera's
 /// apertures imply): render's per-axis limit.
@@ -146,6 +156,14 @@ impl Reader<'_> {
                 None => LightKind::Dome,
             },
         };
+        let links = LightLinks {
+            light: self.read_light_collection(path, "lightLink")?,
+            shadow: self.read_light_collection(path, "shadowLink")?,
+        };
+        self.light_links.push(links);
+        if !self.light_camera_visible(path)? {
+            self.scene.camera_hidden_lights.push(self.scene.lights.len());
+        }
         self.scene.lights.push(Light {
             path: path.to_string(),
             kind,
@@ -154,6 +172,122 @@ impl Reader<'_> {
             world_from_light: state.world_from_local.as_mat4(),
         });
         Ok(())
+    }
+
+    /// Whether camera rays see light `path`. UsdLux has no such attribute; the renderer-specific
+    /// spellings assets author are read, each only where authored (every light is visible by
+    /// default, as in usd-core's Storm and in RenderMan):
+    /// - Karma: `karma:light:renderlightgeo` (also as a primvar), "Render Light Geometry": 0 hides;
+    /// - RenderMan: `primvars:ri:attributes:visibility:camera` (also `ri:visibility:camera`): 0 hides;
+    /// - Arnold: `primvars:arnold:camera` (also `arnold:camera`), the camera-ray weight: 0 hides
+    ///   (other weights are read as visible: the camera sees a light fully or not at all).
+    ///
+    /// The first authored one in that order decides.
+    fn light_camera_visible(&self, path: &str) -> Result<bool, UsdError> {
+        const SPELLINGS: [&str; 6] = [
+            "karma:light:renderlightgeo",
+            "primvars:karma:light:renderlightgeo",
+            "primvars:ri:attributes:visibility:camera",
+            "ri:visibility:camera",
+            "primvars:arnold:camera",
+            "arnold:camera",
+        ];
+        for name in SPELLINGS {
+            if let Some(v) = self.f64(path, name)? {
+                return Ok(v != 0.0);
+            }
+        }
+        Ok(true)
+    }
+
+    /// A UsdLuxLightAPI collection of light `path` (`lightLink` or `shadowLink`), with the schema's
+    /// fallbacks (`includeRoot = true`, `expandPrims`); see [`super::collection`] for what is read.
+    fn read_light_collection(&mut self, path: &str, name: &str) -> Result<Membership, UsdError> {
+        let prefix = format!("collection:{name}");
+        let rule_attr = format!("{prefix}:expansionRule");
+        let rule = match self.token(path, &rule_attr)? {
+            None => ExpansionRule::ExpandPrims,
+            Some(token) => ExpansionRule::from_token(&token).unwrap_or_else(|| {
+                self.warn(path, format!("{rule_attr} {token:?} is not an expansion rule; using expandPrims"));
+                ExpansionRule::ExpandPrims
+            }),
+        };
+        let include_root = self.bool(path, &format!("{prefix}:includeRoot"))?.unwrap_or(true);
+        let expression = format!("{prefix}:membershipExpression");
+        if self.stage.attr(path, &expression)?.and_then(|v| v.as_str().map(str::is_empty)) == Some(false) {
+            self.warn(
+                path,
+                format!("{expression} (path expressions) not supported yet; using includes and excludes"),
+            );
+        }
+        let mut targets = |rel: &str| {
+            let mut paths = self.stage.targets(path, &format!("{prefix}:{rel}"));
+            paths.retain(|p| {
+                let nested = p.contains(".collection:");
+                if nested {
+                    self.scene.warn(
+                        path,
+                        format!("{prefix}:{rel} target <{p}> is a collection (nested collections not supported yet); ignored"),
+                    );
+                }
+                if !nested && self.stage.type_name(p) == "GeomSubset" {
+                    self.scene.warn(
+                        path,
+                        format!("{prefix}:{rel} target <{p}> is a GeomSubset: linking of face subsets not supported yet (its gprim's own membership is used)"),
+                    );
+                }
+                !nested
+            });
+            paths
+        };
+        let includes = targets("includes");
+        let excludes = targets("excludes");
+        Ok(Membership::new(rule, include_root, &includes, &excludes))
+    }
+
+    /// Gives every mesh its light set ([`crate::scene::Mesh::light_set`]) from the lights'
+    /// collections, each distinct set once, set 0 being every light; leaves the scene without
+    /// light sets when every light lights and is shadowed by every gprim (the common case: the
+    /// blob and the image are then those of a scene without linking). Curves and points are lit
+    /// by and shadow every light: a light whose collections leave one out gets a warning.
+    pub(super) fn assign_light_sets(&mut self) {
+        let links = std::mem::take(&mut self.light_links);
+        if links.iter().all(|l| l.light.is_everything() && l.shadow.is_everything()) {
+            return;
+        }
+        let lights = self.scene.lights.len();
+        let mut sets = vec![LightSet::everything(lights)];
+        let mut index: std::collections::HashMap<LightSet, u32> = [(sets[0].clone(), 0)].into();
+        for mesh in &mut self.scene.meshes {
+            let set = LightSet {
+                lit_by: links.iter().map(|l| l.light.includes(&mesh.path)).collect(),
+                shadows: links.iter().map(|l| l.shadow.includes(&mesh.path)).collect(),
+            };
+            mesh.light_set = *index.entry(set).or_insert_with_key(|set| {
+                sets.push(set.clone());
+                sets.len() as u32 - 1
+            });
+        }
+        let mut warnings = Vec::new();
+        for (light, l) in self.scene.lights.iter().zip(&links) {
+            let left_out =
+                self.scene.curves.iter().find(|c| !l.light.includes(&c.path) || !l.shadow.includes(&c.path));
+            if let Some(curve) = left_out {
+                warnings.push((
+                    light.path.clone(),
+                    format!(
+                        "light linking of curves and points not supported yet: {} (and any other left out) is lit by and shadows this light",
+                        curve.path
+                    ),
+                ));
+            }
+        }
+        for (prim, message) in warnings {
+            self.warn(&prim, message);
+        }
+        if sets.len() > 1 {
+            self.scene.light_sets = sets;
+        }
     }
 
     /// Refuses a default camera whose apertures, without a RenderSettings resolution, give an

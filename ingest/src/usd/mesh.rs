@@ -682,6 +682,8 @@ pub(super) fn world_mesh(path: &str, local: LocalMesh, world_from_local: DMat4) 
         double_sided,
         instance: None,
         primvars: world.primvars,
+        // Assigned once every light is read (`Reader::assign_light_sets`).
+        light_set: 0,
         placed: None,
     }
 }

@@ -16,7 +16,8 @@
 //! - `subdivision`: subdivision surfaces, queued during the walk and diced against the render
 //!   camera after it.
 //! - `curves`: BasisCurves, NurbsCurves and Points (to cubic Bézier segments and spheres).
-//! - `lux`: UsdLux lights, UsdGeomCamera, UsdRender settings.
+//! - `lux`: UsdLux lights (with their light and shadow linking), UsdGeomCamera, UsdRender settings.
+//! - `collection`: UsdCollectionAPI membership (includes, excludes, expansion rules, includeRoot).
 //! - `compat`: the workarounds for openusd 0.6 bugs (crate-file checks and repair, text-layer
 //!   fixes, path syntax, the panic backstop), each with what would make it removable.
 //!
@@ -26,6 +27,7 @@
 //!
 //! Schema fallback values live in [`fallback`], in one place.
 
+mod collection;
 mod compat;
 mod curves;
 mod lens;
@@ -402,6 +404,7 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     let start = std::time::Instant::now();
     reader.tessellate_subdivisions(&options.subdiv);
     reader.scene.load_timings.subdivision_seconds = start.elapsed().as_secs_f64();
+    reader.assign_light_sets();
     for (prim, message) in stage.take_notes() {
         reader.scene.warn(prim, message);
     }
@@ -539,6 +542,8 @@ struct Reader<'a> {
     lenient: bool,
     /// Gprims with bad data, when not lenient (see [`Reader::read_prim_isolated`]).
     bad_prims: Vec<UsdError>,
+    /// Each light's `lightLink` and `shadowLink` membership, in `scene.lights` order.
+    light_links: Vec<lux::LightLinks>,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -573,6 +578,7 @@ impl<'a> Reader<'a> {
             texture_limits: texture::DecodeLimits::default(),
             lenient: false,
             bad_prims: Vec::new(),
+            light_links: Vec::new(),
         }
     }
 

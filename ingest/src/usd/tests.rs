@@ -929,3 +929,110 @@ def Mesh "B" (prepend apiSchemas = ["MaterialBindingAPI"]) {{{TRI}
     let both = material("/B");
     assert_eq!((both.path.as_str(), both.diffuse_color), ("/Looks/Both", Vec3::new(1.0, 0.0, 0.0)));
 }
+
+/// `tests/assets/light_linking/linked.usda`: each gprim's light set as usd-core's
+/// `ComputeMembershipQuery` answers for the four lights (Key, Fill, Rim, Dome; the expected
+/// values are usd-core 26.11's), equal sets stored once, the curve's warning, and the packed
+/// blob: the differently linked instance gets no shared prototype with the other two.
+#[test]
+fn light_and_shadow_links_follow_usd_core_membership() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/assets/light_linking/linked.usda");
+    let scene = load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let lights: Vec<&str> = scene.lights.iter().map(|l| l.path.as_str()).collect();
+    assert_eq!(lights, ["/Key", "/Fill", "/Rim", "/Dome"]);
+    let (t, f) = (true, false);
+    let expected: [(&str, [bool; 4], [bool; 4]); 7] = [
+        ("/World/A/a1", [t, t, f, t], [t; 4]),
+        ("/World/A/a2", [f, t, f, t], [t; 4]),
+        ("/World/AB/ab1", [f, t, t, t], [t; 4]),
+        ("/World/B/b1", [f, t, f, t], [t, f, t, t]),
+        ("/World/Inst1/geo", [f, t, f, t], [t; 4]),
+        ("/World/Inst2/geo", [f, t, t, t], [t; 4]),
+        ("/World/Inst3/geo", [f, t, f, t], [t; 4]),
+    ];
+    for (path, lit_by, shadows) in expected {
+        let set = &scene.light_sets[mesh(&scene, path).light_set as usize];
+        assert_eq!((set.lit_by.as_slice(), set.shadows.as_slice()), (&lit_by[..], &shadows[..]), "{path}");
+    }
+    // Everything, a1, a2 (= Inst1 = Inst3), ab1 (= Inst2), b1.
+    assert_eq!(scene.light_sets.len(), 5);
+    assert_eq!(scene.light_sets[0], crate::scene::LightSet::everything(4));
+    assert!(has_warning(
+        &scene,
+        "/Fill",
+        "light linking of curves and points not supported yet: /World/B/hair"
+    ));
+    let dump = crate::pipeline::dump_json(&scene);
+    let b1 = dump["gprims"].as_array().unwrap().iter().find(|g| g["path"] == "/World/B/b1").unwrap();
+    assert_eq!(b1["light_link"], serde_json::json!(["/Fill", "/Dome"]));
+    assert_eq!(b1["shadow_link"], serde_json::json!(["/Key", "/Rim", "/Dome"]));
+
+    let data = crate::pack::pack(&scene).unwrap();
+    let bytes = blob::AlignedBytes::copy_from(&data.encode());
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    assert_eq!(view.light_set_count(), 5);
+    // Inst1 and Inst3 share a prototype; Inst2 (lit by Rim too) is drawn on its own.
+    assert_eq!(view.instancing.prototypes.len(), 1);
+    assert_eq!(view.instancing.instances.len(), 2);
+    let proto = view.instancing.prototypes[0];
+    let proto_set = view.meshes[proto.first_mesh as usize].light_set;
+    assert_eq!(proto_set, mesh(&scene, "/World/Inst1/geo").light_set);
+    let b1_set = view.meshes.iter().find(|m| view.string(m.name) == "/World/B/b1").unwrap().light_set;
+    assert_eq!(b1_set, mesh(&scene, "/World/B/b1").light_set);
+}
+
+/// A stage whose lights author nothing, or author collections that hold every gprim, has no
+/// light sets: its blob is the unlinked one.
+#[test]
+fn collections_holding_everything_leave_the_scene_unlinked() {
+    let scene = load_text(&usda(&format!(
+        r#"def Mesh "M" {{{TRI}
+}}
+def DistantLight "Sun" {{
+    rel collection:lightLink:includes = </M>
+    rel collection:shadowLink:excludes = </Nothing>
+}}
+def DistantLight "Plain" {{}}"#
+    )));
+    assert!(scene.light_sets.is_empty(), "{:?}", scene.light_sets);
+    assert_eq!(mesh(&scene, "/M").light_set, 0);
+    assert!(crate::pipeline::dump_json(&scene)["gprims"][0].get("light_link").is_none());
+}
+
+#[test]
+fn unsupported_collection_parts_are_warned_about() {
+    let scene = load_text(&usda(&format!(
+        r#"def Mesh "M" {{{TRI}
+}}
+def DistantLight "Sun" {{
+    uniform token collection:lightLink:expansionRule = "expandEverything"
+    rel collection:shadowLink:includes = </Other.collection:set>
+    uniform bool collection:shadowLink:includeRoot = 0
+}}"#
+    )));
+    assert!(has_warning(
+        &scene,
+        "/Sun",
+        "collection:lightLink:expansionRule \"expandEverything\" is not an expansion rule"
+    ));
+    assert!(has_warning(&scene, "/Sun", "target </Other.collection:set> is a collection"));
+    // The nested target ignored and no root: the mesh does not shadow the sun.
+    let set = &scene.light_sets[mesh(&scene, "/M").light_set as usize];
+    assert_eq!((set.lit_by.as_slice(), set.shadows.as_slice()), (&[true][..], &[false][..]));
+}
+
+/// Camera visibility of lights, as the renderers' attributes author it (only where authored).
+#[test]
+fn lights_hidden_from_the_camera_by_karma_renderman_and_arnold_attributes() {
+    let scene = load_text(&usda(
+        r#"def SphereLight "Plain" {}
+def SphereLight "KarmaOn" { bool karma:light:renderlightgeo = 1 }
+def SphereLight "KarmaOff" { bool karma:light:renderlightgeo = 0 }
+def SphereLight "RiOff" { int primvars:ri:attributes:visibility:camera = 0 }
+def SphereLight "ArnoldOff" { float primvars:arnold:camera = 0 }
+def SphereLight "ArnoldHalf" { float primvars:arnold:camera = 0.5 }"#,
+    ));
+    let hidden: Vec<&str> =
+        scene.camera_hidden_lights.iter().map(|&l| scene.lights[l].path.as_str()).collect();
+    assert_eq!(hidden, ["/KarmaOff", "/RiOff", "/ArnoldOff"]);
+}

@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 9;
+pub const FORMAT_VERSION: u32 = 10;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -170,6 +170,9 @@ section_kinds! {
     DomeMaps = 60,
     /// `f32` CDF values of the dome maps' distributions.
     DomeCdfValues = 61,
+    /// `u32` words of the light sets (light and shadow linking; format 8): see
+    /// [`crate::light_set_words`] for the layout.
+    LightSets = 70,
 }
 
 /// Recomputes, in place, every section checksum whose section lies inside `bytes`, then the table's and

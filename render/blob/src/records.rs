@@ -91,10 +91,22 @@ pub struct Mesh {
     pub vertex_count: u32,
     /// `MESH_*` bits.
     pub flags: u32,
-    /// Reserved, zero.
-    pub reserved: u32,
+    /// Index of the gprim's light set in the [`crate::SectionKind::LightSets`] section (format 8);
+    /// 0 when the blob has no light sets (every light lights and is shadowed by every gprim).
+    pub light_set: u32,
 }
 const _: () = assert!(std::mem::size_of::<Mesh>() == 32);
+
+/// Words of one half of a light set for a blob with `light_count` lights: one bit per light.
+///
+/// A light set (UsdLux light and shadow linking, format 8) is `2 × light_set_words` `u32` words in
+/// the [`crate::SectionKind::LightSets`] section: first the *lit-by* mask (bit `l % 32` of word
+/// `l / 32` set: light `l` lights the gprim), then the *shadows* mask (set: the gprim blocks light
+/// `l`'s shadow rays). Bits past the last light are zero. The section is empty when nothing is
+/// linked, and then every [`Mesh::light_set`] is 0.
+pub const fn light_set_words(light_count: usize) -> usize {
+    light_count.div_ceil(32)
+}
 
 macro_rules! material_record {
     ($($field:ident: $kind:ident = $fallback:expr, $usd:literal;)*) => {
@@ -145,6 +157,9 @@ pub mod light_kind {
 pub const LIGHT_NORMALIZE: u32 = 1;
 /// `treatAsPoint` on a sphere light.
 pub const LIGHT_TREAT_AS_POINT: u32 = 2;
+/// Camera rays do not see the light (it still lights the scene, and shows in reflections);
+/// format 8.
+pub const LIGHT_CAMERA_HIDDEN: u32 = 4;
 
 /// One UsdLux light. 96 bytes.
 #[repr(C)]

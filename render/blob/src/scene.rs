@@ -64,6 +64,8 @@ pub struct SceneData {
     pub instancing: crate::InstanceData,
     /// Textured dome lights' maps and distributions.
     pub dome: crate::DomeData,
+    /// Light sets (see [`crate::light_set_words`]); empty when nothing is linked.
+    pub light_sets: Vec<u32>,
 }
 
 impl SceneData {
@@ -115,6 +117,7 @@ impl SceneData {
             section(SectionKind::PrototypeBvhBlocks, &self.instancing.prototype_blocks),
             section(SectionKind::DomeMaps, &self.dome.maps),
             section(SectionKind::DomeCdfValues, &self.dome.cdf_values),
+            section(SectionKind::LightSets, &self.light_sets),
         ];
         let table_len = sections.len() * std::mem::size_of::<SectionEntry>();
         let mut cursor = align_up(std::mem::size_of::<Header>() + table_len);
@@ -219,6 +222,9 @@ pub struct SceneView<'a> {
     pub instancing: crate::InstanceView<'a>,
     /// Textured dome lights' maps and distributions (texture indices and every CDF checked).
     pub dome: crate::DomeView<'a>,
+    /// Light sets (see [`crate::light_set_words`]): a whole number of sets, no bit past the last
+    /// light, every mesh's set in range (checked).
+    pub light_sets: &'a [u32],
 }
 
 impl<'a> SceneView<'a> {
@@ -296,6 +302,7 @@ impl<'a> SceneView<'a> {
                 maps: typed(bytes, get(SectionKind::DomeMaps)?, SectionKind::DomeMaps)?,
                 cdf_values: typed(bytes, get(SectionKind::DomeCdfValues)?, SectionKind::DomeCdfValues)?,
             },
+            light_sets: typed(bytes, get(SectionKind::LightSets)?, SectionKind::LightSets)?,
         };
         view.validate_indices()?;
         Ok(view)
@@ -425,6 +432,35 @@ impl<'a> SceneView<'a> {
         Ok(())
     }
 
+    /// The number of light sets (0: nothing is linked).
+    pub fn light_set_count(&self) -> usize {
+        let per_set = 2 * crate::light_set_words(self.lights.len());
+        self.light_sets.len().checked_div(per_set).unwrap_or(0)
+    }
+
+    /// Light sets: whole sets of `2 × light_set_words` words, no bit set past the last light, and
+    /// every mesh's index below the set count (or 0 when there are none).
+    fn validate_light_sets(&self) -> Result<(), BlobError> {
+        use SectionKind as K;
+        let bad = |kind, record: usize, what| Err(BlobError::BadIndex { kind, record: record as u64, what });
+        let words = crate::light_set_words(self.lights.len());
+        if !self.light_sets.is_empty() && (words == 0 || !self.light_sets.len().is_multiple_of(2 * words)) {
+            return bad(K::LightSets, 0, "not a whole number of light sets for the blob's lights");
+        }
+        let tail = self.lights.len() % 32;
+        if tail != 0 {
+            let past = !((1u32 << tail) - 1);
+            if let Some(i) = self.light_sets.chunks(words).position(|half| half[words - 1] & past != 0) {
+                return bad(K::LightSets, i * words, "bit set past the last light");
+            }
+        }
+        let sets = self.light_set_count();
+        if let Some(i) = self.meshes.iter().position(|m| m.light_set as usize >= sets.max(1)) {
+            return bad(K::Meshes, i, "light set index out of range");
+        }
+        Ok(())
+    }
+
     fn validate_indices(&self) -> Result<(), BlobError> {
         use SectionKind as K;
         let bad = |kind, record: usize, what| Err(BlobError::BadIndex { kind, record: record as u64, what });
@@ -498,6 +534,7 @@ impl<'a> SceneView<'a> {
             }
         }
         self.dome.validate(self.texture_records.len()).or_else(|(i, what)| bad(K::DomeMaps, i, what))?;
+        self.validate_light_sets()?;
         for (i, c) in self.cameras.iter().enumerate() {
             if !strings_ok(c.name) || c.projection > PROJECTION_ORTHOGRAPHIC {
                 return bad(K::Cameras, i, "bad name or unknown projection");
@@ -746,7 +783,9 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::CurveSegments => size_of::<crate::CurveSegment>(),
         SectionKind::CurveAttributes => size_of::<crate::CurveAttributes>(),
         SectionKind::PointSpheres => size_of::<crate::PointSphere>(),
-        SectionKind::CurveBvhPrimitives | SectionKind::InstanceBvhItems => size_of::<u32>(),
+        SectionKind::CurveBvhPrimitives | SectionKind::InstanceBvhItems | SectionKind::LightSets => {
+            size_of::<u32>()
+        }
         SectionKind::Prototypes => size_of::<crate::Prototype>(),
         SectionKind::Instances => size_of::<crate::Instance>(),
         SectionKind::InstanceBvhNodes | SectionKind::PrototypeBvhNodes => size_of::<BvhNode>(),

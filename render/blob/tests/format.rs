@@ -18,7 +18,7 @@ fn sample_scene() -> SceneData {
         first_vertex: 0,
         vertex_count: 3,
         flags: MESH_HAS_NORMALS | MESH_HAS_UVS,
-        reserved: 0,
+        light_set: 0,
     }];
     let mname = s.add_string("/Looks/M");
     s.materials = vec![Material {
@@ -851,4 +851,42 @@ fn reseal_lets_byte_level_mutations_reach_structural_validation() {
     let header: Header = bytemuck::pod_read_unaligned(&short[..64]);
     assert_eq!(header.file_size, short.len() as u64);
     assert!(matches!(parse(&short), Err(BlobError::SectionBounds { .. })), "{:?}", parse(&short));
+}
+
+/// Light sets (format 8): a round trip, then each broken rule is its own error: a partial set, a
+/// bit past the last light, a mesh's set out of range, a set index without any sets.
+#[test]
+fn light_sets_round_trip_and_are_validated() {
+    let mut scene = sample_scene();
+    // One light: one word per mask, two per set. Set 0 is everything; set 1 is shadows only.
+    scene.light_sets = vec![1, 1, 0, 1];
+    scene.meshes[0].light_set = 1;
+    let bytes = AlignedBytes::copy_from(&scene.encode());
+    let view = SceneView::parse(&bytes).unwrap();
+    assert_eq!(view.light_sets, &[1, 1, 0, 1]);
+    assert_eq!(view.light_set_count(), 2);
+    assert_eq!(view.meshes[0].light_set, 1);
+
+    let mut partial = scene.clone();
+    partial.light_sets.push(1);
+    let text = crafted_error(&partial, SectionKind::LightSets);
+    assert!(text.contains("whole number of light sets"), "{text}");
+    let mut past = scene.clone();
+    past.light_sets[2] = 0b10;
+    let text = crafted_error(&past, SectionKind::LightSets);
+    assert!(text.contains("bit set past the last light"), "{text}");
+    let mut out_of_range = scene.clone();
+    out_of_range.meshes[0].light_set = 2;
+    let text = crafted_error(&out_of_range, SectionKind::Meshes);
+    assert!(text.contains("light set index out of range"), "{text}");
+    let mut without_sets = scene.clone();
+    without_sets.light_sets.clear();
+    let text = crafted_error(&without_sets, SectionKind::Meshes);
+    assert!(text.contains("light set index out of range"), "{text}");
+    let mut no_lights = scene;
+    no_lights.lights.clear();
+    no_lights.info.dome_light = NONE;
+    no_lights.meshes[0].light_set = 0;
+    let text = crafted_error(&no_lights, SectionKind::LightSets);
+    assert!(text.contains("whole number of light sets"), "{text}");
 }

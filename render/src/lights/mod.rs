@@ -16,6 +16,9 @@
 //!   of the same power (intensity I = L·πr²).
 //! * Area lights (rect, disk, sphere) are not in the BVH: they are intersected analytically by every
 //!   camera and BSDF ray, and neither block rays nor shadow rays (lights are not geometry).
+//! * A light flagged [`blob::LIGHT_CAMERA_HIDDEN`] is not seen by camera rays (no previous
+//!   vertex: straight from the camera or through cut-outs); it lights the scene and shows in
+//!   reflections as any other. Light and shadow linking: [`links`].
 //!
 //! The selection list holds the UsdLux lights plus one entry standing for all emissive triangles
 //! (which are then chosen by the blob's power-proportional distribution). A light is selected by
@@ -28,6 +31,7 @@ pub mod dome_map;
 pub mod emission_lanes;
 pub mod lanes;
 pub mod light;
+pub mod links;
 pub mod mis;
 
 pub mod tree;
@@ -38,6 +42,7 @@ use crate::lights::dome_map::DomeMap;
 use glam::Vec3;
 use light::{ray_sphere, sample_cone, uniform_sphere};
 pub use light::{Light, LightSample, Shape};
+use links::LightLinks;
 pub use mis::power_heuristic;
 use std::f32::consts::{PI, TAU};
 
@@ -63,6 +68,11 @@ pub struct Lights<'a> {
     triangles: &'a [blob::Triangle],
     triangle_materials: &'a [u32],
     materials: &'a [blob::Material],
+    /// Light and shadow linking ([`links`]); `None` when nothing is linked.
+    links: Option<LightLinks<'a>>,
+    /// Per entry of `lights`: camera rays do not see it ([`blob::LIGHT_CAMERA_HIDDEN`]); empty
+    /// when every light is visible.
+    camera_hidden: Vec<bool>,
 }
 
 impl<'a> Lights<'a> {
@@ -101,6 +111,11 @@ impl<'a> Lights<'a> {
                 _ => false,
             })
             .collect();
+        let mut camera_hidden: Vec<bool> =
+            view.lights.iter().map(|l| l.flags & blob::LIGHT_CAMERA_HIDDEN != 0).collect();
+        if !camera_hidden.contains(&true) {
+            camera_hidden.clear();
+        }
         let mut emissive_by_triangle: Vec<(u32, u32)> =
             view.emissive_triangles.iter().enumerate().map(|(i, e)| (e.triangle, i as u32)).collect();
         emissive_by_triangle.sort_unstable();
@@ -135,7 +150,47 @@ impl<'a> Lights<'a> {
             triangles: view.triangles,
             triangle_materials: view.triangle_materials,
             materials: view.materials,
+            links: LightLinks::new(view),
+            camera_hidden,
         }
+    }
+
+    /// Whether [`Lights::area_emission_linked`] and [`Lights::escaped_emission_linked`] differ
+    /// from the unlinked sums for some ray (light sets, or lights camera rays do not see): the
+    /// wavefront then sums emission per ray with them instead of its lane kernel.
+    #[inline]
+    pub fn emission_per_ray(&self) -> bool {
+        self.links.is_some() || !self.camera_hidden.is_empty()
+    }
+
+    /// Whether camera rays see light `light` (an index into [`Lights::lights`]).
+    #[inline]
+    fn camera_sees(&self, light: usize) -> bool {
+        !self.camera_hidden.get(light).copied().unwrap_or(false)
+    }
+
+    /// Light and shadow linking, when the scene has any.
+    #[inline]
+    pub fn links(&self) -> Option<&LightLinks<'a>> {
+        self.links.as_ref()
+    }
+
+    /// The light [`Lights::sample`] selects at `p` with `u_select` (an index into
+    /// [`Lights::lights`]); the selector must not be empty.
+    pub fn selected(&self, p: Vec3, u_select: f32) -> usize {
+        self.selector.select(p, u_select).0
+    }
+
+    /// With linking, the light [`Lights::sample`] selects at `p` with `u_select` when it lights
+    /// points of light set `set` (`Some(None)`: it does not; the sample is dropped, the selection
+    /// pdf unchanged). `None` without linking.
+    pub fn linked_choice(&self, set: u32, p: Vec3, u_select: f32) -> Option<Option<usize>> {
+        let links = self.links.as_ref()?;
+        if self.selector.is_empty() {
+            return Some(None);
+        }
+        let light = self.selected(p, u_select);
+        Some(links.lights(set, light).then_some(light))
     }
 
     /// The same lights selected uniformly, as before the light tree: the reference of tests.
@@ -344,6 +399,42 @@ impl<'a> Lights<'a> {
     /// `tmax`, MIS-weighted against light sampling from `prev` = (previous scattering point, BSDF pdf);
     /// `prev = None` for camera rays (weight 1).
     pub fn area_emission(&self, o: Vec3, d: Vec3, tmax: f32, prev: Option<(Vec3, f32)>) -> Vec3 {
+        self.area_emission_where(o, d, tmax, prev, |_| true)
+    }
+
+    /// [`Lights::area_emission`] of the lights that light the previous vertex, whose light set is
+    /// `prev_set`: for camera rays (`prev = None`, whatever `prev_set` holds) every light camera
+    /// rays see; every light without linking.
+    pub fn area_emission_linked(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        prev: Option<(Vec3, f32)>,
+        prev_set: u32,
+    ) -> Vec3 {
+        match (&self.links, prev) {
+            (Some(links), Some(_)) => {
+                self.area_emission_where(o, d, tmax, prev, |light| links.lights(prev_set, light))
+            }
+            (_, None) if !self.camera_hidden.is_empty() => {
+                self.area_emission_where(o, d, tmax, prev, |light| self.camera_sees(light))
+            }
+            _ => self.area_emission(o, d, tmax, prev),
+        }
+    }
+
+    /// [`Lights::area_emission`] over the lights `lit(light)` accepts (indices into
+    /// [`Lights::lights`]), in the same order.
+    #[inline(always)]
+    fn area_emission_where(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        prev: Option<(Vec3, f32)>,
+        lit: impl Fn(usize) -> bool,
+    ) -> Vec3 {
         // Most scenes have no area light: skip the ray's inverse direction and the group walk
         // (callgrind, tractor, scalar, 120×80 at 8 spp: 11.3 M instructions here without it).
         if self.area.is_empty() {
@@ -356,6 +447,9 @@ impl<'a> Lights<'a> {
                 continue;
             }
             for (k, &i) in group.iter().enumerate() {
+                if !lit(i) {
+                    continue;
+                }
                 if let Some((t, _)) = self.lights[i].intersect(o, d, tmax) {
                     sum += self.area_term(g * area_groups::GROUP + k, o, d, t, prev);
                 }
@@ -399,6 +493,20 @@ impl<'a> Lights<'a> {
         sum[0]
     }
 
+    /// [`Lights::escaped_emission`] of the lights that light the previous vertex, whose light set
+    /// is `prev_set`: for camera rays (`bsdf_pdf = None`, whatever `prev_set` holds) every light
+    /// camera rays see; every light without linking.
+    pub fn escaped_emission_linked(&self, d: Vec3, bsdf_pdf: Option<f32>, prev_set: u32) -> Vec3 {
+        let mut sum = [Vec3::ZERO];
+        match (&self.links, bsdf_pdf) {
+            (Some(links), Some(_)) => self.escaped_emission_where(&[d], &[bsdf_pdf], &mut sum, |_, light| {
+                links.lights(prev_set, light)
+            }),
+            _ => self.escaped_emission_rays(&[d], &[bsdf_pdf], &mut sum),
+        }
+        sum[0]
+    }
+
     /// [`Lights::escaped_emission`] of many escaping rays (directions `dirs`, BSDF pdfs
     /// `bsdf_pdfs`), added to `sums` (zero on entry for the single ray's sum): the light list is
     /// walked once, each light's `match` resolved once for all rays (the wavefront passes a batch;
@@ -406,6 +514,19 @@ impl<'a> Lights<'a> {
     // Lane loops index three columns by the same ray number.
     #[allow(clippy::needless_range_loop)]
     pub(crate) fn escaped_emission_rays(&self, dirs: &[Vec3], bsdf_pdfs: &[Option<f32>], sums: &mut [Vec3]) {
+        self.escaped_emission_where(dirs, bsdf_pdfs, sums, |_, _| true);
+    }
+
+    /// [`Lights::escaped_emission_rays`] where `lit(ray, light)` accepts the light for the ray.
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)]
+    fn escaped_emission_where(
+        &self,
+        dirs: &[Vec3],
+        bsdf_pdfs: &[Option<f32>],
+        sums: &mut [Vec3],
+        lit: impl Fn(usize, usize) -> bool,
+    ) {
         let weight = |pdf: f32, bsdf_pdf: Option<f32>| {
             bsdf_pdf.map_or(1.0, |b| power_heuristic(b, self.selector.infinite_pmf() * pdf))
         };
@@ -415,19 +536,25 @@ impl<'a> Lights<'a> {
             match light.shape {
                 Shape::Dome => {
                     for j in 0..n {
+                        if !lit(j, i) {
+                            continue;
+                        }
                         sums[j] += light.radiance * weight(1.0 / (4.0 * PI), bsdf_pdfs[j]);
                     }
                 }
                 Shape::TexturedDome { map } => {
                     let map = &self.dome_maps[map as usize];
                     for j in 0..n {
+                        if !lit(j, i) {
+                            continue;
+                        }
                         let (texel, pdf) = map.texel_and_pdf(dirs[j]);
                         sums[j] += light.radiance * texel * weight(pdf, bsdf_pdfs[j]);
                     }
                 }
                 Shape::Distant { to_light, one_minus_cos_max } => {
                     for j in 0..n {
-                        if 1.0 - dirs[j].dot(to_light) > one_minus_cos_max {
+                        if 1.0 - dirs[j].dot(to_light) > one_minus_cos_max || !lit(j, i) {
                             continue;
                         }
                         sums[j] += light.radiance * weight(1.0 / (TAU * one_minus_cos_max), bsdf_pdfs[j]);
@@ -485,6 +612,8 @@ mod tests {
             triangles: &[],
             triangle_materials: &[],
             materials: &[],
+            links: None,
+            camera_hidden: vec![],
         }
     }
 

@@ -390,7 +390,8 @@ impl<'a> Scene<'a> {
     /// ([`normal_transmittance`]): the stated approximation that keeps shadows under clear glass
     /// from going black (no refraction offset, no focusing, no angle dependence). When some
     /// material's opacity is textured, the ray walks closest hits and evaluates opacity at each;
-    /// otherwise one any-hit query answers.
+    /// otherwise one any-hit query answers. `light` is the light the ray goes to when the scene
+    /// has light sets: triangles that do not shadow it are not there (shadow linking).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shadow_transmittance<T: Touch>(
         &self,
@@ -399,9 +400,14 @@ impl<'a> Scene<'a> {
         tmax: f32,
         seed: u32,
         delta: bool,
+        light: Option<usize>,
         filter: Filter,
         touch: &T,
     ) -> f32 {
+        // Shadow linking: triangles whose light set does not shadow `light` are not there for
+        // this ray ([`crate::lights::links`]).
+        let links = light.and_then(|l| Some((self.lights.links()?, l)));
+        let ignored = |tri: u32| links.is_some_and(|(links, l)| !links.shadows(links.set_of(tri), l));
         // Instances of one prototype triangle decide independently (the instance joins the hash).
         let passes = |tri: u32, instance: u32, opacity: f32| {
             let h = if instance == blob::NONE { seed } else { hash_combine(seed, instance) };
@@ -425,6 +431,9 @@ impl<'a> Scene<'a> {
             let mut crossings = 0;
             let mut kept = 1.0f32;
             let blocked = self.accel.any_hit(origin, dir, tmax, |tri, inst| {
+                if ignored(tri) {
+                    return false;
+                }
                 let inputs = constant(tri);
                 if !passes(tri, inst, inputs.effective_opacity()) {
                     return true;
@@ -453,6 +462,10 @@ impl<'a> Scene<'a> {
             }
             let Some(hit) = self.accel.closest_hit(o, dir, remaining) else { return kept };
             let Some(s) = self.surface(&hit, -dir, 0.0) else { return 0.0 };
+            if ignored(hit.triangle) {
+                o = offset_ray_origin(s.p, -s.ng);
+                continue;
+            }
             let inputs = if self.shading.flags(s.material).textured_opacity {
                 self.shade(&s, filter, touch)
             } else {

@@ -9,7 +9,9 @@ use crate::testscene::{self, camera_looking_down_z, card, sphere};
 use crate::{render_image, Image, Integrator, RenderOptions};
 use glam::{Mat4, Vec3};
 use scene_pack::scene::{SceneTexture, ShaderNode, ShadingInput, TextureData};
-use scene_pack::{BezierSegment, CurveKind, Curves, Light, LightKind, Material, PointSphere, Scene};
+use scene_pack::{
+    BezierSegment, CurveKind, Curves, Light, LightKind, LightSet, Material, PointSphere, Scene,
+};
 
 fn textured(metallic: f32, clearcoat: f32) -> Material {
     let mut m = Material { ior: 1.5, metallic, clearcoat, clearcoat_roughness: 0.2, ..Material::default() };
@@ -321,6 +323,77 @@ fn wavefront_equals_scalar_with_curves_and_points() {
     let changed_first_hits = wave.depth.iter().zip(&without.depth).filter(|(a, b)| a != b).count();
     eprintln!("curves change {changed} pixels, {changed_first_hits} first-hit depths of {}", 48 * 48);
     assert!(changed_first_hits > 48 * 48 / 10, "{changed_first_hits} pixels see a curve or point first");
+}
+
+/// `scene` with light and shadow linking on its gprims (the card, three spheres, the emissive
+/// lamp), every set different: lights left out of lighting (the dome, the sun, area lights, so
+/// that both NEE and the emission BSDF-sampled rays find are dropped) and out of shadowing (the
+/// spheres' shadows from some lights), with glass on one sphere so the per-hit glass vertex and
+/// the closest-hit shadow walk see linking too.
+fn linked(mut scene: Scene, glass: bool) -> Scene {
+    let n = scene.lights.len();
+    let set = |lit: &dyn Fn(usize) -> bool, shadows: &dyn Fn(usize) -> bool| LightSet {
+        lit_by: (0..n).map(lit).collect(),
+        shadows: (0..n).map(shadows).collect(),
+    };
+    scene.light_sets = vec![
+        LightSet::everything(n),
+        set(&|l| l != 0, &|l| l % 3 != 1),
+        set(&|l| l != 1 && l % 4 != 2, &|_| true),
+        set(&|l| l % 2 == 0, &|l| l == 1 || l > 6),
+        set(&|l| l < 5, &|l| l % 2 == 1),
+    ];
+    for (m, mesh) in scene.meshes.iter_mut().enumerate() {
+        mesh.light_set = ((m + 1) % 5) as u32;
+    }
+    if glass {
+        let mut rough = textured(0.0, 0.0);
+        (rough.ior, rough.opacity) = (1.33, 0.4);
+        rough.program.push(ShaderNode::Output { input: ShadingInput::Opacity, src: 1, swizzle: [2; 4] });
+        scene.materials[2] = rough;
+    }
+    scene
+}
+
+#[test]
+fn wavefront_equals_scalar_with_light_and_shadow_linking() {
+    let options = RenderOptions { max_depth: 8, ..options() };
+    let plain = testscene::bytes(&scene());
+    let plain = blob::SceneView::parse(&plain).expect("valid blob");
+    let unlinked = render_image(&plain, &RenderOptions { integrator: Integrator::Scalar, ..options.clone() })
+        .expect("renders");
+    for (what, scene) in [
+        ("light + shadow linking", linked(scene(), false)),
+        ("linking through glass", linked(scene(), true)),
+        ("linking with curves and points", linked(curve_scene(), false)),
+    ] {
+        let bytes = testscene::bytes(&scene);
+        let view = blob::SceneView::parse(&bytes).expect("valid blob");
+        assert_eq!(view.light_set_count(), 5);
+        let (scalar, _) = both_integrators(&view, &options, what);
+        let changed = scalar.beauty.iter().zip(&unlinked.beauty).filter(|(a, b)| a != b).count();
+        assert!(changed > 48 * 48 / 2, "{what}: linking changes most pixels ({changed})");
+    }
+}
+
+/// Light sets that link every light to everything take the linked code paths (the wavefront's
+/// per-ray emission, the light choice per lane, the shadow rays' light) and must give the unlinked
+/// image byte for byte, in both integrators.
+#[test]
+fn light_sets_linking_everything_give_the_unlinked_image() {
+    let options = options();
+    let plain = testscene::bytes(&curve_scene());
+    let plain = blob::SceneView::parse(&plain).expect("valid blob");
+    let (unlinked, _) = both_integrators(&plain, &options, "curves, unlinked");
+    let mut everything = curve_scene();
+    let n = everything.lights.len();
+    everything.light_sets = vec![LightSet::everything(n), LightSet::everything(n)];
+    everything.meshes.iter_mut().step_by(2).for_each(|m| m.light_set = 1);
+    let bytes = testscene::bytes(&everything);
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    assert_eq!(view.light_set_count(), 2);
+    let (scalar, _) = both_integrators(&view, &options, "curves, every light linked");
+    assert_eq!(scalar.beauty, unlinked.beauty);
 }
 
 /// [`scene`] with glass: a smooth clear sphere, a rough half-opaque one of ior 1.33 whose opacity

@@ -101,7 +101,21 @@ fn emission(
         let st = &states[i];
         emission_lanes::Ray { o: st.origin.to_array(), d: st.dir.to_array(), tmax: hits[i].t }
     };
-    let area = area_lights.emission(&scene.lights, batch.len(), ray, |j| states[batch[j] as usize].prev());
+    let prev_sets = &pool.prev_light_set[..];
+    // With light linking each ray sums only the lights that light its previous vertex, and camera
+    // rays only the lights they see: the scalar function per ray (such scenes give up the lane
+    // kernel for exactness).
+    let mut linked = [glam::Vec3::ZERO; BATCH];
+    let area: &[glam::Vec3] = if scene.lights.emission_per_ray() {
+        for (j, &i) in batch.iter().enumerate() {
+            let (st, hit) = (&states[i as usize], &hits[i as usize]);
+            let set = prev_sets[i as usize];
+            linked[j] = scene.lights.area_emission_linked(st.origin, st.dir, hit.t, st.prev(), set);
+        }
+        &linked[..batch.len()]
+    } else {
+        area_lights.emission(&scene.lights, batch.len(), ray, |j| states[batch[j] as usize].prev())
+    };
     // One pass over the batch: each path adds its area emission; hits enter the shade queue, and
     // escaped rays are gathered for their dome and distant lights (a second pass that picked them
     // out cost 2.1 M instructions on shading-heavy at 120×80, 8 spp).
@@ -129,7 +143,14 @@ fn emission(
     // simple 6.06 M); per light over the batch 3.33 M (3.24 M, 1.73 M); see `shade`'s module docs.
     if n > 0 {
         let mut sums = [glam::Vec3::ZERO; BATCH];
-        scene.lights.escaped_emission_rays(&dirs[..n], &pdfs[..n], &mut sums[..n]);
+        if scene.lights.emission_per_ray() {
+            for j in 0..n {
+                let set = pool.prev_light_set[paths[j] as usize];
+                sums[j] = scene.lights.escaped_emission_linked(dirs[j], pdfs[j], set);
+            }
+        } else {
+            scene.lights.escaped_emission_rays(&dirs[..n], &pdfs[..n], &mut sums[..n]);
+        }
         for (&i, &sum) in paths[..n].iter().zip(&sums[..n]) {
             let st = &mut pool.states[i as usize];
             st.radiance += st.beta * sum;

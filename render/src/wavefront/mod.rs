@@ -151,6 +151,9 @@ pub struct ShadowRay {
     /// The light is a delta light (point, distant): glass lets the ray through with its
     /// transmittance ([`crate::scene::Scene::shadow_transmittance`]).
     pub delta: bool,
+    /// The light the ray goes to when the scene has light sets (shadow linking), else
+    /// [`blob::NONE`].
+    pub light: u32,
 }
 
 /// One worker's pools and queues, allocated once (before its first tile) and reused. Each stage
@@ -184,6 +187,10 @@ pub(crate) struct PathPool {
     /// `u32::MAX`: none kept). Shading builds the other hits' surfaces run by run on its stack.
     surfaces: Vec<crate::surface::Surface>,
     surface_slot: Vec<u32>,
+    /// The light set of the path's previous scattering vertex (light linking of the emission its
+    /// ray finds; read only where the state has a previous vertex). A side table, not a
+    /// [`RayState`] field: scenes without linking never touch it.
+    prev_light_set: Vec<u32>,
 }
 
 /// The queues between the stages: path indices (the shade queue `key << 32 | index`).
@@ -268,6 +275,7 @@ impl Worker {
                 materials: vec![0; paths],
                 surfaces: Vec::with_capacity(paths),
                 surface_slot: vec![u32::MAX; paths],
+                prev_light_set: vec![crate::lights::links::UNLINKED; paths],
             },
             queues: StageQueues {
                 rays: Vec::with_capacity(paths),

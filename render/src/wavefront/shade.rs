@@ -92,6 +92,8 @@ pub struct ScatterGroup {
     pub footprint: Lanes,
     /// 1 where Russian roulette is played after this bounce.
     pub play: [u32; LANES],
+    /// The hits' light sets (light linking; written only when the scene has light sets).
+    pub light_set: [u32; LANES],
     /// The kernels' inputs and outputs past the light sample.
     pub out: KernelLanes,
 }
@@ -430,6 +432,9 @@ fn prepare<T: Touch>(
     (g.beta[0][k], g.beta[1][k], g.beta[2][k]) = (beta.x, beta.y, beta.z);
     g.footprint[k] = footprint;
     g.play[k] = play;
+    if let Some(links) = scene.lights.links() {
+        g.light_set[k] = links.set_of(hit.triangle);
+    }
     w.kernels.scatter_points += 1;
 }
 
@@ -465,7 +470,8 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mu
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let seed_hash = hash_u32(ctx.sampling.seed);
     let KernelScratch { scatter, scatter_points, .. } = &mut *w.kernels;
-    let PathPool { states, first_hits, shadow, .. } = &mut *w.paths;
+    let PathPool { states, first_hits, shadow, prev_light_set, .. } = &mut *w.paths;
+    let linked = scene.lights.links().is_some();
     let StageQueues { occlusion, next_rays, .. } = &mut *w.queues;
     let WorkerStats { counters, clock, .. } = &mut *w.stats;
     // `min`: the lane loops below then index the group's columns without bounds checks
@@ -507,6 +513,8 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mu
 
     // Next-event estimation: the light sample, the BSDF towards it, the MIS weight.
     let mut has_light = [false; LANES];
+    // The light each lane's shadow ray goes to, with light sets (shadow linking).
+    let mut light_of = [blob::NONE; LANES];
     if let Some(table) = table {
         light_lanes::sample_lanes(table, &g.light, &mut ls);
         // Once per group, not per lane: most scenes have no textured dome.
@@ -527,6 +535,16 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mu
             }
             if ls.ok[k] == 0 {
                 continue;
+            }
+            // Light linking: the scalar integrator's choice of the light, dropped where it does
+            // not light the point (before its emission is looked up, as there).
+            if let Some(choice) =
+                scene.lights.linked_choice(g.light_set[k], at(&g.light.p, k), g.light.u_select[k])
+            {
+                match choice {
+                    Some(l) => light_of[k] = l as u32,
+                    None => continue,
+                }
             }
             has_light[k] = true;
             if ls.triangle[k] != blob::NONE {
@@ -557,6 +575,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mu
             contribution: at(&nout.contribution, k),
             seed: seeds[k],
             delta: ls.delta[k] != 0,
+            light: light_of[k],
         };
         occlusion.push(i as u32);
     }
@@ -575,6 +594,9 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mu
         st.beta = at(&rout.beta, k);
         st.prev_p = p;
         st.prev_pdf = smp.pdf[k];
+        if linked {
+            prev_light_set[g.index[k] as usize] = g.light_set[k];
+        }
         st.bounces += 1;
         if rout.alive[k] == 0 {
             continue;

@@ -25,6 +25,7 @@ use crate::bsdf::lanes::{EvalLanes, SampleInputs, SampleLanes};
 use crate::bsdf::BsdfSample;
 use crate::hair::lanes::{eval_lanes, sample_lanes, HairLanes};
 use crate::lights::mis::{self, NeeLane};
+use crate::lights::links::UNLINKED;
 use crate::lights::{power_heuristic, LightSample};
 use crate::path::roulette::{self, RouletteLane};
 use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
@@ -204,9 +205,12 @@ pub(super) fn glass_vertex<T: Touch>(
     if st.bounces >= max_depth {
         return;
     }
-    let light = scene
-        .lights
-        .sample(s.p, sample_1d(key, vertex, dim::LIGHT_SELECT), sample_2d(key, vertex, dim::LIGHT_UV))
+    let u_select = sample_1d(key, vertex, dim::LIGHT_SELECT);
+    // Light linking: the scalar integrator's drop of a light that does not light the point.
+    let set = scene.lights.links().map_or(UNLINKED, |l| l.set_of(hit.triangle));
+    let light = (scene.lights.linked_choice(set, s.p, u_select) != Some(None))
+        .then(|| scene.lights.sample(s.p, u_select, sample_2d(key, vertex, dim::LIGHT_UV)))
+        .flatten()
         .map(|mut ls| {
             if let Some((tri, [b1, b2])) = ls.emitter {
                 ls.li = scene.emission_at(tri, b1, b2, filter, touch);
@@ -277,6 +281,11 @@ fn finish<T: Touch>(
             let origin = s.spawn(ls.wi);
             let tmax = shadow_tmax(ls.distance, origin, s.p);
             let seed = hash_combine(hash_combine(hash_u32(ctx.sampling.seed), st.pixel), st.sample) ^ vertex;
+            // Shadow linking: the light the sample came from (linked: it lights this point).
+            let light = match ctx.scene.lights.links() {
+                Some(_) => ctx.scene.lights.selected(s.p, sample_1d(key, vertex, dim::LIGHT_SELECT)) as u32,
+                None => blob::NONE,
+            };
             w.paths.shadow[i as usize] = ShadowRay {
                 origin,
                 dir: ls.wi,
@@ -284,6 +293,7 @@ fn finish<T: Touch>(
                 contribution: weighed.contribution,
                 seed,
                 delta: ls.delta,
+                light,
             };
             w.queues.occlusion.push(i);
         }
@@ -293,6 +303,9 @@ fn finish<T: Touch>(
     let Some(bs) = sample else { return };
     st.prev_p = s.p;
     st.prev_pdf = bs.pdf;
+    if let Some(links) = ctx.scene.lights.links() {
+        w.paths.prev_light_set[i as usize] = links.set_of(s.triangle);
+    }
     st.bounces += 1;
     let play = st.bounces >= RR_START_BOUNCE;
     let u = if play { sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) } else { 0.0 };

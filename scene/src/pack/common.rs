@@ -95,7 +95,7 @@ impl MeshLayout {
             first_vertex,
             vertex_count: positions.len() as u32,
             flags,
-            reserved: 0,
+            light_set: mesh.light_set,
         });
     }
 }

@@ -86,7 +86,8 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
             name,
             radiance: light.radiance.to_array(),
             world_from_light: affine_rows(&light.world_from_light),
-            flags: if light.normalize { rec::LIGHT_NORMALIZE } else { 0 },
+            flags: if light.normalize { rec::LIGHT_NORMALIZE } else { 0 }
+                | if scene.camera_hidden_lights.contains(&i) { rec::LIGHT_CAMERA_HIDDEN } else { 0 },
             ..rec::Light::default()
         };
         match light.kind {
@@ -169,6 +170,7 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
     bounds_min = bounds_min.min(curves_min);
     bounds_max = bounds_max.max(curves_max);
 
+    data.light_sets = light_set_words(scene);
     data.info = rec::SceneInfo {
         bounds_min: bounds_min.to_array(),
         bounds_max: bounds_max.to_array(),
@@ -523,7 +525,44 @@ fn validate(scene: &Scene) -> Result<(), PackError> {
     if let Some(c) = scene.default_camera.filter(|&c| c >= scene.cameras.len()) {
         return fail("/", format!("default camera {c} out of range"));
     }
+    let lights = scene.lights.len();
+    if lights == 0 && !scene.light_sets.is_empty() {
+        return fail("/", "light sets in a scene without lights".into());
+    }
+    if let Some((i, _)) = scene
+        .light_sets
+        .iter()
+        .enumerate()
+        .find(|(_, s)| s.lit_by.len() != lights || s.shadows.len() != lights)
+    {
+        return fail("/", format!("light set {i} does not have one entry per light ({lights})"));
+    }
+    if let Some(&l) = scene.camera_hidden_lights.iter().find(|&&l| l >= lights) {
+        return fail("/", format!("camera-hidden light {l} out of range ({lights} lights)"));
+    }
+    let sets = scene.light_sets.len().max(1);
+    if let Some(m) = scene.meshes.iter().find(|m| m.light_set as usize >= sets) {
+        return fail(&m.path, format!("light set {} out of range", m.light_set));
+    }
     Ok(())
+}
+
+/// The scene's light sets as the blob's bit masks ([`blob::light_set_words`]).
+fn light_set_words(scene: &Scene) -> Vec<u32> {
+    let words = blob::light_set_words(scene.lights.len());
+    if words == 0 {
+        // No lights: `validate` refused any light set.
+        return Vec::new();
+    }
+    let mut out = vec![0u32; 2 * words * scene.light_sets.len()];
+    for (set, masks) in scene.light_sets.iter().zip(out.chunks_mut(2 * words)) {
+        let (lit, shadows) = masks.split_at_mut(words);
+        for (l, (&a, &b)) in set.lit_by.iter().zip(&set.shadows).enumerate() {
+            lit[l / 32] |= (a as u32) << (l % 32);
+            shadows[l / 32] |= (b as u32) << (l % 32);
+        }
+    }
+    out
 }
 
 /// Checks one mesh's arrays against each other (`local`: shared geometry, whose points are
