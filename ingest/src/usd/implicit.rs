@@ -13,8 +13,8 @@
 //! spine, [`RINGS`] = 16 rings from pole to pole of a sphere (8 per capsule hemisphere). Camera
 //! driven dicing (as for subdivision surfaces) would need the shapes queued until the camera is
 //! known; at 32 × 16 a sphere's area is within 0.8 % of 4πr² and its silhouette within 0.5 % of
-//! its radius, which is what the conformance listings compare, and the Sphere tessellation (the
-//! only shape drawn before this module) keeps its images byte for byte. Triangle counts:
+//! its radius, which is what the conformance listings compare, and the Sphere and Cube (the
+//! shapes drawn before this module) keep their tessellations, so their images stay byte for byte. Triangle counts:
 //!
 //! | shape    | triangles                              | count |
 //! |----------|----------------------------------------|-------|
@@ -34,7 +34,7 @@
 //! permutation, which has determinant +1 and so keeps the winding. The Sphere keeps the Y-up
 //! parametrisation it always had (it is symmetric; only its UVs depend on it).
 //!
-//! Schema fallbacks (checked against usd-core 25.x): Cube size 2; Sphere radius 1; Cylinder and
+//! Schema fallbacks (checked against usd-core 26.11 and the UsdGeom schema docs): Cube size 2; Sphere radius 1; Cylinder and
 //! Cone radius 1, height 2, axis Z; Capsule radius 0.5, height 1 (the spine between the two
 //! hemispheres), axis Z; Plane width 2, length 2, axis Z, and — unlike every other gprim —
 //! `doubleSided` true. A size, radius, height, width or length that is negative, NaN or infinite,

@@ -196,3 +196,43 @@ def Cube "Good" {}"#,
         ]
     );
 }
+
+#[test]
+fn instanced_shapes_share_their_tessellation() {
+    let scene = load_text(
+        r#"class "Proto" {
+    def Capsule "Pill" {
+        uniform token axis = "Y"
+    }
+}
+def Xform "A" (instanceable = true inherits = </Proto>) {
+    double3 xformOp:translate = (10, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Xform "B" (instanceable = true inherits = </Proto>) {
+}
+def PointInstancer "PI" {
+    rel prototypes = [</PI/Protos/Spike>]
+    int[] protoIndices = [0, 0]
+    point3f[] positions = [(0, 0, 5), (0, 0, 9)]
+    def Scope "Protos" {
+        def Cone "Spike" {
+        }
+    }
+}"#,
+    );
+    let paths: Vec<&str> = scene.meshes.iter().map(|m| m.path.as_str()).collect();
+    assert_eq!(paths, ["/A/Pill", "/B/Pill", "/PI/Protos/Spike", "/PI/Protos/Spike"]);
+    let placed = |i: usize| scene.meshes[i].placed.as_ref().expect("an instanced shape is placed");
+    assert!(std::sync::Arc::ptr_eq(&placed(0).geometry, &placed(1).geometry), "one Capsule tessellation");
+    assert!(std::sync::Arc::ptr_eq(&placed(2).geometry, &placed(3).geometry), "one Cone tessellation");
+    assert_eq!(placed(0).geometry.triangles.len(), 1024);
+    assert_eq!(placed(2).geometry.triangles.len(), 64);
+    let world = |i: usize| bounds(&scene.meshes[i].in_world());
+    let close = |(l, h): (Vec3, Vec3), lo: Vec3, hi: Vec3| {
+        (l - lo).abs().max_element() < 1e-5 && (h - hi).abs().max_element() < 1e-5
+    };
+    assert!(close(world(0), Vec3::new(9.5, -1.0, -0.5), Vec3::new(10.5, 1.0, 0.5)), "{:?}", world(0));
+    assert!(close(world(1), Vec3::new(-0.5, -1.0, -0.5), Vec3::new(0.5, 1.0, 0.5)), "{:?}", world(1));
+    assert!(close(world(3), Vec3::new(-1.0, -1.0, 8.0), Vec3::new(1.0, 1.0, 10.0)), "{:?}", world(3));
+}
