@@ -671,6 +671,120 @@ def Xform "World"
 """,
 }
 
+# Every implicit shape: fallbacks, authored sizes, each axis, a rotation (the tessellation's bounds
+# lie between its extreme vertices and usd-core's extent), a binding, displayColor, a hidden and a
+# guide shape, and values the ingest refuses (warned and skipped; usd_reference skips them too).
+IMPLICIT = {
+    "implicit.usda": header() + """
+def Xform "World"
+{
+    def Scope "Looks"
+    {
+        def Material "Red"
+        {
+            token outputs:surface.connect = </World/Looks/Red/Surface.outputs:surface>
+            def Shader "Surface"
+            {
+                uniform token info:id = "UsdPreviewSurface"
+                color3f inputs:diffuseColor = (1, 0, 0)
+                token outputs:surface
+            }
+        }
+    }
+    def Cube "Cube"
+    {
+    }
+    def Sphere "Sphere"
+    {
+        double3 xformOp:translate = (3, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Cylinder "Cylinder"
+    {
+        double3 xformOp:translate = (6, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Cone "Cone"
+    {
+        double3 xformOp:translate = (9, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Capsule "Capsule"
+    {
+        double3 xformOp:translate = (12, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Plane "Plane"
+    {
+        double3 xformOp:translate = (15, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Xform "Authored"
+    {
+        double3 xformOp:translate = (0, 5, 0)
+        float xformOp:rotateZ = 30
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateZ"]
+        def Cylinder "LogX" (prepend apiSchemas = ["MaterialBindingAPI"])
+        {
+            double radius = 0.25
+            double height = 3
+            uniform token axis = "X"
+            rel material:binding = </World/Looks/Red>
+        }
+        def Cone "SpikeY"
+        {
+            double radius = 0.5
+            double height = 4
+            uniform token axis = "Y"
+            color3f[] primvars:displayColor = [(0, 0.5, 1)]
+        }
+        def Capsule "PillX"
+        {
+            double radius = 1
+            double height = 2
+            uniform token axis = "X"
+        }
+        def Plane "FloorY"
+        {
+            double width = 4
+            double length = 6
+            uniform token axis = "Y"
+        }
+        def Plane "WallX"
+        {
+            double width = 4
+            double length = 6
+            uniform token axis = "X"
+        }
+        def Sphere "Ball"
+        {
+            double radius = 2
+        }
+        def Cube "Box"
+        {
+            double size = 0.5
+        }
+    }
+    def Capsule "Hidden"
+    {
+        token visibility = "invisible"
+    }
+    def Cone "Guide"
+    {
+        uniform token purpose = "guide"
+    }
+    def Sphere "Negative"
+    {
+        double radius = -1
+    }
+    def Cylinder "BadAxis"
+    {
+        uniform token axis = "W"
+    }
+}
+""",
+}
+
 GENERATED = {
     "xforms": XFORMS,
     "topology": TOPOLOGY,
@@ -681,10 +795,24 @@ GENERATED = {
     "nested_instancing": NESTED_INSTANCING,
     "materials": MATERIALS,
     "zup": ZUP,
+    "implicit": IMPLICIT,
 }
 
 # Facts each stage was written to have, checked against the usd-core listing.
 EXPECTED = {
+    "implicit": {
+        "paths": {
+            f"/World/{p}" for p in (
+                "Cube", "Sphere", "Cylinder", "Cone", "Capsule", "Plane", "Authored/LogX", "Authored/SpikeY",
+                "Authored/PillX", "Authored/FloorY", "Authored/WallX", "Authored/Ball", "Authored/Box",
+            )
+        },
+        "triangles": {
+            "/World/Cube": 12, "/World/Sphere": 960, "/World/Cylinder": 128, "/World/Cone": 64,
+            "/World/Capsule": 1024, "/World/Plane": 2,
+        },
+        "materials": {"/World/Authored/LogX": {"/World/Looks/Red"}, "/World/Authored/SpikeY": set()},
+    },
     "xforms": {
         "paths": {
             "/World/Pivoted/Box", "/World/Orders/Box", "/World/Matrix/Tri", "/World/Reset/Mirrored/Box",

@@ -6,7 +6,9 @@ does: path, world bounds of its points, triangle count and bound materials. `com
 
 Conventions shared with the ingest (see ingest/src/usd/mod.rs):
 
-* gprims: `Mesh` prims, plus the implicit `Cube` and `Sphere` shapes that the ingest tessellates;
+* gprims: `Mesh` prims, plus the implicit Cube, Sphere, Cylinder, Cone, Capsule and Plane that the
+  ingest tessellates (32 segments around, 16 rings pole to pole: `IMPLICIT_TRIANGLES`); a shape
+  with a negative or non-finite size or an axis not X/Y/Z is skipped with a warning, as ours is;
   drawn = `ComputeVisibility() != invisible` and `ComputePurpose()` in {default, render}.
 * traversal: `Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)`, so native instances are listed
   under their instance proxy paths.
@@ -48,13 +50,13 @@ F32_EPS = float(np.finfo(np.float32).eps)
 @dataclass
 class Gprim:
     path: str
-    kind: str  # "Mesh", "Cube" or "Sphere"
-    triangles: int | None  # None: not compared (tessellated implicit shape)
+    kind: str  # "Mesh" or the implicit shape's type
+    triangles: int | None  # None: not compared
     lo: np.ndarray | None  # world bounds; None for a mesh without points
     hi: np.ndarray | None
     materials: frozenset
-    # For a Sphere the exact bounds of the analytic surface: ours must lie between lo/hi (the
-    # tessellation's axis vertices) and outer_lo/outer_hi (the analytic sphere).
+    # For a round implicit shape, bounds of its analytic surface: ours must lie between lo/hi (the
+    # tessellation's extreme vertices) and outer_lo/outer_hi (usd-core's extent; a sphere's exact box).
     outer_lo: np.ndarray | None = None
     outer_hi: np.ndarray | None = None
     # Subdivision meshes: the scheme token, the sizes of the faces that reach the surface, and
@@ -174,30 +176,84 @@ def _boundary_vertices(counts, indices) -> set:
     return {v for e, uses in edges.items() if uses == 1 for v in e}
 
 
+#: The ingest's tessellation rule (ingest/src/usd/implicit.rs): segments around, rings pole to pole.
+SEGMENTS, RINGS = 32, 16
+#: Triangles per implicit shape under that rule.
+IMPLICIT_TRIANGLES = {
+    "Cube": 12,
+    "Sphere": 2 * SEGMENTS * RINGS - 2 * SEGMENTS,
+    "Cylinder": 4 * SEGMENTS,
+    "Cone": 2 * SEGMENTS,
+    "Capsule": 2 * SEGMENTS * RINGS,
+    "Plane": 2,
+}
+
+
+def _spine(points: list, axis: str) -> np.ndarray:
+    """Points built with their spine along Z, moved onto `axis` (the ingest's cyclic permutation)."""
+    p = np.array(points, dtype=np.float64)
+    return {"Z": p, "X": p[:, [2, 0, 1]], "Y": p[:, [1, 2, 0]]}[axis]
+
+
+def _implicit_points(prim: Usd.Prim, kind: str, time) -> tuple[np.ndarray, bool]:
+    """Local points every tessellation of the shape holds (its extreme vertices), and whether they
+    are its corners exactly (the flat shapes) rather than inside its analytic extent."""
+    get = lambda name: prim.GetAttribute(name).Get(time)  # noqa: E731 (usd-core applies fallbacks)
+    if kind == "Cube":
+        h = get("size") / 2.0
+        return np.array([[x, y, z] for x in (-h, h) for y in (-h, h) for z in (-h, h)]), True
+    if kind == "Sphere":
+        r = get("radius")
+        return np.array([[s * r if k == a else 0.0 for k in range(3)] for a in range(3) for s in (-1, 1)]), False
+    axis = get("axis")
+    if kind == "Plane":
+        w, l = get("width") / 2.0, get("length") / 2.0
+        a, b = (w, l) if axis == "Z" else (l, w)
+        return _spine([[i * a, j * b, 0.0] for i in (-1, 1) for j in (-1, 1)], axis), True
+    r, h = get("radius"), get("height") / 2.0
+    rim = lambda z: [[r, 0, z], [-r, 0, z], [0, r, z], [0, -r, z]]  # noqa: E731
+    if kind == "Cylinder":
+        return _spine(rim(h) + rim(-h), axis), False
+    if kind == "Cone":
+        return _spine(rim(-h) + [[0, 0, h]], axis), False
+    return _spine(rim(h) + rim(-h) + [[0, 0, h + r], [0, 0, -h - r]], axis), False
+
+
+def _implicit_valid(prim: Usd.Prim, time) -> bool:
+    """Whether the ingest draws this shape: sizes finite and non-negative, axis X, Y or Z."""
+    for name in ("size", "radius", "height", "width", "length"):
+        attr = prim.GetAttribute(name)
+        if attr:
+            v = attr.Get(time)
+            if v is None or not np.isfinite(v) or v < 0:
+                return False
+    axis = prim.GetAttribute("axis")
+    return not axis or axis.Get(time) in ("X", "Y", "Z")
+
+
 def _shape_record(prim: Usd.Prim, world: np.ndarray, time) -> Gprim:
     material = _bound_material(prim)
     materials = frozenset([material] if material else [])
-    if prim.IsA(UsdGeom.Cube):
-        h = UsdGeom.Cube(prim).GetSizeAttr().Get(time) / 2.0
-        corners = np.array([[x, y, z] for x in (-h, h) for y in (-h, h) for z in (-h, h)])
-        w = _transform(corners, world)
-        return Gprim(str(prim.GetPath()), "Cube", 12, w.min(axis=0), w.max(axis=0), materials)
-    r = UsdGeom.Sphere(prim).GetRadiusAttr().Get(time)
-    axis_points = np.array([[s * r if k == a else 0.0 for k in range(3)] for a in range(3) for s in (-1, 1)])
-    w = _transform(axis_points, world)
-    # Analytic AABB of an affinely transformed sphere: centre +- r * |column k of the linear part|.
-    centre = world[3, :3]
-    half = r * np.linalg.norm(world[:3, :3], axis=0)
-    return Gprim(
-        str(prim.GetPath()), "Sphere", None, w.min(axis=0), w.max(axis=0), materials,
-        outer_lo=centre - half, outer_hi=centre + half,
-    )
+    kind = str(prim.GetTypeName())
+    points, exact = _implicit_points(prim, kind, time)
+    w = _transform(points, world)
+    record = Gprim(str(prim.GetPath()), kind, IMPLICIT_TRIANGLES[kind], w.min(axis=0), w.max(axis=0), materials)
+    if not exact:
+        # The analytic surface bounds ours from outside: usd-core's extent (BBoxCache, from the
+        # schema's extent plugin), and for a sphere its exact box centre +- r * |column k|.
+        cache = UsdGeom.BBoxCache(time, [UsdGeom.Tokens.default_, UsdGeom.Tokens.render], useExtentsHint=False)
+        box = cache.ComputeWorldBound(prim).ComputeAlignedRange()
+        record.outer_lo, record.outer_hi = np.array(box.GetMin()), np.array(box.GetMax())
+        if kind == "Sphere":
+            half = prim.GetAttribute("radius").Get(time) * np.linalg.norm(world[:3, :3], axis=0)
+            record.outer_lo, record.outer_hi = world[3, :3] - half, world[3, :3] + half
+    return record
 
 
 def _gprim_record(prim: Usd.Prim, world: np.ndarray, time) -> Gprim | None:
     if prim.IsA(UsdGeom.Mesh):
         return _mesh_record(prim, world, time)
-    if prim.IsA(UsdGeom.Cube) or prim.IsA(UsdGeom.Sphere):
+    if str(prim.GetTypeName()) in IMPLICIT_TRIANGLES and _implicit_valid(prim, time):
         return _shape_record(prim, world, time)
     return None
 
@@ -350,7 +406,7 @@ def _entry_matches(entry, g: Gprim, atol) -> list[str]:
             problems.append(f"triangles: ours {entry['triangles']} (adaptive), usd-core {low}..{high}")
     if g.lo is not None:
         lo, hi = np.asarray(entry["bounds_min"]), np.asarray(entry["bounds_max"])
-        if g.kind == "Sphere":
+        if g.outer_lo is not None:
             ok = all(
                 np.all(x >= a - atol - 4 * F32_EPS * np.abs(a)) and np.all(x <= b + atol + 4 * F32_EPS * np.abs(b))
                 for x, a, b in ((lo, g.outer_lo, g.lo), (hi, g.hi, g.outer_hi))

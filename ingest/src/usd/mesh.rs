@@ -1,4 +1,4 @@
-//! UsdGeomMesh (and the implicit Sphere/Cube): topology, triangulation, primvars, world transform.
+//! UsdGeomMesh: topology, triangulation, primvars, world transform.
 
 use std::collections::{HashMap, HashSet};
 use std::hash::{Hash, Hasher};
@@ -81,7 +81,7 @@ impl CagePrimvar {
         }
     }
 
-    fn empty(&self) -> MeshPrimvar {
+    pub(super) fn empty(&self) -> MeshPrimvar {
         MeshPrimvar {
             name: self.name.clone(),
             layout: self.layout(),
@@ -556,28 +556,6 @@ impl Reader<'_> {
         }))
     }
 
-    /// Tessellates an implicit Sphere or Cube.
-    pub(super) fn read_shape(&mut self, path: &str, ty: &str, state: &Inherited) -> Result<(), UsdError> {
-        let mut out = if ty == "Sphere" {
-            let radius = self.f64(path, "radius")?.unwrap_or(fallback::SPHERE_SHAPE_RADIUS);
-            sphere(radius, 32, 16)
-        } else {
-            let size = self.f64(path, "size")?.unwrap_or(fallback::CUBE_SIZE);
-            cube(size)
-        };
-        let material = self.gprim_material(path)?;
-        out.triangle_materials = vec![material; out.triangles.len()];
-        // Implicit shapes have no authored topology: only constant primvars apply.
-        out.primvars = self
-            .program_primvars(path, &[material], None)?
-            .into_iter()
-            .map(|p| MeshPrimvar { values: vec![p.primvar.get(0, 0, 0)], ..p.empty() })
-            .collect();
-        out.double_sided = self.bool(path, "doubleSided")?.unwrap_or(fallback::DOUBLE_SIDED);
-        self.push_mesh(path, out, state);
-        Ok(())
-    }
-
     /// Adds a local mesh to the scene: in world space, or inside an instance as a reference to
     /// geometry shared with every identical instance (see [`GeometryInterner`]).
     pub(super) fn push_mesh(&mut self, path: &str, local: LocalMesh, state: &Inherited) {
@@ -751,58 +729,6 @@ pub(super) fn triangulate(polygon: &[DVec3]) -> Vec<[usize; 3]> {
     out
 }
 
-/// A UV sphere of `radius` with per-vertex normals, `segments` around and `rings` from pole to pole.
-fn sphere(radius: f64, segments: usize, rings: usize) -> LocalMesh {
-    let mut m = LocalMesh::default();
-    for r in 0..=rings {
-        let theta = std::f64::consts::PI * r as f64 / rings as f64;
-        for s in 0..=segments {
-            let phi = std::f64::consts::TAU * s as f64 / segments as f64;
-            // Y up, like USD's Sphere (axis Y is the default for the generated mesh; the sphere is symmetric).
-            let n = DVec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
-            m.positions.push(n * radius);
-            m.normals.push(n);
-            m.uvs.push(Vec2::new(s as f32 / segments as f32, 1.0 - r as f32 / rings as f32));
-        }
-    }
-    let row = segments as u32 + 1;
-    for r in 0..rings as u32 {
-        for s in 0..segments as u32 {
-            let (a, b) = (r * row + s, (r + 1) * row + s);
-            if r != 0 {
-                m.triangles.push([a, b, a + 1]);
-            }
-            if r + 1 != rings as u32 {
-                m.triangles.push([a + 1, b, b + 1]);
-            }
-        }
-    }
-    m
-}
-
-/// An axis-aligned cube of edge `size` centred at the origin, flat-shaded.
-fn cube(size: f64) -> LocalMesh {
-    let mut m = LocalMesh::default();
-    let h = size * 0.5;
-    for axis in 0..3 {
-        for sign in [-1.0, 1.0] {
-            let mut n = DVec3::ZERO;
-            n[axis] = sign;
-            // t × b = n, so the quad below winds counter-clockwise seen from outside.
-            let t = DVec3::AXES[(axis + 1) % 3];
-            let b = n.cross(t);
-            let base = m.positions.len() as u32;
-            for (i, j) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                m.positions.push((n + t * i + b * j) * h);
-                m.normals.push(n);
-            }
-            m.triangles.push([base, base + 1, base + 2]);
-            m.triangles.push([base, base + 2, base + 3]);
-        }
-    }
-    m
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -844,27 +770,6 @@ mod tests {
             for &[a, b, c] in &tris {
                 assert!((poly[b] - poly[a]).cross(poly[c] - poly[a]).dot(newell) > 0.0);
             }
-        }
-    }
-
-    #[test]
-    fn cube_faces_point_outwards() {
-        let m = cube(2.0);
-        assert_eq!(m.triangles.len(), 12);
-        for t in &m.triangles {
-            let [a, b, c] = t.map(|i| m.positions[i as usize]);
-            let n = (b - a).cross(c - a);
-            assert!(n.dot((a + b + c) / 3.0) > 0.0);
-        }
-    }
-
-    #[test]
-    fn sphere_faces_point_outwards() {
-        let m = sphere(1.0, 8, 4);
-        for t in &m.triangles {
-            let [a, b, c] = t.map(|i| m.positions[i as usize]);
-            let n = (b - a).cross(c - a);
-            assert!(n.dot((a + b + c) / 3.0) > 0.0);
         }
     }
 }

@@ -5,8 +5,9 @@
 //! because the crate applies no schema fallbacks and computes no transforms:
 //!
 //! - `xform`: the xformOp stack; local-to-world is accumulated during the walk in `f64`.
-//! - `mesh`: Mesh topology, n-gon triangulation, primvars (normals, st), face-corner splitting,
-//!   the implicit Sphere/Cube shapes.
+//! - `mesh`: Mesh topology, n-gon triangulation, primvars (normals, st), face-corner splitting.
+//! - `implicit`: the implicit Cube, Sphere, Cylinder, Cone, Capsule and Plane, tessellated by one
+//!   documented rule into meshes that take the Mesh path from there.
 //! - `material`: material binding resolution and UsdPreviewSurface constant inputs, with the
 //!   displayColor fallback for unbound gprims; `material::mtlx_network` reads MaterialX networks
 //!   (`outputs:mtlx:surface`, `ND_*` shaders) and maps standard_surface and open_pbr_surface onto
@@ -30,6 +31,7 @@
 mod collection;
 mod compat;
 mod curves;
+mod implicit;
 mod lens;
 mod lux;
 mod material;
@@ -47,6 +49,8 @@ mod xform;
 mod budget_tests;
 #[cfg(test)]
 mod composition_tests;
+#[cfg(test)]
+mod implicit_tests;
 #[cfg(test)]
 mod subdivision_tests;
 #[cfg(test)]
@@ -104,6 +108,26 @@ pub mod fallback {
     pub const SPHERE_SHAPE_RADIUS: f64 = 1.0;
     /// `Cube.size`.
     pub const CUBE_SIZE: f64 = 2.0;
+    /// `Cylinder.radius`.
+    pub const CYLINDER_RADIUS: f64 = 1.0;
+    /// `Cylinder.height`.
+    pub const CYLINDER_HEIGHT: f64 = 2.0;
+    /// `Cone.radius`.
+    pub const CONE_RADIUS: f64 = 1.0;
+    /// `Cone.height`.
+    pub const CONE_HEIGHT: f64 = 2.0;
+    /// `Capsule.radius`.
+    pub const CAPSULE_RADIUS: f64 = 0.5;
+    /// `Capsule.height` (the spine between the hemispheres' centres).
+    pub const CAPSULE_HEIGHT: f64 = 1.0;
+    /// `Plane.width`.
+    pub const PLANE_WIDTH: f64 = 2.0;
+    /// `Plane.length`.
+    pub const PLANE_LENGTH: f64 = 2.0;
+    /// `Plane.doubleSided`: the one gprim whose schema overrides `Gprim.doubleSided`.
+    pub const PLANE_DOUBLE_SIDED: bool = true;
+    /// `axis` of Cylinder, Cone, Capsule and Plane.
+    pub const SHAPE_AXIS: &str = "Z";
     /// `BasisCurves.type`.
     pub const CURVE_TYPE: &str = "cubic";
     /// `BasisCurves.basis`.
@@ -487,19 +511,26 @@ impl Inherited {
 
 /// Gprims whose bad data is kept to the prim ([`Reader::read_prim_isolated`]): each adds its own
 /// geometry only, so dropping what it added leaves the scene as if it were absent.
-const ISOLATED_GPRIMS: &[&str] = &["Mesh", "Sphere", "Cube", "BasisCurves", "NurbsCurves", "Points"];
+const ISOLATED_GPRIMS: &[&str] = &[
+    "Mesh",
+    "Sphere",
+    "Cube",
+    "Cylinder",
+    "Cone",
+    "Capsule",
+    "Plane",
+    "BasisCurves",
+    "NurbsCurves",
+    "Points",
+];
 
 /// Prim types we know to be renderable but do not read yet (warned once per prim).
 const UNSUPPORTED: &[&str] = &[
     "HermiteCurves",
     "NurbsPatch",
     "TetMesh",
-    "Cylinder",
     "Cylinder_1",
-    "Cone",
-    "Capsule",
     "Capsule_1",
-    "Plane",
     "Volume",
     "OpenVDBAsset",
     "Field3DAsset",
@@ -732,7 +763,7 @@ impl<'a> Reader<'a> {
         match ty {
             "Camera" => self.read_camera(path, state),
             "Mesh" if state.drawn() => self.read_mesh(path, state),
-            "Sphere" | "Cube" if state.drawn() => self.read_shape(path, ty, state),
+            _ if implicit::TYPES.contains(&ty) && state.drawn() => self.read_shape(path, ty, state),
             "BasisCurves" if state.drawn() => self.read_basis_curves(path, state),
             "NurbsCurves" if state.drawn() => self.read_nurbs_curves(path, state),
             "Points" if state.drawn() => self.read_points(path, state),
