@@ -19,7 +19,7 @@ use crate::path::{
     shadow_tmax, FirstHit, PathResult, PathSettings, RayCounts, CONE_WIDEN_PER_ALPHA, MAX_NULL_EVENTS,
     RR_START_BOUNCE,
 };
-use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, vertex_samples, SampleKey};
+use crate::sampler::{dim, hash_u32, sample_1d, sample_2d, shadow_seed, vertex_samples, SampleKey};
 use crate::scene::Scene;
 use crate::stats::{Phase, PhaseClock};
 use glam::Vec3;
@@ -84,7 +84,6 @@ impl Scene<'_> {
         let mut bounces = 0u32;
         let mut vertex = 0u32;
         let mut travelled = 0.0f32;
-        let shadow_seed = hash_combine(hash_combine(seed_hash, key.pixel), key.sample);
         rays.camera += 1;
         loop {
             let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
@@ -192,7 +191,7 @@ impl Scene<'_> {
                         shadow_origin,
                         ls.wi,
                         tmax,
-                        shadow_seed ^ vertex,
+                        shadow_seed(seed_hash, key.pixel, key.sample, vertex),
                         ls.delta,
                         linked.flatten(),
                         filter,

@@ -124,6 +124,14 @@ pub fn hash_combine(seed: u32, value: u32) -> u32 {
     hash_u32(seed ^ value.wrapping_add(0x9e37_79b9).wrapping_add(seed << 6).wrapping_add(seed >> 2))
 }
 
+/// The seed of the shadow ray a path casts at `vertex`, from the hashed user seed and its pixel and
+/// sample: one definition for the scalar integrator, the curve shading and the lanes (the transparent
+/// shadow's stochastic opacity draws from it).
+#[inline(always)]
+pub fn shadow_seed(seed_hash: u32, pixel: u32, sample: u32, vertex: u32) -> u32 {
+    hash_combine(hash_combine(seed_hash, pixel), sample) ^ vertex
+}
+
 /// Laine–Karras style permutation, improved constants from Burley 2020.
 #[inline]
 pub(crate) fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {

@@ -49,7 +49,7 @@ use crate::lights::power_heuristic;
 use crate::path::roulette::{self as roulette, RouletteLanes, RouletteOut};
 use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::sampler::lanes::{self as sampler_lanes, KeyLanes, DIMS};
-use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, SampleKey};
+use crate::sampler::{dim, hash_u32, sample_1d, shadow_seed, SampleKey};
 use crate::scene::Scene;
 use crate::shading::lanes as material_lanes;
 use crate::shading::ShadingInputs;
@@ -446,7 +446,7 @@ fn prepare<T: Touch>(
 #[multiversion::multiversion(targets("x86_64+avx+avx2+fma"))]
 fn shadow_seed_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [u32; LANES]) {
     for k in 0..LANES {
-        out[k] = hash_combine(hash_combine(seed_hash, keys.pixel[k]), keys.sample[k]) ^ keys.vertex[k];
+        out[k] = shadow_seed(seed_hash, keys.pixel[k], keys.sample[k], keys.vertex[k]);
     }
 }
 
@@ -633,8 +633,10 @@ mod tests {
             let mut seeds = [0; LANES];
             shadow_seed_lanes(seed_hash, &keys, &mut seeds);
             for (k, &seed) in seeds.iter().enumerate() {
-                let scalar =
-                    hash_combine(hash_combine(seed_hash, keys.pixel[k]), keys.sample[k]) ^ keys.vertex[k];
+                let scalar = crate::sampler::hash_combine(
+                    crate::sampler::hash_combine(seed_hash, keys.pixel[k]),
+                    keys.sample[k],
+                ) ^ keys.vertex[k];
                 assert_eq!(seed, scalar, "lane {k}");
             }
         }

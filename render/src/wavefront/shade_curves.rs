@@ -29,7 +29,7 @@ use crate::lights::mis::{self, NeeLane};
 use crate::lights::{power_heuristic, LightSample};
 use crate::path::roulette::{self, RouletteLane};
 use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
-use crate::sampler::{dim, hash_combine, hash_u32, sample_1d, sample_2d, SampleKey};
+use crate::sampler::{dim, hash_u32, sample_1d, sample_2d, shadow_seed, SampleKey};
 use crate::stats::Phase;
 use crate::surface::{Surface, SurfaceBsdf};
 use glam::Vec3;
@@ -280,7 +280,7 @@ fn finish<T: Touch>(
         if weighed.keep {
             let origin = s.spawn(ls.wi);
             let tmax = shadow_tmax(ls.distance, origin, s.p);
-            let seed = hash_combine(hash_combine(hash_u32(ctx.sampling.seed), st.pixel), st.sample) ^ vertex;
+            let seed = shadow_seed(hash_u32(ctx.sampling.seed), st.pixel, st.sample, vertex);
             // Shadow linking: the light the sample came from (linked: it lights this point).
             let light = match ctx.scene.lights.links() {
                 Some(_) => ctx.scene.lights.selected(s.p, sample_1d(key, vertex, dim::LIGHT_SELECT)) as u32,
