@@ -1,7 +1,7 @@
 //! End-to-end analytic tests of the integrator: scenes built in code, rendered at small resolutions,
 //! compared against closed-form readings.
 
-use crate::testscene::{self, camera_looking_down_z, card, dome, lambert, sphere};
+use crate::testscene::{self, assert_close, camera_looking_down_z, card, dome, lambert, mean_where, sphere};
 use crate::{render_image, Image, RenderOptions};
 use glam::{Mat4, Vec3};
 use scene_pack::{Light, LightKind, Scene};
@@ -15,30 +15,6 @@ fn render(scene: &Scene, options: &RenderOptions) -> Image {
 
 fn options(res: u32, spp: u32) -> RenderOptions {
     RenderOptions { spp, resolution: Some([res, res]), threads: 2, ..RenderOptions::default() }
-}
-
-/// Mean of channel-averaged beauty over pixels selected by `keep(x, y)`.
-fn mean_where(image: &Image, keep: impl Fn(f32, f32) -> bool) -> (f32, usize) {
-    let mut sum = 0.0f64;
-    let mut n = 0;
-    for y in 0..image.height {
-        for x in 0..image.width {
-            // Pixel centre in [−1, 1]², y up.
-            let fx = (x as f32 + 0.5) / image.width as f32 * 2.0 - 1.0;
-            let fy = 1.0 - (y as f32 + 0.5) / image.height as f32 * 2.0;
-            if keep(fx, fy) {
-                let [r, g, b] = image.rgb(x, y);
-                sum += ((r + g + b) / 3.0) as f64;
-                n += 1;
-            }
-        }
-    }
-    ((sum / n as f64) as f32, n)
-}
-
-fn assert_close(name: &str, value: f32, expected: f32, rel: f32) {
-    eprintln!("{name}: {value:.5} (expected {expected:.5}, {:+.3}%)", (value / expected - 1.0) * 100.0);
-    assert!((value / expected - 1.0).abs() < rel, "{name}: {value} vs expected {expected}");
 }
 
 /// A grey (albedo 0.5) sphere of radius 1 at the origin seen from z = 4 with a 2×-wide field of view.

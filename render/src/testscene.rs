@@ -4,6 +4,7 @@
 //! Packing goes through `scene_pack::pack::pack`, ingest's packer, so these tests also cover the
 //! blob ingest writes (without compiling USD or OpenSubdiv).
 
+use crate::Image;
 use blob::{AlignedBytes, SceneData};
 use glam::{Mat4, Vec2, Vec3};
 use scene_pack::{Camera, Light, LightKind, Material, Mesh, Scene};
@@ -278,4 +279,29 @@ pub fn lights_only(lights: Vec<blob::Light>) -> AlignedBytes {
     data.info.dome_light = blob::NONE;
     data.lights = lights;
     encode(&data)
+}
+
+/// Mean of channel-averaged beauty over pixels selected by `keep(x, y)`.
+pub fn mean_where(image: &Image, keep: impl Fn(f32, f32) -> bool) -> (f32, usize) {
+    let mut sum = 0.0f64;
+    let mut n = 0;
+    for y in 0..image.height {
+        for x in 0..image.width {
+            // Pixel centre in [−1, 1]², y up.
+            let fx = (x as f32 + 0.5) / image.width as f32 * 2.0 - 1.0;
+            let fy = 1.0 - (y as f32 + 0.5) / image.height as f32 * 2.0;
+            if keep(fx, fy) {
+                let [r, g, b] = image.rgb(x, y);
+                sum += ((r + g + b) / 3.0) as f64;
+                n += 1;
+            }
+        }
+    }
+    ((sum / n as f64) as f32, n)
+}
+
+/// Asserts `value` is within `rel` (relative) of `expected`, printing both.
+pub fn assert_close(name: &str, value: f32, expected: f32, rel: f32) {
+    eprintln!("{name}: {value:.5} (expected {expected:.5}, {:+.3}%)", (value / expected - 1.0) * 100.0);
+    assert!((value / expected - 1.0).abs() < rel, "{name}: {value} vs expected {expected}");
 }

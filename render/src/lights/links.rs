@@ -87,9 +87,16 @@ impl<'a> LightLinks<'a> {
 
 #[cfg(test)]
 mod tests {
-    use crate::testscene::{self, camera_looking_down_z, card, dome, lambert};
+    use crate::testscene::{self, assert_close, camera_looking_down_z, card, dome, lambert};
     use crate::wavefront::equivalence_tests::both_integrators;
     use crate::{Image, RenderOptions};
+
+    /// [`testscene::mean_where`] of a selection that must hold pixels.
+    fn mean_where(image: &Image, keep: impl Fn(f32, f32) -> bool) -> f32 {
+        let (mean, n) = testscene::mean_where(image, keep);
+        assert!(n > 0, "no pixel selected");
+        mean
+    }
     use glam::{Mat4, Vec3};
     use scene_pack::{Light, LightKind, LightSet, Scene};
     use std::f32::consts::PI;
@@ -116,29 +123,6 @@ mod tests {
             ..RenderOptions::default()
         };
         both_integrators(&view, &options, what).0
-    }
-
-    /// Channel-averaged mean over the pixels whose centre (in [−1, 1]², y up) `keep` accepts.
-    fn mean_where(image: &Image, keep: impl Fn(f32, f32) -> bool) -> f32 {
-        let (mut sum, mut n) = (0.0f64, 0);
-        for y in 0..image.height {
-            for x in 0..image.width {
-                let fx = (x as f32 + 0.5) / image.width as f32 * 2.0 - 1.0;
-                let fy = 1.0 - (y as f32 + 0.5) / image.height as f32 * 2.0;
-                if keep(fx, fy) {
-                    let [r, g, b] = image.rgb(x, y);
-                    sum += ((r + g + b) / 3.0) as f64;
-                    n += 1;
-                }
-            }
-        }
-        assert!(n > 0, "no pixel selected");
-        (sum / n as f64) as f32
-    }
-
-    fn assert_close(name: &str, value: f32, expected: f32, rel: f32) {
-        eprintln!("{name}: {value:.5} (expected {expected:.5}, {:+.3}%)", (value / expected - 1.0) * 100.0);
-        assert!((value / expected - 1.0).abs() < rel, "{name}: {value} vs expected {expected}");
     }
 
     /// A Lambertian card (albedo 0.5) under a dome (radiance 1: E = π) and a normalized sun
