@@ -83,6 +83,8 @@ pub struct V {
 }
 
 impl V {
+    /// (0, 0, 0).
+    pub const ZERO: V = V { x: 0.0, y: 0.0, z: 0.0 };
     /// Lane `k` of column vector `c`.
     #[inline(always)]
     pub fn at(c: &Lanes3, k: usize) -> V {
@@ -92,6 +94,11 @@ impl V {
     #[inline(always)]
     pub fn dot(self, o: V) -> f32 {
         (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
+    }
+    /// Cross product in glam's order: `(y·z' − y'·z, z·x' − z'·x, x·y' − x'·y)`.
+    #[inline(always)]
+    pub fn cross(self, o: V) -> V {
+        V { x: self.y * o.z - o.y * self.z, y: self.z * o.x - o.z * self.x, z: self.x * o.y - o.x * self.y }
     }
     /// Every component times `s`.
     #[inline(always)]
@@ -122,6 +129,14 @@ impl std::ops::Div<f32> for V {
     #[inline(always)]
     fn div(self, s: f32) -> V {
         V { x: self.x / s, y: self.y / s, z: self.z / s }
+    }
+}
+
+impl std::ops::Neg for V {
+    type Output = V;
+    #[inline(always)]
+    fn neg(self) -> V {
+        V { x: -self.x, y: -self.y, z: -self.z }
     }
 }
 

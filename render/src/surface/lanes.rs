@@ -40,7 +40,7 @@ use crate::scene::Scene;
 use crate::shading::{MeshPoint, UvFootprint};
 use crate::surface::Surface;
 use glam::Vec3;
-use lanekit::{Lanes, Lanes3, U32Lanes, LANES};
+use lanekit::{Lanes, Lanes3, U32Lanes, LANES, V};
 
 type Lanes2 = [Lanes; 2];
 
@@ -242,54 +242,13 @@ struct Gathered {
     instanced: U32Lanes,
 }
 
-/// `(a·b)` in glam's order: `(x·x' + y·y') + z·z'`.
-#[inline(always)]
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2])
-}
-
-/// glam's `a.cross(b)`.
-#[inline(always)]
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[1] * b[2] - b[1] * a[2], a[2] * b[0] - b[2] * a[0], a[0] * b[1] - b[0] * a[1]]
-}
-
-/// `a − b`.
-#[inline(always)]
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// `a · s`.
-#[inline(always)]
-fn scale(a: [f32; 3], s: f32) -> [f32; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-
-/// `−a`.
-#[inline(always)]
-fn neg(a: [f32; 3]) -> [f32; 3] {
-    [-a[0], -a[1], -a[2]]
-}
-
-/// `a` where `pick`, else `b` (a per-lane blend).
-#[inline(always)]
-fn select(pick: bool, a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [if pick { a[0] } else { b[0] }, if pick { a[1] } else { b[1] }, if pick { a[2] } else { b[2] }]
-}
-
 /// glam's `v0 · b0 + v1 · b1 + v2 · b2` (component-wise products, summed left to right).
 #[inline(always)]
-fn interpolate(v: [[f32; 3]; 3], b: [f32; 3]) -> [f32; 3] {
-    let at = |c: usize| v[0][c] * b[0] + v[1][c] * b[1] + v[2][c] * b[2];
-    [at(0), at(1), at(2)]
+fn interpolate(v: [V; 3], b: [f32; 3]) -> V {
+    v[0].scale(b[0]) + v[1].scale(b[1]) + v[2].scale(b[2])
 }
 
-#[inline(always)]
-fn lane(c: &Lanes3, k: usize) -> [f32; 3] {
-    [c[0][k], c[1][k], c[2][k]]
-}
-
+/// Stores a gathered `[x, y, z]` into lane `k` of `c`.
 #[inline(always)]
 fn set(c: &mut Lanes3, k: usize, v: [f32; 3]) {
     (c[0][k], c[1][k], c[2][k]) = (v[0], v[1], v[2]);
@@ -310,8 +269,8 @@ fn weights(g: &Gathered, k: usize) -> [f32; 3] {
 
 /// The three vertices of lane `k` in the columns `v`.
 #[inline(always)]
-fn vertices(v: &[Lanes3; 3], k: usize) -> [[f32; 3]; 3] {
-    [lane(&v[0], k), lane(&v[1], k), lane(&v[2], k)]
+fn vertices(v: &[Lanes3; 3], k: usize) -> [V; 3] {
+    [V::at(&v[0], k), V::at(&v[1], k), V::at(&v[2], k)]
 }
 
 /// The kernel's inputs of `group`'s hits into its columns, lane by lane.
@@ -418,9 +377,9 @@ fn to_world(g: &mut Gathered) {
     for i in 0..3 {
         let p = &mut g.p[i];
         for k in 0..LANES {
-            let v = lane(p, k);
-            let row = |r: usize| m[r][0][k] * v[0] + m[r][1][k] * v[1] + m[r][2][k] * v[2] + m[r][3][k] * 1.0;
-            set(p, k, select(g.instanced[k] != 0, [row(0), row(1), row(2)], v));
+            let v = V::at(p, k);
+            let row = |r: usize| m[r][0][k] * v.x + m[r][1][k] * v.y + m[r][2][k] * v.z + m[r][3][k] * 1.0;
+            V::select(g.instanced[k] != 0, V { x: row(0), y: row(1), z: row(2) }, v).store(p, k);
         }
     }
 }
@@ -431,12 +390,12 @@ fn to_world(g: &mut Gathered) {
 fn geometry(g: &Gathered, out: &mut Columns) {
     for k in 0..LANES {
         let [p0, p1, p2] = vertices(&g.p, k);
-        let n = cross(sub(p1, p0), sub(p2, p0));
-        let rcp = 1.0 / dot(n, n).sqrt();
-        let ng = scale(n, rcp);
-        let ng = select(dot(ng, lane(&g.wo, k)) < 0.0, neg(ng), ng);
-        set(&mut out.p, k, interpolate([p0, p1, p2], weights(g, k)));
-        set(&mut out.ng, k, ng);
+        let n = (p1 - p0).cross(p2 - p0);
+        let rcp = 1.0 / n.dot(n).sqrt();
+        let ng = n.scale(rcp);
+        let ng = V::select(ng.dot(V::at(&g.wo, k)) < 0.0, -ng, ng);
+        interpolate([p0, p1, p2], weights(g, k)).store(&mut out.p, k);
+        ng.store(&mut out.ng, k);
         out.valid[k] = normalizable(rcp) as u32;
     }
 }
@@ -451,17 +410,17 @@ fn shading_normals(g: &Gathered, instanced: bool, out: &mut Columns) {
         if instanced {
             // `instanced::normal_to_world`: `object_from_worldᵀ · n`.
             let m = &g.normal_from_object;
-            let row = |r: usize| m[r][0][k] * n[0] + m[r][1][k] * n[1] + m[r][2][k] * n[2];
-            n = select(g.instanced[k] != 0, [row(0), row(1), row(2)], n);
+            let row = |r: usize| m[r][0][k] * n.x + m[r][1][k] * n.y + m[r][2][k] * n.z;
+            n = V::select(g.instanced[k] != 0, V { x: row(0), y: row(1), z: row(2) }, n);
         }
-        let rcp = 1.0 / dot(n, n).sqrt();
-        let n = scale(n, rcp);
-        let ng = lane(&out.ng, k);
-        let ns = select(dot(n, ng) < 0.0, neg(n), n);
+        let rcp = 1.0 / n.dot(n).sqrt();
+        let n = n.scale(rcp);
+        let ng = V::at(&out.ng, k);
+        let ns = V::select(n.dot(ng) < 0.0, -n, n);
         // NaN compares false: the scalar code keeps such a normal too.
-        let faces_away = dot(ns, lane(&g.wo, k)) < 1e-4;
+        let faces_away = ns.dot(V::at(&g.wo, k)) < 1e-4;
         let keep = g.has_normals[k] != 0 && normalizable(rcp) && !faces_away;
-        set(&mut out.ns, k, select(keep, ns, ng));
+        V::select(keep, ns, ng).store(&mut out.ns, k);
     }
 }
 
@@ -474,41 +433,39 @@ fn texture_coordinates(g: &Gathered, out: &mut Columns) {
         let [t0, t1, t2] =
             [[g.t[0][0][k], g.t[0][1][k]], [g.t[1][0][k], g.t[1][1][k]], [g.t[2][0][k], g.t[2][1][k]]];
         let [p0, p1, p2] = vertices(&g.p, k);
-        let (e1, e2) = (sub(p1, p0), sub(p2, p0));
+        let (e1, e2) = (p1 - p0, p2 - p0);
         out.uv[0][k] = t0[0] * b0 + t1[0] * b1 + t2[0] * b2;
         out.uv[1][k] = t0[1] * b0 + t1[1] * b1 + t2[1] * b2;
         let d1 = [t1[0] - t0[0], t1[1] - t0[1]];
         let d2 = [t2[0] - t0[0], t2[1] - t0[1]];
         let det = d1[0] * d2[1] - d1[1] * d2[0];
         let solvable = det != 0.0 && det.is_finite();
-        let dpdu = sub(scale(e1, d2[1]), scale(e2, d1[1]));
-        let dpdv = sub(scale(e2, d1[0]), scale(e1, d2[0]));
-        let dpdu = [dpdu[0] / det, dpdu[1] / det, dpdu[2] / det];
-        let dpdv = [dpdv[0] / det, dpdv[1] / det, dpdv[2] / det];
-        set(&mut out.dpdu, k, select(solvable, dpdu, [0.0; 3]));
-        set(&mut out.dpdv, k, select(solvable, dpdv, [0.0; 3]));
+        let dpdu = (e1.scale(d2[1]) - e2.scale(d1[1])) / det;
+        let dpdv = (e2.scale(d1[0]) - e1.scale(d2[0])) / det;
+        V::select(solvable, dpdu, V::ZERO).store(&mut out.dpdu, k);
+        V::select(solvable, dpdv, V::ZERO).store(&mut out.dpdv, k);
 
         // The footprint: the cone's ellipse axes on the triangle's plane, written in the edges.
-        let ng = lane(&out.ng, k);
-        let d = neg(lane(&g.wo, k));
-        let cos = dot(ng, d);
-        let a = sub(ng, scale(d, cos));
-        let rcp = 1.0 / dot(a, a).sqrt();
+        let ng = V::at(&out.ng, k);
+        let d = -V::at(&g.wo, k);
+        let cos = ng.dot(d);
+        let a = ng - d.scale(cos);
+        let rcp = 1.0 / a.dot(a).sqrt();
         // Head on: `Frame::new(d).t`.
-        let sign = 1.0f32.copysign(d[2]);
-        let fa = -1.0 / (sign + d[2]);
-        let fb = d[0] * d[1] * fa;
-        let fallback = [1.0 + sign * d[0] * d[0] * fa, sign * fb, -sign * d[0]];
-        let axis1 = select(normalizable(rcp), scale(a, rcp), fallback);
-        let axis2 = cross(d, axis1);
+        let sign = 1.0f32.copysign(d.z);
+        let fa = -1.0 / (sign + d.z);
+        let fb = d.x * d.y * fa;
+        let fallback = V { x: 1.0 + sign * d.x * d.x * fa, y: sign * fb, z: -sign * d.x };
+        let axis1 = V::select(normalizable(rcp), a.scale(rcp), fallback);
+        let axis2 = d.cross(axis1);
         let cos = if cos.abs() < 1e-4 { 1e-4f32.copysign(cos) } else { cos };
-        let (g11, g12, g22) = (dot(e1, e1), dot(e1, e2), dot(e2, e2));
+        let (g11, g12, g22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
         let gram = g11 * g22 - g12 * g12;
         let footprint = g.footprint[k];
-        let to_uv = |axis: [f32; 3]| -> [f32; 2] {
-            let v = scale(axis, footprint);
-            let w = sub(v, scale(d, dot(v, ng) / cos));
-            let (r1, r2) = (dot(w, e1), dot(w, e2));
+        let to_uv = |axis: V| -> [f32; 2] {
+            let v = axis.scale(footprint);
+            let w = v - d.scale(v.dot(ng) / cos);
+            let (r1, r2) = (w.dot(e1), w.dot(e2));
             let a = (r1 * g22 - r2 * g12) / gram;
             let b = (r2 * g11 - r1 * g12) / gram;
             let flat = gram <= 0.0;

@@ -58,7 +58,7 @@ use crate::surface::lanes as surface_lanes;
 use crate::surface::Surface;
 use glam::Vec3;
 use lanekit::LANES;
-use lanekit::{Lanes, Lanes3};
+use lanekit::{Lanes, Lanes3, V};
 use texture::Touch;
 
 /// Eight shaded hits waiting for the lane kernels, in AoSoA form: phase 1 writes them lane by lane
@@ -454,7 +454,7 @@ fn shadow_seed_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [u32; LANES]) {
 #[inline(always)]
 fn abs_cos_lanes(n: &Lanes3, w: &Lanes3, out: &mut Lanes) {
     for k in 0..LANES {
-        out[k] = ((n[0][k] * w[0][k] + n[1][k] * w[1][k]) + n[2][k] * w[2][k]).abs();
+        out[k] = V::at(n, k).dot(V::at(w, k)).abs();
     }
 }
 

@@ -29,7 +29,7 @@ use crate::lights::mis::{self, NeeLane};
 use crate::lights::{power_heuristic, LightSample};
 use crate::path::roulette::{self, RouletteLane};
 use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
-use crate::sampler::{dim, hash_u32, sample_1d, sample_2d, shadow_seed, SampleKey};
+use crate::sampler::{dim, hash_u32, sample_1d, shadow_seed, vertex_samples, SampleKey, DIMS};
 use crate::stats::Phase;
 use crate::surface::{Surface, SurfaceBsdf};
 use glam::Vec3;
@@ -56,6 +56,9 @@ struct Parked {
     surface: Surface,
     footprint: f32,
     light: Option<LightSample>,
+    /// The vertex's random numbers ([`vertex_samples`]): [`finish`] reads the light selection and
+    /// roulette from them.
+    u: [f32; DIMS],
 }
 
 impl Default for CurveGroup {
@@ -87,7 +90,6 @@ pub(super) fn vertex<T: Touch>(
     // The scalar sampler (equal to the lanes bit for bit): curve hits are not in scatter groups.
     let (key, vertex) =
         (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed }, st.vertex);
-    let r = |d: u32| sample_1d(key, vertex, d);
     let wo = -st.dir;
     let footprint = st.cone().width_at(hit.t);
     let mut s = scene.curve_surface(&hit, wo);
@@ -104,7 +106,7 @@ pub(super) fn vertex<T: Touch>(
 
     // Stochastic transparency: straight on, from beyond the fibre.
     let opacity = inputs.effective_opacity();
-    if opacity < 1.0 && r(dim::OPACITY) >= opacity {
+    if opacity < 1.0 && sample_1d(key, vertex, dim::OPACITY) >= opacity {
         let origin = s.spawn(st.dir);
         if st.pass_through(hit.t, footprint, origin, max_depth) {
             rays.bounce += 1;
@@ -129,8 +131,11 @@ pub(super) fn vertex<T: Touch>(
         return;
     }
 
+    // Every other random number of the vertex, at once (as the scalar integrator draws them).
+    let u = vertex_samples(hash_u32(key.seed), key.pixel, key.sample, vertex);
+    let d = |x: u32| u[x as usize];
     // The light sample of next-event estimation.
-    let light = scene.lights.sample(s.p, r(dim::LIGHT_SELECT), [r(dim::LIGHT_UV), r(dim::LIGHT_UV + 1)]).map(
+    let light = scene.lights.sample(s.p, d(dim::LIGHT_SELECT), [d(dim::LIGHT_UV), d(dim::LIGHT_UV + 1)]).map(
         |mut ls| {
             if let Some((tri, [b1, b2])) = ls.emitter {
                 ls.li = scene.emission_at(tri, b1, b2, filter, touch);
@@ -138,15 +143,15 @@ pub(super) fn vertex<T: Touch>(
             ls
         },
     );
-    let (u_lobe, u) = (r(dim::LOBE), [r(dim::BSDF_UV), r(dim::BSDF_UV + 1)]);
+    let (u_lobe, u_dir) = (d(dim::LOBE), [d(dim::BSDF_UV), d(dim::BSDF_UV + 1)]);
     let hair = match bsdf {
         SurfaceBsdf::Hair(hair) => hair,
         // (Glass is shaded by `glass_vertex`, never here.)
         preview @ (SurfaceBsdf::Preview(_) | SurfaceBsdf::Glass(_)) => {
             // A point: its UsdPreviewSurface BSDF, one hit at a time.
             let eval = light.map(|ls| preview.eval(wo, ls.wi));
-            let sample = preview.sample(wo, u_lobe, u);
-            finish(ctx, w, Parked { path: i, surface: s, footprint, light }, eval, sample, rays);
+            let sample = preview.sample(wo, u_lobe, u_dir);
+            finish(ctx, w, Parked { path: i, surface: s, footprint, light, u }, eval, sample, rays);
             return;
         }
     };
@@ -155,8 +160,8 @@ pub(super) fn vertex<T: Touch>(
     if let Some(ls) = &light {
         (group.light_wi[0][k], group.light_wi[1][k], group.light_wi[2][k]) = (ls.wi.x, ls.wi.y, ls.wi.z);
     }
-    (group.u.u_lobe[k], group.u.u0[k], group.u.u1[k]) = (u_lobe, u[0], u[1]);
-    group.parked[k] = Some(Parked { path: i, surface: s, footprint, light });
+    (group.u.u_lobe[k], group.u.u0[k], group.u.u1[k]) = (u_lobe, u_dir[0], u_dir[1]);
+    group.parked[k] = Some(Parked { path: i, surface: s, footprint, light, u });
     group.len += 1;
     w.stats.clock.lap(Phase::Integration);
     if group.len == LANES {
@@ -205,11 +210,13 @@ pub(super) fn glass_vertex<T: Touch>(
     if st.bounces >= max_depth {
         return;
     }
-    let u_select = sample_1d(key, vertex, dim::LIGHT_SELECT);
+    let u = vertex_samples(hash_u32(key.seed), key.pixel, key.sample, vertex);
+    let d = |x: u32| u[x as usize];
+    let u_select = d(dim::LIGHT_SELECT);
     // Light linking: the scalar integrator's drop of a light that does not light the point.
     let set = scene.lights.links().map_or(UNLINKED, |l| l.set_of(hit.triangle));
     let light = (scene.lights.linked_choice(set, s.p, u_select) != Some(None))
-        .then(|| scene.lights.sample(s.p, u_select, sample_2d(key, vertex, dim::LIGHT_UV)))
+        .then(|| scene.lights.sample(s.p, u_select, [d(dim::LIGHT_UV), d(dim::LIGHT_UV + 1)]))
         .flatten()
         .map(|mut ls| {
             if let Some((tri, [b1, b2])) = ls.emitter {
@@ -218,9 +225,9 @@ pub(super) fn glass_vertex<T: Touch>(
             ls
         });
     let eval = light.map(|ls| bsdf.eval(wo, ls.wi));
-    let sample = bsdf.sample(wo, sample_1d(key, vertex, dim::LOBE), sample_2d(key, vertex, dim::BSDF_UV));
+    let sample = bsdf.sample(wo, d(dim::LOBE), [d(dim::BSDF_UV), d(dim::BSDF_UV + 1)]);
     w.stats.clock.lap(Phase::Shading);
-    finish(ctx, w, Parked { path: i, surface: s, footprint, light }, eval, sample, rays);
+    finish(ctx, w, Parked { path: i, surface: s, footprint, light, u }, eval, sample, rays);
 }
 
 /// Runs the hair lane kernels on the parked fibre hits and finishes their vertices; empties the
@@ -267,10 +274,9 @@ fn finish<T: Touch>(
     sample: Option<BsdfSample>,
     rays: &mut RayCounts,
 ) {
-    let Parked { path: i, surface: s, footprint, light } = parked;
+    let Parked { path: i, surface: s, footprint, light, u: samples } = parked;
     let st = &mut w.paths.states[i as usize];
-    let (key, vertex) =
-        (SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed }, st.vertex);
+    let vertex = st.vertex;
 
     // Next-event estimation.
     if let (Some(ls), Some((f, bsdf_pdf))) = (light, eval) {
@@ -283,7 +289,7 @@ fn finish<T: Touch>(
             let seed = shadow_seed(hash_u32(ctx.sampling.seed), st.pixel, st.sample, vertex);
             // Shadow linking: the light the sample came from (linked: it lights this point).
             let light = match ctx.scene.lights.links() {
-                Some(_) => ctx.scene.lights.selected(s.p, sample_1d(key, vertex, dim::LIGHT_SELECT)) as u32,
+                Some(_) => ctx.scene.lights.selected(s.p, samples[dim::LIGHT_SELECT as usize]) as u32,
                 None => blob::NONE,
             };
             w.paths.shadow[i as usize] = ShadowRay {
@@ -308,7 +314,7 @@ fn finish<T: Touch>(
     }
     st.bounces += 1;
     let play = st.bounces >= RR_START_BOUNCE;
-    let u = if play { sample_1d(key, vertex, dim::RUSSIAN_ROULETTE) } else { 0.0 };
+    let u = if play { samples[dim::RUSSIAN_ROULETTE as usize] } else { 0.0 };
     let (beta, f, cos, pdf) = (st.beta, bs.f, s.ns.dot(bs.wi).abs(), bs.pdf);
     let next = roulette::continue_path(&RouletteLane { beta, f, cos, pdf, u, play });
     st.beta = next.beta;
