@@ -172,13 +172,22 @@ pub fn unlit_warning(scene: &Scene) -> Option<&'static str> {
 /// and its cage's world bounds (USD's extent; the limit surface lies inside). Subdivision
 /// surfaces add their `scheme`, the `subdiv_level` refined to (adaptive: the
 /// level as fine as the finest edge), `subdiv_mode` and, when adaptive, `min_edge_rate` and
-/// `max_edge_rate` (segments per cage edge). `materials` lists every material read with its
+/// `max_edge_rate` (segments per cage edge). Bounds are in the stage's world space (the scene's
+/// positions plus its `world_origin`, listed at the top level). `materials` lists every material read with its
 /// `surface_model` (`UsdPreviewSurface`, `standard_surface`, `open_pbr_surface`, `PxrDisney`; empty
 /// for a displayColor material) and the `node_categories` of the shading nodes read. The top
 /// level has the scene's `triangles`, `triangles_at_fixed_level` (every subdivision mesh at the
 /// level cap) and `triangles_saved` (their difference; negative when a forced level exceeds the
 /// cap).
 pub fn dump_json(scene: &Scene) -> serde_json::Value {
+    // Positions in the stage's world space: the scene's are relative to its world origin.
+    let stage_world = |scene: &Scene, p: glam::Vec3| -> serde_json::Value {
+        if scene.world_origin == glam::DVec3::ZERO {
+            p.to_array().into()
+        } else {
+            (p.as_dvec3() + scene.world_origin).to_array().into()
+        }
+    };
     let mut subdivision = vec![None; scene.meshes.len()];
     for s in &scene.subdivisions {
         subdivision[s.mesh] = Some(s);
@@ -200,8 +209,8 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
                 "path": m.path,
                 "type": "Mesh",
                 "triangles": triangles,
-                "bounds_min": lo.to_array(),
-                "bounds_max": hi.to_array(),
+                "bounds_min": stage_world(scene, lo),
+                "bounds_max": stage_world(scene, hi),
                 "materials": materials,
             });
             if let Some(set) = scene.light_sets.get(m.light_set as usize) {
@@ -241,6 +250,7 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
         "gprims": gprims,
         "materials": materials,
         "instances": scene.instance_count,
+        "world_origin": scene.world_origin.to_array(),
         "triangles": triangles,
         "triangles_at_fixed_level": fixed,
         "triangles_saved": fixed as i64 - triangles as i64,

@@ -43,10 +43,13 @@ pub struct SceneSummary {
     pub cameras: usize,
     /// Each camera's lens, in the cameras section's order.
     pub lenses: Vec<LensSummary>,
-    /// World bounds minimum.
+    /// World bounds minimum, relative to `world_origin`.
     pub bounds_min: [f32; 3],
-    /// World bounds maximum.
+    /// World bounds maximum, relative to `world_origin`.
     pub bounds_max: [f32; 3],
+    /// Where the blob's origin lies in the stage's world space (ingest stores positions
+    /// camera-relative; `SceneInfo::world_origin`).
+    pub world_origin: [f64; 3],
 }
 
 /// One camera's lens as the renderer builds it ([`crate::camera::Camera::from_blob`]).
@@ -159,6 +162,7 @@ pub fn summarize(view: &SceneView) -> SceneSummary {
         lenses: lenses(view),
         bounds_min: view.info.bounds_min,
         bounds_max: view.info.bounds_max,
+        world_origin: view.info.world_origin,
     }
 }
 
@@ -213,7 +217,16 @@ mod tests {
         assert_eq!(json["meshes"], 1);
         assert_eq!(json["instances"], 0);
         assert_eq!(json["materials"], 1);
-        for key in ["lights", "cameras", "bounds_min", "bounds_max", "curves", "curve_segments", "points"] {
+        for key in [
+            "lights",
+            "cameras",
+            "bounds_min",
+            "bounds_max",
+            "world_origin",
+            "curves",
+            "curve_segments",
+            "points",
+        ] {
             assert!(json.get(key).is_some(), "{key}");
         }
         assert_eq!((json["prototypes"].clone(), json["bytes_saved"].clone()), (0.into(), 0.into()));

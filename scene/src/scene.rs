@@ -54,6 +54,9 @@ pub struct Scene {
     pub light_sets: Vec<LightSet>,
     /// Indices into `lights` of the lights camera rays do not see (ascending).
     pub camera_hidden_lights: Vec<usize>,
+    /// Where this scene's origin lies in the stage's world space: every position here is
+    /// `stage world − world_origin` (see `blob::SceneInfo::world_origin`).
+    pub world_origin: DVec3,
 }
 
 /// A texture a bound material reads, already decoded and baked (mip chain, tiles) at read time, so

@@ -38,6 +38,7 @@ mod material;
 mod mesh;
 mod motion;
 mod mtlx_document;
+mod origin;
 mod renderman;
 mod resolver;
 mod stage;
@@ -420,7 +421,10 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     reader.lenient = options.lenient;
     reader.read_stage_metadata();
     reader.collect_instancer_prototypes()?;
-    reader.visit("/", &Inherited::root(), false)?;
+    reader.scene.world_origin = origin::camera_origin(&stage, &prims);
+    let root = Inherited::root(reader.scene.world_origin);
+    reader.root_from_world = root.world_from_local;
+    reader.visit("/", &root, false)?;
     reader.bad_prims_error()?;
     reader.finish()?;
     // Bound materials' shading networks are composed as they are read (see Stage::traverse).
@@ -429,6 +433,10 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     reader.tessellate_subdivisions(&options.subdiv);
     reader.scene.load_timings.subdivision_seconds = start.elapsed().as_secs_f64();
     reader.assign_light_sets();
+    let width = reader.scene.resolution.map_or(crate::dicing::DEFAULT_WIDTH, |r| r[0]);
+    if let Some((camera, message)) = origin::precision_warning(&reader.scene, width) {
+        reader.scene.warn(&camera, message);
+    }
     for (prim, message) in stage.take_notes() {
         reader.scene.warn(prim, message);
     }
@@ -494,9 +502,11 @@ struct InstanceFrame {
 }
 
 impl Inherited {
-    fn root() -> Self {
+    /// The pseudo-root of a scene whose positions are relative to `world_origin`
+    /// ([`origin`]).
+    fn root(world_origin: glam::DVec3) -> Self {
         Inherited {
-            world_from_local: DMat4::IDENTITY,
+            world_from_local: DMat4::from_translation(-world_origin),
             invisible: false,
             purpose: Purpose::Default,
             instance: None,
@@ -555,6 +565,8 @@ struct Reader<'a> {
     material_index: HashMap<String, u32>,
     /// RenderSettings prims in traversal order.
     render_settings: Vec<String>,
+    /// `translate(−world_origin)`: where a `!resetXformStack!` prim's transform starts.
+    root_from_world: DMat4,
     /// Direct binding per (prim, first relationship name tried).
     binding_cache: HashMap<(String, &'static str), Option<(String, bool)>>,
     /// Subdivision meshes waiting for the render camera.
@@ -600,6 +612,7 @@ impl<'a> Reader<'a> {
             instancer_prototypes: HashSet::new(),
             material_index: HashMap::new(),
             render_settings: Vec::new(),
+            root_from_world: DMat4::IDENTITY,
             binding_cache: HashMap::new(),
             subdivisions: Vec::new(),
             expanding: Vec::new(),
@@ -671,8 +684,11 @@ impl<'a> Reader<'a> {
             for w in warnings {
                 self.warn(path, w);
             }
-            state.world_from_local =
-                if local.resets { local.matrix } else { parent.world_from_local * local.matrix };
+            state.world_from_local = if local.resets {
+                self.root_from_world * local.matrix
+            } else {
+                parent.world_from_local * local.matrix
+            };
             state.instance = match parent.instance {
                 // resetXformStack inside an instance leaves the instance's frame: such gprims are
                 // drawn in world space (rare; the instance's other gprims are still shared).

@@ -1036,3 +1036,73 @@ def SphereLight "ArnoldHalf" { float primvars:arnold:camera = 0.5 }"#,
         scene.camera_hidden_lights.iter().map(|&l| scene.lights[l].path.as_str()).collect();
     assert_eq!(hidden, ["/KarmaOff", "/RiOff", "/ArnoldOff"]);
 }
+
+#[test]
+fn positions_are_stored_relative_to_the_render_camera_snapped_to_64_units() {
+    // The RenderSettings camera (the second one) decides; a resetXformStack prim moves too.
+    let scene = load_text(&usda(
+        r#"def Xform "Far" {
+    double3 xformOp:translate = (100000, -5000.5, 40)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    def Camera "Near" {}
+    def Camera "Shot" { double3 xformOp:translate = (10, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"] }
+    def Mesh "Tri" {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+        uniform token subdivisionScheme = "none"
+    }
+}
+def Mesh "Reset" {
+    uniform token[] xformOpOrder = ["!resetXformStack!", "xformOp:translate"]
+    double3 xformOp:translate = (100000, 0, 0)
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+}
+def RenderSettings "Settings" { rel camera = </Far/Shot> }"#,
+    ));
+    // (100010, −5000.5, 40) snapped: 1563·64, −78·64, 1·64.
+    assert_eq!(scene.world_origin, glam::DVec3::new(100_032.0, -4_992.0, 64.0));
+    let tri = mesh(&scene, "/Far/Tri");
+    assert_eq!(tri.positions[1], Vec3::new(100_001.0 - 100_032.0, -8.5, -24.0));
+    let reset = mesh(&scene, "/Reset");
+    assert_eq!(reset.positions[0], Vec3::new(-32.0, 4_992.0, -64.0));
+    let shot = &scene.cameras[scene.default_camera.unwrap()];
+    assert_eq!(shot.world_from_camera.w_axis.truncate(), Vec3::new(-22.0, -8.5, -24.0));
+    // The listing gives stage-world bounds.
+    let dump = crate::pipeline::dump_json(&scene);
+    assert_eq!(dump["world_origin"], serde_json::json!([100_032.0, -4_992.0, 64.0]));
+    let listed = dump["gprims"].as_array().unwrap().iter().find(|g| g["path"] == "/Far/Tri").unwrap();
+    assert_eq!(listed["bounds_max"], serde_json::json!([100_001.0, -4_999.5, 40.0]));
+}
+
+#[test]
+fn a_camera_too_close_for_f32_positions_is_warned_about() {
+    // A card 0.0005 units in front of a camera 20 units from the origin: positions there are
+    // spaced 2⁴·2⁻²³ = 1.9e-6 apart, while a pixel of a 50 mm lens on a 36 mm back at 1920 px
+    // covers 0.0005·36/50/1920 = 1.9e-7 (10 pixels per step). At 5 units it covers 1.9e-3.
+    let shot = |distance: f64| {
+        load_text(&usda(&format!(
+            r#"def Camera "Cam" {{
+    float focalLength = 50
+    float horizontalAperture = 36
+    float2 clippingRange = (0.0001, 1000)
+    double3 xformOp:translate = (20, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+def Mesh "Card" {{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(19.999, 0, -{distance}), (20.001, 0, -{distance}), (20, 0.001, -{distance})]
+    uniform token subdivisionScheme = "none"
+}}"#
+        )))
+    };
+    let near = shot(0.0005);
+    assert!(has_warning(&near, "/Cam", "spaced 1.91e-6 apart"), "{:?}", near.warnings);
+    let far = shot(5.0);
+    assert!(!far.warnings.iter().any(|w| w.message.contains("f32 positions")), "{:?}", far.warnings);
+}

@@ -25,7 +25,7 @@ pub const UP_AXIS_Y: u32 = 1;
 /// Up axis of the source stage.
 pub const UP_AXIS_Z: u32 = 2;
 
-/// Scene-wide facts; the [`crate::SectionKind::SceneInfo`] section holds exactly one. 80 bytes.
+/// Scene-wide facts; the [`crate::SectionKind::SceneInfo`] section holds exactly one. 104 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct SceneInfo {
@@ -53,8 +53,12 @@ pub struct SceneInfo {
     /// frame, (1, 1) the top-right): the region render draws. A window of zero area means unauthored
     /// (the whole frame), so a zeroed record keeps today's meaning.
     pub data_window_ndc: [f32; 4],
+    /// Where the blob's origin lies in the stage's world space: every position in the blob is
+    /// `stage world − world_origin` (ingest renders camera-relative so that f32 positions keep
+    /// their precision far from the stage origin). Finite; zero for scenes near the origin.
+    pub world_origin: [f64; 3],
 }
-const _: () = assert!(std::mem::size_of::<SceneInfo>() == 80);
+const _: () = assert!(std::mem::size_of::<SceneInfo>() == 104);
 
 /// One triangle: three indices into the vertex sections and the mesh it belongs to. 16 bytes.
 #[repr(C)]

@@ -412,6 +412,9 @@ impl<'a> SceneView<'a> {
         if !(empty || sane_bounds) {
             return bad("scene bounds non-finite or beyond ±1e12 (and not the empty encoding)");
         }
+        if !info.world_origin.iter().all(|x| x.is_finite()) {
+            return bad("world origin not finite");
+        }
         let [w, h] = info.resolution;
         if (w == 0) != (h == 0) {
             return bad("resolution has one zero axis");

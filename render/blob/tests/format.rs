@@ -766,6 +766,14 @@ fn huge_or_non_finite_floats_and_resolutions_are_rejected() {
     let mut s = sample_scene();
     s.info.data_window_ndc = [-0.5, 0.25, 1.5, 0.75];
     assert!(parse(&s.encode()).is_ok(), "an overscanning window");
+    for origin in [f64::NAN, f64::INFINITY] {
+        let mut s = sample_scene();
+        s.info.world_origin = [1e7, origin, 0.0];
+        assert_eq!(crafted_error(&s, K::SceneInfo), "section SceneInfo record 0: world origin not finite");
+    }
+    let mut s = sample_scene();
+    s.info.world_origin = [1e7, -4_992.0, 64.0];
+    assert!(parse(&s.encode()).is_ok(), "a camera-relative blob");
     for resolution in [[1, 2_147_483_647], [65_535, 65_535], [0, 5]] {
         let mut s = sample_scene();
         s.info.resolution = resolution;

@@ -453,8 +453,8 @@ fn shadow_seed_lanes(seed_hash: u32, keys: &KeyLanes, out: &mut [u32; LANES]) {
 /// `|n · w|` per lane (glam's `dot` order), the cosine the estimators weigh by.
 #[inline(always)]
 fn abs_cos_lanes(n: &Lanes3, w: &Lanes3, out: &mut Lanes) {
-    for k in 0..LANES {
-        out[k] = V::at(n, k).dot(V::at(w, k)).abs();
+    for (k, cos) in out.iter_mut().enumerate() {
+        *cos = V::at(n, k).dot(V::at(w, k)).abs();
     }
 }
 

@@ -186,6 +186,7 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
         dome_light,
         reserved: [0; 2],
         data_window_ndc: scene.data_window_ndc.unwrap_or([0.0; 4]),
+        world_origin: scene.world_origin.to_array(),
     };
     Ok(data)
 }
