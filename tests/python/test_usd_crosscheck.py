@@ -73,7 +73,9 @@ def check_render_info(info: dict, dump: dict, ref: Listing) -> list[str]:
         inner_hi = np.max([g.hi for g in polygons], axis=0) if polygons else np.full(3, -np.inf)
         outer_lo = np.min([g.lo if g.outer_lo is None else g.outer_lo for g in with_points], axis=0)
         outer_hi = np.max([g.hi if g.outer_hi is None else g.outer_hi for g in with_points], axis=0)
-        lo, hi = np.asarray(info["bounds_min"], float), np.asarray(info["bounds_max"], float)
+        # The blob's positions are relative to its world origin (camera-relative storage).
+        origin = np.asarray(info["world_origin"], float)
+        lo, hi = np.asarray(info["bounds_min"], float) + origin, np.asarray(info["bounds_max"], float) + origin
         slack = lambda v: atol + 4 * F32_EPS * np.abs(v)  # noqa: E731
         if not (np.all(lo >= outer_lo - slack(outer_lo)) and np.all(lo <= inner_lo + slack(inner_lo))
                 and np.all(hi >= inner_hi - slack(inner_hi)) and np.all(hi <= outer_hi + slack(outer_hi))):
