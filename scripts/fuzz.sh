@@ -5,8 +5,8 @@
 # - render/fuzz/fuzz_targets: blob_render — blob parse + a one-sample render, checksums
 #   recomputed by the harness so mutations reach structural validation.
 # - ingest/fuzz/fuzz_targets (each calls the function of the same name in ingest::fuzz_entry):
-#   usda, usdc, usdz (a layer through the ingest reader), mtlx (MaterialX translation + a stage
-#   referencing it), texture_decode (first byte picks the decoder, rest decoded within a budget).
+#   usda, usdc, usdz (a layer through the ingest reader), abc (an Alembic archive through its
+#   translation), mtlx (MaterialX translation + a stage referencing it), texture_decode (first byte picks the decoder, rest decoded within a budget).
 # Needs `cargo install cargo-fuzz`. cargo-fuzz passes nightly-only flags (-Zsanitizer); on a stable
 # toolchain RUSTC_BOOTSTRAP=1 enables them, which this script sets.
 #
@@ -26,7 +26,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 export RUSTC_BOOTSTRAP=1
 limits=(-max_total_time="$seconds" -rss_limit_mb=2048 -timeout=20)
 case "$target" in
-usda | usdc | usdz | mtlx | texture_decode)
+usda | usdc | usdz | abc | mtlx | texture_decode)
     fuzz=$root/ingest/fuzz
     work=$fuzz/work/$target
     mkdir -p "$work"
@@ -37,7 +37,7 @@ usda | usdc | usdz | mtlx | texture_decode)
     ;;
 blob_render) ;;
 *)
-    echo "unknown target $target (blob_render, usda, usdc, usdz, mtlx, texture_decode)" >&2
+    echo "unknown target $target (blob_render, usda, usdc, usdz, abc, mtlx, texture_decode)" >&2
     exit 2
     ;;
 esac

@@ -42,6 +42,15 @@ pub fn usdz(bytes: &[u8]) -> Result<(), String> {
     layer(bytes, "usdz")
 }
 
+/// An Alembic archive: the Ogawa reader, the translation to a USD layer, composition and
+/// conversion ([`crate::alembic::load`]). A panic in the archive reader is a finding.
+pub fn abc(bytes: &[u8]) -> Result<(), String> {
+    let path = scratch().join("archive.abc");
+    std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    let options = LoadOptions { max_texture_pixels: FUZZ_MAX_PIXELS, ..LoadOptions::default() };
+    crate::alembic::load(&path, &options).map(drop).map_err(|e| e.to_string())
+}
+
 /// A MaterialX document: its translation to USDA and, when that succeeds, a root layer that
 /// references it, composed as a `.mtlx` reference is in a real stage.
 pub fn mtlx(bytes: &[u8]) -> Result<(), String> {

@@ -79,6 +79,11 @@ fn usdz_corpus_replays() {
 }
 
 #[test]
+fn abc_corpus_replays() {
+    assert!(replay("abc", fuzz_entry::abc) >= 2);
+}
+
+#[test]
 fn mtlx_corpus_replays() {
     assert!(replay("mtlx", fuzz_entry::mtlx) >= 1);
 }
@@ -99,6 +104,8 @@ fn fuzz_entries_refuse_garbage_with_named_errors() {
     assert!(usdc.contains("layer.usdc"), "{usdc}");
     let mtlx = fuzz_entry::mtlx(b"<notmaterialx/>").unwrap_err();
     assert!(mtlx.contains("doc.mtlx") && mtlx.contains("not <materialx>"), "{mtlx}");
+    let abc = fuzz_entry::abc(garbage).unwrap_err();
+    assert!(abc.contains("archive.abc") && abc.contains("not a readable Alembic archive"), "{abc}");
     let png = fuzz_entry::texture_decode(b"\x00\x89PNG\r\n\x1a\nshort").unwrap_err();
     assert!(png.contains("fuzz.png"), "{png}");
 }
