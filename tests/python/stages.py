@@ -785,6 +785,52 @@ def Xform "World"
 """,
 }
 
+# Imaging semantics usd-core applies that a naive reader gets wrong (issue 23's conformance
+# classes): visibility and purpose count only on Imageable prims (a typeless prim's are ignored),
+# and only `materialBind` GeomSubsets bind materials.
+CONFORMANCE = {
+    "conformance.usda": header() + f"""
+def Xform "World"
+{{
+    def Scope "Looks"
+    {{
+        {material("Red", (1, 0, 0))}
+        {material("Green", (0, 1, 0))}
+    }}
+    def "TypelessHidden"
+    {{
+        token visibility = "invisible"
+        {tri("UnderTypeless")}
+    }}
+    def "TypelessGuide"
+    {{
+        uniform token purpose = "guide"
+        {tri("UnderTypelessGuide")}
+    }}
+    def Xform "ImageableHidden"
+    {{
+        token visibility = "invisible"
+        {tri("UnderImageable")}
+    }}
+    {box("OtherFamily", meta='(prepend apiSchemas = ["MaterialBindingAPI"])', body='''
+        rel material:binding = </World/Looks/Red>
+        def GeomSubset "Partition" (prepend apiSchemas = ["MaterialBindingAPI"])
+        {
+            uniform token elementType = "face"
+            uniform token familyName = "partition"
+            int[] indices = [0, 1]
+            rel material:binding = </World/Looks/Green>
+        }
+        def GeomSubset "Unnamed" (prepend apiSchemas = ["MaterialBindingAPI"])
+        {
+            uniform token elementType = "face"
+            int[] indices = [2]
+            rel material:binding = </World/Looks/Green>
+        }''')}
+}}
+""",
+}
+
 GENERATED = {
     "xforms": XFORMS,
     "topology": TOPOLOGY,
@@ -796,10 +842,15 @@ GENERATED = {
     "materials": MATERIALS,
     "zup": ZUP,
     "implicit": IMPLICIT,
+    "conformance": CONFORMANCE,
 }
 
 # Facts each stage was written to have, checked against the usd-core listing.
 EXPECTED = {
+    "conformance": {
+        "paths": {"/World/TypelessHidden/UnderTypeless", "/World/TypelessGuide/UnderTypelessGuide", "/World/OtherFamily"},
+        "materials": {"/World/OtherFamily": {"/World/Looks/Red"}},
+    },
     "implicit": {
         "paths": {
             f"/World/{p}" for p in (

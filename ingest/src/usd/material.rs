@@ -143,7 +143,9 @@ impl Reader<'_> {
         }
     }
 
-    /// Per-face material indices of a mesh with `faces` faces, honouring bound GeomSubsets.
+    /// Per-face material indices of a mesh with `faces` faces, honouring bound GeomSubsets of the
+    /// `materialBind` family (UsdShade's `GetMaterialBindSubsets`: a binding on a subset of another
+    /// family is ignored, with a warning).
     pub(super) fn mesh_face_materials(&mut self, mesh: &str, faces: usize) -> Result<Vec<u32>, UsdError> {
         let whole = self.gprim_material(mesh)?;
         let mut per_face = vec![whole; faces];
@@ -161,6 +163,15 @@ impl Reader<'_> {
             else {
                 continue;
             };
+            let family = self.token(&subset, "familyName")?;
+            if family.as_deref() != Some("materialBind") {
+                let family = family.map_or("no familyName".to_string(), |f| format!("familyName \"{f}\""));
+                self.warn(
+                    &subset,
+                    format!("material binding on a GeomSubset with {family}, not \"materialBind\"; ignored (as UsdShade ignores it)"),
+                );
+                continue;
+            }
             let index = self.material(&material, &subset)?;
             let indices = self.ints(&subset, "indices")?.unwrap_or_default();
             let mut out_of_range = 0;

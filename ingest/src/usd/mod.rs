@@ -700,10 +700,14 @@ impl<'a> Reader<'a> {
                 None if is_instance => Some(self.begin_instance(path, state.world_from_local)),
                 None => None,
             };
-            if self.token(path, "visibility")?.as_deref() == Some("invisible") {
+            // Visibility and purpose belong to UsdGeomImageable: usd-core ignores them on a
+            // typeless prim.
+            let imageable = !ty.is_empty();
+            if imageable && self.token(path, "visibility")?.as_deref() == Some("invisible") {
                 state.invisible = true;
             }
-            match self.token(path, "purpose")?.as_deref() {
+            let purpose = if imageable { self.token(path, "purpose")? } else { None };
+            match purpose.as_deref() {
                 Some("render") => state.purpose = Purpose::Render,
                 Some("proxy") => state.purpose = Purpose::Proxy,
                 Some("guide") => state.purpose = Purpose::Guide,

@@ -1106,3 +1106,33 @@ def Mesh "Card" {{
     let far = shot(5.0);
     assert!(!far.warnings.iter().any(|w| w.message.contains("f32 positions")), "{:?}", far.warnings);
 }
+
+#[test]
+fn typeless_visibility_and_non_material_bind_subsets_are_ignored_as_usd_core_does() {
+    let scene = load_text(&usda(
+        r#"def Material "Green" {}
+def "Typeless" {
+    token visibility = "invisible"
+    uniform token purpose = "guide"
+    def Mesh "Tri" (prepend apiSchemas = ["MaterialBindingAPI"]) {
+        int[] faceVertexCounts = [3, 3]
+        int[] faceVertexIndices = [0, 1, 2, 0, 2, 3]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+        uniform token subdivisionScheme = "none"
+        def GeomSubset "Part" (prepend apiSchemas = ["MaterialBindingAPI"]) {
+            uniform token elementType = "face"
+            uniform token familyName = "partition"
+            int[] indices = [1]
+            rel material:binding = </Green>
+        }
+    }
+}"#,
+    ));
+    let tri = mesh(&scene, "/Typeless/Tri");
+    assert_eq!(tri.triangle_materials[0], tri.triangle_materials[1], "the partition subset binds nothing");
+    assert!(has_warning(
+        &scene,
+        "/Typeless/Tri/Part",
+        "material binding on a GeomSubset with familyName \"partition\", not \"materialBind\"; ignored"
+    ));
+}
