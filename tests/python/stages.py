@@ -789,7 +789,7 @@ def Xform "World"
 # classes): visibility and purpose count only on Imageable prims (a typeless prim's are ignored),
 # and only `materialBind` GeomSubsets bind materials.
 CONFORMANCE = {
-    "conformance.usda": header() + f"""
+    "conformance.usda": header(extra='fallbackPrimTypes = {\n        token[] StudioMesh = ["NotASchema", "Mesh"]\n    }') + f"""
 def Xform "World"
 {{
     def Scope "Looks"
@@ -806,6 +806,12 @@ def Xform "World"
     {{
         uniform token purpose = "guide"
         {tri("UnderTypelessGuide")}
+    }}
+    def StudioMesh "Custom"
+    {{
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(2, 0, 0), (3, 0, 0), (2, 1, 0)]
     }}
     def Xform "ImageableHidden"
     {{
@@ -848,7 +854,10 @@ GENERATED = {
 # Facts each stage was written to have, checked against the usd-core listing.
 EXPECTED = {
     "conformance": {
-        "paths": {"/World/TypelessHidden/UnderTypeless", "/World/TypelessGuide/UnderTypelessGuide", "/World/OtherFamily"},
+        "paths": {
+            "/World/TypelessHidden/UnderTypeless", "/World/TypelessGuide/UnderTypelessGuide", "/World/OtherFamily",
+            "/World/Custom",
+        },
         "materials": {"/World/OtherFamily": {"/World/Looks/Red"}},
     },
     "implicit": {

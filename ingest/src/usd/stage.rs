@@ -7,7 +7,7 @@
 //! extension it opens layers through).
 
 use std::cell::RefCell;
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 use openusd::ar::{ResolvedPath, Resolver};
@@ -230,7 +230,63 @@ pub(crate) struct Stage {
     /// The class arcs of the layers loaded so far, checked before each prim composes (see
     /// [`Stage::check_class_arcs`]).
     class_arcs: RefCell<ClassArcs>,
+    /// The `fallbackPrimTypes` stage metadata: for a type name no schema registers, the types to
+    /// draw it as, in order of preference (see [`Stage::type_name`]).
+    fallback_types: HashMap<String, Vec<String>>,
 }
+
+/// The schema types usd-core registers that can appear on a drawn stage (UsdGeom, UsdLux,
+/// UsdShade, UsdRender, UsdSkel, UsdVol, UsdMedia): a type outside this list takes its
+/// `fallbackPrimTypes` entry, as usd-core does for types its schema registry lacks.
+const SCHEMA_TYPES: &[&str] = &[
+    "Xform",
+    "Scope",
+    "Mesh",
+    "GeomSubset",
+    "BasisCurves",
+    "NurbsCurves",
+    "HermiteCurves",
+    "Points",
+    "NurbsPatch",
+    "TetMesh",
+    "PointInstancer",
+    "Camera",
+    "Cube",
+    "Sphere",
+    "Cylinder",
+    "Cylinder_1",
+    "Cone",
+    "Capsule",
+    "Capsule_1",
+    "Plane",
+    "DomeLight",
+    "DomeLight_1",
+    "SphereLight",
+    "RectLight",
+    "DiskLight",
+    "DistantLight",
+    "CylinderLight",
+    "PortalLight",
+    "GeometryLight",
+    "PluginLight",
+    "LightFilter",
+    "PluginLightFilter",
+    "Material",
+    "Shader",
+    "NodeGraph",
+    "RenderSettings",
+    "RenderProduct",
+    "RenderVar",
+    "RenderPass",
+    "SkelRoot",
+    "Skeleton",
+    "SkelAnimation",
+    "BlendShape",
+    "Volume",
+    "OpenVDBAsset",
+    "Field3DAsset",
+    "SpatialAudio",
+];
 
 /// An instance reached through an instance proxy (an instanceable prim inside another instance's
 /// prototype) whose own prototype openusd 0.6 composes empty.
@@ -283,6 +339,16 @@ impl Stage {
                 UsdError::new(&root_layer, UsdErrorKind::Open(message))
             })?;
         let time = options.frame.unwrap_or_else(|| inner.start_time_code());
+        let fallback_types = match inner.stage_metadata("fallbackPrimTypes").ok().flatten() {
+            Some(sdf::Value::Dictionary(map)) => map
+                .into_iter()
+                .filter_map(|(name, types)| match Value::from(types) {
+                    Value::StrArray(types) => Some((name, types)),
+                    _ => None,
+                })
+                .collect(),
+            _ => HashMap::new(),
+        };
         Ok(Stage {
             inner,
             root_layer,
@@ -293,6 +359,7 @@ impl Stage {
             notes: RefCell::new(Vec::new()),
             nested: RefCell::new(Vec::new()),
             class_arcs: RefCell::new(ClassArcs::default()),
+            fallback_types,
         })
     }
 
@@ -495,15 +562,25 @@ impl Stage {
             .unwrap_or(answer)
     }
 
-    /// The prim's schema type name (`""` when untyped).
+    /// The prim's schema type name (`""` when untyped). A type no schema registers is drawn as
+    /// the first registered type of its `fallbackPrimTypes` entry, when the stage authors one.
     pub(crate) fn type_name(&self, prim: &str) -> String {
-        self.inner
+        let authored = self
+            .inner
             .prim(self.query(prim))
             .type_name()
             .ok()
             .flatten()
             .map(|t| t.as_str().to_string())
-            .unwrap_or_default()
+            .unwrap_or_default();
+        if authored.is_empty() || SCHEMA_TYPES.contains(&authored.as_str()) {
+            return authored;
+        }
+        let fallback = self
+            .fallback_types
+            .get(&authored)
+            .and_then(|types| types.iter().find(|t| SCHEMA_TYPES.contains(&t.as_str())));
+        fallback.cloned().unwrap_or(authored)
     }
 
     /// Whether a `def` (not only `over`s, or nothing) composes at the prim's path.
