@@ -807,6 +807,20 @@ def Xform "World"
         uniform token purpose = "guide"
         {tri("UnderTypelessGuide")}
     }}
+    def Material "Glslfx"
+    {{
+        token outputs:surface.connect = </World/Glslfx/Surface.outputs:surface>
+        def Shader "Surface"
+        {{
+            uniform token info:id = "StudioCustomSurface"
+            token outputs:surface
+        }}
+    }}
+    def Material "NoSurface"
+    {{
+    }}
+    {tri("BoundCustom", meta='(prepend apiSchemas = ["MaterialBindingAPI"])', body='rel material:binding = </World/Glslfx>')}
+    {tri("BoundEmpty", meta='(prepend apiSchemas = ["MaterialBindingAPI"])', body='rel material:binding = </World/NoSurface>')}
     def StudioMesh "Custom"
     {{
         int[] faceVertexCounts = [3]
@@ -856,9 +870,13 @@ EXPECTED = {
     "conformance": {
         "paths": {
             "/World/TypelessHidden/UnderTypeless", "/World/TypelessGuide/UnderTypelessGuide", "/World/OtherFamily",
-            "/World/Custom",
+            "/World/Custom", "/World/BoundCustom", "/World/BoundEmpty",
         },
-        "materials": {"/World/OtherFamily": {"/World/Looks/Red"}},
+        "materials": {
+            "/World/OtherFamily": {"/World/Looks/Red"},
+            "/World/BoundCustom": {"/World/Glslfx"},
+            "/World/BoundEmpty": {"/World/NoSurface"},
+        },
     },
     "implicit": {
         "paths": {

@@ -254,6 +254,20 @@ impl Reader<'_> {
                 material.path = path.to_string();
                 Ok(self.add_material(material))
             }
+            // The binding is a fact of the stage whatever the look (usd-core's ComputeBoundMaterial
+            // names it): a Material whose surface we cannot read keeps its path, for listings and
+            // per-material outputs, and draws with the gprim's displayColor.
+            None if self.stage.type_name(path) == "Material" => {
+                let key = format!("{path} with {gprim}.displayColor");
+                if let Some(&index) = self.material_index.get(&key) {
+                    return Ok(index);
+                }
+                let material = Material { path: path.to_string(), ..self.display_color_look(gprim)? };
+                let index = self.scene.materials.len() as u32;
+                self.material_index.insert(key, index);
+                self.scene.materials.push(material);
+                Ok(index)
+            }
             None => self.display_color_material(gprim),
         }
     }
@@ -838,7 +852,14 @@ impl Reader<'_> {
         if let Some(&index) = self.material_index.get(&name) {
             return Ok(index);
         }
-        let mut m = Material { path: name, ..Material::default() };
+        let look = self.display_color_look(gprim)?;
+        Ok(self.add_material(Material { path: name, ..look }))
+    }
+
+    /// The look of `gprim`'s displayColor/displayOpacity (constant, or read per point by a
+    /// program), not yet registered.
+    fn display_color_look(&mut self, gprim: &str) -> Result<Material, UsdError> {
+        let mut m = Material::default();
         if let Some((values, varies)) = self.display_primvar::<3>(gprim, "primvars:displayColor")? {
             m.diffuse_color = Vec3::new(values[0] as f32, values[1] as f32, values[2] as f32);
             if varies {
@@ -865,7 +886,7 @@ impl Reader<'_> {
                 });
             }
         }
-        Ok(self.add_material(m))
+        Ok(m)
     }
 
     /// The primvars the programs of `materials` read (sorted by name), as authored on `gprim` or
