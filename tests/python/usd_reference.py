@@ -314,9 +314,13 @@ class _Walker:
         xforms = pi.ComputeInstanceTransformsAtTime(
             self.time, self.time, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
         )
+        # usd-core computes no transforms for an instancer whose protoIndices name a missing
+        # prototype or whose positions are shorter than them: it draws nothing then.
+        if len(xforms) != len(indices):
+            return
         mask = pi.ComputeMaskAtTime(self.time)
         for i, proto_index in enumerate(indices):
-            if mask and not mask[i]:
+            if (mask and not mask[i]) or not 0 <= proto_index < len(prototypes):
                 continue
             proto = self.stage.GetPrimAtPath(prototypes[proto_index])
             # A prim below the prototype root: its world matrix times (root world)^-1 is its transform
