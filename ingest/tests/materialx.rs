@@ -612,3 +612,120 @@ def Material "Look"
     assert!(matches!(source_of(m, ShadingInput::EmissiveColor), ShaderNode::Math { op: MathOp::Add, .. }));
     assert_eq!(m.look.node_categories, ["combine3", "geompropvalue", "separate3", "swizzle"]);
 }
+
+/// An open_pbr_surface `.mtlx` look with a tinted coat of its own index, a metal with an F82 edge
+/// tint (`specular_color`) and a specular weight arrives in the blob's material record with those
+/// values, and `--dump-json` lists them; an inline `ND_open_pbr_surface_surfaceshader` reads alike,
+/// and out-of-range values are clamped into the blob's ranges with one warning each.
+#[test]
+fn open_pbr_coat_and_f82_values_reach_the_blob_and_the_json_listing() {
+    let usda = r#"#usda 1.0
+def Mesh "Ball" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+    rel material:binding = </Looks/M_Coated>
+}
+def Scope "Looks" (references = @./look.mtlx@</MaterialX/Materials>) {}
+"#;
+    let mtlx = r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <open_pbr_surface name="Surface" type="surfaceshader">
+    <input name="base_color" type="color3" value="0.95, 0.64, 0.54" />
+    <input name="base_metalness" type="float" value="1" />
+    <input name="specular_weight" type="float" value="0.75" />
+    <input name="specular_color" type="color3" value="0.9, 0.7, 0.5" />
+    <input name="specular_roughness" type="float" value="0.25" />
+    <input name="coat_weight" type="float" value="0.8" />
+    <input name="coat_color" type="color3" value="0.9, 0.5, 0.25" />
+    <input name="coat_roughness" type="float" value="0.15" />
+    <input name="coat_ior" type="float" value="1.4" />
+  </open_pbr_surface>
+  <surfacematerial name="M_Coated" type="material">
+    <input name="surfaceshader" type="surfaceshader" nodename="Surface" />
+  </surfacematerial>
+</materialx>
+"#;
+    let (dir, root) = write(&[("scene.usda", usda), ("look.mtlx", mtlx)]);
+    let out = dir.path().join("scene.blob");
+    let (scene, _) = ingest::pipeline::ingest_file(&root, &out, &LoadOptions::default()).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let bytes = blob::AlignedBytes::copy_from(&std::fs::read(&out).unwrap());
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    let record = view
+        .materials
+        .iter()
+        .find(|m| view.string(m.name) == "/Looks/M_Coated")
+        .unwrap_or_else(|| panic!("no /Looks/M_Coated in the blob"));
+    assert_eq!((record.clearcoat, record.clearcoat_roughness, record.coat_ior), (0.8, 0.15, 1.4));
+    assert_eq!(record.coat_color, [0.9, 0.5, 0.25]);
+    assert_eq!((record.metallic, record.roughness, record.specular_weight), (1.0, 0.25, 0.75));
+    assert_eq!(record.specular_tint, [0.9, 0.7, 0.5]);
+    assert_eq!(record.diffuse_color, [0.95, 0.64, 0.54]);
+    let json = ingest::pipeline::dump_json(&scene);
+    let listed = json["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["path"] == "/Looks/M_Coated")
+        .unwrap_or_else(|| panic!("{json}"));
+    let c = &listed["constants"];
+    assert_eq!(listed["surface_model"], "open_pbr_surface");
+    let close = |v: &serde_json::Value, x: f64| (v.as_f64().unwrap() - x).abs() < 1e-6;
+    assert!(close(&c["coat_ior"], 1.4) && close(&c["clearcoat"], 0.8), "{c}");
+    assert!(close(&c["specular_weight"], 0.75) && close(&c["coat_color"][2], 0.25), "{c}");
+    assert!(close(&c["specular_color"][1], 0.7) && close(&c["clearcoatRoughness"], 0.15), "{c}");
+
+    // Inline, with the defaults where unauthored (coat_ior 1.6 is OpenPBR's) and two values out
+    // of range.
+    let m = constant_surface(
+        "ND_open_pbr_surface_surfaceshader",
+        "float inputs:coat_weight = 1
+        color3f inputs:coat_color = (0.5, 0.25, 1)",
+    );
+    assert_eq!((m.clearcoat, m.coat_color, m.coat_ior), (1.0, glam::Vec3::new(0.5, 0.25, 1.0), 1.6));
+    assert_eq!((m.specular_weight, m.specular_tint), (1.0, glam::Vec3::ONE));
+    let m = constant_surface("ND_standard_surface_surfaceshader", "float inputs:coat_IOR = 1.3");
+    assert_eq!((m.coat_ior, m.coat_color), (1.3, glam::Vec3::ONE));
+}
+
+#[test]
+fn open_pbr_values_out_of_range_are_clamped_with_a_warning() {
+    let layer = r#"#usda 1.0
+def Mesh "Ball" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+    rel material:binding = </Look>
+}
+def Material "Look"
+{
+    token outputs:mtlx:surface.connect = </Look/Surface.outputs:out>
+    def Shader "Surface"
+    {
+        uniform token info:id = "ND_open_pbr_surface_surfaceshader"
+        float inputs:coat_ior = 0.5
+        float inputs:specular_weight = 2
+        token outputs:out
+    }
+}
+"#;
+    let (_dir, root) = write(&[("look.usda", layer)]);
+    let scene = load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let m = material(&scene, "/Look");
+    assert_eq!((m.coat_ior, m.specular_weight), (1.0, 1.0));
+    let messages: Vec<&str> = scene.warnings.iter().map(|w| w.message.as_str()).collect();
+    assert_eq!(
+        messages,
+        [
+            "coat_ior = 0.5 outside [1, 10] (or not finite); clamped to 1",
+            "specular_weight = 2 outside [0, 1] (or not finite); clamped to 1",
+        ],
+        "{:?}",
+        scene.warnings
+    );
+}

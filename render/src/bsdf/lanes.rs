@@ -332,6 +332,10 @@ pub(super) mod tests {
             opacity_threshold: 0.0,
             clearcoat: if rng.f() < 0.5 { 0.0 } else { pick(rng, true) },
             clearcoat_roughness: pick(rng, true),
+            coat_color: Vec3::new(pick(rng, true), pick(rng, false), pick(rng, false)),
+            coat_ior: 1.0 + 2.0 * pick(rng, true),
+            specular_weight: pick(rng, true),
+            specular_tint: Vec3::new(pick(rng, true), pick(rng, false), pick(rng, false)),
             normal: None,
         };
         let ng = rng.dir();

@@ -18,6 +18,16 @@
 //! | clearcoatRoughness | `coat_roughness` (0.1) | `coat_roughness` (0) | `clearcoatRoughness` |
 //! | opacity, opacityThreshold | `transmission` t > 0: 1 − t, threshold 0; else `opacity` (x), threshold 0.5 | `transmission_weight`; else `geometry_opacity` | `opacity`, `opacityThreshold` |
 //! | normal (tangent space) | `normal` | `geometry_normal` | `normal` |
+//! | coat_color | `coat_color` (1) | `coat_color` (1) | — (1) |
+//! | coat_ior | `coat_IOR` (1.5) | `coat_ior` (1.6) | — (1.5) |
+//! | specular_weight | `specular` (1) | `specular_weight` (1) | — (1) |
+//! | specular_tint (OpenPBR `specular_color`) | `specular_color` (1) | `specular_color` (1) | — (1) |
+//!
+//! The last four rows are OpenPBR parameters the blob keeps beside UsdPreviewSurface's
+//! ([`blob::surface_inputs`]); standard_surface's follow the OpenPBR/MaterialX mapping notes
+//! (`coat` → `coat_weight`, `coat_IOR` → `coat_ior`, `specular` → `specular_weight`). They are
+//! constants: a connected one is one warning and its default, and a value outside the blob's range
+//! ([`blob::surface_inputs::OPENPBR_RANGES`]) is clamped with a warning.
 //!
 //! - **Transmission** is the agreed mapping: opacity `1 − t` with `opacityThreshold` 0 is what the
 //!   renderer treats as a transmissive dielectric of `ior` (the spec's clear glass), so
@@ -33,7 +43,7 @@
 //!   any other source is one warning and the interpolated normal.
 //! - **Emission**: OpenPBR's `emission_luminance` (nits) is read as radiance 1 per nit unit, like
 //!   standard_surface's unitless `emission`.
-//! - Lobes the model lacks (subsurface, sheen/fuzz, thin film, anisotropy, coat colour, ...) are
+//! - Lobes the model lacks (subsurface, sheen/fuzz, thin film, anisotropy, coat darkening, ...) are
 //!   named in one warning per material when their weight is authored non-zero or connected.
 //!
 //! Nodes compile to the material program ([`crate::scene::ShaderNode`]); arithmetic is the
@@ -299,6 +309,15 @@ impl Reader<'_> {
             let coat_roughness = if open { 0.0 } else { 0.1 };
             let coat_rough = read(self, &mut mx, p, "coat_roughness", f(coat_roughness), true)?;
             self.bind(&mut m, p, ShadingInput::ClearcoatRoughness, coat_rough);
+            let [cc, ci, sw, st] = blob::surface_inputs::OPENPBR_RANGES;
+            let coat_color = self.openpbr_constant(path, shader, names("coat_color", "coat_color", ""), 1.0, cc)?;
+            m.coat_color = Vec3::from_slice(&coat_color[..3]);
+            let coat_ior = if open { 1.6 } else { 1.5 };
+            m.coat_ior = self.openpbr_constant(path, shader, names("coat_IOR", "coat_ior", ""), coat_ior, ci)?[0];
+            let weight_name = names("specular", "specular_weight", "");
+            m.specular_weight = self.openpbr_constant(path, shader, weight_name, 1.0, sw)?[0];
+            let tint = self.openpbr_constant(path, shader, "specular_color", 1.0, st)?;
+            m.specular_tint = Vec3::from_slice(&tint[..3]);
             let transmission =
                 read(self, &mut mx, p, names("transmission", "transmission_weight", ""), f(0.0), true)?;
             if transmission.val != Val::Const(f(0.0)) {
@@ -325,6 +344,43 @@ impl Reader<'_> {
         };
         m.program = program.nodes;
         Ok(m)
+    }
+
+    /// The constant value of OpenPBR parameter `name` of `shader` (`default` when unauthored, in
+    /// every channel), clamped into its blob range `(_, lo, hi)` ([`blob::surface_inputs::OPENPBR_RANGES`])
+    /// with a warning when outside it or not finite. These parameters are constants in the blob
+    /// (no program op writes them): a connected one is one warning and the default.
+    fn openpbr_constant(
+        &mut self,
+        path: &str,
+        shader: &str,
+        name: &str,
+        default: f32,
+        (_, lo, hi): (&str, f32, f32),
+    ) -> Result<[f32; 4], UsdError> {
+        match self.trace_input(shader, &format!("inputs:{name}"))? {
+            Input::Unauthored => Ok([default; 4]),
+            Input::Network { node, .. } => {
+                self.warn(
+                    path,
+                    format!("{name} reads {node}: only a constant {name} is carried; using {default}"),
+                );
+                Ok([default; 4])
+            }
+            Input::Constant { value, .. } => {
+                let v = vec4(&value, [default; 4]);
+                let clamped = v.map(|x| if x.is_nan() { default } else { x.clamp(lo, hi) });
+                if clamped[..3] != v[..3] {
+                    let shown = |c: &[f32]| match c {
+                        [x, y, z, ..] if x == y && y == z => format!("{x}"),
+                        c => format!("{:?}", &c[..3]),
+                    };
+                    let (v, c) = (shown(&v), shown(&clamped));
+                    self.warn(path, format!("{name} = {v} outside [{lo}, {hi}] (or not finite); clamped to {c}"));
+                }
+                Ok(clamped)
+            }
+        }
     }
 
     /// `outputs:mtlx:displacement` is not rendered: one warning.
