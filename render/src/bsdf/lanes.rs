@@ -14,7 +14,7 @@
 //! probabilities as [`BsdfLanes`] columns, an AVX-512VL clone, a variant for all-diffuse groups;
 //! measurements: `docs/perf.md#bsdf-lanes-bsdflanesrs`.
 
-use crate::bsdf::{albedo, view_halves, Bsdf, BsdfSample};
+use crate::bsdf::{albedo, coat_view, view_halves, Bsdf, BsdfSample, CoatParams};
 use crate::shading::ShadingInputs;
 use glam::Vec3;
 
@@ -52,6 +52,16 @@ lanekit::soa! {
         pub ms_view: Vec3 as [f32; 3],
         /// The multiple-scattering Fresnel ([`albedo::ms_fresnel`]).
         pub ms_fresnel: Vec3 as [f32; 3],
+        /// Coat colour.
+        pub coat_color: Vec3 as [f32; 3],
+        /// The coat's Schlick F0.
+        pub coat_f0: f32,
+        /// `1/η²` of the coat's index.
+        pub coat_inv_eta2: f32,
+        /// The base's coat-layer weight at `wo` ([`crate::bsdf::coat_view`]).
+        pub coat_base: Vec3 as [f32; 3],
+        /// The coat's albedo times its weight at `wo`.
+        pub coat_p: f32,
     }
 }
 
@@ -85,6 +95,10 @@ lanekit::soa! {
         pub clearcoat: f32,
         /// `clearcoatRoughness`.
         pub clearcoat_roughness: f32,
+        /// OpenPBR `coat_color`.
+        pub coat_color: Vec3 as [f32; 3],
+        /// OpenPBR `coat_ior`.
+        pub coat_ior: f32,
         /// Unit shading normal on the side of the viewer.
         pub ns: Vec3 as [f32; 3],
         /// Unit geometric normal on the side of the viewer.
@@ -106,6 +120,8 @@ impl InputLane {
             ior: inputs.ior,
             clearcoat: inputs.clearcoat,
             clearcoat_roughness: inputs.clearcoat_roughness,
+            coat_color: inputs.coat_color,
+            coat_ior: inputs.coat_ior,
             ns,
             ng,
         }
@@ -126,7 +142,7 @@ impl InputLanes {
 pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
     for k in 0..LANES {
         let wo = at(&out.wo, k);
-        out.set(k, &Bsdf::from_lane(&inp.get(k)).seen_with(wo, [Vec3::ZERO; 3]));
+        out.set(k, &Bsdf::from_lane(&inp.get(k)).seen_with(wo, [Vec3::ZERO; 3], (Vec3::ZERO, 0.0)));
     }
     let tables = albedo::tables();
     for k in 0..LANES {
@@ -136,7 +152,23 @@ pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
             (out.diffuse_view[c][k], out.ms_view[c][k], out.ms_fresnel[c][k]) = (dv[c], mv[c], fm[c]);
         }
     }
+    // The coat's view halves (a lookup and three powers per lane) only in groups with a coat; a
+    // lane without one gets zeros either way (`coat_view` of a zero weight), as the scalar BSDF.
+    if any_coat(out) {
+        for k in 0..LANES {
+            let s = out.get(k);
+            let (weight, alpha, f0, color, inv_eta2) =
+                (s.clearcoat, s.clearcoat_alpha, s.coat_f0, s.coat_color, s.coat_inv_eta2);
+            let coat = CoatParams { weight, alpha, f0, color, inv_eta2 };
+            let (base, p) = coat_view(tables, coat, s.wo.dot(s.n));
+            for c in 0..3 {
+                out.coat_base[c][k] = base[c];
+            }
+            out.coat_p[k] = p;
+        }
+    }
 }
+
 
 lanekit::soa! {
     /// Values and pdfs of eight evaluations.
@@ -350,14 +382,16 @@ pub(super) mod tests {
         for _ in 0..2000 {
             let mut inp = InputLanes::default();
             let mut expected = Vec::new();
+            let mut out = BsdfLanes::default();
             for k in 0..LANES {
                 let (inputs, ns, ng) = random_inputs(&mut rng);
                 inp.set_inputs(k, &inputs, ns, ng);
+                let wo = (ng * 0.3 + rng.dir()).normalize_or(ng);
+                (out.wo[0][k], out.wo[1][k], out.wo[2][k]) = (wo.x, wo.y, wo.z);
                 expected.push(Bsdf::from_inputs(&inputs, ns, ng));
                 specular += inputs.use_specular_workflow as u32;
                 metallic += !inputs.use_specular_workflow as u32;
             }
-            let mut out = BsdfLanes::default();
             from_inputs_lanes(&inp, &mut out);
             for (k, b) in expected.iter().enumerate() {
                 let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
@@ -371,6 +405,12 @@ pub(super) mod tests {
                 assert_eq!(one(out.alpha[k]), one(b.alpha), "alpha, lane {k}");
                 assert_eq!(one(out.clearcoat[k]), one(b.clearcoat), "clearcoat, lane {k}");
                 assert_eq!(one(out.clearcoat_alpha[k]), one(b.clearcoat_alpha), "coat alpha, lane {k}");
+                assert_eq!(bits(at(&out.coat_color)), bits(b.coat_color), "coat colour, lane {k}: {b:?}");
+                assert_eq!(one(out.coat_f0[k]), one(b.coat_f0), "coat F0, lane {k}");
+                assert_eq!(one(out.coat_inv_eta2[k]), one(b.coat_inv_eta2), "coat 1/η², lane {k}");
+                let seen = b.seen_from(at(&out.wo));
+                assert_eq!(bits(at(&out.coat_base)), bits(seen.coat_base), "coat view, lane {k}: {b:?}");
+                assert_eq!(one(out.coat_p[k]), one(seen.coat_p), "coat albedo, lane {k}: {b:?}");
             }
         }
         assert!(

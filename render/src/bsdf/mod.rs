@@ -1,16 +1,30 @@
-//! The UsdPreviewSurface BSDF: Lambert diffuse + GGX specular + GGX clearcoat, reflection only.
+//! The surface BSDF: OpenPBR Surface's reflection lobes (ASWF OpenPBR v1.1) over a
+//! UsdPreviewSurface-style base: Lambert diffuse + GGX specular, under an OpenPBR coat layer.
 //!
 //! ```text
-//! f = (1 − cc·F_c(n·v)) · [ diffuse/π · s(n·v, n·l) + D·G₂·F(v·h) / (4 |n·l| |n·v|) ] + cc · D_c·G₂_c·F_c(v·h) / (4 |n·l| |n·v|)
+//! f = base · [(1 − w) + w · T(μo) T(μi) (1 − E_c(μo))] + w · D_c·G₂_c·F_c(v·h) / (4 |n·l| |n·v|)
+//! base = diffuse/π · s(n·v, n·l) + D·G₂·F(v·h) / (4 |n·l| |n·v|) + f_ms
 //! ```
 //! `diffuse = diffuseColor·(1 − metallic)` (metallic workflow) or `diffuseColor` (specular workflow);
-//! `F` is Schlick with F0 = mix(((ior−1)/(ior+1))², diffuseColor, metallic) or F0 = specularColor;
-//! the clearcoat uses F0 = 0.04. `D` is GGX with α = roughness² (α ≥ 1e-3), `G₂` the height-correlated
+//! `F` is Schlick with F0 = mix(((ior−1)/(ior+1))², diffuseColor, metallic) or F0 = specularColor.
+//! `D` is GGX with α = roughness² (α ≥ 1e-3), `G₂` the height-correlated
 //! Smith term. `s = (1 − E(n·v))(1 − E(n·l)) / (1 − E_avg)` scales the diffuse lobe by what the
 //! specular lobe does not reflect ([`albedo`]: its tabulated directional albedo `E`), so a white
 //! base reflects exactly 1 at every angle; it replaced `(1 − F(n·v))`, which took up to 45 % off a
-//! rough matte floor towards the horizon. The `(1 − cc·F_c)` factor of the clearcoat is still the
-//! usual layering approximation.
+//! rough matte floor towards the horizon. `f_ms` is the specular lobe's multiple scattering.
+//!
+//! The coat (weight `w` = `clearcoat`/`coat_weight`, α_c = `clearcoatRoughness`², index
+//! `coat_ior`, F0_c = ((η−1)/(η+1))², Schlick with F90 = 1) is layered by albedo scaling, as the
+//! OpenPBR specification prescribes: the base is seen through the coat with weight
+//! `1 − E_c(μo)`, `E_c` the coat lobe's directional albedo from the same Kulla–Conty tables
+//! ([`coat_view`]), so a white base under any coat reflects exactly `w·E_c + (1 − w·E_c) = 1`. The
+//! old `1 − cc·F_c(n·v)` factor (Schlick at the normal, not the lobe's albedo) read 0.956 at 80°.
+//! `T(μ) = coat_color^(1/μt)`, `μt` the cosine refracted into the coat, is its absorption along each
+//! pass (`coat_color²` at normal incidence). Decisions: the scaling is by the view direction only
+//! (the spec's; not reciprocal, which MIS does not need); the base's roughening by a rough coat,
+//! its Fresnel against the coat's index instead of air and `coat_darkening` (internal reflections)
+//! are not modelled. UsdPreviewSurface's clearcoat is this coat with index 1.5 (F0 0.04) and
+//! colour 1: clearcoat scenes changed when it became a layer.
 //!
 //! Lobes are sampled in proportion to their estimated albedos at `v` (diffuse: cosine-weighted;
 //! specular and clearcoat: GGX visible normals, Dupuy & Benyoub 2023); [`Bsdf::eval`] returns the
@@ -26,8 +40,10 @@
 //! transposed. The per-lane bodies are split where a lane loop must be: around the sample's sine and
 //! cosine ([`crate::trig::sin_cos_lanes`]) and around the albedo tables' lookups
 //! ([`SeenBsdf::light_albedo`]), whose scalar reads would keep a loop from vectorising. A `COAT`
-//! parameter leaves the clearcoat lobe's terms out where the weight is zero
-//! ([`SeenBsdf::has_coat_terms`]); both variants give the same bits there. The lobes' building
+//! parameter leaves the coat layer's terms out where the weight is zero
+//! ([`SeenBsdf::has_coat_terms`]); both variants give the same bits there. The coat's view half
+//! (a lookup and three `powf`s) is made only for BSDFs (lane groups) with a coat; a zero weight gives
+//! zeros either way. The lobes' building
 //! blocks (`ggx_lambda`, `schlick`, …) are `#[inline(always)]`: simplified on their own first, as
 //! `#[inline]` functions, their selects became branches in the lane loops and kept them scalar.
 
@@ -105,6 +121,12 @@ pub struct Bsdf {
     pub(crate) alpha: f32,
     pub(crate) clearcoat: f32,
     pub(crate) clearcoat_alpha: f32,
+    /// Coat colour (transmittance of one pass at normal incidence).
+    pub(crate) coat_color: Vec3,
+    /// The coat's Schlick F0, `((η − 1)/(η + 1))²`.
+    pub(crate) coat_f0: f32,
+    /// `1/η²` of the coat's index.
+    pub(crate) coat_inv_eta2: f32,
 }
 
 /// Rec. 709 luminance.
@@ -130,7 +152,41 @@ fn schlick_scalar(f0: f32, cos: f32) -> f32 {
     f0 + (1.0 - f0) * (m * m) * (m * m) * m
 }
 
-const CLEARCOAT_F0: f32 = 0.04;
+/// The coat's transmittance `c^(1/μt)` for colour `c` along a direction at cosine `mu` outside a
+/// coat of index `η` (`inv_eta2` = 1/η²): one pass through a coat of unit optical depth at normal
+/// incidence, the path length `1/μt` of the refracted direction (OpenPBR's coat absorption; a round
+/// trip at normal incidence is `c²`). Colour 1 gives exactly 1 (`powf(1, x)`), and an index of 1
+/// at grazing gives `c^∞`: 0, or 1 for `c = 1`.
+#[inline(always)]
+fn coat_transmittance(c: Vec3, inv_eta2: f32, mu: f32) -> Vec3 {
+    let mu_t = (1.0 - (1.0 - mu * mu) * inv_eta2).max(0.0).sqrt();
+    let k = 1.0 / mu_t;
+    Vec3::new(c.x.powf(k), c.y.powf(k), c.z.powf(k))
+}
+
+/// The view half of the coat layer at local view cosine `mu_o` for a BSDF with coat weight `w`:
+/// the base's weight `w · T(μo) · (1 − E_c(μo))` beside its `1 − w` uncoated part (the light
+/// half, `T(μi)`, is applied per evaluation), and the coat's own albedo `w · E_c(μo)`, the
+/// lobe-selection weight. `E_c = F0_c·A + B` is the coat's GGX albedo with Schlick's Fresnel from
+/// the same tables as the base's specular lobe ([`albedo::lobe_albedo_ab`]).
+#[inline(always)]
+pub(crate) fn coat_view(t: &albedo::Tables, coat: CoatParams, mu_o: f32) -> (Vec3, f32) {
+    let CoatParams { weight, alpha, f0, color, inv_eta2 } = coat;
+    let [a, b] = albedo::lobe_albedo_ab(t, mu_o, alpha);
+    let e = f0 * a + b;
+    let t_o = coat_transmittance(color, inv_eta2, mu_o);
+    (t_o * (weight * (1.0 - e)), weight * e)
+}
+
+/// The coat's parameters, as [`Bsdf`] and [`SeenBsdf`] both hold them.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CoatParams {
+    pub(crate) weight: f32,
+    pub(crate) alpha: f32,
+    pub(crate) f0: f32,
+    pub(crate) color: Vec3,
+    pub(crate) inv_eta2: f32,
+}
 
 /// GGX normal distribution for a local half vector.
 #[inline(always)]
@@ -280,11 +336,13 @@ impl SeenBsdf {
         albedo::lobe_albedo_ab(tables, mu_i, self.alpha)
     }
 
-    /// Lobe selection probabilities (diffuse, specular, clearcoat) at local view cosine `wo_z`.
+    /// Lobe selection probabilities (diffuse, specular, clearcoat) at local view cosine `wo_z`:
+    /// the base's lobes by their Fresnel-weighted colours times the base's coat-layer weight at
+    /// `wo` (without the light half of the coat's absorption), the coat by its albedo.
     #[inline(always)]
     fn lobe_probabilities(&self, wo_z: f32) -> [f32; 3] {
-        let coat_f = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo_z);
-        let base = 1.0 - coat_f;
+        let coat_f = self.coat_p;
+        let base = (1.0 - self.clearcoat) + luminance(self.coat_base);
         let spec_f = schlick(self.f0, wo_z);
         let w_d = base * luminance(self.diffuse * (Vec3::ONE - spec_f));
         let w_s = base * luminance(spec_f);
@@ -311,7 +369,6 @@ impl SeenBsdf {
         let h = (wo + wi).normalize();
         let wo_h = wo.dot(h).max(0.0);
         let denom = 4.0 * wo.z * wi.z;
-        let coat_view = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo.z);
         // The diffuse and multiple-scattering lobes from their view halves ([`albedo`]).
         let (dv, mv, fm, f0) = (self.diffuse_view, self.ms_view, self.ms_fresnel, self.f0);
         let f90 = albedo::f90(f0.x, f0.y, f0.z);
@@ -320,15 +377,20 @@ impl SeenBsdf {
         let [dz, mz] = albedo::light_terms([dv.z, mv.z, fm.z], f0.z, f90, at_i);
         let (diffuse, multiple) = (Vec3::new(dx, dy, dz) * FRAC_1_PI, Vec3::new(mx, my, mz) * FRAC_1_PI);
         let specular = schlick(f0, wo_h) * (ggx_d(h, self.alpha) * ggx_g2(wo, wi, self.alpha) / denom);
-        let mut f = (1.0 - coat_view) * (diffuse + (specular + multiple));
+        let base = diffuse + (specular + multiple);
+        let mut f = base;
         let mut pdf = probs[0] * wi.z * FRAC_1_PI + probs[1] * ggx_pdf(wo, h, self.alpha);
         if COAT {
             let a = self.clearcoat_alpha;
             let coat =
-                self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo_h) * ggx_d(h, a) * ggx_g2(wo, wi, a) / denom;
+                self.clearcoat * schlick_scalar(self.coat_f0, wo_h) * ggx_d(h, a) * ggx_g2(wo, wi, a) / denom;
+            // The base under the coat: `1 − w` of it bare, `w` of it through the coat, which
+            // reflects `E_c(μo)` and absorbs along both passes ([`coat_view`]).
+            let t_i = coat_transmittance(self.coat_color, self.coat_inv_eta2, wi.z);
+            let layered = base * (Vec3::splat(1.0 - self.clearcoat) + self.coat_base * t_i);
             let with_coat = pdf + probs[2] * ggx_pdf(wo, h, a);
             let has_coat = self.clearcoat > 0.0;
-            f = select(has_coat, f + Vec3::splat(coat), f);
+            f = select(has_coat, layered + Vec3::splat(coat), f);
             pdf = if has_coat { with_coat } else { pdf };
         }
         (f, pdf)
@@ -371,6 +433,10 @@ impl Bsdf {
         let f0 = select(workflow, specular, Vec3::splat(dielectric).lerp(base, metallic));
         let roughness = mat.roughness.clamp(0.0, 1.0);
         let cc_roughness = mat.clearcoat_roughness.clamp(0.0, 1.0);
+        // The blob validates the coat's index into [1, 10]; a program-free check keeps any other
+        // input (NaN included) a 1.5 coat rather than a NaN one.
+        let coat_ior = if (mat.coat_ior >= 1.0) & (mat.coat_ior <= 10.0) { mat.coat_ior } else { 1.5 };
+        let rc = (coat_ior - 1.0) / (coat_ior + 1.0);
         Bsdf {
             frame: Frame::new(mat.ns),
             ng: mat.ng,
@@ -379,7 +445,18 @@ impl Bsdf {
             alpha: (roughness * roughness).max(MIN_ALPHA),
             clearcoat: mat.clearcoat.clamp(0.0, 1.0),
             clearcoat_alpha: (cc_roughness * cc_roughness).max(MIN_ALPHA),
+            // `max` first: NaN → 0 (a black coat), never a NaN transmittance.
+            coat_color: mat.coat_color.max(Vec3::ZERO).min(Vec3::ONE),
+            coat_f0: rc * rc,
+            coat_inv_eta2: 1.0 / (coat_ior * coat_ior),
         }
+    }
+
+    /// The coat's parameters.
+    #[inline(always)]
+    pub(crate) fn coat(&self) -> CoatParams {
+        let (weight, alpha, f0) = (self.clearcoat, self.clearcoat_alpha, self.coat_f0);
+        CoatParams { weight, alpha, f0, color: self.coat_color, inv_eta2: self.coat_inv_eta2 }
     }
 
     /// The diffuse albedo (for the albedo AOV).
@@ -390,19 +467,25 @@ impl Bsdf {
     /// This BSDF seen from world direction `wo` (towards the viewer).
     #[inline(always)]
     pub fn seen_from(&self, wo: Vec3) -> SeenBsdf {
-        let view = view_halves(albedo::tables(), self.diffuse, self.f0, self.alpha, wo.dot(self.frame.n));
-        self.seen_with(wo, view)
+        let mu_o = wo.dot(self.frame.n);
+        let view = view_halves(albedo::tables(), self.diffuse, self.f0, self.alpha, mu_o);
+        // Without a coat its view half is zero (what `coat_view` gives for a zero weight too,
+        // without the lookup and the powers).
+        let coat = if self.clearcoat != 0.0 { coat_view(albedo::tables(), self.coat(), mu_o) } else { (Vec3::ZERO, 0.0) };
+        self.seen_with(wo, view, coat)
     }
 
-    /// [`Bsdf::seen_from`] with the view halves known ([`view_halves`]).
+    /// [`Bsdf::seen_from`] with the view halves known ([`view_halves`], [`coat_view`]).
     #[inline(always)]
-    pub(crate) fn seen_with(&self, wo: Vec3, view: [Vec3; 3]) -> SeenBsdf {
-        let Bsdf { frame, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha } = *self;
+    pub(crate) fn seen_with(&self, wo: Vec3, view: [Vec3; 3], coat: (Vec3, f32)) -> SeenBsdf {
+        let Bsdf { frame, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha, coat_color, coat_f0, coat_inv_eta2 } =
+            *self;
         let [diffuse_view, ms_view, ms_fresnel] = view;
+        let (coat_base, coat_p) = coat;
         #[rustfmt::skip]
         let seen = SeenBsdf {
             t: frame.t, b: frame.b, n: frame.n, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha, wo,
-            diffuse_view, ms_view, ms_fresnel,
+            diffuse_view, ms_view, ms_fresnel, coat_color, coat_f0, coat_inv_eta2, coat_base, coat_p,
         };
         seen
     }
@@ -591,17 +674,72 @@ mod tests {
         }
     }
 
+    /// OpenPBR's coat layer over a white plastic base conserves energy: the base keeps what the
+    /// coat does not reflect (`1 − w·E_c(μo)`), so the furnace reads 1 at every view angle, coat
+    /// roughness, weight and index, grazing 80° included (the old `1 − cc·F_c(n·v)` factor read
+    /// 0.956 there).
     #[test]
-    fn full_preview_surface_stays_below_one() {
-        let mut m = material(1.0, 0.0, 0.4, 1.5);
-        m.clearcoat = 1.0;
-        m.clearcoat_roughness = 0.2;
+    fn coated_plastic_is_a_furnace_at_every_angle() {
+        for (weight, coat_roughness, coat_ior, roughness) in
+            [(1.0, 0.0, 1.5, 0.4), (1.0, 0.2, 1.5, 0.4), (1.0, 0.5, 1.6, 0.1), (0.5, 0.3, 2.0, 0.8)]
+        {
+            let mut m = material(1.0, 0.0, roughness, 1.5);
+            (m.clearcoat, m.clearcoat_roughness, m.coat_ior) = (weight, coat_roughness, coat_ior);
+            let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+            for theta in [0.0, 45.0, 80.0] {
+                let a = albedo_by_sampling(&bsdf, dir_from_angle(theta), 200_000);
+                eprintln!(
+                    "coat {weight} r_c {coat_roughness} ior {coat_ior} over plastic r {roughness} θ={theta}: albedo {a:.4}"
+                );
+                assert!((a - 1.0).abs() < 0.01, "coat {weight}/{coat_roughness}/{coat_ior} θ={theta}: {a}");
+            }
+        }
+        // A coated white metal too.
+        let mut m = material(1.0, 1.0, 0.5, 1.5);
+        (m.clearcoat, m.clearcoat_roughness) = (1.0, 0.1);
         let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
         for theta in [0.0, 45.0, 80.0] {
-            let a = albedo_by_sampling(&bsdf, dir_from_angle(theta), 100_000);
-            eprintln!("preview surface + clearcoat θ={theta}: albedo {a:.4}");
-            assert!(a <= 1.0 + 1e-3 && a > 0.8, "θ={theta}: {a}");
+            let a = albedo_by_sampling(&bsdf, dir_from_angle(theta), 200_000);
+            eprintln!("coated white metal θ={theta}: albedo {a:.4}");
+            assert!((a - 1.0).abs() < 0.01, "coated metal θ={theta}: {a}");
         }
+    }
+
+    /// The coat absorbs along both passes: over a smooth white mirror, a smooth coat of colour `c`
+    /// reflects `F0_c + (1 − F0_c) c²` head-on (0.04 + 0.96 · 0.25 = 0.28 for c = 0.5 and index
+    /// 1.5), per channel; off normal the path through the coat is longer (`c^(2/μt)`).
+    #[test]
+    fn coat_colour_attenuates_a_mirror_by_its_square_head_on() {
+        let mut m = material(1.0, 1.0, 0.0, 1.5);
+        (m.clearcoat, m.clearcoat_roughness, m.coat_color) = (1.0, 0.0, [0.5, 0.8, 1.0]);
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        let mut rng = Rng(5);
+        let n = 100_000;
+        let mut sum = Vec3::ZERO;
+        for _ in 0..n {
+            if let Some(s) = bsdf.sample(Vec3::Z, rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
+                sum += s.f * (s.wi.z / s.pdf);
+            }
+        }
+        let a = sum / n as f32;
+        let expect = |c: f32| 0.04 + 0.96 * c * c;
+        eprintln!("mirror under a (0.5, 0.8, 1) coat, head-on: {a}");
+        for (got, c) in [(a.x, 0.5), (a.y, 0.8), (a.z, 1.0)] {
+            assert!((got - expect(c)).abs() < 2e-3, "coat colour {c}: {got} vs {}", expect(c));
+        }
+        // At 60° the refracted cosine in a 1.5 coat is √(1 − 0.75/2.25) = 0.8165: T = c^(2/0.8165).
+        let wo = dir_from_angle(60.0);
+        let mut sum = Vec3::ZERO;
+        for _ in 0..n {
+            if let Some(s) = bsdf.sample(wo, rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
+                sum += s.f * (s.wi.z / s.pdf);
+            }
+        }
+        let (white, tinted) = (sum.z / n as f32, sum.x / n as f32);
+        let e_c = schlick_scalar(0.04, 0.5); // a smooth coat reflects Schlick's F at 60°
+        let expect = e_c + (1.0 - e_c) * 0.5f32.powf(2.0 / (1.0f32 - 0.75 / 2.25).sqrt());
+        eprintln!("60°: white {white:.4}, tinted {tinted:.4} (expected {expect:.4})");
+        assert!((white - 1.0).abs() < 0.01 && (tinted - expect).abs() < 3e-3, "{tinted} vs {expect}");
     }
 
     /// Diffuse under a dielectric specular layer conserves energy ([`albedo`]): a white base reads
