@@ -455,7 +455,8 @@ fn standard_surface_constants_map_onto_the_preview_surface() {
     assert_eq!((m.clearcoat, m.clearcoat_roughness), (0.75, 0.3));
     assert_eq!((m.opacity, m.opacity_threshold), (0.25, 0.5), "opacity is a cut-out");
     assert!(!m.use_specular_workflow, "a metal keeps the metallic workflow");
-    // Transmission: clear glass of specular_IOR; specular 0.5 on a dielectric: the specular workflow.
+    // Transmission: clear glass of specular_IOR; specular 0.5 and a specular colour on a dielectric:
+    // OpenPBR's specular weight and colour, in the metallic workflow.
     let m = constant_surface(
         "ND_standard_surface_surfaceshader",
         "float inputs:transmission = 0.75
@@ -464,9 +465,8 @@ fn standard_surface_constants_map_onto_the_preview_surface() {
         color3f inputs:specular_color = (1, 1, 0.5)",
     );
     assert_eq!((m.opacity, m.opacity_threshold, m.ior), (0.25, 0.0, 1.33));
-    let f0 = ((1.33f32 - 1.0) / (1.33 + 1.0)).powi(2);
-    assert!(m.use_specular_workflow);
-    assert_eq!(m.specular_color, Vec3::new(1.0, 1.0, 0.5) * (0.5 * f0));
+    assert!(!m.use_specular_workflow);
+    assert_eq!((m.specular_weight, m.specular_tint), (0.5, Vec3::new(1.0, 1.0, 0.5)));
 }
 
 #[test]

@@ -48,8 +48,12 @@ macro_rules! preview_surface_constants {
 /// outside it or not finite, and ingest clamps authored values into it with a warning. A coat of
 /// index below 1 would turn the layering's Fresnel inside out; a specular weight above 1 could make
 /// F0 exceed 1 (OpenPBR's soft range is [0, 1]).
-pub const OPENPBR_RANGES: [(&str, f32, f32); 4] =
-    [("coat_color", 0.0, 1.0), ("coat_ior", 1.0, 10.0), ("specular_weight", 0.0, 1.0), ("specular_color", 0.0, 1.0)];
+pub const OPENPBR_RANGES: [(&str, f32, f32); 4] = [
+    ("coat_color", 0.0, 1.0),
+    ("coat_ior", 1.0, 10.0),
+    ("specular_weight", 0.0, 1.0),
+    ("specular_color", 0.0, 1.0),
+];
 
 /// The type of an input kind outside the blob, given the caller's 3-vector type: `color` → `$vec3`,
 /// `float` → `f32`, `flag` → `bool`.

@@ -912,7 +912,10 @@ fn openpbr_constants_out_of_range_are_rejected_at_load() {
     for (edit, what) in edits {
         let mut scene = sample_scene();
         edit(&mut scene.materials[0]);
-        assert_eq!(crafted_error(&scene, SectionKind::Materials), format!("section Materials record 0: {what}"));
+        assert_eq!(
+            crafted_error(&scene, SectionKind::Materials),
+            format!("section Materials record 0: {what}")
+        );
     }
     // The ends of each range are valid.
     let mut scene = sample_scene();

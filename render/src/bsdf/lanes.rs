@@ -38,6 +38,8 @@ lanekit::soa! {
         pub diffuse: Vec3 as [f32; 3],
         /// Specular F0.
         pub f0: Vec3 as [f32; 3],
+        /// F82-tint coefficient ([`crate::bsdf::f82_b`]).
+        pub f82_b: Vec3 as [f32; 3],
         /// GGX α of the specular lobe.
         pub alpha: f32,
         /// Clearcoat weight.
@@ -93,6 +95,10 @@ lanekit::soa! {
         pub ior: f32,
         /// `clearcoat`.
         pub clearcoat: f32,
+        /// OpenPBR `specular_weight`.
+        pub specular_weight: f32,
+        /// OpenPBR `specular_color` (`specular_tint`).
+        pub specular_tint: Vec3 as [f32; 3],
         /// `clearcoatRoughness`.
         pub clearcoat_roughness: f32,
         /// OpenPBR `coat_color`.
@@ -119,6 +125,8 @@ impl InputLane {
             metallic: inputs.metallic,
             ior: inputs.ior,
             clearcoat: inputs.clearcoat,
+            specular_weight: inputs.specular_weight,
+            specular_tint: inputs.specular_tint,
             clearcoat_roughness: inputs.clearcoat_roughness,
             coat_color: inputs.coat_color,
             coat_ior: inputs.coat_ior,
@@ -147,7 +155,7 @@ pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
     let tables = albedo::tables();
     for k in 0..LANES {
         let (d, f0, n, wo) = (at(&out.diffuse, k), at(&out.f0, k), at(&out.n, k), at(&out.wo, k));
-        let [dv, mv, fm] = view_halves(tables, d, f0, out.alpha[k], wo.dot(n));
+        let [dv, mv, fm] = view_halves(tables, d, f0, at(&out.f82_b, k), out.alpha[k], wo.dot(n));
         for c in 0..3 {
             (out.diffuse_view[c][k], out.ms_view[c][k], out.ms_fresnel[c][k]) = (dv[c], mv[c], fm[c]);
         }
@@ -168,7 +176,6 @@ pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
         }
     }
 }
-
 
 lanekit::soa! {
     /// Values and pdfs of eight evaluations.
@@ -237,7 +244,7 @@ pub fn eval_lanes(l: &BsdfLanes, wi: &Lanes3, out: &mut EvalLanes) {
 
 #[inline(always)]
 fn eval_group<const COAT: bool>(l: &BsdfLanes, wi: &Lanes3, out: &mut EvalLanes) {
-    let (tables, mut at_i) = (albedo::tables(), [[0.0; 2]; LANES]);
+    let (tables, mut at_i) = (albedo::tables(), [[0.0; 3]; LANES]);
     for (k, at_i) in at_i.iter_mut().enumerate() {
         *at_i = l.get(k).light_albedo(tables, at(wi, k).dot(at(&l.n, k)));
     }
@@ -305,7 +312,7 @@ fn sample_group<const COAT: bool>(l: &BsdfLanes, u: &SampleInputs, out: &mut Sam
         let start = starts.get(k);
         dirs.set(k, &l.get(k).sample_direction(&start, u.u_lobe[k], [u.u0[k], u.u1[k]], sin[k], cos[k]));
     }
-    let (tables, mut at_i) = (albedo::tables(), [[0.0f32; 2]; LANES]);
+    let (tables, mut at_i) = (albedo::tables(), [[0.0f32; 3]; LANES]);
     for (k, at_i) in at_i.iter_mut().enumerate() {
         *at_i = l.get(k).light_albedo(tables, dirs.local[2][k]);
     }
@@ -402,6 +409,7 @@ pub(super) mod tests {
                 assert_eq!(bits(at(&out.ng)), bits(b.ng), "geometric normal, lane {k}");
                 assert_eq!(bits(at(&out.diffuse)), bits(b.diffuse), "diffuse, lane {k}: {b:?}");
                 assert_eq!(bits(at(&out.f0)), bits(b.f0), "f0, lane {k}: {b:?}");
+                assert_eq!(bits(at(&out.f82_b)), bits(b.f82_b), "F82 b, lane {k}: {b:?}");
                 assert_eq!(one(out.alpha[k]), one(b.alpha), "alpha, lane {k}");
                 assert_eq!(one(out.clearcoat[k]), one(b.clearcoat), "clearcoat, lane {k}");
                 assert_eq!(one(out.clearcoat_alpha[k]), one(b.clearcoat_alpha), "coat alpha, lane {k}");

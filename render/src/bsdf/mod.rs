@@ -118,6 +118,8 @@ pub struct Bsdf {
     pub(crate) ng: Vec3,
     pub(crate) diffuse: Vec3,
     pub(crate) f0: Vec3,
+    /// The F82-tint coefficient of the metal part ([`f82_b`] times `metallic`; 0 without a tint).
+    pub(crate) f82_b: Vec3,
     pub(crate) alpha: f32,
     pub(crate) clearcoat: f32,
     pub(crate) clearcoat_alpha: f32,
@@ -146,6 +148,29 @@ fn schlick(f0: Vec3, cos: f32) -> Vec3 {
     f0 + (Vec3::splat(f90) - f0) * m5
 }
 
+/// [`schlick`] with the F82-tint correction `− b·μ(1 − μ)⁶` (Kutz et al. 2021, as OpenPBR's metal
+/// uses it; `b` from [`f82_b`]); `b = 0` is exactly Schlick.
+#[inline(always)]
+fn fresnel(f0: Vec3, b82: Vec3, cos: f32) -> Vec3 {
+    let m = (1.0 - cos).clamp(0.0, 1.0);
+    let g = (1.0 - m) * ((m * m) * (m * m) * (m * m));
+    schlick(f0, cos) - b82 * g
+}
+
+/// The cosine of the F82 model's "grazing edge", 1/7 (about 82°).
+const F82_MU: f32 = 1.0 / 7.0;
+
+/// The F82-tint coefficient `b = F_Schlick(μ̄) (1 − tint) / (μ̄ (1 − μ̄)⁶)` of a metal with F0 `f0`
+/// and edge tint `tint` (OpenPBR's `specular_color`), so that the corrected Fresnel at μ̄ = 1/7 is
+/// `tint · F_Schlick(μ̄)`. A tint of 1 gives exactly 0.
+#[inline(always)]
+pub(crate) fn f82_b(f0: Vec3, tint: Vec3) -> Vec3 {
+    let m = 1.0 - F82_MU;
+    let m6 = (m * m) * (m * m) * (m * m);
+    let schlick_bar = f0 + (Vec3::ONE - f0) * (m6 / m);
+    schlick_bar * (Vec3::ONE - tint) * (1.0 / (F82_MU * m6))
+}
+
 #[inline(always)]
 fn schlick_scalar(f0: f32, cos: f32) -> f32 {
     let m = (1.0 - cos).clamp(0.0, 1.0);
@@ -172,7 +197,7 @@ fn coat_transmittance(c: Vec3, inv_eta2: f32, mu: f32) -> Vec3 {
 #[inline(always)]
 pub(crate) fn coat_view(t: &albedo::Tables, coat: CoatParams, mu_o: f32) -> (Vec3, f32) {
     let CoatParams { weight, alpha, f0, color, inv_eta2 } = coat;
-    let [a, b] = albedo::lobe_albedo_ab(t, mu_o, alpha);
+    let [a, b, _] = albedo::lobe_albedo_ab(t, mu_o, alpha);
     let e = f0 * a + b;
     let t_o = coat_transmittance(color, inv_eta2, mu_o);
     (t_o * (weight * (1.0 - e)), weight * e)
@@ -294,12 +319,19 @@ pub(crate) fn select(c: bool, a: Vec3, b: Vec3) -> Vec3 {
 /// colour `d`, F0 `f0` and α `alpha` at local view cosine `mu_o`: diffuse, multiple scattering,
 /// multiple-scattering Fresnel.
 #[inline(always)]
-pub(crate) fn view_halves(t: &albedo::Tables, d: Vec3, f0: Vec3, alpha: f32, mu_o: f32) -> [Vec3; 3] {
+pub(crate) fn view_halves(
+    t: &albedo::Tables,
+    d: Vec3,
+    f0: Vec3,
+    b82: Vec3,
+    alpha: f32,
+    mu_o: f32,
+) -> [Vec3; 3] {
     let at_o = albedo::lobe_albedo(t, mu_o, alpha);
     let f90 = albedo::f90(f0.x, f0.y, f0.z);
-    let [dx, mx, fx] = albedo::view_terms(d.x, f0.x, f90, at_o);
-    let [dy, my, fy] = albedo::view_terms(d.y, f0.y, f90, at_o);
-    let [dz, mz, fz] = albedo::view_terms(d.z, f0.z, f90, at_o);
+    let [dx, mx, fx] = albedo::view_terms(d.x, f0.x, f90, b82.x, at_o);
+    let [dy, my, fy] = albedo::view_terms(d.y, f0.y, f90, b82.y, at_o);
+    let [dz, mz, fz] = albedo::view_terms(d.z, f0.z, f90, b82.z, at_o);
     [Vec3::new(dx, dy, dz), Vec3::new(mx, my, mz), Vec3::new(fx, fy, fz)]
 }
 
@@ -332,7 +364,7 @@ impl SeenBsdf {
     /// The specular lobe's [`albedo::lobe_albedo_ab`] in `tables` ([`albedo::tables`]) at local
     /// light cosine `mu_i`: a table lookup, which the lane kernels make in a loop of their own.
     #[inline(always)]
-    pub(crate) fn light_albedo(&self, tables: &albedo::Tables, mu_i: f32) -> [f32; 2] {
+    pub(crate) fn light_albedo(&self, tables: &albedo::Tables, mu_i: f32) -> [f32; 3] {
         albedo::lobe_albedo_ab(tables, mu_i, self.alpha)
     }
 
@@ -364,19 +396,19 @@ impl SeenBsdf {
         probs: [f32; 3],
         wo: Vec3,
         wi: Vec3,
-        at_i: [f32; 2],
+        at_i: [f32; 3],
     ) -> (Vec3, f32) {
         let h = (wo + wi).normalize();
         let wo_h = wo.dot(h).max(0.0);
         let denom = 4.0 * wo.z * wi.z;
         // The diffuse and multiple-scattering lobes from their view halves ([`albedo`]).
-        let (dv, mv, fm, f0) = (self.diffuse_view, self.ms_view, self.ms_fresnel, self.f0);
+        let (dv, mv, fm, f0, b82) = (self.diffuse_view, self.ms_view, self.ms_fresnel, self.f0, self.f82_b);
         let f90 = albedo::f90(f0.x, f0.y, f0.z);
-        let [dx, mx] = albedo::light_terms([dv.x, mv.x, fm.x], f0.x, f90, at_i);
-        let [dy, my] = albedo::light_terms([dv.y, mv.y, fm.y], f0.y, f90, at_i);
-        let [dz, mz] = albedo::light_terms([dv.z, mv.z, fm.z], f0.z, f90, at_i);
+        let [dx, mx] = albedo::light_terms([dv.x, mv.x, fm.x], f0.x, f90, b82.x, at_i);
+        let [dy, my] = albedo::light_terms([dv.y, mv.y, fm.y], f0.y, f90, b82.y, at_i);
+        let [dz, mz] = albedo::light_terms([dv.z, mv.z, fm.z], f0.z, f90, b82.z, at_i);
         let (diffuse, multiple) = (Vec3::new(dx, dy, dz) * FRAC_1_PI, Vec3::new(mx, my, mz) * FRAC_1_PI);
-        let specular = schlick(f0, wo_h) * (ggx_d(h, self.alpha) * ggx_g2(wo, wi, self.alpha) / denom);
+        let specular = fresnel(f0, b82, wo_h) * (ggx_d(h, self.alpha) * ggx_g2(wo, wi, self.alpha) / denom);
         let base = diffuse + (specular + multiple);
         let mut f = base;
         let mut pdf = probs[0] * wi.z * FRAC_1_PI + probs[1] * ggx_pdf(wo, h, self.alpha);
@@ -399,7 +431,7 @@ impl SeenBsdf {
     /// Value (no cosine) and combined pdf towards world `wi`, `at_i` = [`SeenBsdf::light_albedo`]
     /// at `wi · n`; zero below the geometric or either local hemisphere.
     #[inline(always)]
-    pub fn eval<const COAT: bool>(&self, wi: Vec3, at_i: [f32; 2]) -> (Vec3, f32) {
+    pub fn eval<const COAT: bool>(&self, wi: Vec3, at_i: [f32; 3]) -> (Vec3, f32) {
         let (wo_l, wi_l) = (self.local(self.wo), self.local(wi));
         let (f, pdf) = self.eval_local::<COAT>(self.lobe_probabilities(wo_l.z), wo_l, wi_l, at_i);
         let above = !((wo_l.z <= 0.0) | (wi_l.z <= 0.0) | (wi.dot(self.ng) <= 0.0));
@@ -430,7 +462,16 @@ impl Bsdf {
         let dielectric = if r.is_finite() { (r * r).min(1.0) } else { 0.04 };
         let workflow = mat.use_specular_workflow;
         let diffuse = select(workflow, base, base * (1.0 - metallic));
-        let f0 = select(workflow, specular, Vec3::splat(dielectric).lerp(base, metallic));
+        // OpenPBR's specular_weight scales F0 of both the dielectric and the metal, its
+        // specular_color (`specular_tint`) tints the dielectric's F0 and is the metal's F82 edge
+        // tint; at their fallbacks (1) every product is by 1 and `f82_b` is 0, exactly
+        // UsdPreviewSurface. The specular workflow's F0 is specularColor as authored.
+        let weight = mat.specular_weight.max(0.0).min(1.0);
+        let tint = mat.specular_tint.max(Vec3::ZERO).min(Vec3::ONE);
+        let metal_f0 = base * weight;
+        let dielectric_f0 = Vec3::splat(dielectric) * (tint * weight);
+        let f0 = select(workflow, specular, dielectric_f0.lerp(metal_f0, metallic));
+        let f82 = select(workflow, Vec3::ZERO, f82_b(metal_f0, tint) * metallic);
         let roughness = mat.roughness.clamp(0.0, 1.0);
         let cc_roughness = mat.clearcoat_roughness.clamp(0.0, 1.0);
         // The blob validates the coat's index into [1, 10]; a program-free check keeps any other
@@ -442,6 +483,7 @@ impl Bsdf {
             ng: mat.ng,
             diffuse,
             f0,
+            f82_b: f82,
             alpha: (roughness * roughness).max(MIN_ALPHA),
             clearcoat: mat.clearcoat.clamp(0.0, 1.0),
             clearcoat_alpha: (cc_roughness * cc_roughness).max(MIN_ALPHA),
@@ -468,23 +510,29 @@ impl Bsdf {
     #[inline(always)]
     pub fn seen_from(&self, wo: Vec3) -> SeenBsdf {
         let mu_o = wo.dot(self.frame.n);
-        let view = view_halves(albedo::tables(), self.diffuse, self.f0, self.alpha, mu_o);
+        let view = view_halves(albedo::tables(), self.diffuse, self.f0, self.f82_b, self.alpha, mu_o);
         // Without a coat its view half is zero (what `coat_view` gives for a zero weight too,
         // without the lookup and the powers).
-        let coat = if self.clearcoat != 0.0 { coat_view(albedo::tables(), self.coat(), mu_o) } else { (Vec3::ZERO, 0.0) };
+        let coat = if self.clearcoat != 0.0 {
+            coat_view(albedo::tables(), self.coat(), mu_o)
+        } else {
+            (Vec3::ZERO, 0.0)
+        };
         self.seen_with(wo, view, coat)
     }
 
     /// [`Bsdf::seen_from`] with the view halves known ([`view_halves`], [`coat_view`]).
     #[inline(always)]
     pub(crate) fn seen_with(&self, wo: Vec3, view: [Vec3; 3], coat: (Vec3, f32)) -> SeenBsdf {
-        let Bsdf { frame, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha, coat_color, coat_f0, coat_inv_eta2 } =
-            *self;
+        #[rustfmt::skip]
+        let Bsdf {
+            frame, ng, diffuse, f0, f82_b, alpha, clearcoat, clearcoat_alpha, coat_color, coat_f0, coat_inv_eta2,
+        } = *self;
         let [diffuse_view, ms_view, ms_fresnel] = view;
         let (coat_base, coat_p) = coat;
         #[rustfmt::skip]
         let seen = SeenBsdf {
-            t: frame.t, b: frame.b, n: frame.n, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha, wo,
+            t: frame.t, b: frame.b, n: frame.n, ng, diffuse, f0, f82_b, alpha, clearcoat, clearcoat_alpha, wo,
             diffuse_view, ms_view, ms_fresnel, coat_color, coat_f0, coat_inv_eta2, coat_base, coat_p,
         };
         seen
@@ -571,7 +619,7 @@ impl SeenBsdf {
         &self,
         start: &SampleStart,
         dir: &SampledDirection,
-        at_i: [f32; 2],
+        at_i: [f32; 3],
     ) -> (BsdfSample, bool) {
         // Without the lobe's terms `p_c` is ±0, or beside a NaN `p_d` ([`SeenBsdf::has_coat_terms`]).
         let probs = [start.probs[0], start.probs[1], if COAT { start.probs[2] } else { 0.0 }];
@@ -740,6 +788,82 @@ mod tests {
         let expect = e_c + (1.0 - e_c) * 0.5f32.powf(2.0 / (1.0f32 - 0.75 / 2.25).sqrt());
         eprintln!("60°: white {white:.4}, tinted {tinted:.4} (expected {expect:.4})");
         assert!((white - 1.0).abs() < 0.01 && (tinted - expect).abs() < 3e-3, "{tinted} vs {expect}");
+    }
+
+    /// ∫ f cos dω per channel, by the BSDF's own sampling.
+    fn rgb_albedo(bsdf: &Bsdf, wo: Vec3, n: usize) -> Vec3 {
+        let mut rng = Rng(17);
+        let mut sum = glam::DVec3::ZERO;
+        for _ in 0..n {
+            if let Some(s) = bsdf.sample(wo, rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
+                sum += (s.f * (s.wi.z / s.pdf)).as_dvec3();
+            }
+        }
+        (sum / n as f64).as_vec3()
+    }
+
+    /// OpenPBR's F82 tint: a metal's Fresnel at the model's edge cosine μ̄ = 1/7 (81.8°) is the
+    /// authored `specular_color` times Schlick's there, and it is Schlick's at normal incidence;
+    /// through the BSDF, a smooth tinted metal seen at μ̄ reflects that (within 1e-3), and a
+    /// rough one keeps `eval` and `sample` consistent (the tables' `C` column in its energy).
+    #[test]
+    fn f82_tint_sets_the_metal_edge_reflectance() {
+        let (f0, tint) = (Vec3::new(0.95, 0.64, 0.54), Vec3::new(0.9, 0.5, 0.2));
+        let b = f82_b(f0, tint);
+        let schlick_bar = schlick(f0, F82_MU);
+        let at_bar = fresnel(f0, b, F82_MU);
+        eprintln!("F82 at μ̄: {at_bar} vs tint × Schlick {}", tint * schlick_bar);
+        assert!((at_bar - tint * schlick_bar).abs().max_element() < 1e-5, "{at_bar}");
+        assert_eq!(fresnel(f0, b, 1.0), f0, "head-on: F0");
+        assert_eq!(f82_b(f0, Vec3::ONE), Vec3::ZERO, "an untinted metal is Schlick's");
+        let mut m = material(1.0, 1.0, 0.0, 1.5);
+        (m.diffuse_color, m.specular_tint) = (f0.to_array(), tint.to_array());
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        let wo = Vec3::new((1.0 - F82_MU * F82_MU).sqrt(), 0.0, F82_MU);
+        let a = rgb_albedo(&bsdf, wo, 50_000);
+        eprintln!("smooth tinted metal at μ̄: reflectance {a} (tint × Schlick {})", tint * schlick_bar);
+        assert!((a - tint * schlick_bar).abs().max_element() < 1e-3, "{a}");
+        // Rough: sampled and uniformly integrated albedo agree per channel.
+        m.roughness = 0.6;
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        for theta in [0.0, 60.0, 80.0] {
+            let wo = dir_from_angle(theta);
+            let sampled = rgb_albedo(&bsdf, wo, 200_000);
+            let mut rng = Rng(8);
+            let mut uniform = glam::DVec3::ZERO;
+            let n = 400_000;
+            for _ in 0..n {
+                let z = rng.next_f32();
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let phi = TAU * rng.next_f32();
+                let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+                uniform += (bsdf.eval(wo, wi).0 * (wi.z * TAU)).as_dvec3();
+            }
+            let uniform = (uniform / n as f64).as_vec3();
+            eprintln!("rough tinted metal θ={theta}: sampled {sampled}, uniform {uniform}");
+            assert!((sampled - uniform).abs().max_element() < 0.01, "θ={theta}: {sampled} vs {uniform}");
+        }
+    }
+
+    /// `specular_weight` scales the specular lobe's F0 (0 removes it: a white base is then exactly
+    /// Lambert) and `specular_color` tints a dielectric's F0; the diffuse keeps what the tinted
+    /// lobe leaves, so a white base still reads 1 per channel at every angle.
+    #[test]
+    fn specular_weight_and_tint_keep_the_dielectric_base_a_furnace() {
+        let mut m = material(1.0, 0.0, 0.3, 1.5);
+        m.specular_weight = 0.0;
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        let (f, _) = bsdf.eval(dir_from_angle(30.0), dir_from_angle(-50.0));
+        assert!((f - Vec3::splat(FRAC_1_PI)).abs().max_element() < 1e-6, "no specular: Lambert, {f}");
+        (m.specular_weight, m.specular_tint) = (0.5, [1.0, 0.5, 0.25]);
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        let r = (0.5f32 / 2.5).powi(2);
+        assert!((bsdf.f0 - Vec3::new(1.0, 0.5, 0.25) * (0.5 * r)).abs().max_element() < 1e-7, "{}", bsdf.f0);
+        for theta in [0.0, 45.0, 80.0] {
+            let a = rgb_albedo(&bsdf, dir_from_angle(theta), 200_000);
+            eprintln!("white plastic, specular weight 0.5, tint (1, 0.5, 0.25), θ={theta}: {a}");
+            assert!((a - Vec3::ONE).abs().max_element() < 0.01, "θ={theta}: {a}");
+        }
     }
 
     /// Diffuse under a dielectric specular layer conserves energy ([`albedo`]): a white base reads

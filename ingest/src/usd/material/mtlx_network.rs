@@ -34,10 +34,11 @@
 //!   `transmission = 1` is clear glass; its colour, depth and scatter are not carried.
 //! - **Opacity** (MaterialX presence) is a cut-out: authored or connected, it gets
 //!   `opacityThreshold = 0.5`, so that a fractional value is never read as glass.
-//! - **Specular weight and colour**: with a constant metalness of 0 and a constant `specular`
-//!   (`specular_weight`) or `specular_color` other than 1, the material uses the specular workflow
-//!   with `specularColor = weight · colour · F0(ior)`, `F0 = ((ior − 1) / (ior + 1))²` (so a weight
-//!   of 0 removes the specular lobe, as MaterialX does); otherwise they are left out.
+//! - **Specular weight and colour** are OpenPBR's `specular_weight` and `specular_color`
+//!   (standard_surface's `specular`, `specular_color`), carried as they are: the renderer scales
+//!   F0 by the weight, tints a dielectric's F0 by the colour and uses it as a metal's F82 edge tint
+//!   (`render::bsdf`). Until format 11 a dielectric with either authored became the specular
+//!   workflow with `specularColor = weight · colour · F0(ior)`, the same F0.
 //! - **Normal**: MaterialX normals are world-space vectors; the renderer's is UsdPreviewSurface's
 //!   tangent-space one, so `normal` is read only from a `normalmap` node (its tangent-space result);
 //!   any other source is one warning and the interpolated normal.
@@ -288,17 +289,6 @@ impl Reader<'_> {
             self.bind(&mut m, p, ShadingInput::Roughness, rough);
             let ior = read(self, &mut mx, p, names("specular_IOR", "specular_ior", ""), f(1.5), true)?;
             self.bind(&mut m, p, ShadingInput::Ior, ior);
-            let weight = read(self, &mut mx, p, names("specular", "specular_weight", ""), f(1.0), true)?;
-            let color = read(self, &mut mx, p, "specular_color", c3(1.0), false)?;
-            if let (Val::Const(w), Val::Const(c), Val::Const(i), Val::Const(metal)) =
-                (weight.val, color.val, ior.val, metal.val)
-            {
-                if metal[0] == 0.0 && (w[0] != 1.0 || c[..3] != [1.0; 3]) {
-                    let f0 = ((i[0] - 1.0) / (i[0] + 1.0)).powi(2);
-                    m.use_specular_workflow = true;
-                    m.specular_color = Vec3::new(c[0], c[1], c[2]) * (w[0] * f0);
-                }
-            }
             let amount = read(self, &mut mx, p, names("emission", "emission_luminance", ""), f(0.0), true)?;
             let emission_color = read(self, &mut mx, p, "emission_color", c3(1.0), false)?;
             let emission =
@@ -310,10 +300,12 @@ impl Reader<'_> {
             let coat_rough = read(self, &mut mx, p, "coat_roughness", f(coat_roughness), true)?;
             self.bind(&mut m, p, ShadingInput::ClearcoatRoughness, coat_rough);
             let [cc, ci, sw, st] = blob::surface_inputs::OPENPBR_RANGES;
-            let coat_color = self.openpbr_constant(path, shader, names("coat_color", "coat_color", ""), 1.0, cc)?;
+            let coat_color =
+                self.openpbr_constant(path, shader, names("coat_color", "coat_color", ""), 1.0, cc)?;
             m.coat_color = Vec3::from_slice(&coat_color[..3]);
             let coat_ior = if open { 1.6 } else { 1.5 };
-            m.coat_ior = self.openpbr_constant(path, shader, names("coat_IOR", "coat_ior", ""), coat_ior, ci)?[0];
+            m.coat_ior =
+                self.openpbr_constant(path, shader, names("coat_IOR", "coat_ior", ""), coat_ior, ci)?[0];
             let weight_name = names("specular", "specular_weight", "");
             m.specular_weight = self.openpbr_constant(path, shader, weight_name, 1.0, sw)?[0];
             let tint = self.openpbr_constant(path, shader, "specular_color", 1.0, st)?;
@@ -376,7 +368,10 @@ impl Reader<'_> {
                         c => format!("{:?}", &c[..3]),
                     };
                     let (v, c) = (shown(&v), shown(&clamped));
-                    self.warn(path, format!("{name} = {v} outside [{lo}, {hi}] (or not finite); clamped to {c}"));
+                    self.warn(
+                        path,
+                        format!("{name} = {v} outside [{lo}, {hi}] (or not finite); clamped to {c}"),
+                    );
                 }
                 Ok(clamped)
             }
