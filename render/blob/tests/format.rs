@@ -902,12 +902,13 @@ fn openpbr_constants_out_of_range_are_rejected_at_load() {
         ([1.0; 3], 1.5, 1.0, [1.0; 3])
     );
     assert!(parse(&sample_scene().encode()).is_ok());
-    let edits: [(&dyn Fn(&mut Material), &str); 5] = [
-        (&|m| m.coat_ior = 0.5, "coat_ior not finite or outside [1, 10]"),
-        (&|m| m.coat_ior = f32::INFINITY, "coat_ior not finite or outside [1, 10]"),
-        (&|m| m.coat_color[1] = f32::NAN, "coat_color not finite or outside [0, 1]"),
-        (&|m| m.specular_weight = 1.5, "specular_weight not finite or outside [0, 1]"),
-        (&|m| m.specular_tint[2] = -0.25, "specular_color (specular_tint) not finite or outside [0, 1]"),
+    type Edit = fn(&mut Material);
+    let edits: [(Edit, &str); 5] = [
+        (|m| m.coat_ior = 0.5, "coat_ior not finite or outside [1, 10]"),
+        (|m| m.coat_ior = f32::INFINITY, "coat_ior not finite or outside [1, 10]"),
+        (|m| m.coat_color[1] = f32::NAN, "coat_color not finite or outside [0, 1]"),
+        (|m| m.specular_weight = 1.5, "specular_weight not finite or outside [0, 1]"),
+        (|m| m.specular_tint[2] = -0.25, "specular_color (specular_tint) not finite or outside [0, 1]"),
     ];
     for (edit, what) in edits {
         let mut scene = sample_scene();

@@ -466,7 +466,7 @@ impl Bsdf {
         // specular_color (`specular_tint`) tints the dielectric's F0 and is the metal's F82 edge
         // tint; at their fallbacks (1) every product is by 1 and `f82_b` is 0, exactly
         // UsdPreviewSurface. The specular workflow's F0 is specularColor as authored.
-        let weight = mat.specular_weight.max(0.0).min(1.0);
+        let weight = mat.specular_weight.clamp(0.0, 1.0);
         let tint = mat.specular_tint.max(Vec3::ZERO).min(Vec3::ONE);
         let metal_f0 = base * weight;
         let dielectric_f0 = Vec3::splat(dielectric) * (tint * weight);
