@@ -614,7 +614,7 @@ def Material "Look"
 }
 
 /// An open_pbr_surface `.mtlx` look with a tinted coat of its own index, a metal with an F82 edge
-/// tint (`specular_color`) and a specular weight arrives in the blob's material record with those
+/// tint (`specular_color`), a specular weight and a fuzz arrives in the blob's material record with those
 /// values, and `--dump-json` lists them; an inline `ND_open_pbr_surface_surfaceshader` reads alike,
 /// and out-of-range values are clamped into the blob's ranges with one warning each.
 #[test]
@@ -642,6 +642,9 @@ def Scope "Looks" (references = @./look.mtlx@</MaterialX/Materials>) {}
     <input name="coat_color" type="color3" value="0.9, 0.5, 0.25" />
     <input name="coat_roughness" type="float" value="0.15" />
     <input name="coat_ior" type="float" value="1.4" />
+    <input name="fuzz_weight" type="float" value="0.6" />
+    <input name="fuzz_color" type="color3" value="0.3, 0.6, 0.9" />
+    <input name="fuzz_roughness" type="float" value="0.35" />
   </open_pbr_surface>
   <surfacematerial name="M_Coated" type="material">
     <input name="surfaceshader" type="surfaceshader" nodename="Surface" />
@@ -664,6 +667,7 @@ def Scope "Looks" (references = @./look.mtlx@</MaterialX/Materials>) {}
     assert_eq!((record.metallic, record.roughness, record.specular_weight), (1.0, 0.25, 0.75));
     assert_eq!(record.specular_tint, [0.9, 0.7, 0.5]);
     assert_eq!(record.diffuse_color, [0.95, 0.64, 0.54]);
+    assert_eq!((record.fuzz_weight, record.fuzz_color, record.fuzz_roughness), (0.6, [0.3, 0.6, 0.9], 0.35));
     let json = ingest::pipeline::dump_json(&scene);
     let listed = json["materials"]
         .as_array()
@@ -677,6 +681,8 @@ def Scope "Looks" (references = @./look.mtlx@</MaterialX/Materials>) {}
     assert!(close(&c["coat_ior"], 1.4) && close(&c["clearcoat"], 0.8), "{c}");
     assert!(close(&c["specular_weight"], 0.75) && close(&c["coat_color"][2], 0.25), "{c}");
     assert!(close(&c["specular_color"][1], 0.7) && close(&c["clearcoatRoughness"], 0.15), "{c}");
+    assert!(close(&c["fuzz_weight"], 0.6) && close(&c["fuzz_color"][2], 0.9), "{c}");
+    assert!(close(&c["fuzz_roughness"], 0.35), "{c}");
 
     // Inline, with the defaults where unauthored (coat_ior 1.6 is OpenPBR's) and two values out
     // of range.
@@ -687,8 +693,14 @@ def Scope "Looks" (references = @./look.mtlx@</MaterialX/Materials>) {}
     );
     assert_eq!((m.clearcoat, m.coat_color, m.coat_ior), (1.0, glam::Vec3::new(0.5, 0.25, 1.0), 1.6));
     assert_eq!((m.specular_weight, m.specular_tint), (1.0, glam::Vec3::ONE));
-    let m = constant_surface("ND_standard_surface_surfaceshader", "float inputs:coat_IOR = 1.3");
+    let m = constant_surface(
+        "ND_standard_surface_surfaceshader",
+        "float inputs:coat_IOR = 1.3
+        float inputs:sheen = 0.5
+        color3f inputs:sheen_color = (1, 0, 0)",
+    );
     assert_eq!((m.coat_ior, m.coat_color), (1.3, glam::Vec3::ONE));
+    assert_eq!((m.fuzz_weight, m.fuzz_color, m.fuzz_roughness), (0.5, glam::Vec3::X, 0.3));
 }
 
 #[test]

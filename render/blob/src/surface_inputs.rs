@@ -10,10 +10,10 @@
 //! `color` (`[f32; 3]` in the blob, `Vec3` elsewhere), `float` (`f32`), `flag` (`u32` 0 or 1 in the
 //! blob, `bool` elsewhere). Fallbacks are the UsdPreviewSurface specification's.
 //!
-//! The last four are OpenPBR Surface parameters (format 11; their names are the ASWF OpenPBR v1.1
+//! The last seven are OpenPBR Surface parameters (format 11; their names are the ASWF OpenPBR v1.1
 //! specification's) that UsdPreviewSurface lacks: with their fallbacks the surface is exactly
 //! UsdPreviewSurface (a clear coat of index 1.5, its F0 0.04; an untinted, unweighted specular
-//! lobe). `clearcoat` and `clearcoatRoughness` are OpenPBR's `coat_weight` and `coat_roughness`.
+//! lobe; no fuzz). `clearcoat` and `clearcoatRoughness` are OpenPBR's `coat_weight` and `coat_roughness`.
 //! `specular_tint` is OpenPBR's `specular_color`, renamed because `specularColor` is
 //! UsdPreviewSurface's specular-workflow F0. They are constants only (no program op writes them),
 //! and validation at load keeps them finite and in [`OPENPBR_RANGES`].
@@ -39,6 +39,9 @@ macro_rules! preview_surface_constants {
             coat_ior: float = 1.5, "coat_ior";
             specular_weight: float = 1.0, "specular_weight";
             specular_tint: color = [1.0, 1.0, 1.0], "specular_color";
+            fuzz_weight: float = 0.0, "fuzz_weight";
+            fuzz_color: color = [1.0, 1.0, 1.0], "fuzz_color";
+            fuzz_roughness: float = 0.5, "fuzz_roughness";
         }
     };
 }
@@ -48,11 +51,14 @@ macro_rules! preview_surface_constants {
 /// outside it or not finite, and ingest clamps authored values into it with a warning. A coat of
 /// index below 1 would turn the layering's Fresnel inside out; a specular weight above 1 could make
 /// F0 exceed 1 (OpenPBR's soft range is [0, 1]).
-pub const OPENPBR_RANGES: [(&str, f32, f32); 4] = [
+pub const OPENPBR_RANGES: [(&str, f32, f32); 7] = [
     ("coat_color", 0.0, 1.0),
     ("coat_ior", 1.0, 10.0),
     ("specular_weight", 0.0, 1.0),
     ("specular_color", 0.0, 1.0),
+    ("fuzz_weight", 0.0, 1.0),
+    ("fuzz_color", 0.0, 1.0),
+    ("fuzz_roughness", 0.0, 1.0),
 ];
 
 /// The type of an input kind outside the blob, given the caller's 3-vector type: `color` → `$vec3`,

@@ -903,12 +903,15 @@ fn openpbr_constants_out_of_range_are_rejected_at_load() {
     );
     assert!(parse(&sample_scene().encode()).is_ok());
     type Edit = fn(&mut Material);
-    let edits: [(Edit, &str); 5] = [
+    let edits: [(Edit, &str); 8] = [
         (|m| m.coat_ior = 0.5, "coat_ior not finite or outside [1, 10]"),
         (|m| m.coat_ior = f32::INFINITY, "coat_ior not finite or outside [1, 10]"),
         (|m| m.coat_color[1] = f32::NAN, "coat_color not finite or outside [0, 1]"),
         (|m| m.specular_weight = 1.5, "specular_weight not finite or outside [0, 1]"),
         (|m| m.specular_tint[2] = -0.25, "specular_color (specular_tint) not finite or outside [0, 1]"),
+        (|m| m.fuzz_weight = 2.0, "fuzz_weight not finite or outside [0, 1]"),
+        (|m| m.fuzz_color[0] = f32::NEG_INFINITY, "fuzz_color not finite or outside [0, 1]"),
+        (|m| m.fuzz_roughness = f32::NAN, "fuzz_roughness not finite or outside [0, 1]"),
     ];
     for (edit, what) in edits {
         let mut scene = sample_scene();

@@ -109,6 +109,53 @@ pub(crate) fn tables() -> &'static Tables {
     TABLES.get_or_init(integrate)
 }
 
+/// The fuzz (sheen) lobe's directional albedo `E_f` on a `[r][μ]` grid over fuzz roughness and
+/// `μ = n·v` ([`super::sheen`], untinted): what the layers under the fuzz are scaled by.
+pub(crate) struct SheenTable([[f32; MU]; ROUGHNESS]);
+
+/// Directions per axis (`cos θ`, `φ`) of the sheen table's midpoint rule.
+const SHEEN_STRATA: usize = 96;
+
+fn integrate_sheen() -> SheenTable {
+    let mut table = [[0.0f32; MU]; ROUGHNESS];
+    for (j, row) in table.iter_mut().enumerate() {
+        let alpha = super::sheen_alpha(j as f32 / (ROUGHNESS - 1) as f32);
+        for (i, entry) in row.iter_mut().enumerate() {
+            let mu = (i as f32 / (MU - 1) as f32).max(MIN_MU);
+            let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+            let mut sum = 0.0f64;
+            for s in 0..SHEEN_STRATA {
+                let z = (s as f32 + 0.5) / SHEEN_STRATA as f32;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                for t in 0..SHEEN_STRATA {
+                    let phi = std::f32::consts::TAU * (t as f32 + 0.5) / SHEEN_STRATA as f32;
+                    let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+                    let h = (wo + wi).normalize();
+                    sum += (super::sheen(wo, wi, h, alpha) * z) as f64;
+                }
+            }
+            let n = (SHEEN_STRATA * SHEEN_STRATA) as f64;
+            *entry = (sum * std::f64::consts::TAU / n).min(1.0) as f32;
+        }
+    }
+    SheenTable(table)
+}
+
+/// The sheen table, integrated on first use.
+pub(crate) fn sheen_table() -> &'static SheenTable {
+    static TABLE: OnceLock<SheenTable> = OnceLock::new();
+    TABLE.get_or_init(integrate_sheen)
+}
+
+/// `E_f` at `μ` and fuzz roughness `r` (bilinear; both clamp to [0, 1]).
+#[inline(always)]
+pub(crate) fn sheen_albedo(t: &SheenTable, mu: f32, r: f32) -> f32 {
+    let (j, fr) = cell(r, ROUGHNESS);
+    let (i, fm) = cell(mu, MU);
+    let lerp = |a: f32, b: f32, f: f32| a + (b - a) * f;
+    lerp(lerp(t.0[j][i], t.0[j][i + 1], fm), lerp(t.0[j + 1][i], t.0[j + 1][i + 1], fm), fr)
+}
+
 /// Grid cell and weight of `x` in [0, 1] on `n` points (NaN and out-of-range values clamp).
 #[inline(always)]
 fn cell(x: f32, n: usize) -> (usize, f32) {

@@ -14,7 +14,7 @@
 //! probabilities as [`BsdfLanes`] columns, an AVX-512VL clone, a variant for all-diffuse groups;
 //! measurements: `docs/perf.md#bsdf-lanes-bsdflanesrs`.
 
-use crate::bsdf::{albedo, coat_view, view_halves, Bsdf, BsdfSample, CoatParams};
+use crate::bsdf::{albedo, coat_view, fuzz_view, view_halves, Bsdf, BsdfSample, CoatParams};
 use crate::shading::ShadingInputs;
 use glam::Vec3;
 
@@ -64,6 +64,14 @@ lanekit::soa! {
         pub coat_base: Vec3 as [f32; 3],
         /// The coat's albedo times its weight at `wo`.
         pub coat_p: f32,
+        /// Fuzz weight.
+        pub fuzz: f32,
+        /// Fuzz colour.
+        pub fuzz_color: Vec3 as [f32; 3],
+        /// Fuzz roughness.
+        pub fuzz_roughness: f32,
+        /// The fuzz's albedo times its weight at `wo` ([`crate::bsdf::fuzz_view`]).
+        pub fuzz_p: f32,
     }
 }
 
@@ -105,6 +113,12 @@ lanekit::soa! {
         pub coat_color: Vec3 as [f32; 3],
         /// OpenPBR `coat_ior`.
         pub coat_ior: f32,
+        /// OpenPBR `fuzz_weight`.
+        pub fuzz_weight: f32,
+        /// OpenPBR `fuzz_color`.
+        pub fuzz_color: Vec3 as [f32; 3],
+        /// OpenPBR `fuzz_roughness`.
+        pub fuzz_roughness: f32,
         /// Unit shading normal on the side of the viewer.
         pub ns: Vec3 as [f32; 3],
         /// Unit geometric normal on the side of the viewer.
@@ -130,6 +144,9 @@ impl InputLane {
             clearcoat_roughness: inputs.clearcoat_roughness,
             coat_color: inputs.coat_color,
             coat_ior: inputs.coat_ior,
+            fuzz_weight: inputs.fuzz_weight,
+            fuzz_color: inputs.fuzz_color,
+            fuzz_roughness: inputs.fuzz_roughness,
             ns,
             ng,
         }
@@ -150,7 +167,7 @@ impl InputLanes {
 pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
     for k in 0..LANES {
         let wo = at(&out.wo, k);
-        out.set(k, &Bsdf::from_lane(&inp.get(k)).seen_with(wo, [Vec3::ZERO; 3], (Vec3::ZERO, 0.0)));
+        out.set(k, &Bsdf::from_lane(&inp.get(k)).seen_with(wo, [Vec3::ZERO; 3], (Vec3::ZERO, 0.0), 0.0));
     }
     let tables = albedo::tables();
     for k in 0..LANES {
@@ -163,16 +180,19 @@ pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
     // The coat's view halves (a lookup and three powers per lane) only in groups with a coat; a
     // lane without one gets zeros either way (`coat_view` of a zero weight), as the scalar BSDF.
     if any_coat(out) {
+        let sheen = albedo::sheen_table();
         for k in 0..LANES {
             let s = out.get(k);
             let (weight, alpha, f0, color, inv_eta2) =
                 (s.clearcoat, s.clearcoat_alpha, s.coat_f0, s.coat_color, s.coat_inv_eta2);
             let coat = CoatParams { weight, alpha, f0, color, inv_eta2 };
-            let (base, p) = coat_view(tables, coat, s.wo.dot(s.n));
+            let mu_o = s.wo.dot(s.n);
+            let (base, p) = coat_view(tables, coat, mu_o);
             for c in 0..3 {
                 out.coat_base[c][k] = base[c];
             }
             out.coat_p[k] = p;
+            out.fuzz_p[k] = fuzz_view(sheen, s.fuzz, s.fuzz_roughness, mu_o);
         }
     }
 }
@@ -224,7 +244,7 @@ lanekit::soa! {
 /// Whether any lane needs the clearcoat lobe's terms ([`SeenBsdf::has_coat_terms`]).
 #[inline(always)]
 fn any_coat(l: &BsdfLanes) -> bool {
-    l.clearcoat.iter().fold(false, |any, &c| any | (c != 0.0))
+    l.clearcoat.iter().zip(&l.fuzz).fold(false, |any, (&c, &f)| any | (c != 0.0) | (f != 0.0))
 }
 
 #[inline(always)]
@@ -261,8 +281,8 @@ lanekit::soa! {
     pub struct StartLanes for struct SampleStart {
         /// Local `wo`.
         pub wo: Vec3 as [f32; 3],
-        /// Lobe probabilities (diffuse, specular, clearcoat).
-        pub probs: [f32; 3],
+        /// Lobe probabilities (diffuse, specular, coat, fuzz).
+        pub probs: [f32; 4],
         /// Whether the diffuse lobe was chosen.
         pub diffuse: bool,
         /// The angle whose sine and cosine the chosen lobe needs.
@@ -375,6 +395,9 @@ pub(super) mod tests {
             coat_ior: 1.0 + 2.0 * pick(rng, true),
             specular_weight: pick(rng, true),
             specular_tint: Vec3::new(pick(rng, true), pick(rng, false), pick(rng, false)),
+            fuzz_weight: if rng.f() < 0.6 { 0.0 } else { pick(rng, true) },
+            fuzz_color: Vec3::new(pick(rng, true), pick(rng, false), pick(rng, false)),
+            fuzz_roughness: pick(rng, true),
             normal: None,
         };
         let ng = rng.dir();
@@ -419,6 +442,7 @@ pub(super) mod tests {
                 let seen = b.seen_from(at(&out.wo));
                 assert_eq!(bits(at(&out.coat_base)), bits(seen.coat_base), "coat view, lane {k}: {b:?}");
                 assert_eq!(one(out.coat_p[k]), one(seen.coat_p), "coat albedo, lane {k}: {b:?}");
+                assert_eq!(one(out.fuzz_p[k]), one(seen.fuzz_p), "fuzz albedo, lane {k}: {b:?}");
             }
         }
         assert!(
@@ -448,6 +472,7 @@ pub(super) mod tests {
                 let (mut bsdf, wo) = random_bsdf(&mut rng);
                 if coatless {
                     bsdf.clearcoat = if rng.f() < 0.1 { -0.0 } else { 0.0 };
+                    bsdf.fuzz = if rng.f() < 0.1 { -0.0 } else { 0.0 };
                 }
                 l.set_bsdf(k, &bsdf, wo);
                 let w = if rng.f() < 0.5 { rng.dir() } else { (bsdf.ng + rng.dir()).normalize_or(bsdf.ng) };

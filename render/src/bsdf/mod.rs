@@ -26,6 +26,19 @@
 //! are not modelled. UsdPreviewSurface's clearcoat is this coat with index 1.5 (F0 0.04) and
 //! colour 1: clearcoat scenes changed when it became a layer.
 //!
+//! Metals take OpenPBR's F82-tint Fresnel (Kutz et al. 2021): `F = Schlick(μ) − b·μ(1 − μ)⁶`
+//! with `b` ([`f82_b`]) set so that `F(1/7) = specular_color · Schlick(1/7)`; `specular_weight`
+//! scales F0 of the dielectric and the metal (a simplification: the spec modulates the dielectric's
+//! index and scales the metal's whole Fresnel, grazing included), and `specular_color` tints the
+//! dielectric's F0 (the mapping ingest used before format 11, through the specular workflow).
+//!
+//! The fuzz (`fuzz_weight` `w_f`, `fuzz_color`, `fuzz_roughness`) is layered over everything by
+//! albedo scaling: `f = w_f · fuzz_color · f_sheen + (1 − w_f·E_f(μo)) · f_coated`. OpenPBR
+//! recommends Zeltner et al. 2022's LTC sheen; this is Estevez & Kulla's "Charlie" sheen
+//! ([`sheen`], α = fuzz_roughness², at least 0.01) with Neubelt & Pettineo's visibility, its
+//! untinted albedo `E_f` tabulated once ([`albedo::sheen_albedo`]), sampled cosine-weighted. As in
+//! the spec the fuzz is grey in transmission: only its reflection is tinted.
+//!
 //! Lobes are sampled in proportion to their estimated albedos at `v` (diffuse: cosine-weighted;
 //! specular and clearcoat: GGX visible normals, Dupuy & Benyoub 2023); [`Bsdf::eval`] returns the
 //! one-sample-MIS pdf of all lobes combined, which is what the integrator's MIS weights need.
@@ -129,6 +142,12 @@ pub struct Bsdf {
     pub(crate) coat_f0: f32,
     /// `1/η²` of the coat's index.
     pub(crate) coat_inv_eta2: f32,
+    /// Fuzz weight.
+    pub(crate) fuzz: f32,
+    /// Fuzz colour.
+    pub(crate) fuzz_color: Vec3,
+    /// Fuzz roughness (the table's axis; α = [`sheen_alpha`] of it).
+    pub(crate) fuzz_roughness: f32,
 }
 
 /// Rec. 709 luminance.
@@ -155,6 +174,37 @@ fn fresnel(f0: Vec3, b82: Vec3, cos: f32) -> Vec3 {
     let m = (1.0 - cos).clamp(0.0, 1.0);
     let g = (1.0 - m) * ((m * m) * (m * m) * (m * m));
     schlick(f0, cos) - b82 * g
+}
+
+/// `x` clamped to [0, 1], NaN to 0.
+#[inline(always)]
+fn unit(x: f32) -> f32 {
+    if x >= 0.0 {
+        x.min(1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Smallest sheen α: below it `sin^(1/α)` is a spike no table resolves.
+const SHEEN_MIN_ALPHA: f32 = 0.01;
+
+/// The sheen α of fuzz roughness `r` (clamped to [0, 1]): `r²`, at least [`SHEEN_MIN_ALPHA`].
+#[inline(always)]
+pub(crate) fn sheen_alpha(r: f32) -> f32 {
+    let r = r.clamp(0.0, 1.0);
+    (r * r).max(SHEEN_MIN_ALPHA)
+}
+
+/// The fuzz lobe, untinted, for local directions above the surface and their half vector `h`:
+/// Estevez & Kulla's "Charlie" sheen distribution `D = (2 + 1/α) sin^(1/α)θh / 2π` with Neubelt &
+/// Pettineo's visibility `1 / (4 (μi + μo − μi μo))`.
+#[inline(always)]
+pub(crate) fn sheen(wo: Vec3, wi: Vec3, h: Vec3, alpha: f32) -> f32 {
+    let inv = 1.0 / alpha;
+    let sin2 = (1.0 - h.z * h.z).max(0.0);
+    let d = (2.0 + inv) * sin2.powf(0.5 * inv) * (0.5 * FRAC_1_PI);
+    d / (4.0 * (wi.z + wo.z - wi.z * wo.z))
 }
 
 /// The cosine of the F82 model's "grazing edge", 1/7 (about 82°).
@@ -201,6 +251,14 @@ pub(crate) fn coat_view(t: &albedo::Tables, coat: CoatParams, mu_o: f32) -> (Vec
     let e = f0 * a + b;
     let t_o = coat_transmittance(color, inv_eta2, mu_o);
     (t_o * (weight * (1.0 - e)), weight * e)
+}
+
+/// The fuzz layer's view half at `mu_o`: its albedo times its weight, `w_f · E_f(μo)` (the sheen
+/// table, [`albedo::sheen_albedo`]); what is under it is scaled by one minus that, and a zero weight
+/// gives exactly 0.
+#[inline(always)]
+pub(crate) fn fuzz_view(t: &albedo::SheenTable, weight: f32, roughness: f32, mu_o: f32) -> f32 {
+    weight * albedo::sheen_albedo(t, mu_o, roughness)
 }
 
 /// The coat's parameters, as [`Bsdf`] and [`SeenBsdf`] both hold them.
@@ -358,7 +416,7 @@ impl SeenBsdf {
     /// bits. NaN weights take the variant with the lobe, which masks it off.
     #[inline(always)]
     pub fn has_coat_terms(&self) -> bool {
-        self.clearcoat != 0.0
+        (self.clearcoat != 0.0) | (self.fuzz != 0.0)
     }
 
     /// The specular lobe's [`albedo::lobe_albedo_ab`] in `tables` ([`albedo::tables`]) at local
@@ -372,16 +430,19 @@ impl SeenBsdf {
     /// the base's lobes by their Fresnel-weighted colours times the base's coat-layer weight at
     /// `wo` (without the light half of the coat's absorption), the coat by its albedo.
     #[inline(always)]
-    fn lobe_probabilities(&self, wo_z: f32) -> [f32; 3] {
-        let coat_f = self.coat_p;
-        let base = (1.0 - self.clearcoat) + luminance(self.coat_base);
+    fn lobe_probabilities(&self, wo_z: f32) -> [f32; 4] {
+        // Under the fuzz, `1 − w_f·E_f(μo)` of everything ([`fuzz_view`]); exactly 1 without it.
+        let under = 1.0 - self.fuzz_p;
+        let coat_f = self.coat_p * under;
+        let base = ((1.0 - self.clearcoat) + luminance(self.coat_base)) * under;
         let spec_f = schlick(self.f0, wo_z);
         let w_d = base * luminance(self.diffuse * (Vec3::ONE - spec_f));
         let w_s = base * luminance(spec_f);
-        let total = w_d + w_s + coat_f;
-        let probs = [w_d / total, w_s / total, coat_f / total];
+        let fuzz_f = self.fuzz_p * luminance(self.fuzz_color);
+        let total = w_d + w_s + coat_f + fuzz_f;
+        let probs = [w_d / total, w_s / total, coat_f / total, fuzz_f / total];
         if total <= 0.0 {
-            [0.0; 3]
+            [0.0; 4]
         } else {
             probs
         }
@@ -393,7 +454,7 @@ impl SeenBsdf {
     #[inline(always)]
     fn eval_local<const COAT: bool>(
         &self,
-        probs: [f32; 3],
+        probs: [f32; 4],
         wo: Vec3,
         wi: Vec3,
         at_i: [f32; 3],
@@ -424,6 +485,12 @@ impl SeenBsdf {
             let has_coat = self.clearcoat > 0.0;
             f = select(has_coat, layered + Vec3::splat(coat), f);
             pdf = if has_coat { with_coat } else { pdf };
+            // The fuzz over everything, by albedo scaling ([`fuzz_view`]).
+            let fuzz = self.fuzz_color * (self.fuzz * sheen(wo, wi, h, sheen_alpha(self.fuzz_roughness)));
+            let with_fuzz = pdf + probs[3] * wi.z * FRAC_1_PI;
+            let has_fuzz = self.fuzz > 0.0;
+            f = select(has_fuzz, f * (1.0 - self.fuzz_p) + fuzz, f);
+            pdf = if has_fuzz { with_fuzz } else { pdf };
         }
         (f, pdf)
     }
@@ -491,6 +558,10 @@ impl Bsdf {
             coat_color: mat.coat_color.max(Vec3::ZERO).min(Vec3::ONE),
             coat_f0: rc * rc,
             coat_inv_eta2: 1.0 / (coat_ior * coat_ior),
+            // NaN → 0, so that a zero weight's view half is exactly 0 whatever the other inputs.
+            fuzz: unit(mat.fuzz_weight),
+            fuzz_color: mat.fuzz_color.max(Vec3::ZERO).min(Vec3::ONE),
+            fuzz_roughness: unit(mat.fuzz_roughness),
         }
     }
 
@@ -513,20 +584,23 @@ impl Bsdf {
         let view = view_halves(albedo::tables(), self.diffuse, self.f0, self.f82_b, self.alpha, mu_o);
         // Without a coat its view half is zero (what `coat_view` gives for a zero weight too,
         // without the lookup and the powers).
-        let coat = if self.clearcoat != 0.0 {
-            coat_view(albedo::tables(), self.coat(), mu_o)
+        let layers = (self.clearcoat != 0.0) | (self.fuzz != 0.0);
+        let (coat, fuzz_p) = if layers {
+            let fuzz = fuzz_view(albedo::sheen_table(), self.fuzz, self.fuzz_roughness, mu_o);
+            (coat_view(albedo::tables(), self.coat(), mu_o), fuzz)
         } else {
-            (Vec3::ZERO, 0.0)
+            ((Vec3::ZERO, 0.0), 0.0)
         };
-        self.seen_with(wo, view, coat)
+        self.seen_with(wo, view, coat, fuzz_p)
     }
 
     /// [`Bsdf::seen_from`] with the view halves known ([`view_halves`], [`coat_view`]).
     #[inline(always)]
-    pub(crate) fn seen_with(&self, wo: Vec3, view: [Vec3; 3], coat: (Vec3, f32)) -> SeenBsdf {
+    pub(crate) fn seen_with(&self, wo: Vec3, view: [Vec3; 3], coat: (Vec3, f32), fuzz_p: f32) -> SeenBsdf {
         #[rustfmt::skip]
         let Bsdf {
             frame, ng, diffuse, f0, f82_b, alpha, clearcoat, clearcoat_alpha, coat_color, coat_f0, coat_inv_eta2,
+            fuzz, fuzz_color, fuzz_roughness,
         } = *self;
         let [diffuse_view, ms_view, ms_fresnel] = view;
         let (coat_base, coat_p) = coat;
@@ -534,6 +608,7 @@ impl Bsdf {
         let seen = SeenBsdf {
             t: frame.t, b: frame.b, n: frame.n, ng, diffuse, f0, f82_b, alpha, clearcoat, clearcoat_alpha, wo,
             diffuse_view, ms_view, ms_fresnel, coat_color, coat_f0, coat_inv_eta2, coat_base, coat_p,
+            fuzz, fuzz_color, fuzz_roughness, fuzz_p,
         };
         seen
     }
@@ -584,7 +659,10 @@ impl SeenBsdf {
     pub fn sample_start(&self, u_lobe: f32, u: [f32; 2]) -> SampleStart {
         let wo = self.local(self.wo);
         let probs = self.lobe_probabilities(wo.z);
-        let diffuse = u_lobe < probs[0];
+        // The fuzz lobe is sampled like the diffuse one (cosine-weighted); without it (`probs[3]`
+        // 0) the choice is exactly the three-lobe one.
+        let fuzz = (probs[3] > 0.0) & (u_lobe >= probs[0] + probs[1] + probs[2]);
+        let diffuse = (u_lobe < probs[0]) | fuzz;
         let angle = if diffuse { concentric_angle(u) } else { TAU * u[0] };
         SampleStart { wo, probs, diffuse, angle }
     }
@@ -622,10 +700,15 @@ impl SeenBsdf {
         at_i: [f32; 3],
     ) -> (BsdfSample, bool) {
         // Without the lobe's terms `p_c` is ±0, or beside a NaN `p_d` ([`SeenBsdf::has_coat_terms`]).
-        let probs = [start.probs[0], start.probs[1], if COAT { start.probs[2] } else { 0.0 }];
+        let probs = [
+            start.probs[0],
+            start.probs[1],
+            if COAT { start.probs[2] } else { 0.0 },
+            if COAT { start.probs[3] } else { 0.0 },
+        ];
         let (f, pdf) = self.eval_local::<COAT>(probs, start.wo, dir.local, at_i);
         let ok = !(start.wo.z <= 0.0)
-            & !(probs[0] + probs[1] + probs[2] <= 0.0)
+            & !(probs[0] + probs[1] + probs[2] + probs[3] <= 0.0)
             & !(dir.local.z <= 0.0)
             & !(dir.wi.dot(self.ng) <= 0.0)
             & (pdf > 0.0)
@@ -866,6 +949,37 @@ mod tests {
         }
     }
 
+    /// The fuzz layer (OpenPBR's fuzz, here a Charlie sheen) over everything conserves energy by
+    /// albedo scaling: white plastic, coated or not, under a white fuzz reads 1 at 0°, 45° and 80°
+    /// for smooth and rough fuzz; over a black base a fuzz of colour `c` reflects `c · E_f(μo)`,
+    /// the tabulated sheen albedo (which the sampled lobe matches within 1 %).
+    #[test]
+    fn fuzz_is_a_furnace_over_every_base_and_its_albedo_is_the_table() {
+        for (fuzz_roughness, coat) in [(0.2, 0.0), (0.5, 0.0), (0.9, 0.0), (0.5, 1.0)] {
+            let mut m = material(1.0, 0.0, 0.4, 1.5);
+            (m.fuzz_weight, m.fuzz_roughness, m.clearcoat, m.clearcoat_roughness) =
+                (1.0, fuzz_roughness, coat, 0.1);
+            let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+            for theta in [0.0, 45.0, 80.0] {
+                let a = rgb_albedo(&bsdf, dir_from_angle(theta), 200_000);
+                eprintln!("white fuzz r {fuzz_roughness} over plastic (coat {coat}) θ={theta}: {a}");
+                assert!((a - Vec3::ONE).abs().max_element() < 0.01, "r {fuzz_roughness} θ={theta}: {a}");
+            }
+        }
+        let mut m = material(0.0, 0.0, 0.4, 1.0);
+        (m.fuzz_weight, m.fuzz_roughness, m.fuzz_color) = (1.0, 0.5, [1.0, 0.5, 0.25]);
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        for theta in [0.0, 45.0, 80.0] {
+            let wo = dir_from_angle(theta);
+            let a = rgb_albedo(&bsdf, wo, 400_000);
+            let e = albedo::sheen_albedo(albedo::sheen_table(), wo.z, 0.5);
+            eprintln!("fuzz (1, 0.5, 0.25) over black θ={theta}: {a}, table E_f {e:.4}");
+            assert!(e > 0.02, "θ={theta}: E_f {e}");
+            let expect = Vec3::new(1.0, 0.5, 0.25) * e;
+            assert!((a - expect).abs().max_element() < 0.01 * e.max(0.1), "θ={theta}: {a} vs {expect}");
+        }
+    }
+
     /// Diffuse under a dielectric specular layer conserves energy ([`albedo`]): a white base reads
     /// 1 at every angle and roughness, and a grey one keeps its brightness towards the horizon
     /// (the old `1 − F(n·v)` factor took 25 % off this rough floor at 80°).
@@ -941,11 +1055,14 @@ mod tests {
         let mut coated = material(0.8, 0.0, 0.5, 1.5);
         coated.clearcoat = 0.7;
         coated.clearcoat_roughness = 0.3;
+        let mut fuzzed = coated;
+        (fuzzed.fuzz_weight, fuzzed.fuzz_roughness) = (0.7, 0.4);
         let cases = [
             ("lambert", material(0.7, 0.0, 0.5, 1.0)),
             ("rough metal", material(0.9, 1.0, 0.6, 1.5)),
             ("plastic", material(0.5, 0.0, 0.4, 1.5)),
             ("coated", coated),
+            ("fuzzed", fuzzed),
         ];
         for (name, m) in cases {
             let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);

@@ -247,7 +247,7 @@ fn branch_free_bsdf_equals_the_early_return_reference_bit_for_bit() {
         let (mut inputs, ns, ng) = random_inputs(&mut rng);
         inputs.clearcoat = if rng.f() < 0.1 { -0.0 } else { 0.0 };
         // The reference predates OpenPBR's specular weight and tint as well.
-        (inputs.specular_weight, inputs.specular_tint) = (1.0, Vec3::ONE);
+        (inputs.specular_weight, inputs.specular_tint, inputs.fuzz_weight) = (1.0, Vec3::ONE, 0.0);
         let (new, old) = (Bsdf::from_inputs(&inputs, ns, ng), Old::from_inputs(&inputs, ns, ng));
         let one = |x: f32| bits(Vec3::splat(x));
         assert_eq!(bits(new.frame.t), bits(old.frame.t), "{old:?}");

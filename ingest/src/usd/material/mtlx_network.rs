@@ -22,10 +22,14 @@
 //! | coat_ior | `coat_IOR` (1.5) | `coat_ior` (1.6) | — (1.5) |
 //! | specular_weight | `specular` (1) | `specular_weight` (1) | — (1) |
 //! | specular_tint (OpenPBR `specular_color`) | `specular_color` (1) | `specular_color` (1) | — (1) |
+//! | fuzz_weight | `sheen` (0) | `fuzz_weight` (0) | — (0) |
+//! | fuzz_color | `sheen_color` (1) | `fuzz_color` (1) | — (1) |
+//! | fuzz_roughness | `sheen_roughness` (0.3) | `fuzz_roughness` (0.5) | — (0.5) |
 //!
-//! The last four rows are OpenPBR parameters the blob keeps beside UsdPreviewSurface's
+//! The last seven rows are OpenPBR parameters the blob keeps beside UsdPreviewSurface's
 //! ([`blob::surface_inputs`]); standard_surface's follow the OpenPBR/MaterialX mapping notes
-//! (`coat` → `coat_weight`, `coat_IOR` → `coat_ior`, `specular` → `specular_weight`). They are
+//! (`coat` → `coat_weight`, `coat_IOR` → `coat_ior`, `specular` → `specular_weight`, `sheen*` →
+//! `fuzz*`). They are
 //! constants: a connected one is one warning and its default, and a value outside the blob's range
 //! ([`blob::surface_inputs::OPENPBR_RANGES`]) is clamped with a warning.
 //!
@@ -44,7 +48,7 @@
 //!   any other source is one warning and the interpolated normal.
 //! - **Emission**: OpenPBR's `emission_luminance` (nits) is read as radiance 1 per nit unit, like
 //!   standard_surface's unitless `emission`.
-//! - Lobes the model lacks (subsurface, sheen/fuzz, thin film, anisotropy, coat darkening, ...) are
+//! - Lobes the model lacks (subsurface, thin film, anisotropy, coat darkening, ...) are
 //!   named in one warning per material when their weight is authored non-zero or connected.
 //!
 //! Nodes compile to the material program ([`crate::scene::ShaderNode`]); arithmetic is the
@@ -299,7 +303,7 @@ impl Reader<'_> {
             let coat_roughness = if open { 0.0 } else { 0.1 };
             let coat_rough = read(self, &mut mx, p, "coat_roughness", f(coat_roughness), true)?;
             self.bind(&mut m, p, ShadingInput::ClearcoatRoughness, coat_rough);
-            let [cc, ci, sw, st] = blob::surface_inputs::OPENPBR_RANGES;
+            let [cc, ci, sw, st, fw, fc, fr] = blob::surface_inputs::OPENPBR_RANGES;
             let coat_color =
                 self.openpbr_constant(path, shader, names("coat_color", "coat_color", ""), 1.0, cc)?;
             m.coat_color = Vec3::from_slice(&coat_color[..3]);
@@ -310,6 +314,13 @@ impl Reader<'_> {
             m.specular_weight = self.openpbr_constant(path, shader, weight_name, 1.0, sw)?[0];
             let tint = self.openpbr_constant(path, shader, "specular_color", 1.0, st)?;
             m.specular_tint = Vec3::from_slice(&tint[..3]);
+            let fuzz_weight = names("sheen", "fuzz_weight", "");
+            m.fuzz_weight = self.openpbr_constant(path, shader, fuzz_weight, 0.0, fw)?[0];
+            let fuzz =
+                self.openpbr_constant(path, shader, names("sheen_color", "fuzz_color", ""), 1.0, fc)?;
+            m.fuzz_color = Vec3::from_slice(&fuzz[..3]);
+            let (name, default) = if open { ("fuzz_roughness", 0.5) } else { ("sheen_roughness", 0.3) };
+            m.fuzz_roughness = self.openpbr_constant(path, shader, name, default, fr)?[0];
             let transmission =
                 read(self, &mut mx, p, names("transmission", "transmission_weight", ""), f(0.0), true)?;
             if transmission.val != Val::Const(f(0.0)) {
@@ -390,7 +401,6 @@ impl Reader<'_> {
         let lobes: &[&str] = match model {
             Model::Standard => &[
                 "subsurface",
-                "sheen",
                 "thin_film_thickness",
                 "specular_anisotropy",
                 "coat_anisotropy",
@@ -399,7 +409,6 @@ impl Reader<'_> {
             ],
             Model::OpenPbr => &[
                 "subsurface_weight",
-                "fuzz_weight",
                 "thin_film_weight",
                 "specular_anisotropy",
                 "coat_darkening",
