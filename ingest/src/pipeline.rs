@@ -175,7 +175,8 @@ pub fn unlit_warning(scene: &Scene) -> Option<&'static str> {
 /// `max_edge_rate` (segments per cage edge). Bounds are in the stage's world space (the scene's
 /// positions plus its `world_origin`, listed at the top level). `materials` lists every material read with its
 /// `surface_model` (`UsdPreviewSurface`, `standard_surface`, `open_pbr_surface`, `PxrDisney`; empty
-/// for a displayColor material) and the `node_categories` of the shading nodes read. The top
+/// for a displayColor material), the `node_categories` of the shading nodes read and its
+/// `constants` (every UsdPreviewSurface and OpenPBR constant of the blob record by name). The top
 /// level has the scene's `triangles`, `triangles_at_fixed_level` (every subdivision mesh at the
 /// level cap) and `triangles_saved` (their difference; negative when a forced level exceeds the
 /// cap).
@@ -243,6 +244,7 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
                 "path": m.path,
                 "surface_model": m.look.surface_model,
                 "node_categories": m.look.node_categories,
+                "constants": material_constants(m),
             })
         })
         .collect();
@@ -255,6 +257,30 @@ pub fn dump_json(scene: &Scene) -> serde_json::Value {
         "triangles_at_fixed_level": fixed,
         "triangles_saved": fixed as i64 - triangles as i64,
     })
+}
+
+/// A material's constants by their blob names ([`blob::preview_surface_constants!`]): colours as
+/// `[r, g, b]`, flags as booleans. Inputs a program drives are listed with their constant too.
+fn material_constants(m: &crate::scene::Material) -> serde_json::Value {
+    macro_rules! constants {
+        ($($field:ident: $kind:ident = $fallback:expr, $usd:literal;)*) => {{
+            let mut map = serde_json::Map::new();
+            $(map.insert($usd.into(), constant_json!($kind, m.$field));)*
+            serde_json::Value::Object(map)
+        }};
+    }
+    macro_rules! constant_json {
+        (color, $v:expr) => {
+            serde_json::json!($v.to_array())
+        };
+        (float, $v:expr) => {
+            serde_json::json!($v)
+        };
+        (flag, $v:expr) => {
+            serde_json::json!($v)
+        };
+    }
+    blob::preview_surface_constants!(constants)
 }
 
 #[cfg(test)]

@@ -455,7 +455,8 @@ fn standard_surface_constants_map_onto_the_preview_surface() {
     assert_eq!((m.clearcoat, m.clearcoat_roughness), (0.75, 0.3));
     assert_eq!((m.opacity, m.opacity_threshold), (0.25, 0.5), "opacity is a cut-out");
     assert!(!m.use_specular_workflow, "a metal keeps the metallic workflow");
-    // Transmission: clear glass of specular_IOR; specular 0.5 on a dielectric: the specular workflow.
+    // Transmission: clear glass of specular_IOR; specular 0.5 and a specular colour on a dielectric:
+    // OpenPBR's specular weight and colour, in the metallic workflow.
     let m = constant_surface(
         "ND_standard_surface_surfaceshader",
         "float inputs:transmission = 0.75
@@ -464,9 +465,8 @@ fn standard_surface_constants_map_onto_the_preview_surface() {
         color3f inputs:specular_color = (1, 1, 0.5)",
     );
     assert_eq!((m.opacity, m.opacity_threshold, m.ior), (0.25, 0.0, 1.33));
-    let f0 = ((1.33f32 - 1.0) / (1.33 + 1.0)).powi(2);
-    assert!(m.use_specular_workflow);
-    assert_eq!(m.specular_color, Vec3::new(1.0, 1.0, 0.5) * (0.5 * f0));
+    assert!(!m.use_specular_workflow);
+    assert_eq!((m.specular_weight, m.specular_tint), (0.5, Vec3::new(1.0, 1.0, 0.5)));
 }
 
 #[test]
@@ -611,4 +611,133 @@ def Material "Look"
     // combine3(0.25, tint.b, 0.75): the constants fold into one vector, the primvar's channel added.
     assert!(matches!(source_of(m, ShadingInput::EmissiveColor), ShaderNode::Math { op: MathOp::Add, .. }));
     assert_eq!(m.look.node_categories, ["combine3", "geompropvalue", "separate3", "swizzle"]);
+}
+
+/// An open_pbr_surface `.mtlx` look with a tinted coat of its own index, a metal with an F82 edge
+/// tint (`specular_color`), a specular weight and a fuzz arrives in the blob's material record with those
+/// values, and `--dump-json` lists them; an inline `ND_open_pbr_surface_surfaceshader` reads alike,
+/// and out-of-range values are clamped into the blob's ranges with one warning each.
+#[test]
+fn open_pbr_coat_and_f82_values_reach_the_blob_and_the_json_listing() {
+    let usda = r#"#usda 1.0
+def Mesh "Ball" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+    rel material:binding = </Looks/M_Coated>
+}
+def Scope "Looks" (references = @./look.mtlx@</MaterialX/Materials>) {}
+"#;
+    let mtlx = r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <open_pbr_surface name="Surface" type="surfaceshader">
+    <input name="base_color" type="color3" value="0.95, 0.64, 0.54" />
+    <input name="base_metalness" type="float" value="1" />
+    <input name="specular_weight" type="float" value="0.75" />
+    <input name="specular_color" type="color3" value="0.9, 0.7, 0.5" />
+    <input name="specular_roughness" type="float" value="0.25" />
+    <input name="coat_weight" type="float" value="0.8" />
+    <input name="coat_color" type="color3" value="0.9, 0.5, 0.25" />
+    <input name="coat_roughness" type="float" value="0.15" />
+    <input name="coat_ior" type="float" value="1.4" />
+    <input name="fuzz_weight" type="float" value="0.6" />
+    <input name="fuzz_color" type="color3" value="0.3, 0.6, 0.9" />
+    <input name="fuzz_roughness" type="float" value="0.35" />
+  </open_pbr_surface>
+  <surfacematerial name="M_Coated" type="material">
+    <input name="surfaceshader" type="surfaceshader" nodename="Surface" />
+  </surfacematerial>
+</materialx>
+"#;
+    let (dir, root) = write(&[("scene.usda", usda), ("look.mtlx", mtlx)]);
+    let out = dir.path().join("scene.blob");
+    let (scene, _) = ingest::pipeline::ingest_file(&root, &out, &LoadOptions::default()).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let bytes = blob::AlignedBytes::copy_from(&std::fs::read(&out).unwrap());
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    let record = view
+        .materials
+        .iter()
+        .find(|m| view.string(m.name) == "/Looks/M_Coated")
+        .unwrap_or_else(|| panic!("no /Looks/M_Coated in the blob"));
+    assert_eq!((record.clearcoat, record.clearcoat_roughness, record.coat_ior), (0.8, 0.15, 1.4));
+    assert_eq!(record.coat_color, [0.9, 0.5, 0.25]);
+    assert_eq!((record.metallic, record.roughness, record.specular_weight), (1.0, 0.25, 0.75));
+    assert_eq!(record.specular_tint, [0.9, 0.7, 0.5]);
+    assert_eq!(record.diffuse_color, [0.95, 0.64, 0.54]);
+    assert_eq!((record.fuzz_weight, record.fuzz_color, record.fuzz_roughness), (0.6, [0.3, 0.6, 0.9], 0.35));
+    let json = ingest::pipeline::dump_json(&scene);
+    let listed = json["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["path"] == "/Looks/M_Coated")
+        .unwrap_or_else(|| panic!("{json}"));
+    let c = &listed["constants"];
+    assert_eq!(listed["surface_model"], "open_pbr_surface");
+    let close = |v: &serde_json::Value, x: f64| (v.as_f64().unwrap() - x).abs() < 1e-6;
+    assert!(close(&c["coat_ior"], 1.4) && close(&c["clearcoat"], 0.8), "{c}");
+    assert!(close(&c["specular_weight"], 0.75) && close(&c["coat_color"][2], 0.25), "{c}");
+    assert!(close(&c["specular_color"][1], 0.7) && close(&c["clearcoatRoughness"], 0.15), "{c}");
+    assert!(close(&c["fuzz_weight"], 0.6) && close(&c["fuzz_color"][2], 0.9), "{c}");
+    assert!(close(&c["fuzz_roughness"], 0.35), "{c}");
+
+    // Inline, with the defaults where unauthored (coat_ior 1.6 is OpenPBR's) and two values out
+    // of range.
+    let m = constant_surface(
+        "ND_open_pbr_surface_surfaceshader",
+        "float inputs:coat_weight = 1
+        color3f inputs:coat_color = (0.5, 0.25, 1)",
+    );
+    assert_eq!((m.clearcoat, m.coat_color, m.coat_ior), (1.0, glam::Vec3::new(0.5, 0.25, 1.0), 1.6));
+    assert_eq!((m.specular_weight, m.specular_tint), (1.0, glam::Vec3::ONE));
+    let m = constant_surface(
+        "ND_standard_surface_surfaceshader",
+        "float inputs:coat_IOR = 1.3
+        float inputs:sheen = 0.5
+        color3f inputs:sheen_color = (1, 0, 0)",
+    );
+    assert_eq!((m.coat_ior, m.coat_color), (1.3, glam::Vec3::ONE));
+    assert_eq!((m.fuzz_weight, m.fuzz_color, m.fuzz_roughness), (0.5, glam::Vec3::X, 0.3));
+}
+
+#[test]
+fn open_pbr_values_out_of_range_are_clamped_with_a_warning() {
+    let layer = r#"#usda 1.0
+def Mesh "Ball" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    uniform token subdivisionScheme = "none"
+    rel material:binding = </Look>
+}
+def Material "Look"
+{
+    token outputs:mtlx:surface.connect = </Look/Surface.outputs:out>
+    def Shader "Surface"
+    {
+        uniform token info:id = "ND_open_pbr_surface_surfaceshader"
+        float inputs:coat_ior = 0.5
+        float inputs:specular_weight = 2
+        token outputs:out
+    }
+}
+"#;
+    let (_dir, root) = write(&[("look.usda", layer)]);
+    let scene = load(&root, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let m = material(&scene, "/Look");
+    assert_eq!((m.coat_ior, m.specular_weight), (1.0, 1.0));
+    let messages: Vec<&str> = scene.warnings.iter().map(|w| w.message.as_str()).collect();
+    assert_eq!(
+        messages,
+        [
+            "coat_ior = 0.5 outside [1, 10] (or not finite); clamped to 1",
+            "specular_weight = 2 outside [0, 1] (or not finite); clamped to 1",
+        ],
+        "{:?}",
+        scene.warnings
+    );
 }

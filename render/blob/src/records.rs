@@ -114,13 +114,17 @@ pub const fn light_set_words(light_count: usize) -> usize {
 
 macro_rules! material_record {
     ($($field:ident: $kind:ident = $fallback:expr, $usd:literal;)*) => {
-        /// UsdPreviewSurface inputs as constants, plus the material's shading program. 96 bytes.
+        /// UsdPreviewSurface inputs and the OpenPBR parameters beyond them as constants, plus the
+        /// material's shading program. 148 bytes (96 before format 11).
         ///
         /// The constants are the values of inputs that no program op writes; a textured input's
         /// constant is the value the scene authored on the input itself (or the spec fallback) and is
         /// never read. The inputs are those of [`crate::preview_surface_constants!`], in its order.
+        ///
+        /// `Material::default()` is the specification's fallbacks (a zeroed record is not a valid
+        /// material: its coat would have index 0).
         #[repr(C)]
-        #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+        #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
         pub struct Material {
             /// Material prim path (or the gprim path for a displayColor material).
             pub name: StrRef,
@@ -135,10 +139,53 @@ macro_rules! material_record {
             /// Reserved, zero.
             pub reserved: [u32; 3],
         }
+
+        impl Default for Material {
+            fn default() -> Self {
+                Material {
+                    name: StrRef::default(),
+                    $($field: $crate::blob_fallback!($kind, $fallback),)*
+                    program_start: 0,
+                    program_len: 0,
+                    reserved: [0; 3],
+                }
+            }
+        }
+
+        impl Material {
+            /// The first OpenPBR constant not finite or outside its range
+            /// ([`crate::surface_inputs::OPENPBR_RANGES`]), as validation's error text.
+            pub fn openpbr_out_of_range(&self) -> Option<&'static str> {
+                const WHAT: [&str; 7] = [
+                    "coat_color not finite or outside [0, 1]",
+                    "coat_ior not finite or outside [1, 10]",
+                    "specular_weight not finite or outside [0, 1]",
+                    "specular_color (specular_tint) not finite or outside [0, 1]",
+                    "fuzz_weight not finite or outside [0, 1]",
+                    "fuzz_color not finite or outside [0, 1]",
+                    "fuzz_roughness not finite or outside [0, 1]",
+                ];
+                let values: [&[f32]; 7] = [
+                    &self.coat_color,
+                    std::slice::from_ref(&self.coat_ior),
+                    std::slice::from_ref(&self.specular_weight),
+                    &self.specular_tint,
+                    std::slice::from_ref(&self.fuzz_weight),
+                    &self.fuzz_color,
+                    std::slice::from_ref(&self.fuzz_roughness),
+                ];
+                crate::surface_inputs::OPENPBR_RANGES
+                    .iter()
+                    .zip(values)
+                    .zip(WHAT)
+                    .find(|(((_, lo, hi), v), _)| !v.iter().all(|x| (*lo..=*hi).contains(x)))
+                    .map(|(_, what)| what)
+            }
+        }
     };
 }
 crate::preview_surface_constants!(material_record);
-const _: () = assert!(std::mem::size_of::<Material>() == 96);
+const _: () = assert!(std::mem::size_of::<Material>() == 148);
 
 /// Light kinds stored in [`Light::kind`].
 pub mod light_kind {

@@ -518,6 +518,9 @@ impl<'a> SceneView<'a> {
             if m.program_start as u64 + m.program_len as u64 > self.shader_ops.len() as u64 {
                 return bad(K::Materials, i, "program range outside the shader-op section");
             }
+            if let Some(what) = m.openpbr_out_of_range() {
+                return bad(K::Materials, i, what);
+            }
         }
         self.validate_textures()?;
         self.validate_primvars(strings_ok)?;

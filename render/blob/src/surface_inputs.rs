@@ -9,6 +9,14 @@
 //! Each entry is `field: kind = fallback, "usdName";`, in the blob record's field order. Kinds:
 //! `color` (`[f32; 3]` in the blob, `Vec3` elsewhere), `float` (`f32`), `flag` (`u32` 0 or 1 in the
 //! blob, `bool` elsewhere). Fallbacks are the UsdPreviewSurface specification's.
+//!
+//! The last seven are OpenPBR Surface parameters (format 11; their names are the ASWF OpenPBR v1.1
+//! specification's) that UsdPreviewSurface lacks: with their fallbacks the surface is exactly
+//! UsdPreviewSurface (a clear coat of index 1.5, its F0 0.04; an untinted, unweighted specular
+//! lobe; no fuzz). `clearcoat` and `clearcoatRoughness` are OpenPBR's `coat_weight` and `coat_roughness`.
+//! `specular_tint` is OpenPBR's `specular_color`, renamed because `specularColor` is
+//! UsdPreviewSurface's specular-workflow F0. They are constants only (no program op writes them),
+//! and validation at load keeps them finite and in [`OPENPBR_RANGES`].
 
 /// Calls `$callback! { field: kind = fallback, "usdName"; … }` with the UsdPreviewSurface inputs a
 /// material keeps as constants (see the [module docs](crate::surface_inputs)).
@@ -27,9 +35,31 @@ macro_rules! preview_surface_constants {
             clearcoat: float = 0.0, "clearcoat";
             clearcoat_roughness: float = 0.01, "clearcoatRoughness";
             use_specular_workflow: flag = false, "useSpecularWorkflow";
+            coat_color: color = [1.0, 1.0, 1.0], "coat_color";
+            coat_ior: float = 1.5, "coat_ior";
+            specular_weight: float = 1.0, "specular_weight";
+            specular_tint: color = [1.0, 1.0, 1.0], "specular_color";
+            fuzz_weight: float = 0.0, "fuzz_weight";
+            fuzz_color: color = [1.0, 1.0, 1.0], "fuzz_color";
+            fuzz_roughness: float = 0.5, "fuzz_roughness";
         }
     };
 }
+
+/// The accepted range of each OpenPBR constant of the [`crate::Material`] record, `(name, low,
+/// high)` (colour inputs: each channel): [`crate::SceneView::parse`] rejects a record with a value
+/// outside it or not finite, and ingest clamps authored values into it with a warning. A coat of
+/// index below 1 would turn the layering's Fresnel inside out; a specular weight above 1 could make
+/// F0 exceed 1 (OpenPBR's soft range is [0, 1]).
+pub const OPENPBR_RANGES: [(&str, f32, f32); 7] = [
+    ("coat_color", 0.0, 1.0),
+    ("coat_ior", 1.0, 10.0),
+    ("specular_weight", 0.0, 1.0),
+    ("specular_color", 0.0, 1.0),
+    ("fuzz_weight", 0.0, 1.0),
+    ("fuzz_color", 0.0, 1.0),
+    ("fuzz_roughness", 0.0, 1.0),
+];
 
 /// The type of an input kind outside the blob, given the caller's 3-vector type: `color` → `$vec3`,
 /// `float` → `f32`, `flag` → `bool`.
@@ -44,6 +74,21 @@ macro_rules! model_input_type {
     };
     (flag, $vec3:ty) => {
         bool
+    };
+}
+
+/// An input kind's fallback in the blob's type.
+#[macro_export]
+#[doc(hidden)]
+macro_rules! blob_fallback {
+    (color, $v:expr) => {
+        $v
+    };
+    (float, $v:expr) => {
+        $v
+    };
+    (flag, $v:expr) => {
+        $v as u32
     };
 }
 

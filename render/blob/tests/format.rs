@@ -898,3 +898,40 @@ fn light_sets_round_trip_and_are_validated() {
     let text = crafted_error(&no_lights, SectionKind::LightSets);
     assert!(text.contains("whole number of light sets"), "{text}");
 }
+
+/// The OpenPBR constants of a material (format 11) are validated once at load: a coat of index
+/// below 1, a NaN coat colour, a specular weight above 1 or a negative tint are each an error
+/// naming the parameter and the record; the fallbacks (UsdPreviewSurface's look) load.
+#[test]
+fn openpbr_constants_out_of_range_are_rejected_at_load() {
+    let fallback = Material::default();
+    assert_eq!(
+        (fallback.coat_color, fallback.coat_ior, fallback.specular_weight, fallback.specular_tint),
+        ([1.0; 3], 1.5, 1.0, [1.0; 3])
+    );
+    assert!(parse(&sample_scene().encode()).is_ok());
+    type Edit = fn(&mut Material);
+    let edits: [(Edit, &str); 8] = [
+        (|m| m.coat_ior = 0.5, "coat_ior not finite or outside [1, 10]"),
+        (|m| m.coat_ior = f32::INFINITY, "coat_ior not finite or outside [1, 10]"),
+        (|m| m.coat_color[1] = f32::NAN, "coat_color not finite or outside [0, 1]"),
+        (|m| m.specular_weight = 1.5, "specular_weight not finite or outside [0, 1]"),
+        (|m| m.specular_tint[2] = -0.25, "specular_color (specular_tint) not finite or outside [0, 1]"),
+        (|m| m.fuzz_weight = 2.0, "fuzz_weight not finite or outside [0, 1]"),
+        (|m| m.fuzz_color[0] = f32::NEG_INFINITY, "fuzz_color not finite or outside [0, 1]"),
+        (|m| m.fuzz_roughness = f32::NAN, "fuzz_roughness not finite or outside [0, 1]"),
+    ];
+    for (edit, what) in edits {
+        let mut scene = sample_scene();
+        edit(&mut scene.materials[0]);
+        assert_eq!(
+            crafted_error(&scene, SectionKind::Materials),
+            format!("section Materials record 0: {what}")
+        );
+    }
+    // The ends of each range are valid.
+    let mut scene = sample_scene();
+    let m = &mut scene.materials[0];
+    (m.coat_color, m.coat_ior, m.specular_weight, m.specular_tint) = ([0.0; 3], 10.0, 0.0, [0.0, 1.0, 0.0]);
+    assert!(parse(&scene.encode()).is_ok());
+}

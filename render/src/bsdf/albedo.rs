@@ -28,6 +28,11 @@
 //! albedo): single-scattering GGX loses up to 69 % at α = 1 (a rough F0 = 1 metal read 0.31 head-on),
 //! and the lobe gives it back, so a white metal reads 1 at every roughness. The diffuse scaling
 //! counts the compensation lobe in `E`, so a white plastic still reads exactly 1.
+//!
+//! A third table, `C` (weight `(v·h)(1 − v·h)⁶`), carries the F82-tint correction of metals
+//! (OpenPBR's `specular_color` on metal, [`super::f82_b`]): `F = Schlick − b·(v·h)(1 − v·h)⁶`
+//! reflects `F0·A + F90·B − b·C`. With `b = 0` (every material without a metal edge tint) each sum
+//! subtracts an exact zero, so the Schlick-only figures keep their bits.
 
 use super::{ggx_g2, ggx_lambda, sample_ggx_vndf, MIN_ALPHA};
 use glam::Vec3;
@@ -40,20 +45,20 @@ const ROUGHNESS: usize = 16;
 /// Visible-normal samples per entry and axis.
 const STRATA: usize = 16;
 
-/// `A` and `B` at every grid point, and their averages per roughness.
+/// `A`, `B` and `C` at every grid point, and the averages of `A` and `B` per roughness.
 pub(crate) struct Tables {
-    /// `[r][μ]` → (A, B).
-    lobe: [[[f32; 2]; MU]; ROUGHNESS],
-    /// `[r]` → (2∫A μ dμ, 2∫B μ dμ).
-    average: [[f32; 2]; ROUGHNESS],
+    /// `[r][μ]` → (A, B, C).
+    lobe: [[[f32; 3]; MU]; ROUGHNESS],
+    /// `[r]` → (2∫A μ dμ, 2∫B μ dμ, 2∫C μ dμ).
+    average: [[f32; 3]; ROUGHNESS],
 }
 
 /// The smallest `μ` integrated (the lobe at exactly grazing view has no visible normals).
 const MIN_MU: f32 = 1e-3;
 
 fn integrate() -> Tables {
-    let mut lobe = [[[0.0f32; 2]; MU]; ROUGHNESS];
-    let mut average = [[0.0f32; 2]; ROUGHNESS];
+    let mut lobe = [[[0.0f32; 3]; MU]; ROUGHNESS];
+    let mut average = [[0.0f32; 3]; ROUGHNESS];
     for (j, row) in lobe.iter_mut().enumerate() {
         let r = j as f32 / (ROUGHNESS - 1) as f32;
         let alpha = (r * r).max(MIN_ALPHA);
@@ -61,7 +66,7 @@ fn integrate() -> Tables {
             let mu = (i as f32 / (MU - 1) as f32).max(MIN_MU);
             let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
             let g1 = 1.0 / (1.0 + ggx_lambda(wo, alpha));
-            let (mut a, mut b) = (0.0f64, 0.0f64);
+            let (mut a, mut b, mut c) = (0.0f64, 0.0f64, 0.0f64);
             for s in 0..STRATA {
                 for t in 0..STRATA {
                     let u = [(s as f32 + 0.5) / STRATA as f32, (t as f32 + 0.5) / STRATA as f32];
@@ -77,20 +82,22 @@ fn integrate() -> Tables {
                     let m5 = m * m * m * m * m;
                     a += weight * (1.0 - m5);
                     b += weight * m5;
+                    c += weight * (1.0 - m) * m5 * m;
                 }
             }
             let n = (STRATA * STRATA) as f64;
-            *entry = [(a / n) as f32, (b / n) as f32];
+            *entry = [(a / n) as f32, (b / n) as f32, (c / n) as f32];
         }
         // 2∫E μ dμ by the trapezoid rule over the grid.
-        let (mut sa, mut sb) = (0.0f64, 0.0f64);
+        let mut sums = [0.0f64; 3];
         for i in 0..MU - 1 {
             let (m0, m1) = (i as f64 / (MU - 1) as f64, (i + 1) as f64 / (MU - 1) as f64);
             let h = m1 - m0;
-            sa += h * 0.5 * (row[i][0] as f64 * m0 + row[i + 1][0] as f64 * m1);
-            sb += h * 0.5 * (row[i][1] as f64 * m0 + row[i + 1][1] as f64 * m1);
+            for (k, sum) in sums.iter_mut().enumerate() {
+                *sum += h * 0.5 * (row[i][k] as f64 * m0 + row[i + 1][k] as f64 * m1);
+            }
         }
-        average[j] = [(2.0 * sa) as f32, (2.0 * sb) as f32];
+        average[j] = sums.map(|x| (2.0 * x) as f32);
     }
     Tables { lobe, average }
 }
@@ -102,6 +109,53 @@ pub(crate) fn tables() -> &'static Tables {
     TABLES.get_or_init(integrate)
 }
 
+/// The fuzz (sheen) lobe's directional albedo `E_f` on a `[r][μ]` grid over fuzz roughness and
+/// `μ = n·v` ([`super::sheen`], untinted): what the layers under the fuzz are scaled by.
+pub(crate) struct SheenTable([[f32; MU]; ROUGHNESS]);
+
+/// Directions per axis (`cos θ`, `φ`) of the sheen table's midpoint rule.
+const SHEEN_STRATA: usize = 96;
+
+fn integrate_sheen() -> SheenTable {
+    let mut table = [[0.0f32; MU]; ROUGHNESS];
+    for (j, row) in table.iter_mut().enumerate() {
+        let alpha = super::sheen_alpha(j as f32 / (ROUGHNESS - 1) as f32);
+        for (i, entry) in row.iter_mut().enumerate() {
+            let mu = (i as f32 / (MU - 1) as f32).max(MIN_MU);
+            let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+            let mut sum = 0.0f64;
+            for s in 0..SHEEN_STRATA {
+                let z = (s as f32 + 0.5) / SHEEN_STRATA as f32;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                for t in 0..SHEEN_STRATA {
+                    let phi = std::f32::consts::TAU * (t as f32 + 0.5) / SHEEN_STRATA as f32;
+                    let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+                    let h = (wo + wi).normalize();
+                    sum += (super::sheen(wo, wi, h, alpha) * z) as f64;
+                }
+            }
+            let n = (SHEEN_STRATA * SHEEN_STRATA) as f64;
+            *entry = (sum * std::f64::consts::TAU / n).min(1.0) as f32;
+        }
+    }
+    SheenTable(table)
+}
+
+/// The sheen table, integrated on first use.
+pub(crate) fn sheen_table() -> &'static SheenTable {
+    static TABLE: OnceLock<SheenTable> = OnceLock::new();
+    TABLE.get_or_init(integrate_sheen)
+}
+
+/// `E_f` at `μ` and fuzz roughness `r` (bilinear; both clamp to [0, 1]).
+#[inline(always)]
+pub(crate) fn sheen_albedo(t: &SheenTable, mu: f32, r: f32) -> f32 {
+    let (j, fr) = cell(r, ROUGHNESS);
+    let (i, fm) = cell(mu, MU);
+    let lerp = |a: f32, b: f32, f: f32| a + (b - a) * f;
+    lerp(lerp(t.0[j][i], t.0[j][i + 1], fm), lerp(t.0[j + 1][i], t.0[j + 1][i + 1], fm), fr)
+}
+
 /// Grid cell and weight of `x` in [0, 1] on `n` points (NaN and out-of-range values clamp).
 #[inline(always)]
 fn cell(x: f32, n: usize) -> (usize, f32) {
@@ -111,24 +165,25 @@ fn cell(x: f32, n: usize) -> (usize, f32) {
     (i, t - i as f32)
 }
 
-/// The tabulated lobe at `μ` and GGX `alpha`: `(A, B, A_avg, B_avg)`, bilinear in `μ` and `√α`.
+/// The tabulated lobe at `μ` and GGX `alpha`: `(A, B, C, A_avg, B_avg, C_avg)`, bilinear in `μ`
+/// and `√α`.
 #[inline(always)]
-pub(crate) fn lobe_albedo(t: &Tables, mu: f32, alpha: f32) -> [f32; 4] {
+pub(crate) fn lobe_albedo(t: &Tables, mu: f32, alpha: f32) -> [f32; 6] {
     let (j, fr) = cell(alpha.sqrt(), ROUGHNESS);
-    let [a, b] = lobe_at(t, j, fr, mu);
-    let lerp = |a: f32, b: f32, f: f32| a + (b - a) * f;
-    [a, b, lerp(t.average[j][0], t.average[j + 1][0], fr), lerp(t.average[j][1], t.average[j + 1][1], fr)]
+    let [a, b, c] = lobe_at(t, j, fr, mu);
+    let lerp = |k: usize| t.average[j][k] + (t.average[j + 1][k] - t.average[j][k]) * fr;
+    [a, b, c, lerp(0), lerp(1), lerp(2)]
 }
 
-/// `(A, B)` of [`lobe_albedo`] only (what the light side needs).
+/// `(A, B, C)` of [`lobe_albedo`] only (what the light side needs).
 #[inline(always)]
-pub(crate) fn lobe_albedo_ab(t: &Tables, mu: f32, alpha: f32) -> [f32; 2] {
+pub(crate) fn lobe_albedo_ab(t: &Tables, mu: f32, alpha: f32) -> [f32; 3] {
     let (j, fr) = cell(alpha.sqrt(), ROUGHNESS);
     lobe_at(t, j, fr, mu)
 }
 
 #[inline(always)]
-fn lobe_at(t: &Tables, j: usize, fr: f32, mu: f32) -> [f32; 2] {
+fn lobe_at(t: &Tables, j: usize, fr: f32, mu: f32) -> [f32; 3] {
     let (i, fm) = cell(mu, MU);
     let lerp = |a: f32, b: f32, f: f32| a + (b - a) * f;
     let at = |c: usize| {
@@ -136,7 +191,7 @@ fn lobe_at(t: &Tables, j: usize, fr: f32, mu: f32) -> [f32; 2] {
         let (lo1, hi1) = (t.lobe[j][i + 1][c], t.lobe[j + 1][i + 1][c]);
         lerp(lerp(lo, lo1, fm), lerp(hi, hi1, fm), fr)
     };
-    [at(0), at(1)]
+    [at(0), at(1), at(2)]
 }
 
 /// Schlick's F90 of the specular lobe for F0 `(x, y, z)` (see `bsdf::schlick`).
@@ -146,20 +201,22 @@ pub(crate) fn f90(x: f32, y: f32, z: f32) -> f32 {
 }
 
 /// Kulla & Conty's multiple-scattering Fresnel of one colour channel: `F_avg² E_avg / (1 − F_avg (1 −
-/// E_avg))` with Schlick's average `F_avg = F0 + (F90 − F0)/21` and the lobe's unit-Fresnel average
+/// E_avg))` with Schlick's average `F_avg = F0 + (F90 − F0)/21 − b/126` (the F82 term's
+/// cosine-weighted average is `2∫μ·μ(1 − μ)⁶ dμ = 1/126`) and the lobe's unit-Fresnel average
 /// albedo `E_avg` (from [`lobe_albedo`] `at`).
 #[inline(always)]
-pub(crate) fn ms_fresnel(f0: f32, f90: f32, at: [f32; 4]) -> f32 {
-    let e1_avg = at[2] + at[3];
-    let f_avg = f0 + (f90 - f0) * (1.0 / 21.0);
+pub(crate) fn ms_fresnel(f0: f32, f90: f32, b82: f32, at: [f32; 6]) -> f32 {
+    let e1_avg = at[3] + at[4];
+    let f_avg = f0 + (f90 - f0) * (1.0 / 21.0) - b82 * (1.0 / 126.0);
     f_avg * f_avg * e1_avg / (1.0 - f_avg * (1.0 - e1_avg)).max(1e-4)
 }
 
 /// What one colour channel's specular layer reflects in all from cosine `μ`, single scattering
-/// `f0·A + f90·B` plus the multiple-scattering lobe's `f_ms (1 − (A + B))`.
+/// `f0·A + f90·B − b82·C` (the F82 tint's term; with `b82 = 0` exactly Schlick's) plus the
+/// multiple-scattering lobe's `f_ms (1 − (A + B))`.
 #[inline(always)]
-fn specular_energy(f0: f32, f90: f32, f_ms: f32, a: f32, b: f32) -> f32 {
-    f0 * a + f90 * b + f_ms * (1.0 - (a + b))
+fn specular_energy(f0: f32, f90: f32, b82: f32, f_ms: f32, [a, b, c]: [f32; 3]) -> f32 {
+    f0 * a + f90 * b - b82 * c + f_ms * (1.0 - (a + b))
 }
 
 /// The view halves of one colour channel's lobes at `μo` ([`lobe_albedo`] `at_o`): the diffuse
@@ -168,21 +225,21 @@ fn specular_energy(f0: f32, f90: f32, f_ms: f32, a: f32, b: f32) -> f32 {
 /// keeps them (the lanes build them with the BSDF); the scalar BSDF computes them per evaluation,
 /// with the same operations.
 #[inline(always)]
-pub(crate) fn view_terms(d: f32, f0: f32, f90: f32, at_o: [f32; 4]) -> [f32; 3] {
-    let f_ms = ms_fresnel(f0, f90, at_o);
-    let e_o = specular_energy(f0, f90, f_ms, at_o[0], at_o[1]);
-    let e_avg = specular_energy(f0, f90, f_ms, at_o[2], at_o[3]);
+pub(crate) fn view_terms(d: f32, f0: f32, f90: f32, b82: f32, at_o: [f32; 6]) -> [f32; 3] {
+    let f_ms = ms_fresnel(f0, f90, b82, at_o);
+    let e_o = specular_energy(f0, f90, b82, f_ms, [at_o[0], at_o[1], at_o[2]]);
+    let e_avg = specular_energy(f0, f90, b82, f_ms, [at_o[3], at_o[4], at_o[5]]);
     let diffuse = d * ((1.0 - e_o) / (1.0 - e_avg).max(1e-4));
-    let ms = f_ms * ((1.0 - (at_o[0] + at_o[1])) / (1.0 - (at_o[2] + at_o[3])).max(1e-4));
+    let ms = f_ms * ((1.0 - (at_o[0] + at_o[1])) / (1.0 - (at_o[3] + at_o[4])).max(1e-4));
     [diffuse, ms, f_ms]
 }
 
 /// One colour channel's diffuse and multiple-scattering lobe values times π from their
 /// [`view_terms`] `view` and [`lobe_albedo_ab`] at `μi`.
 #[inline(always)]
-pub(crate) fn light_terms(view: [f32; 3], f0: f32, f90: f32, at_i: [f32; 2]) -> [f32; 2] {
+pub(crate) fn light_terms(view: [f32; 3], f0: f32, f90: f32, b82: f32, at_i: [f32; 3]) -> [f32; 2] {
     let [diffuse, ms, f_ms] = view;
-    let e_i = specular_energy(f0, f90, f_ms, at_i[0], at_i[1]);
+    let e_i = specular_energy(f0, f90, b82, f_ms, at_i);
     [diffuse * (1.0 - e_i), ms * (1.0 - (at_i[0] + at_i[1]))]
 }
 

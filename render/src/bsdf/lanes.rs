@@ -14,7 +14,7 @@
 //! probabilities as [`BsdfLanes`] columns, an AVX-512VL clone, a variant for all-diffuse groups;
 //! measurements: `docs/perf.md#bsdf-lanes-bsdflanesrs`.
 
-use crate::bsdf::{albedo, view_halves, Bsdf, BsdfSample};
+use crate::bsdf::{albedo, coat_view, fuzz_view, view_halves, Bsdf, BsdfSample, CoatParams};
 use crate::shading::ShadingInputs;
 use glam::Vec3;
 
@@ -38,6 +38,8 @@ lanekit::soa! {
         pub diffuse: Vec3 as [f32; 3],
         /// Specular F0.
         pub f0: Vec3 as [f32; 3],
+        /// F82-tint coefficient ([`crate::bsdf::f82_b`]).
+        pub f82_b: Vec3 as [f32; 3],
         /// GGX α of the specular lobe.
         pub alpha: f32,
         /// Clearcoat weight.
@@ -52,6 +54,24 @@ lanekit::soa! {
         pub ms_view: Vec3 as [f32; 3],
         /// The multiple-scattering Fresnel ([`albedo::ms_fresnel`]).
         pub ms_fresnel: Vec3 as [f32; 3],
+        /// Coat colour.
+        pub coat_color: Vec3 as [f32; 3],
+        /// The coat's Schlick F0.
+        pub coat_f0: f32,
+        /// `1/η²` of the coat's index.
+        pub coat_inv_eta2: f32,
+        /// The base's coat-layer weight at `wo` ([`crate::bsdf::coat_view`]).
+        pub coat_base: Vec3 as [f32; 3],
+        /// The coat's albedo times its weight at `wo`.
+        pub coat_p: f32,
+        /// Fuzz weight.
+        pub fuzz: f32,
+        /// Fuzz colour.
+        pub fuzz_color: Vec3 as [f32; 3],
+        /// Fuzz roughness.
+        pub fuzz_roughness: f32,
+        /// The fuzz's albedo times its weight at `wo` ([`crate::bsdf::fuzz_view`]).
+        pub fuzz_p: f32,
     }
 }
 
@@ -83,8 +103,22 @@ lanekit::soa! {
         pub ior: f32,
         /// `clearcoat`.
         pub clearcoat: f32,
+        /// OpenPBR `specular_weight`.
+        pub specular_weight: f32,
+        /// OpenPBR `specular_color` (`specular_tint`).
+        pub specular_tint: Vec3 as [f32; 3],
         /// `clearcoatRoughness`.
         pub clearcoat_roughness: f32,
+        /// OpenPBR `coat_color`.
+        pub coat_color: Vec3 as [f32; 3],
+        /// OpenPBR `coat_ior`.
+        pub coat_ior: f32,
+        /// OpenPBR `fuzz_weight`.
+        pub fuzz_weight: f32,
+        /// OpenPBR `fuzz_color`.
+        pub fuzz_color: Vec3 as [f32; 3],
+        /// OpenPBR `fuzz_roughness`.
+        pub fuzz_roughness: f32,
         /// Unit shading normal on the side of the viewer.
         pub ns: Vec3 as [f32; 3],
         /// Unit geometric normal on the side of the viewer.
@@ -105,7 +139,14 @@ impl InputLane {
             metallic: inputs.metallic,
             ior: inputs.ior,
             clearcoat: inputs.clearcoat,
+            specular_weight: inputs.specular_weight,
+            specular_tint: inputs.specular_tint,
             clearcoat_roughness: inputs.clearcoat_roughness,
+            coat_color: inputs.coat_color,
+            coat_ior: inputs.coat_ior,
+            fuzz_weight: inputs.fuzz_weight,
+            fuzz_color: inputs.fuzz_color,
+            fuzz_roughness: inputs.fuzz_roughness,
             ns,
             ng,
         }
@@ -126,14 +167,32 @@ impl InputLanes {
 pub fn from_inputs_lanes(inp: &InputLanes, out: &mut BsdfLanes) {
     for k in 0..LANES {
         let wo = at(&out.wo, k);
-        out.set(k, &Bsdf::from_lane(&inp.get(k)).seen_with(wo, [Vec3::ZERO; 3]));
+        out.set(k, &Bsdf::from_lane(&inp.get(k)).seen_with(wo, [Vec3::ZERO; 3], (Vec3::ZERO, 0.0), 0.0));
     }
     let tables = albedo::tables();
     for k in 0..LANES {
         let (d, f0, n, wo) = (at(&out.diffuse, k), at(&out.f0, k), at(&out.n, k), at(&out.wo, k));
-        let [dv, mv, fm] = view_halves(tables, d, f0, out.alpha[k], wo.dot(n));
+        let [dv, mv, fm] = view_halves(tables, d, f0, at(&out.f82_b, k), out.alpha[k], wo.dot(n));
         for c in 0..3 {
             (out.diffuse_view[c][k], out.ms_view[c][k], out.ms_fresnel[c][k]) = (dv[c], mv[c], fm[c]);
+        }
+    }
+    // The coat's view halves (a lookup and three powers per lane) only in groups with a coat; a
+    // lane without one gets zeros either way (`coat_view` of a zero weight), as the scalar BSDF.
+    if any_coat(out) {
+        let sheen = albedo::sheen_table();
+        for k in 0..LANES {
+            let s = out.get(k);
+            let (weight, alpha, f0, color, inv_eta2) =
+                (s.clearcoat, s.clearcoat_alpha, s.coat_f0, s.coat_color, s.coat_inv_eta2);
+            let coat = CoatParams { weight, alpha, f0, color, inv_eta2 };
+            let mu_o = s.wo.dot(s.n);
+            let (base, p) = coat_view(tables, coat, mu_o);
+            for c in 0..3 {
+                out.coat_base[c][k] = base[c];
+            }
+            out.coat_p[k] = p;
+            out.fuzz_p[k] = fuzz_view(sheen, s.fuzz, s.fuzz_roughness, mu_o);
         }
     }
 }
@@ -185,7 +244,7 @@ lanekit::soa! {
 /// Whether any lane needs the clearcoat lobe's terms ([`SeenBsdf::has_coat_terms`]).
 #[inline(always)]
 fn any_coat(l: &BsdfLanes) -> bool {
-    l.clearcoat.iter().fold(false, |any, &c| any | (c != 0.0))
+    l.clearcoat.iter().zip(&l.fuzz).fold(false, |any, (&c, &f)| any | (c != 0.0) | (f != 0.0))
 }
 
 #[inline(always)]
@@ -205,7 +264,7 @@ pub fn eval_lanes(l: &BsdfLanes, wi: &Lanes3, out: &mut EvalLanes) {
 
 #[inline(always)]
 fn eval_group<const COAT: bool>(l: &BsdfLanes, wi: &Lanes3, out: &mut EvalLanes) {
-    let (tables, mut at_i) = (albedo::tables(), [[0.0; 2]; LANES]);
+    let (tables, mut at_i) = (albedo::tables(), [[0.0; 3]; LANES]);
     for (k, at_i) in at_i.iter_mut().enumerate() {
         *at_i = l.get(k).light_albedo(tables, at(wi, k).dot(at(&l.n, k)));
     }
@@ -222,8 +281,8 @@ lanekit::soa! {
     pub struct StartLanes for struct SampleStart {
         /// Local `wo`.
         pub wo: Vec3 as [f32; 3],
-        /// Lobe probabilities (diffuse, specular, clearcoat).
-        pub probs: [f32; 3],
+        /// Lobe probabilities (diffuse, specular, coat, fuzz).
+        pub probs: [f32; 4],
         /// Whether the diffuse lobe was chosen.
         pub diffuse: bool,
         /// The angle whose sine and cosine the chosen lobe needs.
@@ -273,7 +332,7 @@ fn sample_group<const COAT: bool>(l: &BsdfLanes, u: &SampleInputs, out: &mut Sam
         let start = starts.get(k);
         dirs.set(k, &l.get(k).sample_direction(&start, u.u_lobe[k], [u.u0[k], u.u1[k]], sin[k], cos[k]));
     }
-    let (tables, mut at_i) = (albedo::tables(), [[0.0f32; 2]; LANES]);
+    let (tables, mut at_i) = (albedo::tables(), [[0.0f32; 3]; LANES]);
     for (k, at_i) in at_i.iter_mut().enumerate() {
         *at_i = l.get(k).light_albedo(tables, dirs.local[2][k]);
     }
@@ -332,6 +391,13 @@ pub(super) mod tests {
             opacity_threshold: 0.0,
             clearcoat: if rng.f() < 0.5 { 0.0 } else { pick(rng, true) },
             clearcoat_roughness: pick(rng, true),
+            coat_color: Vec3::new(pick(rng, true), pick(rng, false), pick(rng, false)),
+            coat_ior: 1.0 + 2.0 * pick(rng, true),
+            specular_weight: pick(rng, true),
+            specular_tint: Vec3::new(pick(rng, true), pick(rng, false), pick(rng, false)),
+            fuzz_weight: if rng.f() < 0.6 { 0.0 } else { pick(rng, true) },
+            fuzz_color: Vec3::new(pick(rng, true), pick(rng, false), pick(rng, false)),
+            fuzz_roughness: pick(rng, true),
             normal: None,
         };
         let ng = rng.dir();
@@ -346,14 +412,16 @@ pub(super) mod tests {
         for _ in 0..2000 {
             let mut inp = InputLanes::default();
             let mut expected = Vec::new();
+            let mut out = BsdfLanes::default();
             for k in 0..LANES {
                 let (inputs, ns, ng) = random_inputs(&mut rng);
                 inp.set_inputs(k, &inputs, ns, ng);
+                let wo = (ng * 0.3 + rng.dir()).normalize_or(ng);
+                (out.wo[0][k], out.wo[1][k], out.wo[2][k]) = (wo.x, wo.y, wo.z);
                 expected.push(Bsdf::from_inputs(&inputs, ns, ng));
                 specular += inputs.use_specular_workflow as u32;
                 metallic += !inputs.use_specular_workflow as u32;
             }
-            let mut out = BsdfLanes::default();
             from_inputs_lanes(&inp, &mut out);
             for (k, b) in expected.iter().enumerate() {
                 let at = |c: &Lanes3| Vec3::new(c[0][k], c[1][k], c[2][k]);
@@ -364,9 +432,17 @@ pub(super) mod tests {
                 assert_eq!(bits(at(&out.ng)), bits(b.ng), "geometric normal, lane {k}");
                 assert_eq!(bits(at(&out.diffuse)), bits(b.diffuse), "diffuse, lane {k}: {b:?}");
                 assert_eq!(bits(at(&out.f0)), bits(b.f0), "f0, lane {k}: {b:?}");
+                assert_eq!(bits(at(&out.f82_b)), bits(b.f82_b), "F82 b, lane {k}: {b:?}");
                 assert_eq!(one(out.alpha[k]), one(b.alpha), "alpha, lane {k}");
                 assert_eq!(one(out.clearcoat[k]), one(b.clearcoat), "clearcoat, lane {k}");
                 assert_eq!(one(out.clearcoat_alpha[k]), one(b.clearcoat_alpha), "coat alpha, lane {k}");
+                assert_eq!(bits(at(&out.coat_color)), bits(b.coat_color), "coat colour, lane {k}: {b:?}");
+                assert_eq!(one(out.coat_f0[k]), one(b.coat_f0), "coat F0, lane {k}");
+                assert_eq!(one(out.coat_inv_eta2[k]), one(b.coat_inv_eta2), "coat 1/η², lane {k}");
+                let seen = b.seen_from(at(&out.wo));
+                assert_eq!(bits(at(&out.coat_base)), bits(seen.coat_base), "coat view, lane {k}: {b:?}");
+                assert_eq!(one(out.coat_p[k]), one(seen.coat_p), "coat albedo, lane {k}: {b:?}");
+                assert_eq!(one(out.fuzz_p[k]), one(seen.fuzz_p), "fuzz albedo, lane {k}: {b:?}");
             }
         }
         assert!(
@@ -396,6 +472,7 @@ pub(super) mod tests {
                 let (mut bsdf, wo) = random_bsdf(&mut rng);
                 if coatless {
                     bsdf.clearcoat = if rng.f() < 0.1 { -0.0 } else { 0.0 };
+                    bsdf.fuzz = if rng.f() < 0.1 { -0.0 } else { 0.0 };
                 }
                 l.set_bsdf(k, &bsdf, wo);
                 let w = if rng.f() < 0.5 { rng.dir() } else { (bsdf.ng + rng.dir()).normalize_or(bsdf.ng) };

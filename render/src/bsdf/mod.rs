@@ -1,16 +1,43 @@
-//! The UsdPreviewSurface BSDF: Lambert diffuse + GGX specular + GGX clearcoat, reflection only.
+//! The surface BSDF: OpenPBR Surface's reflection lobes (ASWF OpenPBR v1.1) over a
+//! UsdPreviewSurface-style base: Lambert diffuse + GGX specular, under an OpenPBR coat layer.
 //!
 //! ```text
-//! f = (1 − cc·F_c(n·v)) · [ diffuse/π · s(n·v, n·l) + D·G₂·F(v·h) / (4 |n·l| |n·v|) ] + cc · D_c·G₂_c·F_c(v·h) / (4 |n·l| |n·v|)
+//! f = base · [(1 − w) + w · T(μo) T(μi) (1 − E_c(μo))] + w · D_c·G₂_c·F_c(v·h) / (4 |n·l| |n·v|)
+//! base = diffuse/π · s(n·v, n·l) + D·G₂·F(v·h) / (4 |n·l| |n·v|) + f_ms
 //! ```
 //! `diffuse = diffuseColor·(1 − metallic)` (metallic workflow) or `diffuseColor` (specular workflow);
-//! `F` is Schlick with F0 = mix(((ior−1)/(ior+1))², diffuseColor, metallic) or F0 = specularColor;
-//! the clearcoat uses F0 = 0.04. `D` is GGX with α = roughness² (α ≥ 1e-3), `G₂` the height-correlated
+//! `F` is Schlick with F0 = mix(((ior−1)/(ior+1))², diffuseColor, metallic) or F0 = specularColor.
+//! `D` is GGX with α = roughness² (α ≥ 1e-3), `G₂` the height-correlated
 //! Smith term. `s = (1 − E(n·v))(1 − E(n·l)) / (1 − E_avg)` scales the diffuse lobe by what the
 //! specular lobe does not reflect ([`albedo`]: its tabulated directional albedo `E`), so a white
 //! base reflects exactly 1 at every angle; it replaced `(1 − F(n·v))`, which took up to 45 % off a
-//! rough matte floor towards the horizon. The `(1 − cc·F_c)` factor of the clearcoat is still the
-//! usual layering approximation.
+//! rough matte floor towards the horizon. `f_ms` is the specular lobe's multiple scattering.
+//!
+//! The coat (weight `w` = `clearcoat`/`coat_weight`, α_c = `clearcoatRoughness`², index
+//! `coat_ior`, F0_c = ((η−1)/(η+1))², Schlick with F90 = 1) is layered by albedo scaling, as the
+//! OpenPBR specification prescribes: the base is seen through the coat with weight
+//! `1 − E_c(μo)`, `E_c` the coat lobe's directional albedo from the same Kulla–Conty tables
+//! ([`coat_view`]), so a white base under any coat reflects exactly `w·E_c + (1 − w·E_c) = 1`. The
+//! old `1 − cc·F_c(n·v)` factor (Schlick at the normal, not the lobe's albedo) read 0.956 at 80°.
+//! `T(μ) = coat_color^(1/μt)`, `μt` the cosine refracted into the coat, is its absorption along each
+//! pass (`coat_color²` at normal incidence). Decisions: the scaling is by the view direction only
+//! (the spec's; not reciprocal, which MIS does not need); the base's roughening by a rough coat,
+//! its Fresnel against the coat's index instead of air and `coat_darkening` (internal reflections)
+//! are not modelled. UsdPreviewSurface's clearcoat is this coat with index 1.5 (F0 0.04) and
+//! colour 1: clearcoat scenes changed when it became a layer.
+//!
+//! Metals take OpenPBR's F82-tint Fresnel (Kutz et al. 2021): `F = Schlick(μ) − b·μ(1 − μ)⁶`
+//! with `b` ([`f82_b`]) set so that `F(1/7) = specular_color · Schlick(1/7)`; `specular_weight`
+//! scales F0 of the dielectric and the metal (a simplification: the spec modulates the dielectric's
+//! index and scales the metal's whole Fresnel, grazing included), and `specular_color` tints the
+//! dielectric's F0 (the mapping ingest used before format 11, through the specular workflow).
+//!
+//! The fuzz (`fuzz_weight` `w_f`, `fuzz_color`, `fuzz_roughness`) is layered over everything by
+//! albedo scaling: `f = w_f · fuzz_color · f_sheen + (1 − w_f·E_f(μo)) · f_coated`. OpenPBR
+//! recommends Zeltner et al. 2022's LTC sheen; this is Estevez & Kulla's "Charlie" sheen
+//! ([`sheen`], α = fuzz_roughness², at least 0.01) with Neubelt & Pettineo's visibility, its
+//! untinted albedo `E_f` tabulated once ([`albedo::sheen_albedo`]), sampled cosine-weighted. As in
+//! the spec the fuzz is grey in transmission: only its reflection is tinted.
 //!
 //! Lobes are sampled in proportion to their estimated albedos at `v` (diffuse: cosine-weighted;
 //! specular and clearcoat: GGX visible normals, Dupuy & Benyoub 2023); [`Bsdf::eval`] returns the
@@ -26,8 +53,10 @@
 //! transposed. The per-lane bodies are split where a lane loop must be: around the sample's sine and
 //! cosine ([`crate::trig::sin_cos_lanes`]) and around the albedo tables' lookups
 //! ([`SeenBsdf::light_albedo`]), whose scalar reads would keep a loop from vectorising. A `COAT`
-//! parameter leaves the clearcoat lobe's terms out where the weight is zero
-//! ([`SeenBsdf::has_coat_terms`]); both variants give the same bits there. The lobes' building
+//! parameter leaves the coat layer's terms out where the weight is zero
+//! ([`SeenBsdf::has_coat_terms`]); both variants give the same bits there. The coat's view half
+//! (a lookup and three `powf`s) is made only for BSDFs (lane groups) with a coat; a zero weight gives
+//! zeros either way. The lobes' building
 //! blocks (`ggx_lambda`, `schlick`, …) are `#[inline(always)]`: simplified on their own first, as
 //! `#[inline]` functions, their selects became branches in the lane loops and kept them scalar.
 
@@ -102,9 +131,23 @@ pub struct Bsdf {
     pub(crate) ng: Vec3,
     pub(crate) diffuse: Vec3,
     pub(crate) f0: Vec3,
+    /// The F82-tint coefficient of the metal part ([`f82_b`] times `metallic`; 0 without a tint).
+    pub(crate) f82_b: Vec3,
     pub(crate) alpha: f32,
     pub(crate) clearcoat: f32,
     pub(crate) clearcoat_alpha: f32,
+    /// Coat colour (transmittance of one pass at normal incidence).
+    pub(crate) coat_color: Vec3,
+    /// The coat's Schlick F0, `((η − 1)/(η + 1))²`.
+    pub(crate) coat_f0: f32,
+    /// `1/η²` of the coat's index.
+    pub(crate) coat_inv_eta2: f32,
+    /// Fuzz weight.
+    pub(crate) fuzz: f32,
+    /// Fuzz colour.
+    pub(crate) fuzz_color: Vec3,
+    /// Fuzz roughness (the table's axis; α = [`sheen_alpha`] of it).
+    pub(crate) fuzz_roughness: f32,
 }
 
 /// Rec. 709 luminance.
@@ -124,13 +167,109 @@ fn schlick(f0: Vec3, cos: f32) -> Vec3 {
     f0 + (Vec3::splat(f90) - f0) * m5
 }
 
+/// [`schlick`] with the F82-tint correction `− b·μ(1 − μ)⁶` (Kutz et al. 2021, as OpenPBR's metal
+/// uses it; `b` from [`f82_b`]); `b = 0` is exactly Schlick.
+#[inline(always)]
+fn fresnel(f0: Vec3, b82: Vec3, cos: f32) -> Vec3 {
+    let m = (1.0 - cos).clamp(0.0, 1.0);
+    let g = (1.0 - m) * ((m * m) * (m * m) * (m * m));
+    schlick(f0, cos) - b82 * g
+}
+
+/// `x` clamped to [0, 1], NaN to 0.
+#[inline(always)]
+fn unit(x: f32) -> f32 {
+    if x >= 0.0 {
+        x.min(1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Smallest sheen α: below it `sin^(1/α)` is a spike no table resolves.
+const SHEEN_MIN_ALPHA: f32 = 0.01;
+
+/// The sheen α of fuzz roughness `r` (clamped to [0, 1]): `r²`, at least [`SHEEN_MIN_ALPHA`].
+#[inline(always)]
+pub(crate) fn sheen_alpha(r: f32) -> f32 {
+    let r = r.clamp(0.0, 1.0);
+    (r * r).max(SHEEN_MIN_ALPHA)
+}
+
+/// The fuzz lobe, untinted, for local directions above the surface and their half vector `h`:
+/// Estevez & Kulla's "Charlie" sheen distribution `D = (2 + 1/α) sin^(1/α)θh / 2π` with Neubelt &
+/// Pettineo's visibility `1 / (4 (μi + μo − μi μo))`.
+#[inline(always)]
+pub(crate) fn sheen(wo: Vec3, wi: Vec3, h: Vec3, alpha: f32) -> f32 {
+    let inv = 1.0 / alpha;
+    let sin2 = (1.0 - h.z * h.z).max(0.0);
+    let d = (2.0 + inv) * sin2.powf(0.5 * inv) * (0.5 * FRAC_1_PI);
+    d / (4.0 * (wi.z + wo.z - wi.z * wo.z))
+}
+
+/// The cosine of the F82 model's "grazing edge", 1/7 (about 82°).
+const F82_MU: f32 = 1.0 / 7.0;
+
+/// The F82-tint coefficient `b = F_Schlick(μ̄) (1 − tint) / (μ̄ (1 − μ̄)⁶)` of a metal with F0 `f0`
+/// and edge tint `tint` (OpenPBR's `specular_color`), so that the corrected Fresnel at μ̄ = 1/7 is
+/// `tint · F_Schlick(μ̄)`. A tint of 1 gives exactly 0.
+#[inline(always)]
+pub(crate) fn f82_b(f0: Vec3, tint: Vec3) -> Vec3 {
+    let m = 1.0 - F82_MU;
+    let m6 = (m * m) * (m * m) * (m * m);
+    let schlick_bar = f0 + (Vec3::ONE - f0) * (m6 / m);
+    schlick_bar * (Vec3::ONE - tint) * (1.0 / (F82_MU * m6))
+}
+
 #[inline(always)]
 fn schlick_scalar(f0: f32, cos: f32) -> f32 {
     let m = (1.0 - cos).clamp(0.0, 1.0);
     f0 + (1.0 - f0) * (m * m) * (m * m) * m
 }
 
-const CLEARCOAT_F0: f32 = 0.04;
+/// The coat's transmittance `c^(1/μt)` for colour `c` along a direction at cosine `mu` outside a
+/// coat of index `η` (`inv_eta2` = 1/η²): one pass through a coat of unit optical depth at normal
+/// incidence, the path length `1/μt` of the refracted direction (OpenPBR's coat absorption; a round
+/// trip at normal incidence is `c²`). Colour 1 gives exactly 1 (`powf(1, x)`), and an index of 1
+/// at grazing gives `c^∞`: 0, or 1 for `c = 1`.
+#[inline(always)]
+fn coat_transmittance(c: Vec3, inv_eta2: f32, mu: f32) -> Vec3 {
+    let mu_t = (1.0 - (1.0 - mu * mu) * inv_eta2).max(0.0).sqrt();
+    let k = 1.0 / mu_t;
+    Vec3::new(c.x.powf(k), c.y.powf(k), c.z.powf(k))
+}
+
+/// The view half of the coat layer at local view cosine `mu_o` for a BSDF with coat weight `w`:
+/// the base's weight `w · T(μo) · (1 − E_c(μo))` beside its `1 − w` uncoated part (the light
+/// half, `T(μi)`, is applied per evaluation), and the coat's own albedo `w · E_c(μo)`, the
+/// lobe-selection weight. `E_c = F0_c·A + B` is the coat's GGX albedo with Schlick's Fresnel from
+/// the same tables as the base's specular lobe ([`albedo::lobe_albedo_ab`]).
+#[inline(always)]
+pub(crate) fn coat_view(t: &albedo::Tables, coat: CoatParams, mu_o: f32) -> (Vec3, f32) {
+    let CoatParams { weight, alpha, f0, color, inv_eta2 } = coat;
+    let [a, b, _] = albedo::lobe_albedo_ab(t, mu_o, alpha);
+    let e = f0 * a + b;
+    let t_o = coat_transmittance(color, inv_eta2, mu_o);
+    (t_o * (weight * (1.0 - e)), weight * e)
+}
+
+/// The fuzz layer's view half at `mu_o`: its albedo times its weight, `w_f · E_f(μo)` (the sheen
+/// table, [`albedo::sheen_albedo`]); what is under it is scaled by one minus that, and a zero weight
+/// gives exactly 0.
+#[inline(always)]
+pub(crate) fn fuzz_view(t: &albedo::SheenTable, weight: f32, roughness: f32, mu_o: f32) -> f32 {
+    weight * albedo::sheen_albedo(t, mu_o, roughness)
+}
+
+/// The coat's parameters, as [`Bsdf`] and [`SeenBsdf`] both hold them.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CoatParams {
+    pub(crate) weight: f32,
+    pub(crate) alpha: f32,
+    pub(crate) f0: f32,
+    pub(crate) color: Vec3,
+    pub(crate) inv_eta2: f32,
+}
 
 /// GGX normal distribution for a local half vector.
 #[inline(always)]
@@ -238,12 +377,19 @@ pub(crate) fn select(c: bool, a: Vec3, b: Vec3) -> Vec3 {
 /// colour `d`, F0 `f0` and α `alpha` at local view cosine `mu_o`: diffuse, multiple scattering,
 /// multiple-scattering Fresnel.
 #[inline(always)]
-pub(crate) fn view_halves(t: &albedo::Tables, d: Vec3, f0: Vec3, alpha: f32, mu_o: f32) -> [Vec3; 3] {
+pub(crate) fn view_halves(
+    t: &albedo::Tables,
+    d: Vec3,
+    f0: Vec3,
+    b82: Vec3,
+    alpha: f32,
+    mu_o: f32,
+) -> [Vec3; 3] {
     let at_o = albedo::lobe_albedo(t, mu_o, alpha);
     let f90 = albedo::f90(f0.x, f0.y, f0.z);
-    let [dx, mx, fx] = albedo::view_terms(d.x, f0.x, f90, at_o);
-    let [dy, my, fy] = albedo::view_terms(d.y, f0.y, f90, at_o);
-    let [dz, mz, fz] = albedo::view_terms(d.z, f0.z, f90, at_o);
+    let [dx, mx, fx] = albedo::view_terms(d.x, f0.x, f90, b82.x, at_o);
+    let [dy, my, fy] = albedo::view_terms(d.y, f0.y, f90, b82.y, at_o);
+    let [dz, mz, fz] = albedo::view_terms(d.z, f0.z, f90, b82.z, at_o);
     [Vec3::new(dx, dy, dz), Vec3::new(mx, my, mz), Vec3::new(fx, fy, fz)]
 }
 
@@ -270,28 +416,33 @@ impl SeenBsdf {
     /// bits. NaN weights take the variant with the lobe, which masks it off.
     #[inline(always)]
     pub fn has_coat_terms(&self) -> bool {
-        self.clearcoat != 0.0
+        (self.clearcoat != 0.0) | (self.fuzz != 0.0)
     }
 
     /// The specular lobe's [`albedo::lobe_albedo_ab`] in `tables` ([`albedo::tables`]) at local
     /// light cosine `mu_i`: a table lookup, which the lane kernels make in a loop of their own.
     #[inline(always)]
-    pub(crate) fn light_albedo(&self, tables: &albedo::Tables, mu_i: f32) -> [f32; 2] {
+    pub(crate) fn light_albedo(&self, tables: &albedo::Tables, mu_i: f32) -> [f32; 3] {
         albedo::lobe_albedo_ab(tables, mu_i, self.alpha)
     }
 
-    /// Lobe selection probabilities (diffuse, specular, clearcoat) at local view cosine `wo_z`.
+    /// Lobe selection probabilities (diffuse, specular, clearcoat) at local view cosine `wo_z`:
+    /// the base's lobes by their Fresnel-weighted colours times the base's coat-layer weight at
+    /// `wo` (without the light half of the coat's absorption), the coat by its albedo.
     #[inline(always)]
-    fn lobe_probabilities(&self, wo_z: f32) -> [f32; 3] {
-        let coat_f = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo_z);
-        let base = 1.0 - coat_f;
+    fn lobe_probabilities(&self, wo_z: f32) -> [f32; 4] {
+        // Under the fuzz, `1 − w_f·E_f(μo)` of everything ([`fuzz_view`]); exactly 1 without it.
+        let under = 1.0 - self.fuzz_p;
+        let coat_f = self.coat_p * under;
+        let base = ((1.0 - self.clearcoat) + luminance(self.coat_base)) * under;
         let spec_f = schlick(self.f0, wo_z);
         let w_d = base * luminance(self.diffuse * (Vec3::ONE - spec_f));
         let w_s = base * luminance(spec_f);
-        let total = w_d + w_s + coat_f;
-        let probs = [w_d / total, w_s / total, coat_f / total];
+        let fuzz_f = self.fuzz_p * luminance(self.fuzz_color);
+        let total = w_d + w_s + coat_f + fuzz_f;
+        let probs = [w_d / total, w_s / total, coat_f / total, fuzz_f / total];
         if total <= 0.0 {
-            [0.0; 3]
+            [0.0; 4]
         } else {
             probs
         }
@@ -303,33 +454,43 @@ impl SeenBsdf {
     #[inline(always)]
     fn eval_local<const COAT: bool>(
         &self,
-        probs: [f32; 3],
+        probs: [f32; 4],
         wo: Vec3,
         wi: Vec3,
-        at_i: [f32; 2],
+        at_i: [f32; 3],
     ) -> (Vec3, f32) {
         let h = (wo + wi).normalize();
         let wo_h = wo.dot(h).max(0.0);
         let denom = 4.0 * wo.z * wi.z;
-        let coat_view = self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo.z);
         // The diffuse and multiple-scattering lobes from their view halves ([`albedo`]).
-        let (dv, mv, fm, f0) = (self.diffuse_view, self.ms_view, self.ms_fresnel, self.f0);
+        let (dv, mv, fm, f0, b82) = (self.diffuse_view, self.ms_view, self.ms_fresnel, self.f0, self.f82_b);
         let f90 = albedo::f90(f0.x, f0.y, f0.z);
-        let [dx, mx] = albedo::light_terms([dv.x, mv.x, fm.x], f0.x, f90, at_i);
-        let [dy, my] = albedo::light_terms([dv.y, mv.y, fm.y], f0.y, f90, at_i);
-        let [dz, mz] = albedo::light_terms([dv.z, mv.z, fm.z], f0.z, f90, at_i);
+        let [dx, mx] = albedo::light_terms([dv.x, mv.x, fm.x], f0.x, f90, b82.x, at_i);
+        let [dy, my] = albedo::light_terms([dv.y, mv.y, fm.y], f0.y, f90, b82.y, at_i);
+        let [dz, mz] = albedo::light_terms([dv.z, mv.z, fm.z], f0.z, f90, b82.z, at_i);
         let (diffuse, multiple) = (Vec3::new(dx, dy, dz) * FRAC_1_PI, Vec3::new(mx, my, mz) * FRAC_1_PI);
-        let specular = schlick(f0, wo_h) * (ggx_d(h, self.alpha) * ggx_g2(wo, wi, self.alpha) / denom);
-        let mut f = (1.0 - coat_view) * (diffuse + (specular + multiple));
+        let specular = fresnel(f0, b82, wo_h) * (ggx_d(h, self.alpha) * ggx_g2(wo, wi, self.alpha) / denom);
+        let base = diffuse + (specular + multiple);
+        let mut f = base;
         let mut pdf = probs[0] * wi.z * FRAC_1_PI + probs[1] * ggx_pdf(wo, h, self.alpha);
         if COAT {
             let a = self.clearcoat_alpha;
             let coat =
-                self.clearcoat * schlick_scalar(CLEARCOAT_F0, wo_h) * ggx_d(h, a) * ggx_g2(wo, wi, a) / denom;
+                self.clearcoat * schlick_scalar(self.coat_f0, wo_h) * ggx_d(h, a) * ggx_g2(wo, wi, a) / denom;
+            // The base under the coat: `1 − w` of it bare, `w` of it through the coat, which
+            // reflects `E_c(μo)` and absorbs along both passes ([`coat_view`]).
+            let t_i = coat_transmittance(self.coat_color, self.coat_inv_eta2, wi.z);
+            let layered = base * (Vec3::splat(1.0 - self.clearcoat) + self.coat_base * t_i);
             let with_coat = pdf + probs[2] * ggx_pdf(wo, h, a);
             let has_coat = self.clearcoat > 0.0;
-            f = select(has_coat, f + Vec3::splat(coat), f);
+            f = select(has_coat, layered + Vec3::splat(coat), f);
             pdf = if has_coat { with_coat } else { pdf };
+            // The fuzz over everything, by albedo scaling ([`fuzz_view`]).
+            let fuzz = self.fuzz_color * (self.fuzz * sheen(wo, wi, h, sheen_alpha(self.fuzz_roughness)));
+            let with_fuzz = pdf + probs[3] * wi.z * FRAC_1_PI;
+            let has_fuzz = self.fuzz > 0.0;
+            f = select(has_fuzz, f * (1.0 - self.fuzz_p) + fuzz, f);
+            pdf = if has_fuzz { with_fuzz } else { pdf };
         }
         (f, pdf)
     }
@@ -337,7 +498,7 @@ impl SeenBsdf {
     /// Value (no cosine) and combined pdf towards world `wi`, `at_i` = [`SeenBsdf::light_albedo`]
     /// at `wi · n`; zero below the geometric or either local hemisphere.
     #[inline(always)]
-    pub fn eval<const COAT: bool>(&self, wi: Vec3, at_i: [f32; 2]) -> (Vec3, f32) {
+    pub fn eval<const COAT: bool>(&self, wi: Vec3, at_i: [f32; 3]) -> (Vec3, f32) {
         let (wo_l, wi_l) = (self.local(self.wo), self.local(wi));
         let (f, pdf) = self.eval_local::<COAT>(self.lobe_probabilities(wo_l.z), wo_l, wi_l, at_i);
         let above = !((wo_l.z <= 0.0) | (wi_l.z <= 0.0) | (wi.dot(self.ng) <= 0.0));
@@ -368,18 +529,47 @@ impl Bsdf {
         let dielectric = if r.is_finite() { (r * r).min(1.0) } else { 0.04 };
         let workflow = mat.use_specular_workflow;
         let diffuse = select(workflow, base, base * (1.0 - metallic));
-        let f0 = select(workflow, specular, Vec3::splat(dielectric).lerp(base, metallic));
+        // OpenPBR's specular_weight scales F0 of both the dielectric and the metal, its
+        // specular_color (`specular_tint`) tints the dielectric's F0 and is the metal's F82 edge
+        // tint; at their fallbacks (1) every product is by 1 and `f82_b` is 0, exactly
+        // UsdPreviewSurface. The specular workflow's F0 is specularColor as authored.
+        let weight = mat.specular_weight.clamp(0.0, 1.0);
+        let tint = mat.specular_tint.max(Vec3::ZERO).min(Vec3::ONE);
+        let metal_f0 = base * weight;
+        let dielectric_f0 = Vec3::splat(dielectric) * (tint * weight);
+        let f0 = select(workflow, specular, dielectric_f0.lerp(metal_f0, metallic));
+        let f82 = select(workflow, Vec3::ZERO, f82_b(metal_f0, tint) * metallic);
         let roughness = mat.roughness.clamp(0.0, 1.0);
         let cc_roughness = mat.clearcoat_roughness.clamp(0.0, 1.0);
+        // The blob validates the coat's index into [1, 10]; a program-free check keeps any other
+        // input (NaN included) a 1.5 coat rather than a NaN one.
+        let coat_ior = if (mat.coat_ior >= 1.0) & (mat.coat_ior <= 10.0) { mat.coat_ior } else { 1.5 };
+        let rc = (coat_ior - 1.0) / (coat_ior + 1.0);
         Bsdf {
             frame: Frame::new(mat.ns),
             ng: mat.ng,
             diffuse,
             f0,
+            f82_b: f82,
             alpha: (roughness * roughness).max(MIN_ALPHA),
             clearcoat: mat.clearcoat.clamp(0.0, 1.0),
             clearcoat_alpha: (cc_roughness * cc_roughness).max(MIN_ALPHA),
+            // `max` first: NaN → 0 (a black coat), never a NaN transmittance.
+            coat_color: mat.coat_color.max(Vec3::ZERO).min(Vec3::ONE),
+            coat_f0: rc * rc,
+            coat_inv_eta2: 1.0 / (coat_ior * coat_ior),
+            // NaN → 0, so that a zero weight's view half is exactly 0 whatever the other inputs.
+            fuzz: unit(mat.fuzz_weight),
+            fuzz_color: mat.fuzz_color.max(Vec3::ZERO).min(Vec3::ONE),
+            fuzz_roughness: unit(mat.fuzz_roughness),
         }
+    }
+
+    /// The coat's parameters.
+    #[inline(always)]
+    pub(crate) fn coat(&self) -> CoatParams {
+        let (weight, alpha, f0) = (self.clearcoat, self.clearcoat_alpha, self.coat_f0);
+        CoatParams { weight, alpha, f0, color: self.coat_color, inv_eta2: self.coat_inv_eta2 }
     }
 
     /// The diffuse albedo (for the albedo AOV).
@@ -390,19 +580,35 @@ impl Bsdf {
     /// This BSDF seen from world direction `wo` (towards the viewer).
     #[inline(always)]
     pub fn seen_from(&self, wo: Vec3) -> SeenBsdf {
-        let view = view_halves(albedo::tables(), self.diffuse, self.f0, self.alpha, wo.dot(self.frame.n));
-        self.seen_with(wo, view)
+        let mu_o = wo.dot(self.frame.n);
+        let view = view_halves(albedo::tables(), self.diffuse, self.f0, self.f82_b, self.alpha, mu_o);
+        // Without a coat its view half is zero (what `coat_view` gives for a zero weight too,
+        // without the lookup and the powers).
+        let layers = (self.clearcoat != 0.0) | (self.fuzz != 0.0);
+        let (coat, fuzz_p) = if layers {
+            let fuzz = fuzz_view(albedo::sheen_table(), self.fuzz, self.fuzz_roughness, mu_o);
+            (coat_view(albedo::tables(), self.coat(), mu_o), fuzz)
+        } else {
+            ((Vec3::ZERO, 0.0), 0.0)
+        };
+        self.seen_with(wo, view, coat, fuzz_p)
     }
 
-    /// [`Bsdf::seen_from`] with the view halves known ([`view_halves`]).
+    /// [`Bsdf::seen_from`] with the view halves known ([`view_halves`], [`coat_view`]).
     #[inline(always)]
-    pub(crate) fn seen_with(&self, wo: Vec3, view: [Vec3; 3]) -> SeenBsdf {
-        let Bsdf { frame, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha } = *self;
+    pub(crate) fn seen_with(&self, wo: Vec3, view: [Vec3; 3], coat: (Vec3, f32), fuzz_p: f32) -> SeenBsdf {
+        #[rustfmt::skip]
+        let Bsdf {
+            frame, ng, diffuse, f0, f82_b, alpha, clearcoat, clearcoat_alpha, coat_color, coat_f0, coat_inv_eta2,
+            fuzz, fuzz_color, fuzz_roughness,
+        } = *self;
         let [diffuse_view, ms_view, ms_fresnel] = view;
+        let (coat_base, coat_p) = coat;
         #[rustfmt::skip]
         let seen = SeenBsdf {
-            t: frame.t, b: frame.b, n: frame.n, ng, diffuse, f0, alpha, clearcoat, clearcoat_alpha, wo,
-            diffuse_view, ms_view, ms_fresnel,
+            t: frame.t, b: frame.b, n: frame.n, ng, diffuse, f0, f82_b, alpha, clearcoat, clearcoat_alpha, wo,
+            diffuse_view, ms_view, ms_fresnel, coat_color, coat_f0, coat_inv_eta2, coat_base, coat_p,
+            fuzz, fuzz_color, fuzz_roughness, fuzz_p,
         };
         seen
     }
@@ -453,7 +659,10 @@ impl SeenBsdf {
     pub fn sample_start(&self, u_lobe: f32, u: [f32; 2]) -> SampleStart {
         let wo = self.local(self.wo);
         let probs = self.lobe_probabilities(wo.z);
-        let diffuse = u_lobe < probs[0];
+        // The fuzz lobe is sampled like the diffuse one (cosine-weighted); without it (`probs[3]`
+        // 0) the choice is exactly the three-lobe one.
+        let fuzz = (probs[3] > 0.0) & (u_lobe >= probs[0] + probs[1] + probs[2]);
+        let diffuse = (u_lobe < probs[0]) | fuzz;
         let angle = if diffuse { concentric_angle(u) } else { TAU * u[0] };
         SampleStart { wo, probs, diffuse, angle }
     }
@@ -488,13 +697,18 @@ impl SeenBsdf {
         &self,
         start: &SampleStart,
         dir: &SampledDirection,
-        at_i: [f32; 2],
+        at_i: [f32; 3],
     ) -> (BsdfSample, bool) {
         // Without the lobe's terms `p_c` is ±0, or beside a NaN `p_d` ([`SeenBsdf::has_coat_terms`]).
-        let probs = [start.probs[0], start.probs[1], if COAT { start.probs[2] } else { 0.0 }];
+        let probs = [
+            start.probs[0],
+            start.probs[1],
+            if COAT { start.probs[2] } else { 0.0 },
+            if COAT { start.probs[3] } else { 0.0 },
+        ];
         let (f, pdf) = self.eval_local::<COAT>(probs, start.wo, dir.local, at_i);
         let ok = !(start.wo.z <= 0.0)
-            & !(probs[0] + probs[1] + probs[2] <= 0.0)
+            & !(probs[0] + probs[1] + probs[2] + probs[3] <= 0.0)
             & !(dir.local.z <= 0.0)
             & !(dir.wi.dot(self.ng) <= 0.0)
             & (pdf > 0.0)
@@ -591,16 +805,178 @@ mod tests {
         }
     }
 
+    /// OpenPBR's coat layer over a white plastic base conserves energy: the base keeps what the
+    /// coat does not reflect (`1 − w·E_c(μo)`), so the furnace reads 1 at every view angle, coat
+    /// roughness, weight and index, grazing 80° included (the old `1 − cc·F_c(n·v)` factor read
+    /// 0.956 there).
     #[test]
-    fn full_preview_surface_stays_below_one() {
-        let mut m = material(1.0, 0.0, 0.4, 1.5);
-        m.clearcoat = 1.0;
-        m.clearcoat_roughness = 0.2;
+    fn coated_plastic_is_a_furnace_at_every_angle() {
+        for (weight, coat_roughness, coat_ior, roughness) in
+            [(1.0, 0.0, 1.5, 0.4), (1.0, 0.2, 1.5, 0.4), (1.0, 0.5, 1.6, 0.1), (0.5, 0.3, 2.0, 0.8)]
+        {
+            let mut m = material(1.0, 0.0, roughness, 1.5);
+            (m.clearcoat, m.clearcoat_roughness, m.coat_ior) = (weight, coat_roughness, coat_ior);
+            let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+            for theta in [0.0, 45.0, 80.0] {
+                let a = albedo_by_sampling(&bsdf, dir_from_angle(theta), 200_000);
+                eprintln!(
+                    "coat {weight} r_c {coat_roughness} ior {coat_ior} over plastic r {roughness} θ={theta}: albedo {a:.4}"
+                );
+                assert!((a - 1.0).abs() < 0.01, "coat {weight}/{coat_roughness}/{coat_ior} θ={theta}: {a}");
+            }
+        }
+        // A coated white metal too.
+        let mut m = material(1.0, 1.0, 0.5, 1.5);
+        (m.clearcoat, m.clearcoat_roughness) = (1.0, 0.1);
         let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
         for theta in [0.0, 45.0, 80.0] {
-            let a = albedo_by_sampling(&bsdf, dir_from_angle(theta), 100_000);
-            eprintln!("preview surface + clearcoat θ={theta}: albedo {a:.4}");
-            assert!(a <= 1.0 + 1e-3 && a > 0.8, "θ={theta}: {a}");
+            let a = albedo_by_sampling(&bsdf, dir_from_angle(theta), 200_000);
+            eprintln!("coated white metal θ={theta}: albedo {a:.4}");
+            assert!((a - 1.0).abs() < 0.01, "coated metal θ={theta}: {a}");
+        }
+    }
+
+    /// The coat absorbs along both passes: over a smooth white mirror, a smooth coat of colour `c`
+    /// reflects `F0_c + (1 − F0_c) c²` head-on (0.04 + 0.96 · 0.25 = 0.28 for c = 0.5 and index
+    /// 1.5), per channel; off normal the path through the coat is longer (`c^(2/μt)`).
+    #[test]
+    fn coat_colour_attenuates_a_mirror_by_its_square_head_on() {
+        let mut m = material(1.0, 1.0, 0.0, 1.5);
+        (m.clearcoat, m.clearcoat_roughness, m.coat_color) = (1.0, 0.0, [0.5, 0.8, 1.0]);
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        let mut rng = Rng(5);
+        let n = 100_000;
+        let mut sum = Vec3::ZERO;
+        for _ in 0..n {
+            if let Some(s) = bsdf.sample(Vec3::Z, rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
+                sum += s.f * (s.wi.z / s.pdf);
+            }
+        }
+        let a = sum / n as f32;
+        let expect = |c: f32| 0.04 + 0.96 * c * c;
+        eprintln!("mirror under a (0.5, 0.8, 1) coat, head-on: {a}");
+        for (got, c) in [(a.x, 0.5), (a.y, 0.8), (a.z, 1.0)] {
+            assert!((got - expect(c)).abs() < 2e-3, "coat colour {c}: {got} vs {}", expect(c));
+        }
+        // At 60° the refracted cosine in a 1.5 coat is √(1 − 0.75/2.25) = 0.8165: T = c^(2/0.8165).
+        let wo = dir_from_angle(60.0);
+        let mut sum = Vec3::ZERO;
+        for _ in 0..n {
+            if let Some(s) = bsdf.sample(wo, rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
+                sum += s.f * (s.wi.z / s.pdf);
+            }
+        }
+        let (white, tinted) = (sum.z / n as f32, sum.x / n as f32);
+        let e_c = schlick_scalar(0.04, 0.5); // a smooth coat reflects Schlick's F at 60°
+        let expect = e_c + (1.0 - e_c) * 0.5f32.powf(2.0 / (1.0f32 - 0.75 / 2.25).sqrt());
+        eprintln!("60°: white {white:.4}, tinted {tinted:.4} (expected {expect:.4})");
+        assert!((white - 1.0).abs() < 0.01 && (tinted - expect).abs() < 3e-3, "{tinted} vs {expect}");
+    }
+
+    /// ∫ f cos dω per channel, by the BSDF's own sampling.
+    fn rgb_albedo(bsdf: &Bsdf, wo: Vec3, n: usize) -> Vec3 {
+        let mut rng = Rng(17);
+        let mut sum = glam::DVec3::ZERO;
+        for _ in 0..n {
+            if let Some(s) = bsdf.sample(wo, rng.next_f32(), [rng.next_f32(), rng.next_f32()]) {
+                sum += (s.f * (s.wi.z / s.pdf)).as_dvec3();
+            }
+        }
+        (sum / n as f64).as_vec3()
+    }
+
+    /// OpenPBR's F82 tint: a metal's Fresnel at the model's edge cosine μ̄ = 1/7 (81.8°) is the
+    /// authored `specular_color` times Schlick's there, and it is Schlick's at normal incidence;
+    /// through the BSDF, a smooth tinted metal seen at μ̄ reflects that (within 1e-3), and a
+    /// rough one keeps `eval` and `sample` consistent (the tables' `C` column in its energy).
+    #[test]
+    fn f82_tint_sets_the_metal_edge_reflectance() {
+        let (f0, tint) = (Vec3::new(0.95, 0.64, 0.54), Vec3::new(0.9, 0.5, 0.2));
+        let b = f82_b(f0, tint);
+        let schlick_bar = schlick(f0, F82_MU);
+        let at_bar = fresnel(f0, b, F82_MU);
+        eprintln!("F82 at μ̄: {at_bar} vs tint × Schlick {}", tint * schlick_bar);
+        assert!((at_bar - tint * schlick_bar).abs().max_element() < 1e-5, "{at_bar}");
+        assert_eq!(fresnel(f0, b, 1.0), f0, "head-on: F0");
+        assert_eq!(f82_b(f0, Vec3::ONE), Vec3::ZERO, "an untinted metal is Schlick's");
+        let mut m = material(1.0, 1.0, 0.0, 1.5);
+        (m.diffuse_color, m.specular_tint) = (f0.to_array(), tint.to_array());
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        let wo = Vec3::new((1.0 - F82_MU * F82_MU).sqrt(), 0.0, F82_MU);
+        let a = rgb_albedo(&bsdf, wo, 50_000);
+        eprintln!("smooth tinted metal at μ̄: reflectance {a} (tint × Schlick {})", tint * schlick_bar);
+        assert!((a - tint * schlick_bar).abs().max_element() < 1e-3, "{a}");
+        // Rough: sampled and uniformly integrated albedo agree per channel.
+        m.roughness = 0.6;
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        for theta in [0.0, 60.0, 80.0] {
+            let wo = dir_from_angle(theta);
+            let sampled = rgb_albedo(&bsdf, wo, 200_000);
+            let mut rng = Rng(8);
+            let mut uniform = glam::DVec3::ZERO;
+            let n = 400_000;
+            for _ in 0..n {
+                let z = rng.next_f32();
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let phi = TAU * rng.next_f32();
+                let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+                uniform += (bsdf.eval(wo, wi).0 * (wi.z * TAU)).as_dvec3();
+            }
+            let uniform = (uniform / n as f64).as_vec3();
+            eprintln!("rough tinted metal θ={theta}: sampled {sampled}, uniform {uniform}");
+            assert!((sampled - uniform).abs().max_element() < 0.01, "θ={theta}: {sampled} vs {uniform}");
+        }
+    }
+
+    /// `specular_weight` scales the specular lobe's F0 (0 removes it: a white base is then exactly
+    /// Lambert) and `specular_color` tints a dielectric's F0; the diffuse keeps what the tinted
+    /// lobe leaves, so a white base still reads 1 per channel at every angle.
+    #[test]
+    fn specular_weight_and_tint_keep_the_dielectric_base_a_furnace() {
+        let mut m = material(1.0, 0.0, 0.3, 1.5);
+        m.specular_weight = 0.0;
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        let (f, _) = bsdf.eval(dir_from_angle(30.0), dir_from_angle(-50.0));
+        assert!((f - Vec3::splat(FRAC_1_PI)).abs().max_element() < 1e-6, "no specular: Lambert, {f}");
+        (m.specular_weight, m.specular_tint) = (0.5, [1.0, 0.5, 0.25]);
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        let r = (0.5f32 / 2.5).powi(2);
+        assert!((bsdf.f0 - Vec3::new(1.0, 0.5, 0.25) * (0.5 * r)).abs().max_element() < 1e-7, "{}", bsdf.f0);
+        for theta in [0.0, 45.0, 80.0] {
+            let a = rgb_albedo(&bsdf, dir_from_angle(theta), 200_000);
+            eprintln!("white plastic, specular weight 0.5, tint (1, 0.5, 0.25), θ={theta}: {a}");
+            assert!((a - Vec3::ONE).abs().max_element() < 0.01, "θ={theta}: {a}");
+        }
+    }
+
+    /// The fuzz layer (OpenPBR's fuzz, here a Charlie sheen) over everything conserves energy by
+    /// albedo scaling: white plastic, coated or not, under a white fuzz reads 1 at 0°, 45° and 80°
+    /// for smooth and rough fuzz; over a black base a fuzz of colour `c` reflects `c · E_f(μo)`,
+    /// the tabulated sheen albedo (which the sampled lobe matches within 1 %).
+    #[test]
+    fn fuzz_is_a_furnace_over_every_base_and_its_albedo_is_the_table() {
+        for (fuzz_roughness, coat) in [(0.2, 0.0), (0.5, 0.0), (0.9, 0.0), (0.5, 1.0)] {
+            let mut m = material(1.0, 0.0, 0.4, 1.5);
+            (m.fuzz_weight, m.fuzz_roughness, m.clearcoat, m.clearcoat_roughness) =
+                (1.0, fuzz_roughness, coat, 0.1);
+            let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+            for theta in [0.0, 45.0, 80.0] {
+                let a = rgb_albedo(&bsdf, dir_from_angle(theta), 200_000);
+                eprintln!("white fuzz r {fuzz_roughness} over plastic (coat {coat}) θ={theta}: {a}");
+                assert!((a - Vec3::ONE).abs().max_element() < 0.01, "r {fuzz_roughness} θ={theta}: {a}");
+            }
+        }
+        let mut m = material(0.0, 0.0, 0.4, 1.0);
+        (m.fuzz_weight, m.fuzz_roughness, m.fuzz_color) = (1.0, 0.5, [1.0, 0.5, 0.25]);
+        let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);
+        for theta in [0.0, 45.0, 80.0] {
+            let wo = dir_from_angle(theta);
+            let a = rgb_albedo(&bsdf, wo, 400_000);
+            let e = albedo::sheen_albedo(albedo::sheen_table(), wo.z, 0.5);
+            eprintln!("fuzz (1, 0.5, 0.25) over black θ={theta}: {a}, table E_f {e:.4}");
+            assert!(e > 0.02, "θ={theta}: E_f {e}");
+            let expect = Vec3::new(1.0, 0.5, 0.25) * e;
+            assert!((a - expect).abs().max_element() < 0.01 * e.max(0.1), "θ={theta}: {a} vs {expect}");
         }
     }
 
@@ -679,11 +1055,14 @@ mod tests {
         let mut coated = material(0.8, 0.0, 0.5, 1.5);
         coated.clearcoat = 0.7;
         coated.clearcoat_roughness = 0.3;
+        let mut fuzzed = coated;
+        (fuzzed.fuzz_weight, fuzzed.fuzz_roughness) = (0.7, 0.4);
         let cases = [
             ("lambert", material(0.7, 0.0, 0.5, 1.0)),
             ("rough metal", material(0.9, 1.0, 0.6, 1.5)),
             ("plastic", material(0.5, 0.0, 0.4, 1.5)),
             ("coated", coated),
+            ("fuzzed", fuzzed),
         ];
         for (name, m) in cases {
             let bsdf = Bsdf::new(&m, Vec3::Z, Vec3::Z);

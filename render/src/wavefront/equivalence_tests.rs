@@ -216,6 +216,30 @@ fn wavefront_equals_scalar_with_production_material_networks() {
     assert!(spheres > 150 && bent * 3 > spheres * 2, "{bent} of {spheres} sphere pixels' normals bent");
 }
 
+/// [`scene`] with OpenPBR's layers on its materials: a tinted coat of index 1.6 on the plastic, a
+/// half coat, a fuzz and an F82 edge tint on the metal, a specular weight and tint under the clear
+/// coat, a coloured fuzz on the emitter card; lane groups mix layered and bare lanes.
+#[test]
+fn wavefront_equals_scalar_with_openpbr_coat_fuzz_and_f82_tint() {
+    let mut scene = scene();
+    let m = &mut scene.materials;
+    (m[0].clearcoat, m[0].coat_color, m[0].coat_ior) = (0.8, Vec3::new(0.9, 0.6, 0.3), 1.6);
+    (m[1].clearcoat, m[1].coat_color, m[1].specular_tint) = (0.5, Vec3::ONE, Vec3::new(0.9, 0.7, 0.4));
+    (m[1].specular_weight, m[1].fuzz_weight, m[1].fuzz_roughness) = (0.9, 0.6, 0.4);
+    (m[3].fuzz_weight, m[3].fuzz_color) = (1.0, Vec3::new(0.8, 0.2, 0.6));
+    (m[2].specular_weight, m[2].specular_tint, m[2].coat_color) =
+        (0.5, Vec3::new(1.0, 0.5, 0.5), Vec3::splat(0.7));
+    let bytes = testscene::bytes(&scene);
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    let (scalar, _) = both_integrators(&view, &options(), "OpenPBR coat colour, coat ior, fuzz, F82 tint");
+    let plain_bytes = testscene::bytes(&self::scene());
+    let plain_view = blob::SceneView::parse(&plain_bytes).expect("valid blob");
+    let plain = render_image(&plain_view, &RenderOptions { integrator: Integrator::Scalar, ..options() })
+        .expect("renders");
+    let changed = scalar.beauty.iter().zip(&plain.beauty).filter(|(a, b)| a != b).count();
+    assert!(changed * 4 > plain.beauty.len(), "the layers change the spheres: {changed} pixels");
+}
+
 /// Material indices [`curve_scene`] adds after [`scene`]'s four.
 const TRANSLUCENT: u32 = 4;
 const GLOWING: u32 = 5;

@@ -18,22 +18,37 @@
 //! | clearcoatRoughness | `coat_roughness` (0.1) | `coat_roughness` (0) | `clearcoatRoughness` |
 //! | opacity, opacityThreshold | `transmission` t > 0: 1 − t, threshold 0; else `opacity` (x), threshold 0.5 | `transmission_weight`; else `geometry_opacity` | `opacity`, `opacityThreshold` |
 //! | normal (tangent space) | `normal` | `geometry_normal` | `normal` |
+//! | coat_color | `coat_color` (1) | `coat_color` (1) | — (1) |
+//! | coat_ior | `coat_IOR` (1.5) | `coat_ior` (1.6) | — (1.5) |
+//! | specular_weight | `specular` (1) | `specular_weight` (1) | — (1) |
+//! | specular_tint (OpenPBR `specular_color`) | `specular_color` (1) | `specular_color` (1) | — (1) |
+//! | fuzz_weight | `sheen` (0) | `fuzz_weight` (0) | — (0) |
+//! | fuzz_color | `sheen_color` (1) | `fuzz_color` (1) | — (1) |
+//! | fuzz_roughness | `sheen_roughness` (0.3) | `fuzz_roughness` (0.5) | — (0.5) |
+//!
+//! The last seven rows are OpenPBR parameters the blob keeps beside UsdPreviewSurface's
+//! ([`blob::surface_inputs`]); standard_surface's follow the OpenPBR/MaterialX mapping notes
+//! (`coat` → `coat_weight`, `coat_IOR` → `coat_ior`, `specular` → `specular_weight`, `sheen*` →
+//! `fuzz*`). They are
+//! constants: a connected one is one warning and its default, and a value outside the blob's range
+//! ([`blob::surface_inputs::OPENPBR_RANGES`]) is clamped with a warning.
 //!
 //! - **Transmission** is the agreed mapping: opacity `1 − t` with `opacityThreshold` 0 is what the
 //!   renderer treats as a transmissive dielectric of `ior` (the spec's clear glass), so
 //!   `transmission = 1` is clear glass; its colour, depth and scatter are not carried.
 //! - **Opacity** (MaterialX presence) is a cut-out: authored or connected, it gets
 //!   `opacityThreshold = 0.5`, so that a fractional value is never read as glass.
-//! - **Specular weight and colour**: with a constant metalness of 0 and a constant `specular`
-//!   (`specular_weight`) or `specular_color` other than 1, the material uses the specular workflow
-//!   with `specularColor = weight · colour · F0(ior)`, `F0 = ((ior − 1) / (ior + 1))²` (so a weight
-//!   of 0 removes the specular lobe, as MaterialX does); otherwise they are left out.
+//! - **Specular weight and colour** are OpenPBR's `specular_weight` and `specular_color`
+//!   (standard_surface's `specular`, `specular_color`), carried as they are: the renderer scales
+//!   F0 by the weight, tints a dielectric's F0 by the colour and uses it as a metal's F82 edge tint
+//!   (`render::bsdf`). Until format 11 a dielectric with either authored became the specular
+//!   workflow with `specularColor = weight · colour · F0(ior)`, the same F0.
 //! - **Normal**: MaterialX normals are world-space vectors; the renderer's is UsdPreviewSurface's
 //!   tangent-space one, so `normal` is read only from a `normalmap` node (its tangent-space result);
 //!   any other source is one warning and the interpolated normal.
 //! - **Emission**: OpenPBR's `emission_luminance` (nits) is read as radiance 1 per nit unit, like
 //!   standard_surface's unitless `emission`.
-//! - Lobes the model lacks (subsurface, sheen/fuzz, thin film, anisotropy, coat colour, ...) are
+//! - Lobes the model lacks (subsurface, thin film, anisotropy, coat darkening, ...) are
 //!   named in one warning per material when their weight is authored non-zero or connected.
 //!
 //! Nodes compile to the material program ([`crate::scene::ShaderNode`]); arithmetic is the
@@ -278,17 +293,6 @@ impl Reader<'_> {
             self.bind(&mut m, p, ShadingInput::Roughness, rough);
             let ior = read(self, &mut mx, p, names("specular_IOR", "specular_ior", ""), f(1.5), true)?;
             self.bind(&mut m, p, ShadingInput::Ior, ior);
-            let weight = read(self, &mut mx, p, names("specular", "specular_weight", ""), f(1.0), true)?;
-            let color = read(self, &mut mx, p, "specular_color", c3(1.0), false)?;
-            if let (Val::Const(w), Val::Const(c), Val::Const(i), Val::Const(metal)) =
-                (weight.val, color.val, ior.val, metal.val)
-            {
-                if metal[0] == 0.0 && (w[0] != 1.0 || c[..3] != [1.0; 3]) {
-                    let f0 = ((i[0] - 1.0) / (i[0] + 1.0)).powi(2);
-                    m.use_specular_workflow = true;
-                    m.specular_color = Vec3::new(c[0], c[1], c[2]) * (w[0] * f0);
-                }
-            }
             let amount = read(self, &mut mx, p, names("emission", "emission_luminance", ""), f(0.0), true)?;
             let emission_color = read(self, &mut mx, p, "emission_color", c3(1.0), false)?;
             let emission =
@@ -299,6 +303,24 @@ impl Reader<'_> {
             let coat_roughness = if open { 0.0 } else { 0.1 };
             let coat_rough = read(self, &mut mx, p, "coat_roughness", f(coat_roughness), true)?;
             self.bind(&mut m, p, ShadingInput::ClearcoatRoughness, coat_rough);
+            let [cc, ci, sw, st, fw, fc, fr] = blob::surface_inputs::OPENPBR_RANGES;
+            let coat_color =
+                self.openpbr_constant(path, shader, names("coat_color", "coat_color", ""), 1.0, cc)?;
+            m.coat_color = Vec3::from_slice(&coat_color[..3]);
+            let coat_ior = if open { 1.6 } else { 1.5 };
+            m.coat_ior =
+                self.openpbr_constant(path, shader, names("coat_IOR", "coat_ior", ""), coat_ior, ci)?[0];
+            let weight_name = names("specular", "specular_weight", "");
+            m.specular_weight = self.openpbr_constant(path, shader, weight_name, 1.0, sw)?[0];
+            let tint = self.openpbr_constant(path, shader, "specular_color", 1.0, st)?;
+            m.specular_tint = Vec3::from_slice(&tint[..3]);
+            let fuzz_weight = names("sheen", "fuzz_weight", "");
+            m.fuzz_weight = self.openpbr_constant(path, shader, fuzz_weight, 0.0, fw)?[0];
+            let fuzz =
+                self.openpbr_constant(path, shader, names("sheen_color", "fuzz_color", ""), 1.0, fc)?;
+            m.fuzz_color = Vec3::from_slice(&fuzz[..3]);
+            let (name, default) = if open { ("fuzz_roughness", 0.5) } else { ("sheen_roughness", 0.3) };
+            m.fuzz_roughness = self.openpbr_constant(path, shader, name, default, fr)?[0];
             let transmission =
                 read(self, &mut mx, p, names("transmission", "transmission_weight", ""), f(0.0), true)?;
             if transmission.val != Val::Const(f(0.0)) {
@@ -327,6 +349,46 @@ impl Reader<'_> {
         Ok(m)
     }
 
+    /// The constant value of OpenPBR parameter `name` of `shader` (`default` when unauthored, in
+    /// every channel), clamped into its blob range `(_, lo, hi)` ([`blob::surface_inputs::OPENPBR_RANGES`])
+    /// with a warning when outside it or not finite. These parameters are constants in the blob
+    /// (no program op writes them): a connected one is one warning and the default.
+    fn openpbr_constant(
+        &mut self,
+        path: &str,
+        shader: &str,
+        name: &str,
+        default: f32,
+        (_, lo, hi): (&str, f32, f32),
+    ) -> Result<[f32; 4], UsdError> {
+        match self.trace_input(shader, &format!("inputs:{name}"))? {
+            Input::Unauthored => Ok([default; 4]),
+            Input::Network { node, .. } => {
+                self.warn(
+                    path,
+                    format!("{name} reads {node}: only a constant {name} is carried; using {default}"),
+                );
+                Ok([default; 4])
+            }
+            Input::Constant { value, .. } => {
+                let v = vec4(&value, [default; 4]);
+                let clamped = v.map(|x| if x.is_nan() { default } else { x.clamp(lo, hi) });
+                if clamped[..3] != v[..3] {
+                    let shown = |c: &[f32]| match c {
+                        [x, y, z, ..] if x == y && y == z => format!("{x}"),
+                        c => format!("{:?}", &c[..3]),
+                    };
+                    let (v, c) = (shown(&v), shown(&clamped));
+                    self.warn(
+                        path,
+                        format!("{name} = {v} outside [{lo}, {hi}] (or not finite); clamped to {c}"),
+                    );
+                }
+                Ok(clamped)
+            }
+        }
+    }
+
     /// `outputs:mtlx:displacement` is not rendered: one warning.
     fn warn_displacement(&mut self, path: &str) {
         if !self.stage.connections(path, "outputs:mtlx:displacement").is_empty() {
@@ -339,7 +401,6 @@ impl Reader<'_> {
         let lobes: &[&str] = match model {
             Model::Standard => &[
                 "subsurface",
-                "sheen",
                 "thin_film_thickness",
                 "specular_anisotropy",
                 "coat_anisotropy",
@@ -348,7 +409,6 @@ impl Reader<'_> {
             ],
             Model::OpenPbr => &[
                 "subsurface_weight",
-                "fuzz_weight",
                 "thin_film_weight",
                 "specular_anisotropy",
                 "coat_darkening",
