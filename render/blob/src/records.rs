@@ -115,7 +115,7 @@ pub const fn light_set_words(light_count: usize) -> usize {
 macro_rules! material_record {
     ($($field:ident: $kind:ident = $fallback:expr, $usd:literal;)*) => {
         /// UsdPreviewSurface inputs and the OpenPBR parameters beyond them as constants, plus the
-        /// material's shading program. 148 bytes (96 before format 11).
+        /// material's shading program. 148 bytes (96 before format 12).
         ///
         /// The constants are the values of inputs that no program op writes; a textured input's
         /// constant is the value the scene authored on the input itself (or the spec fallback) and is

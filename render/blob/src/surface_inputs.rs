@@ -10,7 +10,7 @@
 //! `color` (`[f32; 3]` in the blob, `Vec3` elsewhere), `float` (`f32`), `flag` (`u32` 0 or 1 in the
 //! blob, `bool` elsewhere). Fallbacks are the UsdPreviewSurface specification's.
 //!
-//! The last seven are OpenPBR Surface parameters (format 11; their names are the ASWF OpenPBR v1.1
+//! The last seven are OpenPBR Surface parameters (format 12; their names are the ASWF OpenPBR v1.1
 //! specification's) that UsdPreviewSurface lacks: with their fallbacks the surface is exactly
 //! UsdPreviewSurface (a clear coat of index 1.5, its F0 0.04; an untinted, unweighted specular
 //! lobe; no fuzz). `clearcoat` and `clearcoatRoughness` are OpenPBR's `coat_weight` and `coat_roughness`.

@@ -899,7 +899,7 @@ fn light_sets_round_trip_and_are_validated() {
     assert!(text.contains("whole number of light sets"), "{text}");
 }
 
-/// The OpenPBR constants of a material (format 11) are validated once at load: a coat of index
+/// The OpenPBR constants of a material (format 12) are validated once at load: a coat of index
 /// below 1, a NaN coat colour, a specular weight above 1 or a negative tint are each an error
 /// naming the parameter and the record; the fallbacks (UsdPreviewSurface's look) load.
 #[test]

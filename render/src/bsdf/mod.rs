@@ -30,7 +30,7 @@
 //! with `b` ([`f82_b`]) set so that `F(1/7) = specular_color · Schlick(1/7)`; `specular_weight`
 //! scales F0 of the dielectric and the metal (a simplification: the spec modulates the dielectric's
 //! index and scales the metal's whole Fresnel, grazing included), and `specular_color` tints the
-//! dielectric's F0 (the mapping ingest used before format 11, through the specular workflow).
+//! dielectric's F0 (the mapping ingest used before format 12, through the specular workflow).
 //!
 //! The fuzz (`fuzz_weight` `w_f`, `fuzz_color`, `fuzz_roughness`) is layered over everything by
 //! albedo scaling: `f = w_f · fuzz_color · f_sheen + (1 − w_f·E_f(μo)) · f_coated`. OpenPBR

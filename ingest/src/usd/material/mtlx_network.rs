@@ -41,7 +41,7 @@
 //! - **Specular weight and colour** are OpenPBR's `specular_weight` and `specular_color`
 //!   (standard_surface's `specular`, `specular_color`), carried as they are: the renderer scales
 //!   F0 by the weight, tints a dielectric's F0 by the colour and uses it as a metal's F82 edge tint
-//!   (`render::bsdf`). Until format 11 a dielectric with either authored became the specular
+//!   (`render::bsdf`). Until format 12 a dielectric with either authored became the specular
 //!   workflow with `specularColor = weight · colour · F0(ior)`, the same F0.
 //! - **Normal**: MaterialX normals are world-space vectors; the renderer's is UsdPreviewSurface's
 //!   tangent-space one, so `normal` is read only from a `normalmap` node (its tangent-space result);
