@@ -148,6 +148,8 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
             aperture_blades: c.lens.aperture_blades,
             aperture_rotation: c.lens.aperture_rotation,
             world_from_camera: affine_rows(&c.world_from_camera),
+            shutter_open: c.shutter[0],
+            shutter_close: c.shutter[1],
         });
     }
 

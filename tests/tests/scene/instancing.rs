@@ -218,7 +218,7 @@ fn point_instancer_entries_render_where_the_flattened_gprims_are() {
                     && m.path.ends_with(suffix)
             })
             .expect("flattened gprim of the entry");
-        let hit = render::Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: index as u32 };
+        let hit = render::Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: index as u32, time: 0.0 };
         let stored = &view.positions[mesh_record.first_vertex as usize
             ..(mesh_record.first_vertex + mesh_record.vertex_count) as usize];
         let world_copy = flattened.in_world();
