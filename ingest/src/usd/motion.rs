@@ -9,7 +9,8 @@
 //! blur, and only then does this pass scan the stage, so a stage without a shutter pays nothing
 //! for it and keeps its blob bytes. Then, for each gprim drawn in world space (not inside an
 //! instance) whose prim or an ancestor has time-sampled xformOps, the keys are the shutter's open
-//! and close plus every sample time those ops author inside the union of the cameras' shutters,
+//! and close, the frame itself (so a render at time 0 draws the frame's geometry exactly), and
+//! every sample time those ops author inside the union of the cameras' shutters,
 //! and each key is the prim's world transform there, evaluated as UsdGeomXformable does (each op's
 //! value interpolated, then the ops composed). The renderer interpolates the key *matrices*
 //! linearly between keys, not a decomposed translation-rotation-scale: exact for translation and
@@ -71,7 +72,10 @@ impl Reader<'_> {
                 continue;
             }
             let chain = ancestors_and_self(&mesh.path);
-            let mut times = vec![f64::from(lo), f64::from(hi)];
+            // The frame is always a key, so time 0 (a closed shutter, `--no-motion-blur`) draws the
+            // stored geometry exactly, whatever the shutter.
+            let (lo, hi) = (lo.min(0.0), hi.max(0.0));
+            let mut times = vec![f64::from(lo), 0.0, f64::from(hi)];
             let mut moving_prims = Vec::new();
             for prim in &chain {
                 let ops = timed_ops.entry(prim.clone()).or_insert_with(|| {
@@ -112,8 +116,13 @@ impl Reader<'_> {
             let stored_inverse = stored.inverse();
             let mut keys = Vec::with_capacity(times.len());
             for &t in &times {
-                let world = self.world_at(&chain, frame + t)?;
-                keys.push(MotionKey { time: t as f32, world_from_stored: world * stored_inverse });
+                // At the frame the stored geometry is where it is: exactly the identity.
+                let world_from_stored = if t == 0.0 {
+                    DMat4::IDENTITY
+                } else {
+                    self.world_at(&chain, frame + t)? * stored_inverse
+                };
+                keys.push(MotionKey { time: t as f32, world_from_stored });
             }
             consumed.extend(moving_prims);
             if keys.windows(2).all(|w| w[0].world_from_stored == w[1].world_from_stored)
