@@ -217,6 +217,7 @@ impl<'a> Instances<'a> {
 
     /// The closest instance hit nearer than `best` (or `tmax` without one); `best` otherwise.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn closest(
         &self,
         origin: Vec3,
@@ -258,6 +259,7 @@ impl<'a> Instances<'a> {
 
     /// True when a prototype triangle for which `blocks(triangle, instance)` holds is hit in (0, `tmax`).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn any(
         &self,
         origin: Vec3,

@@ -299,6 +299,7 @@ fn two_level_closest<
 
 /// Any hit over the top-level triangles, then over the instances.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn two_level_any<
     N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
     B: Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,

@@ -224,7 +224,7 @@ fn point_instancer_entries_render_where_the_flattened_gprims_are() {
         let world_copy = flattened.in_world();
         assert_eq!(stored.len(), world_copy.positions.len());
         for (p, world) in stored.iter().zip(&world_copy.positions) {
-            let q = accel.instances().to_world_point(hit.instance, glam::Vec3::from(*p));
+            let q = accel.instances().to_world_point(hit.instance, 0.0, glam::Vec3::from(*p));
             assert!((q - *world).length() < 1e-5, "entry {i}: {q} vs {world}");
         }
     }
