@@ -130,6 +130,15 @@ impl Reader<'_> {
             {
                 continue;
             }
+            let mesh = &self.scene.meshes[m];
+            if mesh.triangle_materials.iter().any(|&t| crate::pack::emits(&self.scene.materials[t as usize]))
+            {
+                self.warn(
+                    &path,
+                    "time-sampled xformOps on this mesh or its ancestors: an emissive mesh is drawn at the frame (light sampling is world-space), its motion is not rendered",
+                );
+                continue;
+            }
             self.scene.meshes[m].motion = Some(TransformMotion { keys });
         }
         self.warn_ignored_motion(&consumed);
@@ -321,5 +330,31 @@ def Mesh "Still" {
         );
         // The stored geometry is the frame's: the triangle's own points.
         assert_eq!(tri.positions[1], glam::Vec3::X);
+    }
+
+    #[test]
+    fn an_emissive_moving_mesh_stays_at_the_frame_with_a_warning() {
+        let lamp = SLIDING.replace(
+            "uniform token subdivisionScheme = \"none\"",
+            "uniform token subdivisionScheme = \"none\"\n            rel material:binding = </Glow>",
+        );
+        let glow = r#"def Material "Glow" {
+    token outputs:surface.connect = </Glow/Surface.outputs:surface>
+    def Shader "Surface" {
+        uniform token info:id = "UsdPreviewSurface"
+        color3f inputs:emissiveColor = (5, 5, 5)
+        token outputs:surface
+    }
+}"#;
+        let scene = load_text(&format!("{}\n{lamp}\n{glow}", camera(-0.5, 0.5)));
+        let tri = scene.meshes.iter().find(|m| m.path == "/Rig/Slider/Tri").expect("the triangle");
+        assert!(tri.motion.is_none(), "light sources stay at the frame");
+        assert_eq!(
+            messages(&scene),
+            [(
+                "/Rig/Slider/Tri".to_string(),
+                "time-sampled xformOps on this mesh or its ancestors: an emissive mesh is drawn at the frame (light sampling is world-space), its motion is not rendered".to_string()
+            )]
+        );
     }
 }
