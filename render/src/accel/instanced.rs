@@ -131,11 +131,6 @@ impl<'a> Instances<'a> {
         }
     }
 
-    /// True when some instance moves (the scene has transform motion).
-    pub fn any_motion(&self) -> bool {
-        !self.motions.is_empty()
-    }
-
     /// Where `inst` is at ray time `time` (see the module docs); `None` when its interpolated
     /// transform cannot be inverted there.
     #[inline(always)]
