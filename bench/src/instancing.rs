@@ -64,6 +64,7 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
                 triangles: triangles.clone(),
             }),
             placed: None,
+            motion: None,
             light_set: 0,
         });
     }
@@ -79,6 +80,7 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
         vertical_aperture_offset: 0.0,
         clipping_range: [0.1, 1000.0],
         lens: Default::default(),
+        shutter: [0.0; 2],
     });
     scene.default_camera = Some(0);
     scene

@@ -200,6 +200,7 @@ fn camera(eye: Vec3, target: Vec3) -> ingest::Camera {
         vertical_aperture_offset: 0.0,
         clipping_range: [0.01, 1e6],
         lens: Default::default(),
+        shutter: [0.0; 2],
     }
 }
 

@@ -56,6 +56,7 @@ fn plane_scene() -> ingest::Scene {
         double_sided: true,
         instance: None,
         placed: None,
+        motion: None,
         primvars: Vec::new(),
         light_set: 0,
     };
@@ -73,6 +74,7 @@ fn plane_scene() -> ingest::Scene {
         vertical_aperture_offset: 0.0,
         clipping_range: [0.01, 1e6],
         lens: Default::default(),
+        shutter: [0.0; 2],
     };
     let dome = ingest::Light {
         path: "/Dome".into(),

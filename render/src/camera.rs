@@ -19,6 +19,11 @@
 //! its triangle. Orthographic cameras have no lens (ingest stores them as pinholes, and
 //! [`Camera::from_blob`] ignores an f-stop on one).
 //!
+//! Motion blur: each camera ray has a time in the [`Shutter`], drawn from the sampler's
+//! [`crate::sampler::dim::TIME`] dimension at vertex 0 and kept by every ray of its path (shadow
+//! and continuation rays alike), in both integrators. A closed shutter draws no time sample, so its
+//! images keep their numbers. The camera itself does not move (its transform is the frame's).
+//!
 //! [`camera_ray_lanes`] generates eight pinhole rays at once (the wavefront integrator's camera stage)
 //! with the scalar film loop's IEEE operations in the same order: [`Camera::generate_ray`],
 //! [`Camera::pixel_cone`] of the ray's cosine to the axis, times the footprint scale. There is no pixel
@@ -43,6 +48,37 @@ pub struct Camera {
     width: u32,
     /// Depth of field, or `None` for a pinhole.
     lens: Option<ThinLens>,
+    /// The blob camera's shutter.
+    shutter: Shutter,
+}
+
+/// A shutter interval in time codes from the frame: camera rays get times in `[open, close)`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Shutter {
+    /// Opening time.
+    pub open: f32,
+    /// Closing time (equal to `open`: an instantaneous shutter).
+    pub close: f32,
+}
+
+impl Shutter {
+    /// True when the shutter is open for a while (`close > open`): the render has motion blur.
+    pub fn is_open(&self) -> bool {
+        self.close > self.open
+    }
+
+    /// The time of the camera ray of sample `key`: `open + u · (close − open)` with `u` the
+    /// sampler's [`crate::sampler::dim::TIME`] at vertex 0; `open` for a closed shutter, which draws
+    /// no sample.
+    #[inline]
+    pub fn time(&self, key: crate::sampler::SampleKey) -> f32 {
+        if self.close > self.open {
+            let u = crate::sampler::sample_1d(key, 0, crate::sampler::dim::TIME);
+            self.open + (self.close - self.open) * u
+        } else {
+            self.open
+        }
+    }
 }
 
 /// A thin lens in camera space: an aperture of `radius` (round or a regular polygon) at the origin of
@@ -163,7 +199,13 @@ impl Camera {
             focal,
             width: width.max(1),
             lens: ThinLens::from_blob(cam, focal),
+            shutter: Shutter { open: cam.shutter_open, close: cam.shutter_close },
         }
+    }
+
+    /// The camera's shutter (`shutter:open`, `shutter:close`).
+    pub fn shutter(&self) -> Shutter {
+        self.shutter
     }
 
     /// The thin lens, or `None` for a pinhole.
@@ -206,6 +248,7 @@ impl Camera {
             focal,
             width: width.max(1),
             lens: None,
+            shutter: Shutter::default(),
         }
     }
 

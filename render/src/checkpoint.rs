@@ -40,6 +40,13 @@ impl Provenance {
             options.curve_shape,
             options.depth_of_field
         );
+        // Only a render that overrides the camera's shutter says so, so the provenance of every
+        // other render (and of checkpoints written before motion blur) keeps its text.
+        let settings = if options.motion_blur && options.shutter.is_none() {
+            settings
+        } else {
+            format!("{settings} motion_blur {} shutter {:?}", options.motion_blur, options.shutter)
+        };
         Provenance { blob: blob_id(bytes), settings }
     }
 }

@@ -279,6 +279,30 @@ fn band_of(window: PixelWindow, [index, count]: [u32; 2]) -> Result<PixelWindow,
     Ok(PixelWindow { y0: row(index), y1: row(index + 1), ..window })
 }
 
+/// The shutter of a render: closed at the frame without motion blur, else `--shutter`, else the
+/// camera's.
+fn shutter(
+    options: &RenderOptions,
+    camera: &crate::camera::Camera,
+) -> Result<crate::camera::Shutter, RenderError> {
+    if !options.motion_blur {
+        return Ok(crate::camera::Shutter::default());
+    }
+    let Some([open, close]) = options.shutter else { return Ok(camera.shutter()) };
+    let limit = blob::MAX_SHUTTER;
+    if !(open.is_finite()
+        && close.is_finite()
+        && open <= close
+        && open.abs() <= limit
+        && close.abs() <= limit)
+    {
+        return Err(RenderError::InvalidOption(format!(
+            "shutter {open},{close} must be OPEN,CLOSE with OPEN <= CLOSE, finite, within ±{limit} time codes"
+        )));
+    }
+    Ok(crate::camera::Shutter { open, close })
+}
+
 /// The worker threads `options` ask for (0: one per core).
 fn thread_count(options: &RenderOptions) -> usize {
     match options.threads {
@@ -316,7 +340,11 @@ fn render_pass<T: texture::Touch + Sync>(
     let tiles = tiles(window, ts);
     let counter = ProgressCounter::new(tiles.len(), window, samples[1] - samples[0]);
     let start = Instant::now();
-    let settings = PathSettings { max_depth: options.max_depth, filter: options.texture_filter };
+    let settings = PathSettings {
+        max_depth: options.max_depth,
+        filter: options.texture_filter,
+        shutter: shutter(options, &camera)?,
+    };
     let sampling = Sampling { samples, ..Sampling::new(options, width, height, camera.forward()) };
     // The tile's sums so far, row-major (the window's rows are `film.window.width()` long).
     let sums = &film.sums;

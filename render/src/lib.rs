@@ -57,6 +57,8 @@ pub mod info;
 pub mod lights;
 pub mod mapped;
 pub mod merge;
+#[cfg(test)]
+mod motion_tests;
 pub mod options;
 pub mod output;
 pub mod path;

@@ -49,6 +49,12 @@ pub struct RenderOptions {
     /// Render the camera's depth of field (its `fStop`); `false` renders it as a pinhole
     /// (`--no-dof`).
     pub depth_of_field: bool,
+    /// Render motion blur over the shutter; `false` renders every ray at time 0, the frame
+    /// (`--no-motion-blur`).
+    pub motion_blur: bool,
+    /// The shutter `[open, close]` in time codes from the frame, overriding the camera's
+    /// (`--shutter A,B`); `None` for the camera's.
+    pub shutter: Option<[f32; 2]>,
 }
 
 /// The path-tracing integrator: depth-first scalar or breadth-first wavefront (same estimator, same
@@ -95,6 +101,8 @@ impl Default for RenderOptions {
             band: None,
             first_sample: 0,
             depth_of_field: true,
+            motion_blur: true,
+            shutter: None,
         }
     }
 }

@@ -35,7 +35,7 @@ impl Scene<'_> {
         max_depth: u32,
         rays: &mut RayCounts,
     ) -> PathResult {
-        let settings = PathSettings { max_depth, filter: Filter::default() };
+        let settings = PathSettings { max_depth, filter: Filter::default(), ..PathSettings::default() };
         self.trace_path_with(origin, dir, RayCone::default(), key, &settings, rays, &NoTouch)
     }
 
@@ -84,9 +84,11 @@ impl Scene<'_> {
         let mut bounces = 0u32;
         let mut vertex = 0u32;
         let mut travelled = 0.0f32;
+        // Every ray of the path is at the camera ray's time in the shutter.
+        let time = settings.shutter.time(key);
         rays.camera += 1;
         loop {
-            let hit = self.accel.closest_hit(origin, dir, f32::INFINITY);
+            let hit = self.accel.closest_hit_at(origin, dir, f32::INFINITY, time);
             // Curves and points have their own BVH; only hits closer than the triangle count.
             let curve_hit = self.curves.closest_hit(origin, dir, hit.map_or(f32::INFINITY, |h| h.t));
             let t_hit = curve_hit.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
@@ -191,6 +193,7 @@ impl Scene<'_> {
                         shadow_origin,
                         ls.wi,
                         tmax,
+                        time,
                         shadow_seed(seed_hash, key.pixel, key.sample, vertex),
                         ls.delta,
                         linked.flatten(),

@@ -95,6 +95,7 @@ pub fn card(z: f32, half: f32, material: u32) -> Mesh {
         double_sided: false,
         instance: None,
         placed: None,
+        motion: None,
         primvars: Vec::new(),
         light_set: 0,
     }
@@ -113,6 +114,7 @@ pub fn camera_looking_down_z(eye: Vec3, focal: f32) -> Camera {
         vertical_aperture_offset: 0.0,
         clipping_range: [0.01, 1.0e6],
         lens: Default::default(),
+        shutter: [0.0; 2],
     }
 }
 

@@ -55,6 +55,7 @@ fn quad(corners: [Vec3; 4], uv_max: f32) -> Mesh {
         double_sided: true,
         instance: None,
         placed: None,
+        motion: None,
         primvars: Vec::new(),
         light_set: 0,
     }

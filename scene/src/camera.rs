@@ -102,6 +102,7 @@ impl DicingCamera {
             // No clipping in `render`; the near distance only bounds the projection.
             clipping_range: [(distance * 1e-3) as f32, f32::MAX],
             lens: Default::default(),
+            shutter: [0.0; 2],
         };
         DicingCamera::new(&camera, Some([DEFAULT_WIDTH, DEFAULT_WIDTH]))
     }
@@ -248,6 +249,7 @@ pub fn test_camera(eye: glam::Vec3, orthographic: bool) -> Camera {
         vertical_aperture_offset: 0.0,
         clipping_range: [0.1, 1000.0],
         lens: Default::default(),
+        shutter: [0.0; 2],
     }
 }
 

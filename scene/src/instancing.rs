@@ -16,6 +16,12 @@
 //! - prototypes used by a single instance: sharing saves nothing and costs a transform per ray;
 //! - instances with a non-invertible or non-finite transform (e.g. a PointInstancer scale of 0).
 //!
+//! Moving gprims ([`crate::scene::Mesh::motion`]) go the other way: each becomes a prototype of its
+//! own (its world-space geometry at the frame) with one instance carrying the motion keys, so a ray
+//! meets it through the instance's transform at the ray's time and the top-level BVH bounds it
+//! over the whole shutter. Exceptions stay in world space at the frame, unmoved: emissive gprims
+//! (light sampling is world-space) and gprims whose keys are not finite and invertible.
+//!
 //! The decision depends only on the scene, never on hash-map iteration order, so packing stays
 //! deterministic.
 //!
@@ -53,8 +59,11 @@ pub struct Instance {
     pub prototype: u32,
     /// Instance prim path (or `<instancer>[i]`).
     pub path: String,
-    /// Prototype-to-world transform.
+    /// Prototype-to-world transform (for a moving instance: its placement at the frame, time 0).
     pub world_from_prototype: DMat4,
+    /// Transform motion keys (`world_from_prototype` at each key time), empty for an instance that
+    /// stands still.
+    pub motion: Vec<crate::scene::MotionKey>,
 }
 
 impl Instancing {
@@ -80,7 +89,19 @@ pub fn plan(scene: &Scene, emissive: &[bool], canonical: &[u32]) -> Instancing {
     // Instanced meshes per scene instance, in scene order.
     let mut members: Vec<Vec<usize>> = vec![Vec::new(); scene.instances.len()];
     let mut top_level = Vec::new();
+    let mut moving = Vec::new();
     for (index, mesh) in scene.meshes.iter().enumerate() {
+        if let Some(motion) = &mesh.motion {
+            let drawable = mesh.triangle_count() > 0
+                && !mesh.triangle_materials.iter().any(|&m| emissive[m as usize])
+                && motion.keys.len() >= 2
+                && motion.keys.iter().all(|k| k.time.is_finite() && invertible(&k.world_from_stored))
+                && motion.keys.windows(2).all(|w| w[0].time < w[1].time);
+            if drawable {
+                moving.push(index);
+                continue;
+            }
+        }
         let shareable = mesh.instance_index().is_some_and(|i| {
             usable[i as usize]
                 && mesh.triangle_count() > 0
@@ -146,8 +167,21 @@ pub fn plan(scene: &Scene, emissive: &[bool], canonical: &[u32]) -> Instancing {
                 prototype,
                 path: source.path.clone(),
                 world_from_prototype: source.world_from_instance,
+                motion: Vec::new(),
             });
         }
+    }
+    for m in moving {
+        let mesh = &scene.meshes[m];
+        let Some(motion) = &mesh.motion else { continue };
+        let prototype = out.prototypes.len() as u32;
+        out.prototypes.push(Prototype { meshes: vec![m] });
+        out.instances.push(Instance {
+            prototype,
+            path: mesh.path.clone(),
+            world_from_prototype: motion.at(0.0),
+            motion: motion.keys.clone(),
+        });
     }
     top_level.sort_unstable();
     out.top_level = top_level;

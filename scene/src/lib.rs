@@ -61,6 +61,6 @@ pub mod pack;
 pub mod scene;
 
 pub use scene::{
-    BezierSegment, Camera, CurveKind, Curves, Lens, Light, LightKind, LightSet, Material, Mesh, PointSphere,
-    Scene, Subdivision, UpAxis, Warning,
+    BezierSegment, Camera, CurveKind, Curves, Lens, Light, LightKind, LightSet, Material, Mesh, MotionKey,
+    PointSphere, Scene, Subdivision, TransformMotion, UpAxis, Warning,
 };

@@ -325,6 +325,48 @@ pub struct Mesh {
     /// local space, with its transforms. `positions`, `normals`, `uvs`, `triangles` and `primvars`
     /// are then empty (see [`Mesh::in_world`]); `triangle_materials` is the instance's own.
     pub placed: Option<PlacedMesh>,
+    /// Transform motion over the shutter, or `None` for a gprim that stands still. The mesh's
+    /// world-space geometry is where it is at the frame; the keys move that geometry.
+    pub motion: Option<TransformMotion>,
+}
+
+/// Where a moving gprim is over the shutter: keys of `world_from_stored`, the transform taking its
+/// stored world-space geometry (the frame's) to where it is at the key's time. Between keys the
+/// renderer interpolates the matrices linearly (see `blob::instances`), so the keys are the times
+/// USD authors inside the shutter plus its open and close, each evaluated as USD evaluates the
+/// xformOps there.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TransformMotion {
+    /// At least two keys, times strictly increasing.
+    pub keys: Vec<MotionKey>,
+}
+
+/// One key of a [`TransformMotion`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionKey {
+    /// Time codes from the frame.
+    pub time: f32,
+    /// Stored (frame) world space to world space at `time`.
+    pub world_from_stored: DMat4,
+}
+
+impl TransformMotion {
+    /// The placement at time `t` (time codes from the frame): the keys' matrices interpolated
+    /// linearly, the end keys held outside them.
+    pub fn at(&self, t: f32) -> DMat4 {
+        let keys = &self.keys;
+        let (Some(first), Some(last)) = (keys.first(), keys.last()) else { return DMat4::IDENTITY };
+        if t <= first.time {
+            return first.world_from_stored;
+        }
+        if t >= last.time {
+            return last.world_from_stored;
+        }
+        let i = keys.partition_point(|k| k.time <= t).clamp(1, keys.len() - 1);
+        let (a, b) = (&keys[i - 1], &keys[i]);
+        let w = f64::from((t - a.time) / (b.time - a.time));
+        a.world_from_stored * (1.0 - w) + b.world_from_stored * w
+    }
 }
 
 /// Triangulated geometry in a gprim's local space, shared by every instance whose copy of the gprim
@@ -535,6 +577,7 @@ impl Mesh {
             primvars: t.primvars,
             light_set: self.light_set,
             placed: None,
+            motion: self.motion.clone(),
         }
     }
 }
@@ -869,6 +912,9 @@ pub struct Camera {
     pub clipping_range: [f32; 2],
     /// Depth of field; the default is a pinhole.
     pub lens: Lens,
+    /// `shutter:open`, `shutter:close`: time codes relative to the frame (fallback 0, 0: an
+    /// instantaneous shutter, no motion blur).
+    pub shutter: [f32; 2],
 }
 
 /// A camera's thin lens, in UsdGeomCamera's units (see `blob::Camera`). The default (`f_stop` 0)

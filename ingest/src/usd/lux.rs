@@ -325,6 +325,7 @@ impl Reader<'_> {
             .map_or(fallback::CLIPPING_RANGE, |r| [r[0] as f32, r[1] as f32]);
         let orthographic = self.token(path, "projection")?.as_deref() == Some("orthographic");
         let lens = self.read_lens(path, orthographic)?;
+        let shutter = self.read_shutter(path)?;
         let camera = Camera {
             path: path.to_string(),
             world_from_camera: state.world_from_local.as_mat4(),
@@ -336,6 +337,7 @@ impl Reader<'_> {
             vertical_aperture_offset: f(self, "verticalApertureOffset", 0.0)?,
             clipping_range,
             lens,
+            shutter,
         };
         self.scene.cameras.push(camera);
         Ok(())
@@ -353,11 +355,24 @@ impl Reader<'_> {
                 None => return Ok(()),
             },
         };
+        let mut targeted = None;
         if let Some(camera) = self.stage.targets(&settings, "camera").into_iter().next() {
             match self.scene.cameras.iter().position(|c| c.path == camera) {
-                Some(i) => self.scene.default_camera = Some(i),
+                Some(i) => {
+                    self.scene.default_camera = Some(i);
+                    targeted = Some(i);
+                }
                 None => {
                     self.warn(&settings, format!("camera {camera} is not a camera on the stage; ignored"))
+                }
+            }
+        }
+        // UsdRenderSettingsBase: "disable all motion blur by setting the shutter interval of the
+        // targeted camera to [0, 0]" (every camera when the settings target none).
+        if self.bool(&settings, "disableMotionBlur")? == Some(true) {
+            for (i, camera) in self.scene.cameras.iter_mut().enumerate() {
+                if targeted.is_none_or(|t| t == i) {
+                    camera.shutter = [0.0; 2];
                 }
             }
         }

@@ -594,6 +594,7 @@ pub(super) fn placed_with(
         triangle_materials,
         double_sided,
         placed: Some(PlacedMesh::new(frame.index, geometry, world_from_local, frame.instance_from_local)),
+        motion: None,
         ..Mesh::default()
     }
 }
@@ -663,6 +664,7 @@ pub(super) fn world_mesh(path: &str, local: LocalMesh, world_from_local: DMat4) 
         // Assigned once every light is read (`Reader::assign_light_sets`).
         light_set: 0,
         placed: None,
+        motion: None,
     }
 }
 

@@ -432,6 +432,7 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     let start = std::time::Instant::now();
     reader.tessellate_subdivisions(&options.subdiv);
     reader.scene.load_timings.subdivision_seconds = start.elapsed().as_secs_f64();
+    reader.read_motion()?;
     reader.assign_light_sets();
     let width = reader.scene.resolution.map_or(crate::dicing::DEFAULT_WIDTH, |r| r[0]);
     if let Some((camera, message)) = origin::precision_warning(&reader.scene, width) {
@@ -908,7 +909,6 @@ impl<'a> Reader<'a> {
         if self.scene.default_camera.is_none() && !self.scene.cameras.is_empty() {
             self.scene.default_camera = Some(0);
         }
-        self.warn_ignored_motion()?;
         self.check_default_camera_image()
     }
 

@@ -624,8 +624,14 @@ impl Stage {
     /// The attribute's value at the stage's start time (time samples win, else the default),
     /// `None` when unauthored or blocked.
     pub(crate) fn attr(&self, prim: &str, name: &str) -> Result<Option<Value>, UsdError> {
+        self.attr_at(prim, name, self.time)
+    }
+
+    /// [`Stage::attr`] at time code `time` (time samples interpolated as USD does: linearly,
+    /// quaternions by slerp; held before the first and after the last).
+    pub(crate) fn attr_at(&self, prim: &str, name: &str, time: f64) -> Result<Option<Value>, UsdError> {
         let handle = self.attr_handle(prim, name)?;
-        let value = match handle.get_at::<sdf::Value>(usd::TimeCode::new(self.time)) {
+        let value = match handle.get_at::<sdf::Value>(usd::TimeCode::new(time)) {
             Ok(value) => value,
             Err(timed) => {
                 // openusd cannot decode some time-sample encodings; the default value may still be
@@ -646,6 +652,15 @@ impl Stage {
     /// How many time samples the attribute has (0 when unauthored, unreadable or only a default).
     pub(crate) fn time_sample_count(&self, prim: &str, name: &str) -> usize {
         self.attr_handle(prim, name).ok().and_then(|h| h.num_time_samples().ok()).unwrap_or(0)
+    }
+
+    /// The authored sample times of the attribute inside `[lo, hi]`, ascending (empty when it has
+    /// none there or they cannot be read).
+    pub(crate) fn sample_times_in(&self, prim: &str, name: &str, lo: f64, hi: f64) -> Vec<f64> {
+        self.attr_handle(prim, name)
+            .ok()
+            .and_then(|h| h.time_samples_in_interval(lo..=hi).ok())
+            .unwrap_or_default()
     }
 
     /// The time code attributes are evaluated at.

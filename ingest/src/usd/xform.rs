@@ -25,6 +25,17 @@ pub(crate) fn read_local(
     prim: &str,
     warn: &mut dyn FnMut(String),
 ) -> Result<LocalXform, UsdError> {
+    read_local_at(stage, prim, stage.time(), warn)
+}
+
+/// [`read_local`] with every op evaluated at time code `time` (each op's value interpolated as USD
+/// interpolates it, then the ops composed: UsdGeomXformable::GetLocalTransformation at `time`).
+pub(crate) fn read_local_at(
+    stage: &Stage,
+    prim: &str,
+    time: f64,
+    warn: &mut dyn FnMut(String),
+) -> Result<LocalXform, UsdError> {
     let mut local = LocalXform { matrix: DMat4::IDENTITY, resets: false };
     let order = match stage.attr(prim, "xformOpOrder")? {
         Some(Value::StrArray(order)) => order,
@@ -45,7 +56,7 @@ pub(crate) fn read_local(
             warn(format!("xformOpOrder entry {entry} is not an xformOp; ignored"));
             continue;
         };
-        let Some(value) = stage.attr(prim, name)? else {
+        let Some(value) = stage.attr_at(prim, name, time)? else {
             warn(format!("xformOp {name} is in xformOpOrder but has no value; ignored"));
             continue;
         };

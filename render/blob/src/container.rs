@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 12;
+pub const FORMAT_VERSION: u32 = 13;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -166,6 +166,10 @@ section_kinds! {
     PrototypeBvhNodes = 54,
     /// [`crate::TriangleBlock`] of every prototype's BVH, vertices in prototype space.
     PrototypeBvhBlocks = 55,
+    /// [`crate::InstanceMotion`]: the key range of each moving instance (format 13).
+    InstanceMotions = 56,
+    /// [`crate::MotionKey`]: every moving instance's transform keys, concatenated.
+    MotionKeys = 57,
     /// [`crate::DomeMap`] (textured dome lights; format 6).
     DomeMaps = 60,
     /// `f32` CDF values of the dome maps' distributions.

@@ -11,7 +11,19 @@
 //! 54 PrototypeBvhNodes   BvhNode of every prototype's BVH, concatenated; child and leaf references
 //!                        are absolute indices into 54 / 55
 //! 55 PrototypeBvhBlocks  TriangleBlock of every prototype's BVH (vertices in prototype space)
+//! 56 InstanceMotions     InstanceMotion per moving instance: a range of 57 (format 13)
+//! 57 MotionKeys          MotionKey: a time and a world_from_object
 //! ```
+//!
+//! Transform motion (format 13): an instance whose `motion` is not [`crate::NONE`] moves. Its
+//! placement at ray time `τ` (time codes from the frame) is the linear interpolation of the
+//! `world_from_object` matrices of the two keys around `τ` (the first or last key outside them),
+//! inverted for the ray; the record's own transforms are its placement at `τ = 0`. Interpolating
+//! the matrices, not a decomposition, is what makes the top-level BVH's box for the instance the
+//! union of the prototype box under each key: every point of the prototype moves on straight
+//! segments between its keyed positions, which stay inside that union. Validation bounds the key
+//! count ([`MAX_MOTION_KEYS`]), requires finite times increasing strictly within
+//! ±[`crate::MAX_SHUTTER`] and finite, invertible key matrices.
 //!
 //! Prototype triangles live in the ordinary triangle, vertex and material sections, after the
 //! world-space ("top-level") triangles: prototypes cover `[first prototype triangle, triangles.len())`
@@ -65,10 +77,42 @@ pub struct Instance {
     pub prototype: u32,
     /// The instance prim path (or `<PointInstancer>[i]`).
     pub name: StrRef,
-    /// Reserved, zero.
-    pub reserved: u32,
+    /// Index into the instance motions section, or [`crate::NONE`] for an instance that stands
+    /// still (format 13; the field was reserved, zero, before).
+    pub motion: u32,
 }
 const _: () = assert!(std::mem::size_of::<Instance>() == 112);
+
+/// Most keys one moving instance may have: USD authors a handful of samples per shutter; more than
+/// this is a broken file, and the bound keeps the key search short.
+pub const MAX_MOTION_KEYS: u32 = 256;
+
+/// The keys of one moving instance: `key_count` ≥ 2 consecutive records of the motion keys section,
+/// times strictly increasing. 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct InstanceMotion {
+    /// First key in the motion keys section.
+    pub first_key: u32,
+    /// Number of keys, 2..=[`MAX_MOTION_KEYS`].
+    pub key_count: u32,
+    /// Reserved, zero.
+    pub reserved: [u32; 2],
+}
+const _: () = assert!(std::mem::size_of::<InstanceMotion>() == 16);
+
+/// One transform key of a moving instance. 64 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct MotionKey {
+    /// Time codes from the frame the blob was ingested at.
+    pub time: f32,
+    /// Reserved, zero.
+    pub reserved: [u32; 3],
+    /// Row-major 3×4 affine `world_from_object` at `time`.
+    pub world_from_object: [[f32; 4]; 3],
+}
+const _: () = assert!(std::mem::size_of::<MotionKey>() == 64);
 
 /// Owned instancing sections, filled by ingest (part of [`crate::SceneData`]).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -85,6 +129,10 @@ pub struct InstanceData {
     pub prototype_nodes: Vec<BvhNode>,
     /// Every prototype's leaf blocks.
     pub prototype_blocks: Vec<TriangleBlock>,
+    /// Key ranges of the moving instances.
+    pub motions: Vec<InstanceMotion>,
+    /// Their keys.
+    pub motion_keys: Vec<MotionKey>,
 }
 
 /// The validated instancing sections of a [`crate::SceneView`].
@@ -102,6 +150,10 @@ pub struct InstanceView<'a> {
     pub prototype_nodes: &'a [BvhNode],
     /// Prototype leaf blocks (each lane's triangle inside its prototype's triangle range).
     pub prototype_blocks: &'a [TriangleBlock],
+    /// Key ranges of the moving instances (in range, 2..=[`MAX_MOTION_KEYS`] keys each).
+    pub motions: &'a [InstanceMotion],
+    /// Transform keys (times finite and increasing per instance, matrices finite and invertible).
+    pub motion_keys: &'a [MotionKey],
 }
 
 /// `rows · [p, 1]` for a row-major 3×4 affine matrix.
@@ -126,6 +178,13 @@ fn inverse_error(a: &[[f32; 4]; 3], b: &[[f32; 4]; 3]) -> f32 {
         }
     }
     worst
+}
+
+/// Determinant of the linear part of a row-major 3×4 affine matrix, in `f64`.
+fn determinant3(m: &[[f32; 4]; 3]) -> f64 {
+    let a = |r: usize, c: usize| m[r][c] as f64;
+    a(0, 0) * (a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1)) - a(0, 1) * (a(1, 0) * a(2, 2) - a(1, 2) * a(2, 0))
+        + a(0, 2) * (a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0))
 }
 
 impl InstanceView<'_> {
@@ -205,6 +264,37 @@ impl InstanceView<'_> {
             }
             if inverse_error(a, b) > 1e-3 {
                 return Err((K::Instances, i, "object_from_world is not the inverse of world_from_object"));
+            }
+            if inst.motion != crate::NONE && inst.motion as usize >= self.motions.len() {
+                return Err((K::Instances, i, "motion index out of range"));
+            }
+        }
+        for (i, m) in self.motions.iter().enumerate() {
+            if !(2..=MAX_MOTION_KEYS).contains(&m.key_count) {
+                return Err((K::InstanceMotions, i, "key count not within 2..=256"));
+            }
+            let first = m.first_key as usize;
+            let Some(keys) = self.motion_keys.get(first..first + m.key_count as usize) else {
+                return Err((K::InstanceMotions, i, "key range outside the motion keys section"));
+            };
+            let mut previous = f32::NEG_INFINITY;
+            for (j, key) in keys.iter().enumerate() {
+                if !(key.time.is_finite() && key.time.abs() <= crate::MAX_SHUTTER && key.time > previous) {
+                    return Err((
+                        K::MotionKeys,
+                        first + j,
+                        "key time NaN, infinite, beyond ±1e4 time codes or not after the previous key",
+                    ));
+                }
+                previous = key.time;
+                let rows = &key.world_from_object;
+                if !all_sane(bytemuck::cast_slice(rows)) || determinant3(rows).abs() < 1e-12 {
+                    return Err((
+                        K::MotionKeys,
+                        first + j,
+                        "key transform NaN, beyond ±1e12 or not invertible",
+                    ));
+                }
             }
         }
         if let Some(i) = self.bvh_items.iter().position(|&t| t as usize >= self.instances.len()) {

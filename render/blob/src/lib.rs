@@ -43,7 +43,9 @@ pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SE
 pub use curves::{CurveAttributes, CurveData, CurveGroup, CurveSegment, CurveView, PointSphere};
 pub use dome::{DomeData, DomeMap, DomeView};
 pub use error::BlobError;
-pub use instances::{Instance, InstanceData, InstanceView, Prototype};
+pub use instances::{
+    Instance, InstanceData, InstanceMotion, InstanceView, MotionKey, Prototype, MAX_MOTION_KEYS,
+};
 pub use io::{write_atomic, AlignedBytes};
 pub use records::*;
 pub use scene::{SceneData, SceneView};

@@ -252,7 +252,12 @@ pub const MAX_APERTURE_BLADES: u32 = 64;
 /// a pinhole in all but name and most likely a unit mistake.
 pub const MAX_F_STOP: f32 = 1.0e6;
 
-/// One UsdGeomCamera. 104 bytes.
+/// Largest shutter offset, in time codes from the frame, validation accepts on
+/// [`Camera::shutter_open`], [`Camera::shutter_close`] and the motion keys' times: a shutter
+/// longer than this is a unit mistake, and the bound keeps interpolation weights well conditioned.
+pub const MAX_SHUTTER: f32 = 1.0e4;
+
+/// One UsdGeomCamera. 112 bytes.
 ///
 /// Lens units follow UsdGeomCamera: `focalLength` and the apertures are in tenths of a scene unit,
 /// `focusDistance` and `clippingRange` in scene units (see `render::camera` for how the thin lens
@@ -288,8 +293,13 @@ pub struct Camera {
     pub aperture_rotation: f32,
     /// Row-major 3×4 affine `world_from_camera`; the camera looks down its −Z with +Y up.
     pub world_from_camera: [[f32; 4]; 3],
+    /// `shutter:open`, time codes relative to the frame (format 13); finite, within
+    /// ±[`MAX_SHUTTER`], at most `shutter_close`. Equal to it: an instantaneous shutter (no blur).
+    pub shutter_open: f32,
+    /// `shutter:close`, time codes relative to the frame.
+    pub shutter_close: f32,
 }
-const _: () = assert!(std::mem::size_of::<Camera>() == 104);
+const _: () = assert!(std::mem::size_of::<Camera>() == 112);
 
 /// A triangle with nonzero emission, for next-event estimation. 16 bytes.
 #[repr(C)]

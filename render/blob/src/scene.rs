@@ -115,6 +115,8 @@ impl SceneData {
             section(SectionKind::InstanceBvhItems, &self.instancing.bvh_items),
             section(SectionKind::PrototypeBvhNodes, &self.instancing.prototype_nodes),
             section(SectionKind::PrototypeBvhBlocks, &self.instancing.prototype_blocks),
+            section(SectionKind::InstanceMotions, &self.instancing.motions),
+            section(SectionKind::MotionKeys, &self.instancing.motion_keys),
             section(SectionKind::DomeMaps, &self.dome.maps),
             section(SectionKind::DomeCdfValues, &self.dome.cdf_values),
             section(SectionKind::LightSets, &self.light_sets),
@@ -297,6 +299,8 @@ impl<'a> SceneView<'a> {
                     get(SectionKind::PrototypeBvhBlocks)?,
                     SectionKind::PrototypeBvhBlocks,
                 )?,
+                motions: typed(bytes, get(SectionKind::InstanceMotions)?, SectionKind::InstanceMotions)?,
+                motion_keys: typed(bytes, get(SectionKind::MotionKeys)?, SectionKind::MotionKeys)?,
             },
             dome: crate::DomeView {
                 maps: typed(bytes, get(SectionKind::DomeMaps)?, SectionKind::DomeMaps)?,
@@ -708,7 +712,7 @@ fn check_layout(bytes: &[u8], table_end: usize, found: &[Option<SectionEntry>]) 
 
 /// The depth-of-field fields of a camera: a pinhole (`f_stop` 0) or a thin lens with a positive
 /// f-stop up to [`MAX_F_STOP`] and a positive focus distance, and an aperture that is round or a
-/// polygon of 3..=[`MAX_APERTURE_BLADES`] blades with a bounded rotation.
+/// polygon of 3..=[`MAX_APERTURE_BLADES`] blades with a bounded rotation; and a shutter interval.
 fn check_thin_lens(c: &Camera) -> Result<(), &'static str> {
     if !(c.f_stop >= 0.0 && c.f_stop <= MAX_F_STOP) {
         return Err("fStop not in [0, 1e6] (or NaN)");
@@ -724,6 +728,10 @@ fn check_thin_lens(c: &Camera) -> Result<(), &'static str> {
     }
     if c.aperture_rotation.is_nan() || c.aperture_rotation.abs() > 360.0 {
         return Err("aperture rotation not within ±360 degrees (or NaN)");
+    }
+    let shutter_ok = |t: f32| t.is_finite() && t.abs() <= MAX_SHUTTER;
+    if !(shutter_ok(c.shutter_open) && shutter_ok(c.shutter_close) && c.shutter_open <= c.shutter_close) {
+        return Err("shutter open/close not finite within ±1e4 time codes with open <= close");
     }
     Ok(())
 }
@@ -796,6 +804,8 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::Instances => size_of::<crate::Instance>(),
         SectionKind::InstanceBvhNodes | SectionKind::PrototypeBvhNodes => size_of::<BvhNode>(),
         SectionKind::PrototypeBvhBlocks => size_of::<TriangleBlock>(),
+        SectionKind::InstanceMotions => size_of::<crate::InstanceMotion>(),
+        SectionKind::MotionKeys => size_of::<crate::MotionKey>(),
         SectionKind::DomeMaps => size_of::<crate::DomeMap>(),
         SectionKind::DomeCdfValues => size_of::<f32>(),
     }) as u32

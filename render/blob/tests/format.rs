@@ -478,7 +478,7 @@ fn with_instances() -> SceneData {
             object_from_world: translate(-2.0 * i as f32),
             prototype: 0,
             name: iname,
-            reserved: 0,
+            motion: NONE,
         })
         .collect();
     node.children[0] = child_ref::leaf(0, 2).unwrap();
@@ -837,6 +837,95 @@ fn camera_lens_fields_are_validated() {
     for (scene, what) in cases {
         assert_eq!(crafted_error(&scene, K::Cameras), format!("section Cameras record 0: {what}"));
     }
+}
+
+/// The shutter interval: finite, bounded, open ≤ close (equal is an instantaneous shutter).
+#[test]
+fn camera_shutter_is_validated() {
+    let shutter = |open: f32, close: f32| {
+        let mut s = sample_scene();
+        (s.cameras[0].shutter_open, s.cameras[0].shutter_close) = (open, close);
+        s
+    };
+    for ok in [shutter(0.0, 0.0), shutter(-0.25, 0.25), shutter(0.5, 0.5)] {
+        let bytes = AlignedBytes::copy_from(&ok.encode());
+        assert_eq!(SceneView::parse(&bytes).expect("valid shutter").cameras[0], ok.cameras[0]);
+    }
+    for bad in [shutter(0.5, 0.25), shutter(f32::NAN, 0.0), shutter(0.0, f32::INFINITY), shutter(-2e4, 0.0)] {
+        assert_eq!(
+            crafted_error(&bad, SectionKind::Cameras),
+            "section Cameras record 0: shutter open/close not finite within ±1e4 time codes with open <= close"
+        );
+    }
+}
+
+/// [`with_instances`] with instance 1 moving along x between two keys.
+fn with_moving_instance() -> SceneData {
+    let mut s = with_instances();
+    let translate = |x: f32| [[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]];
+    s.instancing.instances[1].motion = 0;
+    s.instancing.motions = vec![InstanceMotion { first_key: 0, key_count: 2, reserved: [0; 2] }];
+    s.instancing.motion_keys = vec![
+        MotionKey { time: -0.25, reserved: [0; 3], world_from_object: translate(2.0) },
+        MotionKey { time: 0.25, reserved: [0; 3], world_from_object: translate(3.0) },
+    ];
+    s
+}
+
+#[test]
+fn motion_keys_round_trip_and_bad_keys_are_refused() {
+    let scene = with_moving_instance();
+    let bytes = AlignedBytes::copy_from(&scene.encode());
+    let view = SceneView::parse(&bytes).expect("valid motion");
+    assert_eq!(view.instancing.motions, &scene.instancing.motions[..]);
+    assert_eq!(view.instancing.motion_keys, &scene.instancing.motion_keys[..]);
+    assert_eq!((std::mem::size_of::<MotionKey>(), std::mem::size_of::<InstanceMotion>()), (64, 16));
+    use SectionKind as K;
+    let rejects = |edit: &dyn Fn(&mut SceneData), kind: SectionKind, expected: &str| {
+        let mut s = with_moving_instance();
+        edit(&mut s);
+        assert_eq!(crafted_error(&s, kind), expected);
+    };
+    rejects(
+        &|s| s.instancing.motion_keys[1].world_from_object[0][3] = f32::NAN,
+        K::MotionKeys,
+        "section MotionKeys record 1: key transform NaN, beyond ±1e12 or not invertible",
+    );
+    rejects(
+        &|s| s.instancing.motion_keys[0].world_from_object[1][1] = 0.0,
+        K::MotionKeys,
+        "section MotionKeys record 0: key transform NaN, beyond ±1e12 or not invertible",
+    );
+    rejects(
+        &|s| s.instancing.motion_keys[0].time = f32::NAN,
+        K::MotionKeys,
+        "section MotionKeys record 0: key time NaN, infinite, beyond ±1e4 time codes or not after the previous key",
+    );
+    rejects(
+        &|s| s.instancing.motion_keys[1].time = -0.25,
+        K::MotionKeys,
+        "section MotionKeys record 1: key time NaN, infinite, beyond ±1e4 time codes or not after the previous key",
+    );
+    rejects(
+        &|s| s.instancing.motions[0].key_count = 1_000_000,
+        K::InstanceMotions,
+        "section InstanceMotions record 0: key count not within 2..=256",
+    );
+    rejects(
+        &|s| s.instancing.motions[0].key_count = 3,
+        K::InstanceMotions,
+        "section InstanceMotions record 0: key range outside the motion keys section",
+    );
+    rejects(
+        &|s| s.instancing.motions[0].first_key = u32::MAX,
+        K::InstanceMotions,
+        "section InstanceMotions record 0: key range outside the motion keys section",
+    );
+    rejects(
+        &|s| s.instancing.instances[0].motion = 1,
+        K::Instances,
+        "section Instances record 0: motion index out of range",
+    );
 }
 
 #[test]

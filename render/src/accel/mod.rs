@@ -90,7 +90,8 @@ impl<'a> Accel<'a> {
         if hit.instance == blob::NONE {
             v
         } else {
-            v.map(|p| self.instances.to_world_point(hit.instance, p))
+            let placement = self.instances.placement(hit.instance, hit.time);
+            v.map(|p| instanced::point_to_world(&placement, p))
         }
     }
 
@@ -101,7 +102,7 @@ impl<'a> Accel<'a> {
         if hit.instance == blob::NONE {
             n
         } else {
-            self.instances.to_world_normal(hit.instance, n)
+            self.instances.to_world_normal(hit.instance, hit.time, n)
         }
     }
 
@@ -114,12 +115,18 @@ impl<'a> Accel<'a> {
         self.nodes.is_empty() && self.instances.is_empty()
     }
 
-    /// Closest hit with `t` in (0, `tmax`).
+    /// Closest hit with `t` in (0, `tmax`), at time 0 (the frame).
     pub fn closest_hit(&self, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
+        self.closest_hit_at(origin, direction, tmax, 0.0)
+    }
+
+    /// Closest hit with `t` in (0, `tmax`) of a ray at time `time` (time codes from the frame: moving
+    /// instances are where they are then).
+    pub fn closest_hit_at(&self, origin: Vec3, direction: Vec3, tmax: f32, time: f32) -> Option<Hit> {
         if self.is_empty() {
             return None;
         }
-        closest_hit_simd(self, origin, direction, tmax)
+        closest_hit_simd(self, origin, direction, tmax, time)
     }
 
     /// True if any triangle for which `blocks(triangle, instance)` holds is hit with `t` in
@@ -133,10 +140,22 @@ impl<'a> Accel<'a> {
         tmax: f32,
         blocks: impl FnMut(u32, u32) -> bool,
     ) -> bool {
+        self.any_hit_at(origin, direction, tmax, 0.0, blocks)
+    }
+
+    /// [`Accel::any_hit`] for a ray at time `time` (see [`Accel::closest_hit_at`]).
+    pub fn any_hit_at(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        tmax: f32,
+        time: f32,
+        blocks: impl FnMut(u32, u32) -> bool,
+    ) -> bool {
         if self.is_empty() {
             return false;
         }
-        any_hit_simd(self, origin, direction, tmax, blocks)
+        any_hit_simd(self, origin, direction, tmax, time, blocks)
     }
 
     /// [`Accel::closest_hit`] with the scalar reference kernels (for tests).
@@ -144,7 +163,7 @@ impl<'a> Accel<'a> {
         if self.is_empty() {
             return None;
         }
-        two_level_closest(self, origin, direction, tmax, &Scalar::node, &Scalar::block)
+        two_level_closest(self, origin, direction, tmax, 0.0, &Scalar::node, &Scalar::block)
     }
 
     /// [`Accel::any_hit`] with the scalar reference kernels (for tests).
@@ -158,7 +177,7 @@ impl<'a> Accel<'a> {
         if self.is_empty() {
             return false;
         }
-        two_level_any(self, origin, direction, tmax, &Scalar::node, &Scalar::block, &mut blocks)
+        two_level_any(self, origin, direction, tmax, 0.0, &Scalar::node, &Scalar::block, &mut blocks)
     }
 
     /// Closest hits for a batch of rays (for benchmarks): one entry per ray, in order.
@@ -174,14 +193,14 @@ impl<'a> Accel<'a> {
         for triangle in 0..top_level as u32 {
             let limit = best.map_or(tmax, |h| h.t);
             if let Some((t, b1, b2)) = wray.intersect(self.triangle_vertices(triangle), limit) {
-                best = Some(Hit { t, triangle, b1, b2, instance: blob::NONE });
+                best = Some(Hit { t, triangle, b1, b2, instance: blob::NONE, time: 0.0 });
             }
         }
         // Instances: every prototype triangle moved to world space.
         for instance in 0..self.instances.len() as u32 {
             for triangle in self.instances.prototype_triangles(instance) {
                 let limit = best.map_or(tmax, |h| h.t);
-                let hit = Hit { t: 0.0, triangle, b1: 0.0, b2: 0.0, instance };
+                let hit = Hit { t: 0.0, triangle, b1: 0.0, b2: 0.0, instance, time: 0.0 };
                 if let Some((t, b1, b2)) = wray.intersect(self.hit_vertices(&hit), limit) {
                     best = Some(Hit { t, b1, b2, ..hit });
                 }
@@ -233,9 +252,9 @@ macro_rules! lane_kernels {
 
 // The multiversioned entry points: one clone per target, the CPU checked once per query.
 #[multiversion(targets("x86_64+avx2+fma"))]
-fn closest_hit_simd(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32) -> Option<Hit> {
+fn closest_hit_simd(accel: &Accel, origin: Vec3, direction: Vec3, tmax: f32, time: f32) -> Option<Hit> {
     let (node, block) = lane_kernels!();
-    two_level_closest(accel, origin, direction, tmax, &node, &block)
+    two_level_closest(accel, origin, direction, tmax, time, &node, &block)
 }
 
 #[multiversion(targets("x86_64+avx2+fma"))]
@@ -244,10 +263,11 @@ fn any_hit_simd<F: FnMut(u32, u32) -> bool>(
     origin: Vec3,
     direction: Vec3,
     tmax: f32,
+    time: f32,
     mut blocks: F,
 ) -> bool {
     let (node, block) = lane_kernels!();
-    two_level_any(accel, origin, direction, tmax, &node, &block, &mut blocks)
+    two_level_any(accel, origin, direction, tmax, time, &node, &block, &mut blocks)
 }
 
 /// Closest hit over the top-level triangles, then over the instances closer than that hit. A scene
@@ -261,6 +281,7 @@ fn two_level_closest<
     origin: Vec3,
     direction: Vec3,
     tmax: f32,
+    time: f32,
     node_kernel: &N,
     block_kernel: &B,
 ) -> Option<Hit> {
@@ -268,16 +289,17 @@ fn two_level_closest<
         None
     } else {
         closest(accel.nodes, accel.blocks, 0, origin, direction, tmax, node_kernel, block_kernel)
-            .map(|(t, triangle, b1, b2)| Hit { t, triangle, b1, b2, instance: blob::NONE })
+            .map(|(t, triangle, b1, b2)| Hit { t, triangle, b1, b2, instance: blob::NONE, time })
     };
     if accel.instances.is_empty() {
         return best;
     }
-    accel.instances.closest(origin, direction, tmax, best, node_kernel, block_kernel)
+    accel.instances.closest(origin, direction, tmax, time, best, node_kernel, block_kernel)
 }
 
 /// Any hit over the top-level triangles, then over the instances.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn two_level_any<
     N: Fn(&BvhNode, &NodeRay, f32) -> (u32, [f32; BVH_WIDTH]),
     B: Fn(&TriangleBlock, &WatertightRay, f32) -> BlockHits,
@@ -286,6 +308,7 @@ fn two_level_any<
     origin: Vec3,
     direction: Vec3,
     tmax: f32,
+    time: f32,
     node_kernel: &N,
     block_kernel: &B,
     blocks: &mut impl FnMut(u32, u32) -> bool,
@@ -297,7 +320,7 @@ fn two_level_any<
         }
     }
     !accel.instances.is_empty()
-        && accel.instances.any(origin, direction, tmax, node_kernel, block_kernel, blocks)
+        && accel.instances.any(origin, direction, tmax, time, node_kernel, block_kernel, blocks)
 }
 
 /// Test support, shared by the tests below and the integration tests' BVH checks (which cannot
@@ -466,7 +489,7 @@ mod tests {
         for triangle in 0..triangles as u32 {
             if let Some((t, b1, b2)) = wray.intersect(accel.triangle_vertices(triangle), f32::INFINITY) {
                 if best.is_none_or(|b| precedes(t, triangle, b.t, b.triangle)) {
-                    best = Some(Hit { t, triangle, b1, b2, instance: blob::NONE });
+                    best = Some(Hit { t, triangle, b1, b2, instance: blob::NONE, time: 0.0 });
                 }
             }
         }
@@ -518,7 +541,7 @@ mod tests {
             let node = |n: &BvhNode, r: &NodeRay, t: f32| Lanes::node(n, r, t);
             let block = |b: &TriangleBlock, r: &WatertightRay, t: f32| Lanes::block(b, r, t);
             closest(&mirrored_nodes, &mirrored_blocks, 0, origin, dir, f32::INFINITY, &node, &block)
-                .map(|(t, triangle, b1, b2)| Hit { t, triangle, b1, b2, instance: blob::NONE })
+                .map(|(t, triangle, b1, b2)| Hit { t, triangle, b1, b2, instance: blob::NONE, time: 0.0 })
         };
         let mut rng = testscene::Rng(5);
         let mut ties = 0;
@@ -671,7 +694,7 @@ mod tests {
             let on_three = (0..accel.instances().len() as u32).any(|i| {
                 i == 3
                     && accel.instances().prototype_triangles(i).any(|t| {
-                        let hit = Hit { t: 0.0, triangle: t, b1: 0.0, b2: 0.0, instance: i };
+                        let hit = Hit { t: 0.0, triangle: t, b1: 0.0, b2: 0.0, instance: i, time: 0.0 };
                         WatertightRay::new(origin, dir)
                             .intersect(accel.hit_vertices(&hit), f32::INFINITY)
                             .is_some()
@@ -701,7 +724,7 @@ mod tests {
                 .iter()
                 .position(|r| view.string(r.name) == format!("/S{i}"))
                 .unwrap();
-            let hit = Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: inst as u32 };
+            let hit = Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: inst as u32, time: 0.0 };
             for (n_local, n_world) in proto.normals.iter().zip(&mesh.normals) {
                 let n = accel.normal_to_world(&hit, *n_local).normalize();
                 assert!((n - *n_world).length() < 1e-5, "{n} vs {n_world}");

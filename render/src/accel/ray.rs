@@ -29,6 +29,9 @@ pub struct Hit {
     /// Index into the blob's instances when `triangle` is a prototype triangle (then `t`, `b1` and
     /// `b2` are the same in prototype and world space), or [`blob::NONE`] for a top-level triangle.
     pub instance: u32,
+    /// The ray's time (time codes from the frame): where a moving instance was when it was hit
+    /// ([`crate::accel::instanced::Instances::placement`]); 0 for an instantaneous shutter.
+    pub time: f32,
 }
 
 /// Offsets a surface point along its geometric normal `n` (pointing to the side the new ray leaves

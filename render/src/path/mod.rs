@@ -75,6 +75,8 @@ pub struct PathSettings {
     pub max_depth: u32,
     /// Texture filter.
     pub filter: Filter,
+    /// The shutter: every path's rays have the time [`crate::camera::Shutter::time`] gives its key.
+    pub shutter: crate::camera::Shutter,
 }
 
 /// How much a bounce off a lobe of GGX α widens a ray cone, radians per unit α. A diffuse bounce

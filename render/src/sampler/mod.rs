@@ -43,6 +43,9 @@ pub mod dim {
     /// Position on the camera's lens (2D, vertex 0 only; drawn only when the camera has depth of
     /// field, so pinhole images keep their numbers).
     pub const LENS: u32 = 10;
+    /// The camera ray's time inside the shutter (1D, vertex 0 only, the first of its own pair;
+    /// drawn only when the shutter is open, so images without motion blur keep their numbers).
+    pub const TIME: u32 = 12;
 }
 
 /// Sobol direction numbers for the first two dimensions, most significant bit first.

@@ -67,7 +67,7 @@ pub struct HitGroup {
 
 impl Default for HitGroup {
     fn default() -> Self {
-        let none = Hit { t: 0.0, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE };
+        let none = Hit { t: 0.0, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE, time: 0.0 };
         HitGroup {
             hits: [none; LANES],
             wo: [Vec3::ZERO; LANES],
@@ -312,16 +312,16 @@ fn gather_portable(scene: &Scene, group: &mut HitGroup) -> Present {
             (g.t[2][0][k], g.t[2][1][k]) = (uvs[v2][0], uvs[v2][1]);
         }
         if instanced {
-            gather_instance(scene, hit.instance, g, k);
+            gather_instance(scene, hit.instance, hit.time, g, k);
         }
     }
     Present { normals: any_normals, uvs: any_uvs, instanced: any_instanced }
 }
 
-/// Lane `k`'s instance transforms (instance `instance`) into the columns.
+/// Lane `k`'s instance transforms (instance `instance` at ray time `time`) into the columns.
 #[inline(always)]
-fn gather_instance(scene: &Scene, instance: u32, g: &mut Gathered, k: usize) {
-    let inst = scene.accel.instances().record(instance);
+fn gather_instance(scene: &Scene, instance: u32, time: f32, g: &mut Gathered, k: usize) {
+    let inst = scene.accel.instances().placement(instance, time);
     for r in 0..3 {
         for c in 0..4 {
             g.world_from_object[r][c][k] = inst.world_from_object[r][c];
@@ -665,7 +665,7 @@ mod avx2 {
             let mut rest = instanced_lanes;
             while rest != 0 {
                 let k = rest.trailing_zeros() as usize;
-                gather_instance(scene, hits[k].instance, g, k);
+                gather_instance(scene, hits[k].instance, hits[k].time, g, k);
                 rest &= rest - 1;
             }
             Some(Present { normals: any(has_normals), uvs: any(has_uvs), instanced: instanced_lanes != 0 })
@@ -761,7 +761,7 @@ mod tests {
                     random_unit(&mut rng)
                 };
                 let footprint = if rng.next_f32() < 0.1 { 0.0 } else { rng.range(0.0, 0.05) };
-                group.push(&Hit { t: 1.0, triangle, b1, b2, instance }, wo, footprint);
+                group.push(&Hit { t: 1.0, triangle, b1, b2, instance, time: 0.0 }, wo, footprint);
             }
             let mut got = Vec::new();
             for &gather in &gathers {
@@ -814,7 +814,11 @@ mod tests {
         let triangles = view.triangles.len() as u32;
         let mut group = HitGroup::default();
         for triangle in [0, 1, triangles - 1, 2] {
-            group.push(&Hit { t: 1.0, triangle, b1: 0.2, b2: 0.3, instance: blob::NONE }, Vec3::Z, 0.01);
+            group.push(
+                &Hit { t: 1.0, triangle, b1: 0.2, b2: 0.3, instance: blob::NONE, time: 0.0 },
+                Vec3::Z,
+                0.01,
+            );
         }
         // SAFETY: the CPU has AVX2 (tested above).
         assert!(unsafe { avx2::gather(&scene, &mut group) }.is_some());

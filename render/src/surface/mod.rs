@@ -162,8 +162,9 @@ fn triangle_surface(scene: &Scene, hit: &crate::accel::Hit, wo: Vec3, footprint:
     let positions = view.positions;
     let stored = [Vec3::from(positions[v0]), Vec3::from(positions[v1]), Vec3::from(positions[v2])];
     // World space, also for a prototype triangle (moved by its instance).
-    let instance = (hit.instance != blob::NONE).then(|| scene.accel.instances().record(hit.instance));
-    let [p0, p1, p2] = match instance {
+    let instance =
+        (hit.instance != blob::NONE).then(|| scene.accel.instances().placement(hit.instance, hit.time));
+    let [p0, p1, p2] = match &instance {
         Some(inst) => {
             let to_world = |p| crate::accel::instanced::point_to_world(inst, p);
             [to_world(stored[0]), to_world(stored[1]), to_world(stored[2])]
@@ -184,7 +185,7 @@ fn triangle_surface(scene: &Scene, hit: &crate::accel::Hit, wo: Vec3, footprint:
         let normals = &view.normals[..positions.len()];
         let [n0, n1, n2] = [Vec3::from(normals[v0]), Vec3::from(normals[v1]), Vec3::from(normals[v2])];
         let n = n0 * b0 + n1 * hit.b1 + n2 * hit.b2;
-        let n = match instance {
+        let n = match &instance {
             Some(inst) => crate::accel::instanced::normal_to_world(inst, n),
             None => n,
         };
@@ -391,13 +392,15 @@ impl<'a> Scene<'a> {
     /// from going black (no refraction offset, no focusing, no angle dependence). When some
     /// material's opacity is textured, the ray walks closest hits and evaluates opacity at each;
     /// otherwise one any-hit query answers. `light` is the light the ray goes to when the scene
-    /// has light sets: triangles that do not shadow it are not there (shadow linking).
+    /// has light sets: triangles that do not shadow it are not there (shadow linking). `time` is
+    /// the path's ray time (moving instances are where they are then).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shadow_transmittance<T: Touch>(
         &self,
         origin: Vec3,
         dir: Vec3,
         tmax: f32,
+        time: f32,
         seed: u32,
         delta: bool,
         light: Option<usize>,
@@ -430,7 +433,7 @@ impl<'a> Scene<'a> {
             let mut crossed = [(blob::NONE, blob::NONE); MAX_GLASS_CROSSINGS];
             let mut crossings = 0;
             let mut kept = 1.0f32;
-            let blocked = self.accel.any_hit(origin, dir, tmax, |tri, inst| {
+            let blocked = self.accel.any_hit_at(origin, dir, tmax, time, |tri, inst| {
                 if ignored(tri) {
                     return false;
                 }
@@ -460,7 +463,7 @@ impl<'a> Scene<'a> {
             if remaining <= 0.0 {
                 return kept;
             }
-            let Some(hit) = self.accel.closest_hit(o, dir, remaining) else { return kept };
+            let Some(hit) = self.accel.closest_hit_at(o, dir, remaining, time) else { return kept };
             let Some(s) = self.surface(&hit, -dir, 0.0) else { return 0.0 };
             if ignored(hit.triangle) {
                 o = offset_ray_origin(s.p, -s.ng);
@@ -501,7 +504,7 @@ impl<'a> Scene<'a> {
         // Any direction off the surface will do: emission is two-sided and only uv matters here.
         let wo = (p1 - p0).cross(p2 - p0).normalize_or_zero();
         // Emissive triangles are always top level (ingest never instances them).
-        let hit = crate::accel::Hit { t: 0.0, triangle: tri, b1, b2, instance: blob::NONE };
+        let hit = crate::accel::Hit { t: 0.0, triangle: tri, b1, b2, instance: blob::NONE, time: 0.0 };
         self.surface(&hit, wo, 0.0)
             .map_or(Vec3::ZERO, |s| self.shade(&s, filter, touch).emissive_color.max(Vec3::ZERO))
     }

@@ -583,7 +583,11 @@ fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads:
         scene: &scene,
         camera: &camera,
         sampling: &crate::film::Sampling::new(options, width, height, camera.forward()),
-        settings: crate::path::PathSettings { max_depth: options.max_depth, filter: options.texture_filter },
+        settings: crate::path::PathSettings {
+            max_depth: options.max_depth,
+            filter: options.texture_filter,
+            ..Default::default()
+        },
         touch: &texture::NoTouch,
         textured: scene.shading.textures().texel_bytes() > 0,
     };

@@ -31,7 +31,7 @@ use crate::camera::{self, CameraLanes, RayLanes};
 use crate::film::Tile;
 use crate::path::RayCounts;
 use crate::sampler::lanes as sampler_lanes;
-use crate::sampler::{dim, hash_u32, PairSeeds};
+use crate::sampler::{dim, hash_u32, PairSeeds, SampleKey};
 use glam::Vec3;
 use lanekit::LANES;
 
@@ -80,6 +80,7 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
         ctx.sampling.footprint_scale,
     );
     let seed_hash = hash_u32(ctx.sampling.seed);
+    let (shutter, seed) = (ctx.settings.shutter, ctx.sampling.seed);
     let has_lens = ctx.camera.lens().is_some();
     let mut jitter = [[0.0f32; LANES]; 2];
     let mut lens_uv = [[0.0f32; LANES]; 2];
@@ -119,6 +120,7 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
                     sample: keys.sample[k],
                     vertex: 0,
                     bounces: 0,
+                    time: shutter.time(SampleKey { pixel: keys.pixel[k], sample: keys.sample[k], seed }),
                 },
             );
         }
@@ -254,7 +256,7 @@ mod tests {
                 scene: &scene,
                 camera: &cam,
                 sampling: &crate::film::Sampling::new(&options, width, height, cam.forward()),
-                settings: PathSettings { max_depth: 4, filter: options.texture_filter },
+                settings: PathSettings { max_depth: 4, filter: options.texture_filter, ..Default::default() },
                 touch: &texture::NoTouch,
                 textured: false,
             };

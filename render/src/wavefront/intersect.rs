@@ -59,12 +59,19 @@ pub(super) fn closest<T: Touch>(
                 prefetch::entry(&pool.hits, next as usize);
             }
             let st = &pool.states[i as usize];
-            let hit = scene.accel.closest_hit(st.origin, st.dir, f32::INFINITY);
+            let hit = scene.accel.closest_hit_at(st.origin, st.dir, f32::INFINITY, st.time);
             let curve = scene.curves.closest_hit(st.origin, st.dir, hit.map_or(f32::INFINITY, |h| h.t));
             pool.hits[i as usize] = match (curve, hit) {
                 (Some(c), _) => {
                     pool.curve_hits[i as usize] = c;
-                    Hit { t: c.t, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE }
+                    Hit {
+                        t: c.t,
+                        triangle: blob::NONE,
+                        b1: 0.0,
+                        b2: 0.0,
+                        instance: blob::NONE,
+                        time: st.time,
+                    }
                 }
                 (None, Some(h)) => h,
                 (None, None) => MISS,
@@ -81,7 +88,8 @@ const RAY_LOOKAHEAD: usize = 2;
 
 /// A ray that met nothing: the only hit with an infinite `t` (a triangle or curve hit lies below
 /// the ray's infinite `tmax`).
-const MISS: Hit = Hit { t: f32::INFINITY, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE };
+const MISS: Hit =
+    Hit { t: f32::INFINITY, triangle: blob::NONE, b1: 0.0, b2: 0.0, instance: blob::NONE, time: 0.0 };
 
 /// The emission each ray of `batch` found: the area lights it crosses before its hit and, when it
 /// escaped, the dome and distant lights. Hits enter the shade queue; escaped paths leave the wave.

@@ -108,10 +108,12 @@ pub struct RayState {
     pub vertex: u32,
     /// Scattering events so far.
     pub bounces: u32,
+    /// The path's time in the shutter (every ray of the path, shadow rays included, is at it).
+    pub time: f32,
 }
 
 /// Size of [`RayState`] in bytes.
-pub const RAY_STATE_BYTES: usize = 92;
+pub const RAY_STATE_BYTES: usize = 96;
 const _: () = assert!(std::mem::size_of::<RayState>() == RAY_STATE_BYTES);
 
 impl RayState {
@@ -268,7 +270,10 @@ impl Worker {
         Worker {
             paths: PathPool {
                 states: Vec::with_capacity(paths),
-                hits: vec![Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: blob::NONE }; paths],
+                hits: vec![
+                    Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: blob::NONE, time: 0.0 };
+                    paths
+                ],
                 curve_hits: vec![crate::accel::curves::CurveHit::default(); paths],
                 first_hits: vec![None; paths],
                 shadow: vec![ShadowRay::default(); paths],

@@ -26,8 +26,9 @@ pub(super) fn any_hit<T: Touch>(
         }
         let r = &shadow[i as usize];
         let light = (r.light != blob::NONE).then_some(r.light as usize);
-        let kept =
-            scene.shadow_transmittance(r.origin, r.dir, r.tmax, r.seed, r.delta, light, filter, ctx.touch);
+        let time = states[i as usize].time;
+        let kept = scene
+            .shadow_transmittance(r.origin, r.dir, r.tmax, time, r.seed, r.delta, light, filter, ctx.touch);
         if kept > 0.0 && !scene.curves.any_hit(r.origin, r.dir, r.tmax) {
             states[i as usize].radiance += r.contribution * kept;
         }

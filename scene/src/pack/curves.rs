@@ -372,6 +372,7 @@ mod tests {
                 vertical_aperture_offset: 0.0,
                 clipping_range: [0.1, 1000.0],
                 lens: Default::default(),
+                shutter: [0.0; 2],
             }],
             default_camera: Some(0),
             resolution: Some([256, 256]),

@@ -20,8 +20,14 @@ pub(super) fn pack_instances(
         let first_mesh = data.meshes.len() as u32;
         let first_triangle = data.triangles.len();
         for &m in &prototype.meshes {
+            let mesh = &scene.meshes[m];
+            if mesh.motion.is_some() {
+                // A moving gprim's prototype is its world-space geometry at the frame.
+                layout.push(data, &mesh.in_world());
+                continue;
+            }
             // `plan` only lists meshes inside instances.
-            let Some(local) = scene.meshes[m].in_instance() else { continue };
+            let Some(local) = mesh.in_instance() else { continue };
             layout.push(data, &local);
         }
         let corners: Vec<[Vec3; 3]> = data.triangles[first_triangle..]
@@ -77,22 +83,44 @@ pub(super) fn pack_instances(
         let world_from_object = instance.world_from_prototype;
         let object_from_world = world_from_object.inverse();
         let name = data.add_string(&instance.path);
+        let motion = if instance.motion.is_empty() {
+            blob::NONE
+        } else {
+            let inst = &mut data.instancing;
+            inst.motions.push(blob::InstanceMotion {
+                first_key: inst.motion_keys.len() as u32,
+                key_count: instance.motion.len() as u32,
+                reserved: [0; 2],
+            });
+            inst.motion_keys.extend(instance.motion.iter().map(|k| blob::MotionKey {
+                time: k.time,
+                reserved: [0; 3],
+                world_from_object: affine_rows(&k.world_from_stored.as_mat4()),
+            }));
+            inst.motions.len() as u32 - 1
+        };
         data.instancing.instances.push(blob::Instance {
             world_from_object: affine_rows(&world_from_object.as_mat4()),
             object_from_world: affine_rows(&object_from_world.as_mat4()),
             prototype: instance.prototype,
             name,
-            reserved: 0,
+            motion,
         });
         // World bounds: the eight transformed corners of the prototype box, in f64, widened by a
-        // few ulps so the f32 box contains every f32-transformed vertex.
+        // few ulps so the f32 box contains every f32-transformed vertex. A moving instance's box is
+        // the union over its keys: between keys every point moves on a straight segment (the
+        // renderer interpolates matrices), which stays inside the union of its ends' boxes.
         let (lo, hi) = bounds[instance.prototype as usize];
         let (mut wlo, mut whi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for corner in 0..8 {
-            let pick = |axis: usize| (if corner & (1 << axis) == 0 { lo[axis] } else { hi[axis] }) as f64;
-            let p = world_from_object.transform_point3(DVec3::new(pick(0), pick(1), pick(2)));
-            wlo = wlo.min(p);
-            whi = whi.max(p);
+        let placements = std::iter::once(world_from_object)
+            .chain(instance.motion.iter().map(|k| k.world_from_stored.as_mat4().as_dmat4()));
+        for placement in placements {
+            for corner in 0..8 {
+                let pick = |axis: usize| (if corner & (1 << axis) == 0 { lo[axis] } else { hi[axis] }) as f64;
+                let p = placement.transform_point3(DVec3::new(pick(0), pick(1), pick(2)));
+                wlo = wlo.min(p);
+                whi = whi.max(p);
+            }
         }
         let pad = (whi - wlo).max_element().max(wlo.abs().max(whi.abs()).max_element()) * 1e-6;
         world_boxes.push(((wlo - pad).as_vec3(), (whi + pad).as_vec3()));
@@ -167,5 +195,49 @@ mod tests {
         assert_eq!(flat.triangles.len(), 100);
         assert!(flat.instancing.instances.is_empty());
         assert_eq!(data.encode(), crate::pack::pack(&quads(50)).unwrap().encode(), "deterministic bytes");
+    }
+
+    /// A moving gprim is its own prototype (its frame geometry) placed by one instance with the
+    /// keys; the top-level box spans every key; an emissive moving gprim stays in world space.
+    #[test]
+    fn a_moving_mesh_becomes_a_keyed_instance_bounded_over_its_keys() {
+        use crate::scene::{MotionKey, TransformMotion};
+        let key = |time: f32, x: f64| MotionKey {
+            time,
+            world_from_stored: DMat4::from_translation(DVec3::new(x, 0.0, 0.0)),
+        };
+        let moving = Mesh {
+            path: "/Card".into(),
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            triangles: vec![[0, 1, 2]],
+            triangle_materials: vec![0],
+            motion: Some(TransformMotion { keys: vec![key(-0.5, -2.0), key(0.0, 0.0), key(0.5, 3.0)] }),
+            ..Mesh::default()
+        };
+        let lamp = Mesh { triangle_materials: vec![1], path: "/Lamp".into(), ..moving.clone() };
+        let scene = Scene {
+            meshes: vec![moving, lamp],
+            materials: vec![
+                Material::default(),
+                Material { emissive_color: Vec3::ONE, ..Material::default() },
+            ],
+            meters_per_unit: 1.0,
+            ..Scene::default()
+        };
+        let data = crate::pack::pack(&scene).unwrap();
+        let inst = &data.instancing;
+        assert_eq!((inst.prototypes.len(), inst.instances.len(), inst.motions.len()), (1, 1, 1));
+        assert_eq!(data.triangles.len(), 2, "the lamp in world space, the card as a prototype");
+        assert_eq!(inst.instances[0].motion, 0);
+        assert_eq!(inst.instances[0].world_from_object[0][3], 0.0, "the placement at the frame");
+        let times: Vec<f32> = inst.motion_keys.iter().map(|k| k.time).collect();
+        assert_eq!(times, [-0.5, 0.0, 0.5]);
+        assert_eq!(inst.motion_keys[2].world_from_object[0][3], 3.0);
+        // The root's box over the one instance: x from −2 (key 0) to 1 + 3 (key 2).
+        let root = &inst.bvh_nodes[0];
+        let (lo, hi) = (root.bounds[0][0], root.bounds[3][0]);
+        assert!((lo + 2.0).abs() < 1e-4 && (hi - 4.0).abs() < 1e-4, "x bounds {lo}..{hi}");
+        let bytes = blob::AlignedBytes::copy_from(&data.encode());
+        blob::SceneView::parse(&bytes).expect("a valid blob");
     }
 }

@@ -148,6 +148,8 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
             aperture_blades: c.lens.aperture_blades,
             aperture_rotation: c.lens.aperture_rotation,
             world_from_camera: affine_rows(&c.world_from_camera),
+            shutter_open: c.shutter[0],
+            shutter_close: c.shutter[1],
         });
     }
 
@@ -387,6 +389,12 @@ fn shader_op(
 /// Emitted radiance used to weight a material's triangles in the light distribution: the constant,
 /// or for a textured `emissiveColor` the bound of `scale + bias` over texel values in `[0, 1]` (the
 /// estimate only steers sampling; the radiance itself is evaluated per point).
+/// Whether `m` emits (an upper bound on its emission is nonzero): such gprims stay in world space,
+/// where light sampling draws from them (see `crate::instancing`).
+pub fn emits(m: &crate::scene::Material) -> bool {
+    luminance(emission_estimate(m)) > 0.0
+}
+
 fn emission_estimate(m: &crate::scene::Material) -> Vec3 {
     let textured = m.program.iter().find_map(|n| match n {
         ShaderNode::Output { input: ShadingInput::EmissiveColor, src, .. } => Some(*src),

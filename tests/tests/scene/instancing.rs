@@ -218,13 +218,13 @@ fn point_instancer_entries_render_where_the_flattened_gprims_are() {
                     && m.path.ends_with(suffix)
             })
             .expect("flattened gprim of the entry");
-        let hit = render::Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: index as u32 };
+        let hit = render::Hit { t: 0.0, triangle: 0, b1: 0.0, b2: 0.0, instance: index as u32, time: 0.0 };
         let stored = &view.positions[mesh_record.first_vertex as usize
             ..(mesh_record.first_vertex + mesh_record.vertex_count) as usize];
         let world_copy = flattened.in_world();
         assert_eq!(stored.len(), world_copy.positions.len());
         for (p, world) in stored.iter().zip(&world_copy.positions) {
-            let q = accel.instances().to_world_point(hit.instance, glam::Vec3::from(*p));
+            let q = accel.instances().to_world_point(hit.instance, 0.0, glam::Vec3::from(*p));
             assert!((q - *world).length() < 1e-5, "entry {i}: {q} vs {world}");
         }
     }

@@ -89,6 +89,13 @@ pub struct Args {
     /// Render the camera as a pinhole, ignoring its depth of field (`fStop`).
     #[arg(long)]
     pub no_dof: bool,
+    /// Render without motion blur: every ray at the frame's time (overrides --shutter).
+    #[arg(long)]
+    pub no_motion_blur: bool,
+    /// The shutter OPEN,CLOSE in time codes from the frame, overriding the camera's
+    /// `shutter:open` / `shutter:close` (motion outside the ingested keys holds the end keys).
+    #[arg(long, value_name = "OPEN,CLOSE", value_parser = parse_shutter)]
+    pub shutter: Option<[f32; 2]>,
 }
 
 /// `render merge PARTS... -o OUT.exr`.
@@ -144,6 +151,21 @@ fn parse_crop(s: &str) -> Result<[f32; 4], String> {
         ));
     }
     Ok([x0, y0, x1, y1])
+}
+
+fn parse_shutter(s: &str) -> Result<[f32; 2], String> {
+    let values: Vec<f32> = s
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|e| format!("bad shutter {s:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    let [open, close] = values[..] else { return Err(format!("expected OPEN,CLOSE, got {s:?}")) };
+    let limit = blob::MAX_SHUTTER;
+    if !values.iter().all(|v| v.is_finite() && v.abs() <= limit) || open > close {
+        return Err(format!(
+            "shutter {s:?} must be OPEN,CLOSE with OPEN <= CLOSE, within ±{limit} time codes"
+        ));
+    }
+    Ok([open, close])
 }
 
 fn parse_filter(s: &str) -> Result<texture::Filter, String> {
@@ -274,6 +296,8 @@ impl Args {
                 max_memory: self.max_memory,
                 crop: self.crop,
                 depth_of_field: !self.no_dof,
+                motion_blur: !self.no_motion_blur,
+                shutter: self.shutter,
                 ..RenderOptions::default()
             }),
         })
@@ -304,6 +328,21 @@ mod tests {
         assert_eq!((options.spp, options.resolution, options.threads), (4, Some([64, 32]), 2));
         assert_eq!(options.integrator, render::Integrator::Wavefront);
         assert!(options.depth_of_field, "depth of field is on unless --no-dof");
+        let still = Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--no-motion-blur"]).unwrap();
+        let Command::Render { options: still, .. } = still.into_command().unwrap() else { panic!() };
+        assert!(!still.motion_blur && still.shutter.is_none());
+        let shutter =
+            Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--shutter=-0.25,0.5"]).unwrap();
+        let Command::Render { options: shutter, .. } = shutter.into_command().unwrap() else { panic!() };
+        assert_eq!((shutter.motion_blur, shutter.shutter), (true, Some([-0.25, 0.5])));
+        for bad in ["0.5,0.25", "nan,1", "1", "0,2e4"] {
+            let arg = format!("--shutter={bad}");
+            let err = Args::try_parse_from(["render", "s.blob", "-o", "o.exr", &arg]).unwrap_err();
+            assert!(
+                err.to_string().contains("shutter") || err.to_string().contains("OPEN,CLOSE"),
+                "{bad}: {err}"
+            );
+        }
         let pinhole = Args::try_parse_from(["render", "s.blob", "-o", "o.exr", "--no-dof"]).unwrap();
         let Command::Render { options, .. } = pinhole.into_command().unwrap() else { panic!() };
         assert!(!options.depth_of_field);
