@@ -62,5 +62,5 @@ pub mod scene;
 
 pub use scene::{
     BezierSegment, Camera, CurveKind, Curves, Lens, Light, LightKind, LightSet, Material, Mesh, PointSphere,
-    Scene, Subdivision, UpAxis, Warning,
+    RenderProduct, RenderVar, Scene, Subdivision, UpAxis, Warning,
 };

@@ -54,6 +54,34 @@ pub struct Scene {
     pub light_sets: Vec<LightSet>,
     /// Indices into `lights` of the lights camera rays do not see (ascending).
     pub camera_hidden_lights: Vec<usize>,
+    /// The RenderSettings' products, in `products` order (empty: render writes its beauty EXR alone).
+    pub render_products: Vec<RenderProduct>,
+    /// The light group of each light, indexed like `lights` (empty: no light authors one).
+    pub light_groups: Vec<Option<String>>,
+}
+
+/// A RenderProduct: one multi-layer EXR of its vars.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RenderProduct {
+    /// Prim path.
+    pub path: String,
+    /// `productName`: the file render writes.
+    pub name: String,
+    /// Its `orderedVars` that ingest understood, in order.
+    pub vars: Vec<RenderVar>,
+}
+
+/// A RenderVar: one layer of a product.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RenderVar {
+    /// Prim path (its last element names the EXR layer).
+    pub path: String,
+    /// `sourceName`.
+    pub source: String,
+    /// `sourceType`: a `blob::outputs::source_type` constant.
+    pub source_type: u32,
+    /// `dataType`: a `blob::outputs::data_type` constant.
+    pub data_type: u32,
 }
 
 /// A texture a bound material reads, already decoded and baked (mip chain, tiles) at read time, so

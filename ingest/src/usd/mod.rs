@@ -38,6 +38,7 @@ mod material;
 mod mesh;
 mod motion;
 mod mtlx_document;
+mod products;
 mod renderman;
 mod resolver;
 mod stage;
@@ -539,8 +540,16 @@ const UNSUPPORTED: &[&str] = &[
 ];
 
 /// Prim types whose subtrees never hold geometry we draw.
-const SHADING: &[&str] =
-    &["Material", "Shader", "NodeGraph", "GeomSubset", "RenderSettings", "RenderProduct"];
+const SHADING: &[&str] = &[
+    "Material",
+    "Shader",
+    "NodeGraph",
+    "GeomSubset",
+    "RenderSettings",
+    "RenderProduct",
+    "RenderVar",
+    "RenderPass",
+];
 
 struct Reader<'a> {
     stage: &'a Stage,
