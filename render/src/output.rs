@@ -213,19 +213,64 @@ pub(crate) fn write_channels(
     attributes: exr::prelude::LayerAttributes,
     channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
 ) -> Result<(), RenderError> {
+    write_layer(path, [image.width, image.height], image.frame, attributes, channels)
+}
+
+/// Writes one layer of `channels` of `size` pixels with `attributes` in a `frame` display window.
+fn write_layer(
+    path: &Path,
+    size: [u32; 2],
+    frame: [u32; 2],
+    attributes: exr::prelude::LayerAttributes,
+    channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
+) -> Result<(), RenderError> {
     use exr::prelude::*;
-    let size = (image.width as usize, image.height as usize);
+    let size = (size[0] as usize, size[1] as usize);
     let layer = Layer::new(
         size,
         attributes,
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
-    let frame = (image.frame[0] as usize, image.frame[1] as usize);
+    let frame = (frame[0] as usize, frame[1] as usize);
     // Sequential compression: exr's parallel writer emits blocks in completion order, so the same pixels
     // would give different file bytes from run to run.
     let image = exr::prelude::Image::new(ImageAttributes::new(IntegerBounds::from_dimensions(frame)), layer);
     write_atomic_with(path, |out| image.write().non_parallel().to_buffered(out).map_err(|e| e.to_string()))
+}
+
+/// Where a render product named `product_name` is written: as named when absolute, else beside
+/// `output` (the `-o` beauty), so a stage's relative `productName`s follow the render's output
+/// directory rather than the working directory.
+pub fn product_path(output: &Path, product_name: &str) -> PathBuf {
+    let name = Path::new(product_name);
+    if name.is_absolute() {
+        name.to_path_buf()
+    } else {
+        output_dir(output).join(name)
+    }
+}
+
+/// Writes one render product of `film` ([`crate::Accumulation::products`]): its `channels` as one
+/// layer named after the product's prim, with the film's data window in its frame.
+pub fn write_product(
+    path: &Path,
+    film: &crate::Accumulation,
+    product: &crate::aov::Product,
+    channels: Vec<(String, Vec<f32>)>,
+) -> Result<(), RenderError> {
+    use exr::prelude::*;
+    let name = product.path.rsplit('/').next().unwrap_or(&product.path);
+    let attributes = LayerAttributes {
+        layer_position: Vec2(film.window.x0 as i32, film.window.y0 as i32),
+        ..LayerAttributes::named(name)
+    };
+    let channels = channels
+        .into_iter()
+        .map(|(n, values)| AnyChannel::new(n.as_str(), FlatSamples::F32(values)))
+        .collect();
+    let size = [film.window.width(), film.window.height()];
+    write_layer(path, size, film.frame, attributes, channels)
 }
 
 /// The sRGB opto-electronic transfer function of a linear value in [0, 1].
