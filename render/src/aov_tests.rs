@@ -218,7 +218,7 @@ fn a_product_is_one_multi_layer_exr() {
     assert_eq!(path, dir.path().join("comp.exr"));
     let products = film.products();
     let (product, channels) = products.into_iter().next().unwrap();
-    crate::output::write_product(&path, &film, product, channels.clone()).unwrap();
+    crate::output::write_product(&path, &film, product, channels.clone(), &[]).unwrap();
     let read = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
     let layer = &read.layer_data[0];
     let mut names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
@@ -229,4 +229,129 @@ fn a_product_is_one_multi_layer_exr() {
     for (i, v) in expected.iter().enumerate() {
         assert_eq!(diffuse.sample_data.value_by_flat_index(i).to_f32(), *v);
     }
+}
+
+/// A card spanning `x0..x1` × −3..3 in z = 0, named `path`.
+fn strip(x0: f32, x1: f32, material: u32, path: &str) -> scene_pack::Mesh {
+    let mut m = card(0.0, 3.0, material);
+    m.positions = vec![
+        Vec3::new(x0, -3.0, 0.0),
+        Vec3::new(x1, -3.0, 0.0),
+        Vec3::new(x1, 3.0, 0.0),
+        Vec3::new(x0, 3.0, 0.0),
+    ];
+    m.path = path.into();
+    m
+}
+
+/// Two strips meeting at x = 0 under a sun, filling a 9×9 frame whose middle column is centred on
+/// the seam, with CryptoObject and CryptoMaterial layers.
+fn crypto_film(
+    integrator: Integrator,
+    spp: u32,
+) -> (Accumulation, Vec<(String, Vec<f32>)>, Vec<(String, String)>) {
+    let scene = Scene {
+        meshes: vec![strip(-3.0, 0.0, 0, "/World/left"), strip(0.0, 3.0, 1, "/World/right")],
+        materials: vec![
+            Material { path: "/Looks/grey".into(), ..lambert(0.5) },
+            Material { path: "/Looks/white".into(), ..lambert(0.9) },
+        ],
+        lights: vec![sun(1.0)],
+        cameras: vec![camera_looking_down_z(Vec3::new(0.0, 0.0, 3.0), 50.0)],
+        default_camera: Some(0),
+        render_products: vec![product(vec![
+            var("CryptoObject", "CryptoObject", st::RAW, dt::COLOR4),
+            var("CryptoMaterial", "crypto_material", st::RAW, dt::COLOR4),
+        ])],
+        ..Scene::default()
+    };
+    let bytes = testscene::bytes(&scene);
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    let scene = RenderScene::new(view);
+    let options =
+        RenderOptions { spp, resolution: Some([9, 9]), threads: 2, integrator, ..RenderOptions::default() };
+    let mut film = Accumulation::new(&scene, &options).unwrap();
+    film.render(&scene, &options, spp, &|_| {}).unwrap();
+    let products = film.products();
+    let (product, channels) = products.into_iter().next().unwrap();
+    let attributes = film.plan.attributes(product, &view);
+    (film.clone(), channels, attributes)
+}
+
+#[test]
+fn cryptomatte_coverage_splits_at_an_edge_and_the_manifest_names_the_ids() {
+    use crate::aov::cryptomatte::{id_of, key_of};
+    let (film, channels, attributes) = crypto_film(Integrator::Wavefront, 64);
+    let mut names: Vec<&str> = channels.iter().map(|(n, _)| n.as_str()).collect();
+    names.sort();
+    assert_eq!(names.len(), 24, "{names:?}");
+    assert!(names.contains(&"CryptoObject02.A") && names.contains(&"CryptoMaterial00.R"), "{names:?}");
+    let key = key_of("CryptoObject");
+    let find = |k: &str| attributes.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str());
+    assert_eq!(find(&format!("cryptomatte/{key}/name")), Some("CryptoObject"));
+    assert_eq!(find(&format!("cryptomatte/{key}/hash")), Some("MurmurHash3_32"));
+    assert_eq!(find(&format!("cryptomatte/{key}/conversion")), Some("uint32_to_float32"));
+    let manifest: serde_json::Value =
+        serde_json::from_str(find(&format!("cryptomatte/{key}/manifest")).unwrap()).unwrap();
+    let by_hex = |id: f32| {
+        let hex = format!("{:08x}", id.to_bits());
+        manifest.as_object().unwrap().iter().find(|(_, v)| v.as_str() == Some(&hex)).map(|(k, _)| k.clone())
+    };
+    let material_key = key_of("CryptoMaterial");
+    let materials: serde_json::Value =
+        serde_json::from_str(find(&format!("cryptomatte/{material_key}/manifest")).unwrap()).unwrap();
+    assert_eq!(materials["/Looks/white"], format!("{:08x}", id_of("/Looks/white")));
+    let c = |name: &str, i: usize| channel(&channels, name)[i];
+    for y in 0..9 {
+        for x in 0..9 {
+            let i = y * 9 + x;
+            let coverage: f32 = ["00.G", "00.A", "01.G", "01.A", "02.G", "02.A"]
+                .iter()
+                .map(|s| c(&format!("CryptoObject{s}"), i))
+                .sum();
+            assert_eq!(coverage, 1.0, "pixel ({x}, {y}) is covered");
+            let first = by_hex(c("CryptoObject00.R", i));
+            match x {
+                4 => {
+                    // The seam: about half the samples on each strip.
+                    let (a, b) = (c("CryptoObject00.G", i), c("CryptoObject00.A", i));
+                    assert!((a - 0.5).abs() < 0.15 && (b - 0.5).abs() < 0.15, "seam pixel {x},{y}: {a} {b}");
+                    let second = by_hex(c("CryptoObject00.B", i));
+                    let mut both = [first.unwrap(), second.unwrap()];
+                    both.sort();
+                    assert_eq!(both, ["/World/left", "/World/right"]);
+                }
+                _ => {
+                    let expected = if x < 4 { "/World/left" } else { "/World/right" };
+                    assert_eq!(first.as_deref(), Some(expected), "pixel {x},{y}");
+                    assert_eq!(c("CryptoObject00.G", i), 1.0);
+                    let material = if x < 4 { "/Looks/grey" } else { "/Looks/white" };
+                    assert_eq!(c("CryptoMaterial00.R", i).to_bits(), id_of(material));
+                }
+            }
+        }
+    }
+    let (scalar, ..) = crypto_film(Integrator::Scalar, 64);
+    assert_eq!(scalar.aov, film.aov, "both integrators give the Cryptomatte sums bit for bit");
+}
+
+#[test]
+fn a_cryptomatte_product_has_the_same_bytes_on_every_write() {
+    let (film, channels, attributes) = crypto_film(Integrator::Scalar, 4);
+    assert_eq!(attributes.len(), 8);
+    let dir = tempfile::tempdir().unwrap();
+    let product = &film.plan.products[0];
+    let mut files = Vec::new();
+    for i in 0..4 {
+        let path = dir.path().join(format!("crypto{i}.exr"));
+        // A fresh map per write, as a fresh process would have: the crate's order differs between them.
+        crate::output::write_product(&path, &film, product, channels.clone(), &attributes).unwrap();
+        files.push(std::fs::read(&path).unwrap());
+    }
+    assert!(files.windows(2).all(|w| w[0] == w[1]), "the product's bytes differ between writes");
+    let read = exr::prelude::read_all_flat_layers_from_file(dir.path().join("crypto0.exr")).unwrap();
+    let other = &read.layer_data[0].attributes.other;
+    let key = crate::aov::cryptomatte::key_of("CryptoMaterial");
+    let name = exr::prelude::Text::from(format!("cryptomatte/{key}/name").as_str());
+    assert_eq!(other.get(&name), Some(&exr::meta::attribute::AttributeValue::Text("CryptoMaterial".into())));
 }

@@ -177,6 +177,9 @@ impl Scene<'_> {
                     Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });
                 if let Some(a) = aov.as_deref_mut() {
                     a.position = s.p;
+                    if let Some(t) = self.view.triangles.get(s.triangle as usize) {
+                        a.first = Some([t.mesh, s.material]);
+                    }
                 }
             }
 

@@ -172,6 +172,11 @@ pub enum RawSource {
     Position,
     /// Samples per pixel (`sampleCount`, `samples`).
     SampleCount,
+    /// Cryptomatte ids and coverage of the gprims' prim paths (`CryptoObject`, `crypto_object`).
+    CryptoObject,
+    /// Cryptomatte ids and coverage of the bound materials' paths (`CryptoMaterial`,
+    /// `crypto_material`).
+    CryptoMaterial,
 }
 
 impl RawSource {
@@ -185,6 +190,8 @@ impl RawSource {
         (RawSource::Depth, &["depth", "z", "Z", "Pz"]),
         (RawSource::Position, &["P", "position"]),
         (RawSource::SampleCount, &["sampleCount", "samples"]),
+        (RawSource::CryptoObject, &["CryptoObject", "crypto_object"]),
+        (RawSource::CryptoMaterial, &["CryptoMaterial", "crypto_material"]),
     ];
 
     /// The source a `sourceName` asks for, if render computes it.

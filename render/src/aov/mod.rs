@@ -23,8 +23,9 @@
 //! * **Channel names**: the first `color` var of a product is its bare `R G B` (`A` with four
 //!   channels), as compositors expect of a file's main layer; every other var is the layer named
 //!   by its prim's last element: `diffuse.R diffuse.G diffuse.B`, `N.X N.Y N.Z`, `depth` for one
-//!   channel.
+//!   channel; a Cryptomatte var is its `<name>00` … `<name>02` RGBA layers ([`cryptomatte`]).
 
+pub mod cryptomatte;
 pub mod lpe;
 
 use crate::error::RenderError;
@@ -77,6 +78,10 @@ pub struct Plan {
     pub position: bool,
     /// Whether emission must be split by light (see the module docs).
     pub per_light: bool,
+    /// Whether a layer shows Cryptomatte objects, and materials.
+    pub crypto: [bool; 2],
+    /// The Cryptomatte id of each mesh's prim path, then of each material's path.
+    pub ids: [Vec<u32>; 2],
 }
 
 impl Plan {
@@ -108,6 +113,8 @@ impl Plan {
                     })?),
                 };
                 plan.position |= source == Source::Raw(RawSource::Position);
+                plan.crypto[0] |= source == Source::Raw(RawSource::CryptoObject);
+                plan.crypto[1] |= source == Source::Raw(RawSource::CryptoMaterial);
                 let main = source == Source::Raw(RawSource::Color) && !main_taken;
                 main_taken |= main;
                 let layer = var.rsplit('/').next().unwrap_or(&var).to_string();
@@ -117,14 +124,23 @@ impl Plan {
                     data_type::COLOR4 => &["R", "G", "B", "A"],
                     _ => &["X", "Y", "Z"],
                 };
-                let channels = suffixes
-                    .iter()
-                    .map(|s| match (main, s.is_empty()) {
-                        (true, _) => s.to_string(),
-                        (false, true) => layer.clone(),
-                        (false, false) => format!("{layer}.{s}"),
-                    })
+                let crypto =
+                    matches!(source, Source::Raw(RawSource::CryptoObject | RawSource::CryptoMaterial));
+                let crypto_channels = (0..cryptomatte::RANKS / 2)
+                    .flat_map(|k| ["R", "G", "B", "A"].map(|c| format!("{layer}{k:02}.{c}")))
                     .collect();
+                let channels = if crypto {
+                    crypto_channels
+                } else {
+                    suffixes
+                        .iter()
+                        .map(|s| match (main, s.is_empty()) {
+                            (true, _) => s.to_string(),
+                            (false, true) => layer.clone(),
+                            (false, false) => format!("{layer}.{s}"),
+                        })
+                        .collect()
+                };
                 layers.push(Layer { var, channels, source });
             }
             plan.products.push(Product {
@@ -132,6 +148,12 @@ impl Plan {
                 name: view.string(p.name).to_string(),
                 layers,
             });
+        }
+        if plan.crypto[0] {
+            plan.ids[0] = view.meshes.iter().map(|m| cryptomatte::id_of(view.string(m.name))).collect();
+        }
+        if plan.crypto[1] {
+            plan.ids[1] = view.materials.iter().map(|m| cryptomatte::id_of(view.string(m.name))).collect();
         }
         if !plan.expressions.is_empty() {
             let lights: Vec<LightNames> = view
@@ -172,9 +194,43 @@ impl Plan {
         self.stride() > 0
     }
 
-    /// `f32` sums per pixel: 3 per expression, then 3 for the position.
+    /// `f32` sums per pixel: 3 per expression, 3 for the position, then
+    /// [`cryptomatte::SLOTS`] (id, count) pairs for objects and for materials.
     pub fn stride(&self) -> usize {
-        3 * self.expressions.len() + if self.position { 3 } else { 0 }
+        self.crypto_offset(2)
+    }
+
+    /// Where Cryptomatte kind `kind`'s slots start in a pixel's sums (0 objects, 1 materials; 2 the
+    /// end).
+    fn crypto_offset(&self, kind: usize) -> usize {
+        let slots = 2 * cryptomatte::SLOTS;
+        let before = self.crypto[..kind].iter().filter(|&&c| c).count();
+        3 * self.expressions.len() + if self.position { 3 } else { 0 } + before * slots
+    }
+
+    /// The EXR header attributes of `product`: each Cryptomatte layer's name, hash, conversion and
+    /// manifest under `cryptomatte/<key>/` ([`cryptomatte`]), sorted by attribute name.
+    pub fn attributes(&self, product: &Product, view: &blob::SceneView) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        for layer in &product.layers {
+            let names: Vec<&str> = match layer.source {
+                Source::Raw(RawSource::CryptoObject) => {
+                    view.meshes.iter().map(|m| view.string(m.name)).collect()
+                }
+                Source::Raw(RawSource::CryptoMaterial) => {
+                    view.materials.iter().map(|m| view.string(m.name)).collect()
+                }
+                _ => continue,
+            };
+            let name = layer.var.rsplit('/').next().unwrap_or(&layer.var);
+            let key = format!("cryptomatte/{}", cryptomatte::key_of(name));
+            out.push((format!("{key}/name"), name.to_string()));
+            out.push((format!("{key}/hash"), "MurmurHash3_32".to_string()));
+            out.push((format!("{key}/conversion"), "uint32_to_float32".to_string()));
+            out.push((format!("{key}/manifest"), cryptomatte::manifest(names)));
+        }
+        out.sort();
+        out
     }
 
     /// A path record for this plan.
@@ -184,6 +240,7 @@ impl Plan {
             per_light: self.per_light,
             radiance: vec![Vec3::ZERO; self.expressions.len()],
             position: Vec3::ZERO,
+            first: None,
             state: lpe::DEAD,
         }
     }
@@ -204,6 +261,15 @@ impl Plan {
             s[0] += path.position.x;
             s[1] += path.position.y;
             s[2] += path.position.z;
+        }
+        if let Some(first) = path.first {
+            for kind in 0..2 {
+                let id = self.ids[kind].get(first[kind] as usize);
+                if let (true, Some(&id)) = (self.crypto[kind], id) {
+                    let at = self.crypto_offset(kind);
+                    cryptomatte::add(&mut sums[at..at + 2 * cryptomatte::SLOTS], id);
+                }
+            }
         }
     }
 
@@ -228,6 +294,21 @@ impl Plan {
                 let alpha = beauty[3];
                 let extra = aov.get(i * stride..(i + 1) * stride).unwrap_or(&[]);
                 let at = |k: usize| extra.get(k).copied().unwrap_or(0.0);
+                let crypto = match layer.source {
+                    Source::Raw(RawSource::CryptoObject) => Some(0),
+                    Source::Raw(RawSource::CryptoMaterial) => Some(1),
+                    _ => None,
+                };
+                if let Some(kind) = crypto {
+                    let at = self.crypto_offset(kind);
+                    let slots = extra.get(at..at + 2 * cryptomatte::SLOTS).unwrap_or(&[]);
+                    let ranks = cryptomatte::ranked(slots, samples);
+                    let flat = ranks.iter().flat_map(|&(id, c)| [id, c]);
+                    for (column, v) in columns.iter_mut().zip(flat) {
+                        column.push(v);
+                    }
+                    continue;
+                }
                 let value: [f32; 4] = match layer.source {
                     Source::Raw(RawSource::Color) => beauty,
                     Source::Raw(RawSource::Alpha) => [alpha; 4],
@@ -235,6 +316,7 @@ impl Plan {
                     Source::Raw(RawSource::Normal) => [normal[0], normal[1], normal[2], 0.0],
                     Source::Raw(RawSource::Depth) => [depth; 4],
                     Source::Raw(RawSource::SampleCount) => [samples as f32; 4],
+                    Source::Raw(RawSource::CryptoObject | RawSource::CryptoMaterial) => [0.0; 4],
                     Source::Raw(RawSource::Position) => {
                         // The mean over the samples that hit, as the depth's.
                         let hits = p.hits.max(1) as f32;
@@ -262,6 +344,8 @@ pub(crate) struct PathAovs<'p> {
     pub(crate) per_light: bool,
     pub(crate) radiance: Vec<Vec3>,
     pub(crate) position: Vec3,
+    /// The first hit's mesh and material (Cryptomatte), if it hit a triangle.
+    pub(crate) first: Option<[u32; 2]>,
     /// The automaton's state after the path's events so far.
     pub(crate) state: u32,
 }
@@ -271,6 +355,7 @@ impl PathAovs<'_> {
     pub(crate) fn begin(&mut self) {
         self.radiance.iter_mut().for_each(|r| *r = Vec3::ZERO);
         self.position = Vec3::ZERO;
+        self.first = None;
         self.state = self.lpe.map_or(lpe::DEAD, Automaton::start);
     }
 

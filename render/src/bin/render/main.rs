@@ -160,7 +160,8 @@ where
                     );
                 }
                 for ((product, channels), path) in film.products().into_iter().zip(&products) {
-                    render::output::write_product(path, &film, product, channels)?;
+                    let text = film.plan.attributes(product, &scene.view);
+                    render::output::write_product(path, &film, product, channels, &text)?;
                 }
             }
             let mut summary = render::stats::Summary::from_render(
