@@ -249,7 +249,7 @@ fn strip(x0: f32, x1: f32, material: u32, path: &str) -> scene_pack::Mesh {
 fn crypto_film(
     integrator: Integrator,
     spp: u32,
-) -> (Accumulation, Vec<(String, Vec<f32>)>, Vec<(String, String)>) {
+) -> (Accumulation, crate::aov::Channels, Vec<(String, String)>) {
     let scene = Scene {
         meshes: vec![strip(-3.0, 0.0, 0, "/World/left"), strip(0.0, 3.0, 1, "/World/right")],
         materials: vec![

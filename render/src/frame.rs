@@ -142,7 +142,7 @@ impl Accumulation {
 
     /// Each render product's channels (name, values of the window's pixels), in product order;
     /// nothing when the accumulation holds no product sums ([`Accumulation::plan`]).
-    pub fn products(&self) -> Vec<(&crate::aov::Product, Vec<(String, Vec<f32>)>)> {
+    pub fn products(&self) -> Vec<(&crate::aov::Product, crate::aov::Channels)> {
         let samples = self.sample_count();
         self.plan
             .products

@@ -206,7 +206,10 @@ impl Scene<'_> {
             let u = vertex_samples(seed_hash, key.pixel, key.sample, vertex);
             let d = |d: u32| u[d as usize];
             // The lobe this vertex chooses, labelling its light sample and its continuation.
-            let lobe = aov.as_ref().map(|_| lobe_event(&bsdf, &inputs, wo, s.ng, d(dim::LOBE), None));
+            let lobe = aov
+                .as_ref()
+                .filter(|a| a.lpe.is_some())
+                .map(|_| lobe_event(&bsdf, &inputs, wo, s.ng, d(dim::LOBE), None));
 
             // Next-event estimation. With light linking, a light that does not light this point
             // contributes nothing (its selection pdf unchanged), and its shadow rays ignore the

@@ -34,6 +34,9 @@ use blob::outputs::{data_type, source_type, RawSource};
 use glam::Vec3;
 use lpe::{Automaton, LightNames, Scatter};
 
+/// A product's channels: each name and its values, row-major over the window.
+pub type Channels = Vec<(String, Vec<f32>)>;
+
 /// What a layer shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Source {
@@ -263,8 +266,8 @@ impl Plan {
             s[2] += path.position.z;
         }
         if let Some(first) = path.first {
-            for kind in 0..2 {
-                let id = self.ids[kind].get(first[kind] as usize);
+            for (kind, &index) in first.iter().enumerate() {
+                let id = self.ids[kind].get(index as usize);
                 if let (true, Some(&id)) = (self.crypto[kind], id) {
                     let at = self.crypto_offset(kind);
                     cryptomatte::add(&mut sums[at..at + 2 * cryptomatte::SLOTS], id);
@@ -276,13 +279,7 @@ impl Plan {
     /// The channels of `product` over `pixels` pixels: each channel's name and values, from the
     /// beauty's sums `sums`, this plan's sums `aov` ([`Plan::stride`] per pixel) and the
     /// `samples` per pixel.
-    pub fn channels(
-        &self,
-        product: &Product,
-        sums: &[PixelSum],
-        aov: &[f32],
-        samples: u32,
-    ) -> Vec<(String, Vec<f32>)> {
+    pub fn channels(&self, product: &Product, sums: &[PixelSum], aov: &[f32], samples: u32) -> Channels {
         let stride = self.stride();
         let n_expr = self.expressions.len();
         let inv = 1.0 / samples.max(1) as f32;
