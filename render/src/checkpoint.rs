@@ -203,6 +203,16 @@ pub fn read_checkpoint(path: &Path) -> Result<(Accumulation, Provenance), Render
     {
         return Err(fail("its pixels are not inside its region, or its region not inside its frame".into()));
     }
-    let film = Accumulation { window, region, frame, first_sample, samples, sums, stats: Default::default() };
+    let film = Accumulation {
+        window,
+        region,
+        frame,
+        first_sample,
+        samples,
+        sums,
+        plan: Default::default(),
+        aov: Vec::new(),
+        stats: Default::default(),
+    };
     Ok((film, Provenance { blob, settings }))
 }

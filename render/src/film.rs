@@ -244,12 +244,18 @@ impl PixelSum {
 pub(crate) struct TileJob<'a> {
     pub(crate) tile: &'a Tile,
     pub(crate) sums: &'a [PixelSum],
+    /// The render's AOV plan and the tile's AOV sums so far ([`crate::aov::Plan::stride`] per pixel,
+    /// row-major; empty when the plan traces nothing).
+    pub(crate) plan: &'a crate::aov::Plan,
+    pub(crate) aov: &'a [f32],
 }
 
 /// What one tile's render hands back: its pixels' sums, continued from the sums it was given.
 pub(crate) struct TileResult {
     /// The tile's pixels, row-major.
     pub(crate) sums: Vec<PixelSum>,
+    /// The tile's AOV sums, continued from the job's.
+    pub(crate) aov: Vec<f32>,
     pub(crate) rays: RayCounts,
     /// Scalar integrator: the tile's phase times and shader count (the wavefront keeps them per worker).
     pub(crate) clock: Option<PhaseClock>,

@@ -62,6 +62,11 @@ pub struct Accumulation {
     pub samples: u32,
     /// The window's pixels, row-major.
     pub sums: Vec<PixelSum>,
+    /// The render products' layers ([`crate::aov`]); empty for an accumulation read back from a
+    /// checkpoint or merged from parts (they keep the beauty's sums alone).
+    pub plan: std::sync::Arc<crate::aov::Plan>,
+    /// The window's AOV sums, [`crate::aov::Plan::stride`] per pixel, row-major.
+    pub aov: Vec<f32>,
     /// Counters and timings of the passes so far.
     pub stats: RenderStats,
 }
@@ -72,7 +77,11 @@ impl Accumulation {
     pub fn new(scene: &Scene, options: &RenderOptions) -> Result<Self, RenderError> {
         let (window, region, frame) = plan(scene, options)?;
         let n = window.width() as usize * window.height() as usize;
+        let plan = crate::aov::Plan::new(&scene.view)?;
+        let aov = vec![0.0; n * plan.stride()];
         Ok(Accumulation {
+            plan: std::sync::Arc::new(plan),
+            aov,
             window,
             region,
             frame,
@@ -129,6 +138,17 @@ impl Accumulation {
     /// Samples per pixel held.
     pub fn sample_count(&self) -> u32 {
         self.samples - self.first_sample
+    }
+
+    /// Each render product's channels (name, values of the window's pixels), in product order;
+    /// nothing when the accumulation holds no product sums ([`Accumulation::plan`]).
+    pub fn products(&self) -> Vec<(&crate::aov::Product, crate::aov::Channels)> {
+        let samples = self.sample_count();
+        self.plan
+            .products
+            .iter()
+            .map(|p| (p, self.plan.channels(p, &self.sums, &self.aov, samples)))
+            .collect()
     }
 
     /// The pixels: each the mean of its [`Accumulation::sample_count`] samples.
@@ -357,6 +377,16 @@ fn render_pass<T: texture::Touch + Sync>(
             })
             .collect()
     };
+    let plan = &*film.plan;
+    let (aov, aov_stride) = (&film.aov, plan.stride());
+    let tile_aov = |tile: &crate::film::Tile| -> Vec<f32> {
+        (tile.y0..tile.y1)
+            .flat_map(|y| {
+                let row = ((y - window.y0) * stride + tile.x0 - window.x0) as usize * aov_stride;
+                aov[row..row + (tile.x1 - tile.x0) as usize * aov_stride].iter().copied()
+            })
+            .collect()
+    };
 
     let stages =
         std::sync::Mutex::new((StageSeconds::default(), Counters::default(), PhaseClock::new(false)));
@@ -371,7 +401,7 @@ fn render_pass<T: texture::Touch + Sync>(
                         &sampling,
                         settings,
                         options.phase_stats,
-                        TileJob { tile, sums: &tile_sums(tile) },
+                        TileJob { tile, sums: &tile_sums(tile), plan, aov: &tile_aov(tile) },
                         touch,
                     );
                     progress(counter.finish(tile));
@@ -413,7 +443,7 @@ fn render_pass<T: texture::Touch + Sync>(
                             let r = crate::wavefront::render(
                                 &ctx,
                                 &mut m.0,
-                                TileJob { tile, sums: &tile_sums(tile) },
+                                TileJob { tile, sums: &tile_sums(tile), plan, aov: &tile_aov(tile) },
                             );
                             progress(counter.finish(tile));
                             r
@@ -439,6 +469,8 @@ fn render_pass<T: texture::Touch + Sync>(
         for (row, y) in (tile.y0..tile.y1).enumerate() {
             let dst = ((y - window.y0) * stride + tile.x0 - window.x0) as usize;
             film.sums[dst..dst + tw].copy_from_slice(&r.sums[row * tw..(row + 1) * tw]);
+            let (a, at) = (aov_stride, dst * aov_stride);
+            film.aov[at..at + tw * a].copy_from_slice(&r.aov[row * tw * a..(row + 1) * tw * a]);
         }
         stats.rays.add(&r.rays);
         if let Some(c) = &r.clock {

@@ -38,6 +38,9 @@
 #![deny(missing_docs)]
 
 pub mod accel;
+pub mod aov;
+#[cfg(test)]
+mod aov_tests;
 pub mod bsdf;
 pub mod camera;
 pub mod checkpoint;

@@ -146,6 +146,8 @@ pub fn merge(parts: &[Part]) -> Result<(Accumulation, Provenance), RenderError> 
         first_sample: ranges[0][0],
         samples: ranges[ranges.len() - 1][1],
         sums: total.expect("at least one range"),
+        plan: Default::default(),
+        aov: Vec::new(),
         stats: Default::default(),
     };
     Ok((film, first.provenance.clone()))

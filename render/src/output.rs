@@ -213,19 +213,118 @@ pub(crate) fn write_channels(
     attributes: exr::prelude::LayerAttributes,
     channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
 ) -> Result<(), RenderError> {
+    write_layer(path, [image.width, image.height], image.frame, attributes, channels)
+}
+
+/// Writes one layer of `channels` of `size` pixels with `attributes` in a `frame` display window.
+fn write_layer(
+    path: &Path,
+    size: [u32; 2],
+    frame: [u32; 2],
+    attributes: exr::prelude::LayerAttributes,
+    channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
+) -> Result<(), RenderError> {
     use exr::prelude::*;
-    let size = (image.width as usize, image.height as usize);
+    let size = (size[0] as usize, size[1] as usize);
     let layer = Layer::new(
         size,
         attributes,
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
-    let frame = (image.frame[0] as usize, image.frame[1] as usize);
+    let frame = (frame[0] as usize, frame[1] as usize);
     // Sequential compression: exr's parallel writer emits blocks in completion order, so the same pixels
     // would give different file bytes from run to run.
     let image = exr::prelude::Image::new(ImageAttributes::new(IntegerBounds::from_dimensions(frame)), layer);
     write_atomic_with(path, |out| image.write().non_parallel().to_buffered(out).map_err(|e| e.to_string()))
+}
+
+/// Where a render product named `product_name` is written: as named when absolute, else beside
+/// `output` (the `-o` beauty), so a stage's relative `productName`s follow the render's output
+/// directory rather than the working directory.
+pub fn product_path(output: &Path, product_name: &str) -> PathBuf {
+    let name = Path::new(product_name);
+    if name.is_absolute() {
+        name.to_path_buf()
+    } else {
+        output_dir(output).join(name)
+    }
+}
+
+/// Writes one render product of `film` ([`crate::Accumulation::products`]): its `channels` as one
+/// layer named after the product's prim, with the film's data window in its frame, and the string
+/// header attributes `text` ([`crate::aov::Plan::attributes`]).
+///
+/// The exr crate keeps custom attributes in a `HashMap` and writes them in its iteration order,
+/// which changes from run to run; they are written as one contiguous run at the end of the header,
+/// so this reorders that run by name in the encoded bytes (the header keeps its length, so the
+/// offset table stays valid) and a product's bytes are the same on every run.
+pub fn write_product(
+    path: &Path,
+    film: &crate::Accumulation,
+    product: &crate::aov::Product,
+    channels: Vec<(String, Vec<f32>)>,
+    text: &[(String, String)],
+) -> Result<(), RenderError> {
+    use exr::prelude::*;
+    let fail = |message: String| RenderError::Output { path: path.to_path_buf(), message };
+    let name = product.path.rsplit('/').next().unwrap_or(&product.path);
+    let mut attributes = LayerAttributes {
+        layer_position: Vec2(film.window.x0 as i32, film.window.y0 as i32),
+        ..LayerAttributes::named(name)
+    };
+    for (key, value) in text {
+        let text = |s: &str| Text::from_slice_unchecked(s.as_bytes());
+        attributes.other.insert(text(key), AttributeValue::Text(text(value)));
+    }
+    let channels = channels
+        .into_iter()
+        .map(|(n, values)| AnyChannel::new(n.as_str(), FlatSamples::F32(values)))
+        .collect();
+    let layer = Layer::new(
+        (film.window.width() as usize, film.window.height() as usize),
+        attributes,
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
+    let frame = IntegerBounds::from_dimensions((film.frame[0] as usize, film.frame[1] as usize));
+    let image = exr::prelude::Image::new(ImageAttributes::new(frame), layer);
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    image.write().non_parallel().to_buffered(&mut bytes).map_err(|e| fail(e.to_string()))?;
+    let mut bytes = bytes.into_inner();
+    let names: Vec<&str> = text.iter().map(|(k, _)| k.as_str()).collect();
+    sort_text_attributes(&mut bytes, &names).map_err(fail)?;
+    write_atomic_with(path, |out| out.write_all(&bytes).map_err(|e| e.to_string()))
+}
+
+/// Sorts the string attributes `names` of an encoded single-part EXR by name, in place (see
+/// [`write_product`]). Each is found by its `name\0string\0` prefix; they must form one
+/// contiguous run.
+fn sort_text_attributes(bytes: &mut [u8], names: &[&str]) -> Result<(), String> {
+    if names.is_empty() {
+        return Ok(());
+    }
+    let mut records: Vec<(usize, usize, &str)> = Vec::new();
+    for &name in names {
+        let prefix = [name.as_bytes(), b"\0string\0"].concat();
+        let start = bytes
+            .windows(prefix.len())
+            .position(|w| w == prefix.as_slice())
+            .ok_or_else(|| format!("the EXR header lacks its attribute {name}"))?;
+        let size_at = start + prefix.len();
+        let size = bytes.get(size_at..size_at + 4).ok_or("a truncated EXR header")?;
+        let size = u32::from_le_bytes([size[0], size[1], size[2], size[3]]) as usize;
+        records.push((start, prefix.len() + 4 + size, name));
+    }
+    let begin = records.iter().map(|r| r.0).min().unwrap_or(0);
+    let end = records.iter().map(|r| r.0 + r.1).max().unwrap_or(0);
+    if records.iter().map(|r| r.1).sum::<usize>() != end - begin {
+        return Err("the EXR header's string attributes are not one run".into());
+    }
+    records.sort_by_key(|r| r.2);
+    let sorted: Vec<u8> = records.iter().flat_map(|&(at, len, _)| bytes[at..at + len].to_vec()).collect();
+    bytes[begin..end].copy_from_slice(&sorted);
+    Ok(())
 }
 
 /// The sRGB opto-electronic transfer function of a linear value in [0, 1].

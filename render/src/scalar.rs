@@ -8,6 +8,8 @@
 //! [`SampleKey`] ([`vertex_samples`] for a scattering vertex's), its vertex counter and a fixed dimension (see [`crate::sampler::dim`]), so the result is
 //! a pure function of the keys.
 
+use crate::aov::lpe::Scatter;
+use crate::aov::PathAovs;
 use crate::camera::Camera;
 use crate::camera::RayCone;
 use crate::film::{Sampling, TileJob, TileResult};
@@ -22,6 +24,7 @@ use crate::path::{
 use crate::sampler::{dim, hash_u32, sample_1d, sample_2d, shadow_seed, vertex_samples, SampleKey};
 use crate::scene::Scene;
 use crate::stats::{Phase, PhaseClock};
+use crate::surface::SurfaceBsdf;
 use glam::Vec3;
 use texture::{Filter, NoTouch, Touch};
 
@@ -61,6 +64,24 @@ impl Scene<'_> {
     #[allow(clippy::too_many_arguments)]
     pub fn trace_path_timed<T: Touch>(
         &self,
+        origin: Vec3,
+        dir: Vec3,
+        cone: RayCone,
+        key: SampleKey,
+        settings: &PathSettings,
+        rays: &mut RayCounts,
+        touch: &T,
+        clock: &mut PhaseClock,
+    ) -> PathResult {
+        self.trace_path_recording(origin, dir, cone, key, settings, rays, touch, clock, None)
+    }
+
+    /// [`Scene::trace_path_timed`] recording the path's AOVs in `aov` (light-path expressions,
+    /// position; see [`crate::aov`]), begun here. The beauty's operations are the same with or
+    /// without it.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn trace_path_recording<T: Touch>(
+        &self,
         mut origin: Vec3,
         mut dir: Vec3,
         mut cone: RayCone,
@@ -69,7 +90,11 @@ impl Scene<'_> {
         rays: &mut RayCounts,
         touch: &T,
         clock: &mut PhaseClock,
+        mut aov: Option<&mut PathAovs>,
     ) -> PathResult {
+        if let Some(a) = aov.as_deref_mut() {
+            a.begin();
+        }
         clock.lap(Phase::Overhead);
         let max_depth = settings.max_depth;
         let filter = settings.filter;
@@ -93,7 +118,11 @@ impl Scene<'_> {
             let curve_hit = self.curves.closest_hit(origin, dir, hit.map_or(f32::INFINITY, |h| h.t));
             let t_hit = curve_hit.map_or(hit.map_or(f32::INFINITY, |h| h.t), |c| c.t);
             clock.lap(Phase::Intersect);
-            radiance += beta * self.lights.area_emission_linked(origin, dir, t_hit, prev, prev_set);
+            let area = self.lights.area_emission_linked(origin, dir, t_hit, prev, prev_set);
+            radiance += beta * area;
+            if let Some(a) = aov.as_deref_mut() {
+                self.record_area_emission(a, beta, area, (origin, dir, t_hit), prev, prev_set);
+            }
             let wo = -dir;
             let footprint = cone.width_at(t_hit);
             let mut s = match (curve_hit, hit) {
@@ -103,7 +132,11 @@ impl Scene<'_> {
                     None => break,
                 },
                 (None, None) => {
-                    radiance += beta * self.lights.escaped_emission_linked(dir, prev.map(|p| p.1), prev_set);
+                    let escaped = self.lights.escaped_emission_linked(dir, prev.map(|p| p.1), prev_set);
+                    radiance += beta * escaped;
+                    if let Some(a) = aov.as_deref_mut() {
+                        self.record_escaped_emission(a, beta, escaped, dir, prev.map(|p| p.1), prev_set);
+                    }
                     // Shading, as the area emission above (the wavefront charges both there).
                     clock.lap(Phase::Shading);
                     break;
@@ -144,6 +177,12 @@ impl Scene<'_> {
             if result.first_hit.is_none() && bounces == 0 {
                 result.first_hit =
                     Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });
+                if let Some(a) = aov.as_deref_mut() {
+                    a.position = s.p;
+                    if let Some(t) = self.view.triangles.get(s.triangle as usize) {
+                        a.first = Some([t.mesh, s.material]);
+                    }
+                }
             }
 
             let le = inputs.emissive_color.max(Vec3::ZERO);
@@ -155,7 +194,11 @@ impl Scene<'_> {
                     }
                     _ => 1.0,
                 };
-                radiance += beta * le * w;
+                let emitted = beta * le * w;
+                radiance += emitted;
+                if let Some(a) = aov.as_deref_mut() {
+                    a.add_object(a.state, emitted);
+                }
             }
             if bounces >= max_depth {
                 break;
@@ -164,6 +207,11 @@ impl Scene<'_> {
             // Every other random number of the vertex, at once (the lanes draw the same).
             let u = vertex_samples(seed_hash, key.pixel, key.sample, vertex);
             let d = |d: u32| u[d as usize];
+            // The lobe this vertex chooses, labelling its light sample and its continuation.
+            let lobe = aov
+                .as_ref()
+                .filter(|a| a.lpe.is_some())
+                .map(|_| lobe_event(&bsdf, &inputs, wo, s.ng, d(dim::LOBE), None));
 
             // Next-event estimation. With light linking, a light that does not light this point
             // contributes nothing (its selection pdf unchanged), and its shadow rays ignore the
@@ -205,7 +253,26 @@ impl Scene<'_> {
                     }
                     clock.lap(Phase::Intersect);
                     if kept > 0.0 {
-                        radiance += weighed.contribution * kept;
+                        let c = weighed.contribution * kept;
+                        radiance += c;
+                        if let (Some(a), Some(lobe)) = (aov.as_deref_mut(), lobe) {
+                            let lobe = match bsdf {
+                                SurfaceBsdf::Glass(_) => {
+                                    lobe_event(&bsdf, &inputs, wo, s.ng, 0.0, Some(ls.wi))
+                                }
+                                _ => lobe,
+                            };
+                            let state = a.after(a.state, lobe);
+                            if ls.emitter.is_some()
+                                || self.lights.is_triangles(self.lights.selected(s.p, u_select))
+                            {
+                                a.add_object(state, c);
+                            } else if a.per_light {
+                                a.add_light(state, self.lights.selected(s.p, u_select), c);
+                            } else {
+                                a.add_light(state, 0, c);
+                            }
+                        }
                     }
                 }
             }
@@ -214,6 +281,13 @@ impl Scene<'_> {
             let u_lobe = d(dim::LOBE);
             let u_bsdf = [d(dim::BSDF_UV), d(dim::BSDF_UV + 1)];
             let Some(bs) = bsdf.sample(wo, u_lobe, u_bsdf) else { break };
+            if let (Some(a), Some(lobe)) = (aov.as_deref_mut(), lobe) {
+                let lobe = match bsdf {
+                    SurfaceBsdf::Glass(_) => lobe_event(&bsdf, &inputs, wo, s.ng, 0.0, Some(bs.wi)),
+                    _ => lobe,
+                };
+                a.state = a.after(a.state, lobe);
+            }
             prev = Some((s.p, bs.pdf));
             prev_set = set;
             bounces += 1;
@@ -250,15 +324,20 @@ pub(crate) fn render_tile<T: Touch>(
     job: TileJob<'_>,
     touch: &T,
 ) -> TileResult {
-    let TileJob { tile, sums: init } = job;
+    let TileJob { tile, sums: init, plan, aov: aov_init } = job;
     let Sampling { width, height, samples, forward, .. } = *sampling;
-    let mut out = TileResult { sums: init.to_vec(), rays: RayCounts::default(), clock: None };
+    let mut out =
+        TileResult { sums: init.to_vec(), aov: aov_init.to_vec(), rays: RayCounts::default(), clock: None };
+    let (traces, stride) = (plan.traces(), plan.stride());
+    let mut record = plan.path();
+    let mut aov_sums = out.aov.chunks_exact_mut(stride.max(1));
     let mut clock = PhaseClock::new(phase_stats);
     let mut sums = out.sums.iter_mut();
     for y in tile.y0..tile.y1 {
         for x in tile.x0..tile.x1 {
             let pixel = y * width + x;
             let Some(p) = sums.next() else { break };
+            let mut pixel_aov = if traces { aov_sums.next() } else { None };
             for sample in samples[0]..samples[1] {
                 let key = SampleKey { pixel, sample, seed: sampling.seed };
                 let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
@@ -272,7 +351,24 @@ pub(crate) fn render_tile<T: Touch>(
                 let mut cone = camera.pixel_cone(d.dot(forward));
                 cone.width *= sampling.footprint_scale;
                 cone.spread *= sampling.footprint_scale;
-                let r = scene.trace_path_timed(o, d, cone, key, &settings, &mut out.rays, touch, &mut clock);
+                let r = if let Some(pa) = pixel_aov.as_deref_mut() {
+                    let rec = Some(&mut record);
+                    let r = scene.trace_path_recording(
+                        o,
+                        d,
+                        cone,
+                        key,
+                        &settings,
+                        &mut out.rays,
+                        touch,
+                        &mut clock,
+                        rec,
+                    );
+                    plan.add(pa, r.radiance.is_finite(), &record);
+                    r
+                } else {
+                    scene.trace_path_timed(o, d, cone, key, &settings, &mut out.rays, touch, &mut clock)
+                };
                 p.add(r.radiance, &r.first_hit);
             }
         }
@@ -280,4 +376,87 @@ pub(crate) fn render_tile<T: Touch>(
     clock.lap(Phase::Overhead);
     out.clock = Some(clock);
     out
+}
+
+/// The scattering event of a vertex whose BSDF is `bsdf` seen from `wo` (geometric normal `ng`):
+/// for a UsdPreviewSurface the lobe its lobe sample `u_lobe` picks (the one [`SurfaceBsdf::sample`]
+/// picks with it); for glass, reflection or transmission by the side of `wi` (the light sample's or
+/// the sampled direction), glossy or singular by its roughness; hair is glossy reflection (its
+/// lobes are not told apart).
+pub(crate) fn lobe_event(
+    bsdf: &SurfaceBsdf,
+    inputs: &crate::shading::ShadingInputs,
+    wo: Vec3,
+    ng: Vec3,
+    u_lobe: f32,
+    wi: Option<Vec3>,
+) -> Scatter {
+    match bsdf {
+        SurfaceBsdf::Preview(b) => {
+            let start = b.seen_from(wo).sample_start(u_lobe, [0.5, 0.5]);
+            let alpha = if u_lobe < start.probs[0] + start.probs[1] { b.alpha } else { b.clearcoat_alpha };
+            Scatter::of(start.diffuse, alpha, false)
+        }
+        SurfaceBsdf::Glass(_) => {
+            let r = inputs.roughness.clamp(0.0, 1.0);
+            let alpha = (r * r).max(crate::bsdf::MIN_ALPHA);
+            let transmit = wi.is_some_and(|wi| (wi.dot(ng) > 0.0) != (wo.dot(ng) > 0.0));
+            Scatter::of(false, alpha, transmit)
+        }
+        SurfaceBsdf::Hair(_) => Scatter::ReflectGlossy,
+    }
+}
+
+impl Scene<'_> {
+    /// Records area-light emission `area` (the sum over the lights a segment crosses) reached with
+    /// throughput `beta` (see [`crate::aov`]: light by light only when the expressions need it).
+    fn record_area_emission(
+        &self,
+        a: &mut PathAovs,
+        beta: Vec3,
+        area: Vec3,
+        (origin, dir, t_hit): (Vec3, Vec3, f32),
+        prev: Option<(Vec3, f32)>,
+        prev_set: u32,
+    ) {
+        if area == Vec3::ZERO {
+            return;
+        }
+        if !a.per_light {
+            a.add_light(a.state, 0, beta * area);
+            return;
+        }
+        for light in 0..self.view.lights.len() {
+            let e = self.lights.area_emission_linked_of(origin, dir, t_hit, prev, prev_set, light);
+            if e != Vec3::ZERO {
+                a.add_light(a.state, light, beta * e);
+            }
+        }
+    }
+
+    /// Records the emission `escaped` of the lights at infinity an escaping ray sees (see
+    /// [`Scene::record_area_emission`]).
+    fn record_escaped_emission(
+        &self,
+        a: &mut PathAovs,
+        beta: Vec3,
+        escaped: Vec3,
+        dir: Vec3,
+        bsdf_pdf: Option<f32>,
+        prev_set: u32,
+    ) {
+        if escaped == Vec3::ZERO {
+            return;
+        }
+        if !a.per_light {
+            a.add_light(a.state, 0, beta * escaped);
+            return;
+        }
+        for light in 0..self.view.lights.len() {
+            let e = self.lights.escaped_emission_linked_of(dir, bsdf_pdf, prev_set, light);
+            if e != Vec3::ZERO {
+                a.add_light(a.state, light, beta * e);
+            }
+        }
+    }
 }

@@ -62,5 +62,5 @@ pub mod scene;
 
 pub use scene::{
     BezierSegment, Camera, CurveKind, Curves, Lens, Light, LightKind, LightSet, Material, Mesh, MotionKey,
-    PointSphere, Scene, Subdivision, TransformMotion, UpAxis, Warning,
+    PointSphere, RenderProduct, RenderVar, Scene, Subdivision, TransformMotion, UpAxis, Warning,
 };

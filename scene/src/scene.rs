@@ -57,6 +57,34 @@ pub struct Scene {
     /// Where this scene's origin lies in the stage's world space: every position here is
     /// `stage world − world_origin` (see `blob::SceneInfo::world_origin`).
     pub world_origin: DVec3,
+    /// The RenderSettings' products, in `products` order (empty: render writes its beauty EXR alone).
+    pub render_products: Vec<RenderProduct>,
+    /// The light group of each light, indexed like `lights` (empty: no light authors one).
+    pub light_groups: Vec<Option<String>>,
+}
+
+/// A RenderProduct: one multi-layer EXR of its vars.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RenderProduct {
+    /// Prim path.
+    pub path: String,
+    /// `productName`: the file render writes.
+    pub name: String,
+    /// Its `orderedVars` that ingest understood, in order.
+    pub vars: Vec<RenderVar>,
+}
+
+/// A RenderVar: one layer of a product.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RenderVar {
+    /// Prim path (its last element names the EXR layer).
+    pub path: String,
+    /// `sourceName`.
+    pub source: String,
+    /// `sourceType`: a `blob::outputs::source_type` constant.
+    pub source_type: u32,
+    /// `dataType`: a `blob::outputs::data_type` constant.
+    pub data_type: u32,
 }
 
 /// A texture a bound material reads, already decoded and baked (mip chain, tiles) at read time, so

@@ -161,6 +161,8 @@ impl Reader<'_> {
             shadow: self.read_light_collection(path, "shadowLink")?,
         };
         self.light_links.push(links);
+        let group = self.light_group(path)?;
+        self.scene.light_groups.push(group);
         if !self.light_camera_visible(path)? {
             self.scene.camera_hidden_lights.push(self.scene.lights.len());
         }
@@ -397,7 +399,7 @@ impl Reader<'_> {
         if let Some(window) = self.stage.attr(&settings, "dataWindowNDC")? {
             self.read_data_window(&settings, &window);
         }
-        Ok(())
+        self.read_render_products(&settings)
     }
 
     /// RenderSettings `dataWindowNDC`: kept when it is an upright rectangle within

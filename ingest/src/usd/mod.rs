@@ -39,6 +39,7 @@ mod mesh;
 mod motion;
 mod mtlx_document;
 mod origin;
+mod products;
 mod renderman;
 mod resolver;
 mod stage;
@@ -550,8 +551,16 @@ const UNSUPPORTED: &[&str] = &[
 ];
 
 /// Prim types whose subtrees never hold geometry we draw.
-const SHADING: &[&str] =
-    &["Material", "Shader", "NodeGraph", "GeomSubset", "RenderSettings", "RenderProduct"];
+const SHADING: &[&str] = &[
+    "Material",
+    "Shader",
+    "NodeGraph",
+    "GeomSubset",
+    "RenderSettings",
+    "RenderProduct",
+    "RenderVar",
+    "RenderPass",
+];
 
 struct Reader<'a> {
     stage: &'a Stage,

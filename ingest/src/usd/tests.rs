@@ -607,6 +607,71 @@ fn render_settings_data_windows() {
 }
 
 #[test]
+fn render_products_and_vars() {
+    let scene = load_text(&usda(
+        r#"def Camera "Cam" {}
+def DistantLight "Key" ( prepend apiSchemas = ["LightAPI"] ) { string lightGroup = "keys" }
+def SphereLight "Fill" {}
+def Scope "Render" {
+    def RenderSettings "Settings" {
+        rel products = [</Render/Comp>, </Render/Nameless>]
+    }
+    def RenderProduct "Comp" {
+        token productName = "comp.exr"
+        rel orderedVars = [</Render/Vars/diffuse>, </Render/Vars/N>, </Render/Vars/bogus>, </Render/Vars/prim>, </Render/Vars/odd>]
+    }
+    def RenderProduct "Nameless" {
+        rel orderedVars = [</Render/Vars/N>]
+    }
+    def Scope "Vars" {
+        def RenderVar "diffuse" {
+            uniform string sourceName = "C<RD>L"
+            uniform token sourceType = "lpe"
+        }
+        def RenderVar "N" {
+            uniform string sourceName = "N"
+            uniform token dataType = "normal3f"
+        }
+        def RenderVar "bogus" {
+            uniform string sourceName = "Ngarbage"
+        }
+        def RenderVar "prim" {
+            uniform string sourceName = "uv"
+            uniform token sourceType = "intrinsic"
+        }
+        def RenderVar "odd" {
+            uniform string sourceName = "albedo"
+            uniform token dataType = "matrix4d"
+        }
+    }
+}"#,
+    ));
+    assert_eq!(scene.render_products.len(), 1, "{:?}", scene.warnings);
+    let comp = &scene.render_products[0];
+    assert_eq!((comp.path.as_str(), comp.name.as_str()), ("/Render/Comp", "comp.exr"));
+    let vars: Vec<(&str, &str, u32, u32)> =
+        comp.vars.iter().map(|v| (v.path.as_str(), v.source.as_str(), v.source_type, v.data_type)).collect();
+    use blob::outputs::{data_type as dt, source_type as st};
+    assert_eq!(
+        vars,
+        [
+            ("/Render/Vars/diffuse", "C<RD>L", st::LPE, dt::COLOR3),
+            ("/Render/Vars/N", "N", st::RAW, dt::VECTOR3)
+        ]
+    );
+    assert!(
+        has_warning(&scene, "/Render/Vars/bogus", "sourceName \"Ngarbage\" is not a raw value"),
+        "{:?}",
+        scene.warnings
+    );
+    assert!(has_warning(&scene, "/Render/Vars/prim", "sourceType \"intrinsic\""), "{:?}", scene.warnings);
+    assert!(has_warning(&scene, "/Render/Vars/odd", "dataType \"matrix4d\""), "{:?}", scene.warnings);
+    assert!(has_warning(&scene, "/Render/Nameless", "no productName"), "{:?}", scene.warnings);
+    assert_eq!(scene.warnings.len(), 4, "one warning per prim: {:?}", scene.warnings);
+    assert_eq!(scene.light_groups, [Some("keys".to_string()), None]);
+}
+
+#[test]
 fn stage_metadata() {
     let scene = load_text("#usda 1.0\n(\n    upAxis = \"Z\"\n    metersPerUnit = 1\n)\n");
     assert_eq!(scene.up_axis, UpAxis::Z);

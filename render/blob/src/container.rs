@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 13;
+pub const FORMAT_VERSION: u32 = 14;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -177,6 +177,12 @@ section_kinds! {
     /// `u32` words of the light sets (light and shadow linking; format 8): see
     /// [`crate::light_set_words`] for the layout.
     LightSets = 70,
+    /// [`crate::RenderProduct`] (render outputs; format 14).
+    RenderProducts = 80,
+    /// [`crate::RenderVar`] of every product, concatenated.
+    RenderVars = 81,
+    /// [`crate::StrRef`] light group per light, or none.
+    LightGroups = 82,
 }
 
 /// Recomputes, in place, every section checksum whose section lies inside `bytes`, then the table's and

@@ -18,7 +18,7 @@
 //! ```
 //!
 //! Modules: [`records`] (the Pod records; the `MATH` shader op of MaterialX arithmetic, format 7), [`curves`] (curve and point records, format 2), [`instances`] (prototypes, instances and
-//! the top-level BVH, format 5), [`dome`] (textured dome lights' maps and distributions, format 6), `container` (header and section table), the light sets of light and shadow linking ([`light_set_words`], format 8), `scene` (encode and
+//! the top-level BVH, format 5), [`dome`] (textured dome lights' maps and distributions, format 6), `container` (header and section table), the light sets of light and shadow linking ([`light_set_words`], format 8), [`outputs`] (render products, vars and light groups, format 14), `scene` (encode and
 //! parse), [`tree`] (the structural proofs parse runs on every BVH and the float and size limits), `checksum`,
 //! `error`, `io` (atomic write, aligned buffers). [`reseal`] recomputes a mutated blob's checksums for
 //! tests and fuzzers.
@@ -32,6 +32,7 @@ pub mod dome;
 mod error;
 pub mod instances;
 mod io;
+pub mod outputs;
 pub mod records;
 mod scene;
 pub mod surface_inputs;
@@ -47,5 +48,6 @@ pub use instances::{
     Instance, InstanceData, InstanceMotion, InstanceView, MotionKey, Prototype, MAX_MOTION_KEYS,
 };
 pub use io::{write_atomic, AlignedBytes};
+pub use outputs::{OutputData, OutputView, RenderProduct, RenderVar};
 pub use records::*;
 pub use scene::{SceneData, SceneView};

@@ -66,6 +66,8 @@ pub struct SceneData {
     pub dome: crate::DomeData,
     /// Light sets (see [`crate::light_set_words`]); empty when nothing is linked.
     pub light_sets: Vec<u32>,
+    /// Render products, their vars and the lights' groups.
+    pub outputs: crate::OutputData,
 }
 
 impl SceneData {
@@ -120,6 +122,9 @@ impl SceneData {
             section(SectionKind::DomeMaps, &self.dome.maps),
             section(SectionKind::DomeCdfValues, &self.dome.cdf_values),
             section(SectionKind::LightSets, &self.light_sets),
+            section(SectionKind::RenderProducts, &self.outputs.products),
+            section(SectionKind::RenderVars, &self.outputs.vars),
+            section(SectionKind::LightGroups, &self.outputs.light_groups),
         ];
         let table_len = sections.len() * std::mem::size_of::<SectionEntry>();
         let mut cursor = align_up(std::mem::size_of::<Header>() + table_len);
@@ -227,6 +232,8 @@ pub struct SceneView<'a> {
     /// Light sets (see [`crate::light_set_words`]): a whole number of sets, no bit past the last
     /// light, every mesh's set in range (checked).
     pub light_sets: &'a [u32],
+    /// Render products, vars and light groups (checked: see [`crate::outputs`]).
+    pub outputs: crate::OutputView<'a>,
 }
 
 impl<'a> SceneView<'a> {
@@ -307,6 +314,11 @@ impl<'a> SceneView<'a> {
                 cdf_values: typed(bytes, get(SectionKind::DomeCdfValues)?, SectionKind::DomeCdfValues)?,
             },
             light_sets: typed(bytes, get(SectionKind::LightSets)?, SectionKind::LightSets)?,
+            outputs: crate::OutputView {
+                products: typed(bytes, get(SectionKind::RenderProducts)?, SectionKind::RenderProducts)?,
+                vars: typed(bytes, get(SectionKind::RenderVars)?, SectionKind::RenderVars)?,
+                light_groups: typed(bytes, get(SectionKind::LightGroups)?, SectionKind::LightGroups)?,
+            },
         };
         view.validate_indices()?;
         Ok(view)
@@ -545,6 +557,7 @@ impl<'a> SceneView<'a> {
         }
         self.dome.validate(self.texture_records.len()).or_else(|(i, what)| bad(K::DomeMaps, i, what))?;
         self.validate_light_sets()?;
+        self.outputs.validate(self.lights.len(), strings_ok).or_else(|(kind, i, what)| bad(kind, i, what))?;
         for (i, c) in self.cameras.iter().enumerate() {
             if !strings_ok(c.name) || c.projection > PROJECTION_ORTHOGRAPHIC {
                 return bad(K::Cameras, i, "bad name or unknown projection");
@@ -808,6 +821,9 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::MotionKeys => size_of::<crate::MotionKey>(),
         SectionKind::DomeMaps => size_of::<crate::DomeMap>(),
         SectionKind::DomeCdfValues => size_of::<f32>(),
+        SectionKind::RenderProducts => size_of::<crate::RenderProduct>(),
+        SectionKind::RenderVars => size_of::<crate::RenderVar>(),
+        SectionKind::LightGroups => size_of::<StrRef>(),
     }) as u32
 }
 

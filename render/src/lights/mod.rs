@@ -424,6 +424,53 @@ impl<'a> Lights<'a> {
         }
     }
 
+    /// [`Lights::area_emission_linked`] of light `only` alone: the light-path-expression AOVs split
+    /// emission by light when their expressions tell lights apart (`crate::aov`).
+    pub(crate) fn area_emission_linked_of(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        prev: Option<(Vec3, f32)>,
+        prev_set: u32,
+        only: usize,
+    ) -> Vec3 {
+        match (&self.links, prev) {
+            (Some(links), Some(_)) => {
+                self.area_emission_where(o, d, tmax, prev, |l| l == only && links.lights(prev_set, l))
+            }
+            (_, None) if !self.camera_hidden.is_empty() => {
+                self.area_emission_where(o, d, tmax, prev, |l| l == only && self.camera_sees(l))
+            }
+            _ => self.area_emission_where(o, d, tmax, prev, |l| l == only),
+        }
+    }
+
+    /// [`Lights::escaped_emission_linked`] of light `only` alone (see
+    /// [`Lights::area_emission_linked_of`]).
+    pub(crate) fn escaped_emission_linked_of(
+        &self,
+        d: Vec3,
+        bsdf_pdf: Option<f32>,
+        prev_set: u32,
+        only: usize,
+    ) -> Vec3 {
+        let mut sum = [Vec3::ZERO];
+        match (&self.links, bsdf_pdf) {
+            (Some(links), Some(_)) => self.escaped_emission_where(&[d], &[bsdf_pdf], &mut sum, |_, l| {
+                l == only && links.lights(prev_set, l)
+            }),
+            _ => self.escaped_emission_where(&[d], &[bsdf_pdf], &mut sum, |_, l| l == only),
+        }
+        sum[0]
+    }
+
+    /// Whether light `index` of [`Lights::selected`] is the emissive triangles (an `O` event of
+    /// the light-path expressions) rather than a UsdLux light.
+    pub(crate) fn is_triangles(&self, index: usize) -> bool {
+        self.lights.get(index).is_some_and(|l| matches!(l.shape, Shape::Triangles))
+    }
+
     /// [`Lights::area_emission`] over the lights `lit(light)` accepts (indices into
     /// [`Lights::lights`]), in the same order.
     #[inline(always)]

@@ -31,5 +31,5 @@ pub(super) fn chunk(film: &mut [PixelSum], pool: &PathPool, samples: usize) {
 
 /// The tile's sums.
 pub(super) fn finish(pixels: &[PixelSum], rays: RayCounts) -> TileResult {
-    TileResult { sums: pixels.to_vec(), rays, clock: None }
+    TileResult { sums: pixels.to_vec(), aov: Vec::new(), rays, clock: None }
 }

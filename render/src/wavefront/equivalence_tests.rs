@@ -615,7 +615,16 @@ fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads:
                         .step_by(threads)
                         .map(|(t, tile)| {
                             let fresh = vec![crate::film::PixelSum::default(); npix(tile)];
-                            let r = super::render(ctx, &mut w, crate::film::TileJob { tile, sums: &fresh });
+                            let r = super::render(
+                                ctx,
+                                &mut w,
+                                crate::film::TileJob {
+                                    tile,
+                                    sums: &fresh,
+                                    plan: &Default::default(),
+                                    aov: &[],
+                                },
+                            );
                             assert!(w.queues.occlusion.is_empty(), "a tile left shadow rays queued");
                             (t, r)
                         })

@@ -355,7 +355,14 @@ impl Worker {
 /// Renders one tile breadth-first: per chunk of samples, waves of intersect, sort, shade and occlusion
 /// until no path is left.
 pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, job: TileJob<'_>) -> TileResult {
-    let TileJob { tile, sums: init } = job;
+    if job.plan.traces() {
+        // Light-path expressions and position AOVs are traced by the scalar integrator's code for
+        // the tile (its AOVs and beauty are the reference's by construction): the lanes do not
+        // carry an automaton state yet.
+        let (scene, camera, sampling, settings) = (ctx.scene, ctx.camera, ctx.sampling, ctx.settings);
+        return crate::scalar::render_tile(scene, camera, sampling, settings, false, job, ctx.touch);
+    }
+    let TileJob { tile, sums: init, .. } = job;
     let Worker { paths, queues, kernels, tables, film, stats } = w;
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
     let [first, end] = ctx.sampling.samples.map(|s| s as usize);

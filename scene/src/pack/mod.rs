@@ -173,6 +173,7 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
     bounds_max = bounds_max.max(curves_max);
 
     data.light_sets = light_set_words(scene);
+    pack_outputs(scene, &mut data);
     data.info = rec::SceneInfo {
         bounds_min: bounds_min.to_array(),
         bounds_max: bounds_max.to_array(),
@@ -191,6 +192,36 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
         world_origin: scene.world_origin.to_array(),
     };
     Ok(data)
+}
+
+/// The render products, their vars and the light groups as blob records (see `blob::outputs`).
+fn pack_outputs(scene: &Scene, data: &mut blob::SceneData) {
+    for product in &scene.render_products {
+        let record = blob::RenderProduct {
+            path: data.add_string(&product.path),
+            name: data.add_string(&product.name),
+            first_var: data.outputs.vars.len() as u32,
+            var_count: product.vars.len() as u32,
+        };
+        for var in &product.vars {
+            let var = blob::RenderVar {
+                path: data.add_string(&var.path),
+                source: data.add_string(&var.source),
+                source_type: var.source_type,
+                data_type: var.data_type,
+                reserved: [0; 2],
+            };
+            data.outputs.vars.push(var);
+        }
+        data.outputs.products.push(record);
+    }
+    if scene.light_groups.iter().any(Option::is_some) {
+        for i in 0..scene.lights.len() {
+            let group = scene.light_groups.get(i).cloned().flatten().unwrap_or_default();
+            let group = data.add_string(&group);
+            data.outputs.light_groups.push(group);
+        }
+    }
 }
 
 /// Converts the materials to blob records, storing each class of materials with the same

@@ -75,6 +75,19 @@ where
             ..
         } => {
             let scene = render::Scene::new(view);
+            // The products' files, checked like the other outputs before any work.
+            let products: Vec<std::path::PathBuf> = scene
+                .view
+                .outputs
+                .products
+                .iter()
+                .map(|p| render::output::product_path(&output, scene.view.string(p.name)))
+                .collect();
+            if !products.is_empty() {
+                let mut outputs = vec![("-o", output.as_path())];
+                outputs.extend(products.iter().map(|p| ("a RenderProduct", p.as_path())));
+                render::output::check_outputs(&blob_path, &outputs)?;
+            }
             if !scene.has_light() {
                 eprintln!(
                     "render: warning: {} has no light (no UsdLux light, no emissive surface): the image is black",
@@ -138,6 +151,18 @@ where
             }
             if let Some(png) = &png {
                 render::write_png(png, &image)?;
+            }
+            if !products.is_empty() && film.samples >= spp && !part {
+                if film.plan.products.is_empty() {
+                    eprintln!(
+                        "render: warning: the resumed render holds the beauty's sums alone; its {} RenderProducts are not written",
+                        products.len()
+                    );
+                }
+                for ((product, channels), path) in film.products().into_iter().zip(&products) {
+                    let text = film.plan.attributes(product, &scene.view);
+                    render::output::write_product(path, &film, product, channels, &text)?;
+                }
             }
             let mut summary = render::stats::Summary::from_render(
                 &image.stats,

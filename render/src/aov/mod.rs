@@ -1,0 +1,402 @@
+//! Arbitrary output variables from the blob's RenderProducts and RenderVars: what each product's
+//! layers are ([`Plan`]), what a path records for them beyond the beauty ([`PathAovs`]), the
+//! per-pixel sums they add up to, and the channels of each product's multi-layer EXR
+//! ([`Plan::channels`]).
+//!
+//! Design:
+//! * **Raw sources** the beauty's own sums already hold (colour, alpha, albedo, normal, depth,
+//!   sample count) cost nothing: they are read from [`PixelSum`]. Position and the light-path
+//!   expressions add `f32` sums of their own, [`Plan::stride`] per pixel, added in sample order like
+//!   the beauty's, so any split into tiles, passes or threads gives the same bits.
+//! * **Light-path expressions** of every var compile into one automaton ([`lpe::Automaton`]); a path
+//!   carries one `u32` state, stepped at each scattering vertex by the lobe the vertex chose (its
+//!   lobe sample: diffuse or specular, reflection or transmission), and at each emission (emission
+//!   found by BSDF sampling, next-event estimation) the contribution — the same value the beauty
+//!   adds — goes to every expression that accepts. A vertex's light sample is labelled with the lobe
+//!   that vertex chose for its continuation (glass: by the side the light is on), so the lobe
+//!   AOVs of one sample add up to its beauty exactly (up to float rounding of the different sums),
+//!   and each lobe AOV is the expected share of its lobe where the lobe's selection probability
+//!   follows its value (the diffuse of a Lambertian surface is exact).
+//! * **Emission by light**: only when the expressions tell lights apart (a label naming a group
+//!   or a light) is emission found by BSDF sampling evaluated light by light; otherwise the summed
+//!   emission takes the one mask all lights share.
+//! * **Channel names**: the first `color` var of a product is its bare `R G B` (`A` with four
+//!   channels), as compositors expect of a file's main layer; every other var is the layer named
+//!   by its prim's last element: `diffuse.R diffuse.G diffuse.B`, `N.X N.Y N.Z`, `depth` for one
+//!   channel; a Cryptomatte var is its `<name>00` … `<name>02` RGBA layers ([`cryptomatte`]).
+
+pub mod cryptomatte;
+pub mod lpe;
+
+use crate::error::RenderError;
+use crate::film::PixelSum;
+use blob::outputs::{data_type, source_type, RawSource};
+use glam::Vec3;
+use lpe::{Automaton, LightNames, Scatter};
+
+/// A product's channels: each name and its values, row-major over the window.
+pub type Channels = Vec<(String, Vec<f32>)>;
+
+/// What a layer shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// A raw value.
+    Raw(RawSource),
+    /// Light-path expression `i` of the automaton.
+    Lpe(usize),
+}
+
+/// One layer of a product.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layer {
+    /// The RenderVar's prim path.
+    pub var: String,
+    /// Its channel names, in component order.
+    pub channels: Vec<String>,
+    /// What it shows.
+    pub source: Source,
+}
+
+/// One product: a file and its layers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Product {
+    /// The RenderProduct's prim path.
+    pub path: String,
+    /// `productName`: the file to write.
+    pub name: String,
+    /// Its layers in `orderedVars` order.
+    pub layers: Vec<Layer>,
+}
+
+/// The render's outputs beyond the beauty EXR.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Plan {
+    /// The products.
+    pub products: Vec<Product>,
+    /// The automaton of every LPE var (each distinct expression once), if there is one.
+    pub lpe: Option<Automaton>,
+    /// The distinct expressions, in automaton order.
+    pub expressions: Vec<String>,
+    /// Whether a layer shows the first-hit position.
+    pub position: bool,
+    /// Whether emission must be split by light (see the module docs).
+    pub per_light: bool,
+    /// Whether a layer shows Cryptomatte objects, and materials.
+    pub crypto: [bool; 2],
+    /// The Cryptomatte id of each mesh's prim path, then of each material's path.
+    pub ids: [Vec<u32>; 2],
+    /// The blob's world origin: the position layer adds it back, so `P` is in the stage's world
+    /// space although the blob's positions are camera-relative.
+    pub world_origin: [f64; 3],
+}
+
+impl Plan {
+    /// The plan of a validated blob; an LPE that does not parse is an error naming its var.
+    pub fn new(view: &blob::SceneView) -> Result<Self, RenderError> {
+        let mut plan = Plan { world_origin: view.info.world_origin, ..Plan::default() };
+        for p in view.outputs.products {
+            let vars = &view.outputs.vars[p.first_var as usize..(p.first_var + p.var_count) as usize];
+            let mut layers = Vec::new();
+            let mut main_taken = false;
+            for v in vars {
+                let var = view.string(v.path).to_string();
+                let source_name = view.string(v.source);
+                let source = match v.source_type {
+                    source_type::LPE => {
+                        let e = source_name.strip_prefix("lpe:").unwrap_or(source_name).to_string();
+                        let i = plan.expressions.iter().position(|x| *x == e).unwrap_or_else(|| {
+                            plan.expressions.push(e);
+                            plan.expressions.len() - 1
+                        });
+                        Source::Lpe(i)
+                    }
+                    // Ingest stores only the raw names it recognised; a crafted blob's other names are
+                    // refused here rather than written as zeros.
+                    _ => Source::Raw(RawSource::from_name(source_name).ok_or_else(|| {
+                        RenderError::InvalidOption(format!(
+                            "RenderVar {var}: sourceName {source_name:?} is not a raw value render computes"
+                        ))
+                    })?),
+                };
+                plan.position |= source == Source::Raw(RawSource::Position);
+                plan.crypto[0] |= source == Source::Raw(RawSource::CryptoObject);
+                plan.crypto[1] |= source == Source::Raw(RawSource::CryptoMaterial);
+                let main = source == Source::Raw(RawSource::Color) && !main_taken;
+                main_taken |= main;
+                let layer = var.rsplit('/').next().unwrap_or(&var).to_string();
+                let suffixes: &[&str] = match v.data_type {
+                    data_type::FLOAT => &[""],
+                    data_type::COLOR3 => &["R", "G", "B"],
+                    data_type::COLOR4 => &["R", "G", "B", "A"],
+                    _ => &["X", "Y", "Z"],
+                };
+                let crypto =
+                    matches!(source, Source::Raw(RawSource::CryptoObject | RawSource::CryptoMaterial));
+                let crypto_channels = (0..cryptomatte::RANKS / 2)
+                    .flat_map(|k| ["R", "G", "B", "A"].map(|c| format!("{layer}{k:02}.{c}")))
+                    .collect();
+                let channels = if crypto {
+                    crypto_channels
+                } else {
+                    suffixes
+                        .iter()
+                        .map(|s| match (main, s.is_empty()) {
+                            (true, _) => s.to_string(),
+                            (false, true) => layer.clone(),
+                            (false, false) => format!("{layer}.{s}"),
+                        })
+                        .collect()
+                };
+                layers.push(Layer { var, channels, source });
+            }
+            plan.products.push(Product {
+                path: view.string(p.path).to_string(),
+                name: view.string(p.name).to_string(),
+                layers,
+            });
+        }
+        if plan.crypto[0] {
+            plan.ids[0] = view.meshes.iter().map(|m| cryptomatte::id_of(view.string(m.name))).collect();
+        }
+        if plan.crypto[1] {
+            plan.ids[1] = view.materials.iter().map(|m| cryptomatte::id_of(view.string(m.name))).collect();
+        }
+        if !plan.expressions.is_empty() {
+            let lights: Vec<LightNames> = view
+                .lights
+                .iter()
+                .enumerate()
+                .map(|(i, l)| LightNames {
+                    group: view
+                        .outputs
+                        .light_groups
+                        .get(i)
+                        .map(|&g| view.string(g).to_string())
+                        .filter(|g| !g.is_empty()),
+                    path: view.string(l.name).to_string(),
+                })
+                .collect();
+            let exprs: Vec<&str> = plan.expressions.iter().map(String::as_str).collect();
+            let automaton = Automaton::compile(&exprs, &lights).map_err(|e| {
+                let var = plan
+                    .products
+                    .iter()
+                    .flat_map(|p| &p.layers)
+                    .find(|l| {
+                        l.source
+                            == Source::Lpe(exprs.iter().position(|x| e.expression.contains(x)).unwrap_or(0))
+                    })
+                    .map_or(String::new(), |l| l.var.clone());
+                RenderError::InvalidOption(format!("RenderVar {var}: {e}"))
+            })?;
+            plan.per_light = automaton.light_classes() > 1;
+            plan.lpe = Some(automaton);
+        }
+        Ok(plan)
+    }
+
+    /// Whether the paths must record anything for this plan beyond the beauty's sums.
+    pub fn traces(&self) -> bool {
+        self.stride() > 0
+    }
+
+    /// `f32` sums per pixel: 3 per expression, 3 for the position, then
+    /// [`cryptomatte::SLOTS`] (id, count) pairs for objects and for materials.
+    pub fn stride(&self) -> usize {
+        self.crypto_offset(2)
+    }
+
+    /// Where Cryptomatte kind `kind`'s slots start in a pixel's sums (0 objects, 1 materials; 2 the
+    /// end).
+    fn crypto_offset(&self, kind: usize) -> usize {
+        let slots = 2 * cryptomatte::SLOTS;
+        let before = self.crypto[..kind].iter().filter(|&&c| c).count();
+        3 * self.expressions.len() + if self.position { 3 } else { 0 } + before * slots
+    }
+
+    /// The EXR header attributes of `product`: each Cryptomatte layer's name, hash, conversion and
+    /// manifest under `cryptomatte/<key>/` ([`cryptomatte`]), sorted by attribute name.
+    pub fn attributes(&self, product: &Product, view: &blob::SceneView) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        for layer in &product.layers {
+            let names: Vec<&str> = match layer.source {
+                Source::Raw(RawSource::CryptoObject) => {
+                    view.meshes.iter().map(|m| view.string(m.name)).collect()
+                }
+                Source::Raw(RawSource::CryptoMaterial) => {
+                    view.materials.iter().map(|m| view.string(m.name)).collect()
+                }
+                _ => continue,
+            };
+            let name = layer.var.rsplit('/').next().unwrap_or(&layer.var);
+            let key = format!("cryptomatte/{}", cryptomatte::key_of(name));
+            out.push((format!("{key}/name"), name.to_string()));
+            out.push((format!("{key}/hash"), "MurmurHash3_32".to_string()));
+            out.push((format!("{key}/conversion"), "uint32_to_float32".to_string()));
+            out.push((format!("{key}/manifest"), cryptomatte::manifest(names)));
+        }
+        out.sort();
+        out
+    }
+
+    /// A path record for this plan.
+    pub(crate) fn path(&self) -> PathAovs<'_> {
+        PathAovs {
+            lpe: self.lpe.as_ref(),
+            per_light: self.per_light,
+            radiance: vec![Vec3::ZERO; self.expressions.len()],
+            position: Vec3::ZERO,
+            first: None,
+            state: lpe::DEAD,
+        }
+    }
+
+    /// Adds one path's record to a pixel's sums `sums` (one [`Plan::stride`]), with the beauty's
+    /// rule: a sample whose radiance was not finite adds no light.
+    pub(crate) fn add(&self, sums: &mut [f32], radiance_finite: bool, path: &PathAovs) {
+        let n = self.expressions.len();
+        if radiance_finite {
+            for (s, r) in sums.chunks_exact_mut(3).zip(&path.radiance) {
+                s[0] += r.x;
+                s[1] += r.y;
+                s[2] += r.z;
+            }
+        }
+        if self.position {
+            let s = &mut sums[3 * n..3 * n + 3];
+            s[0] += path.position.x;
+            s[1] += path.position.y;
+            s[2] += path.position.z;
+        }
+        if let Some(first) = path.first {
+            for (kind, &index) in first.iter().enumerate() {
+                let id = self.ids[kind].get(index as usize);
+                if let (true, Some(&id)) = (self.crypto[kind], id) {
+                    let at = self.crypto_offset(kind);
+                    cryptomatte::add(&mut sums[at..at + 2 * cryptomatte::SLOTS], id);
+                }
+            }
+        }
+    }
+
+    /// The channels of `product` over `pixels` pixels: each channel's name and values, from the
+    /// beauty's sums `sums`, this plan's sums `aov` ([`Plan::stride`] per pixel) and the
+    /// `samples` per pixel.
+    pub fn channels(&self, product: &Product, sums: &[PixelSum], aov: &[f32], samples: u32) -> Channels {
+        let stride = self.stride();
+        let n_expr = self.expressions.len();
+        let inv = 1.0 / samples.max(1) as f32;
+        let mut out = Vec::new();
+        for layer in &product.layers {
+            let mut columns: Vec<Vec<f32>> = vec![Vec::with_capacity(sums.len()); layer.channels.len()];
+            for (i, p) in sums.iter().enumerate() {
+                let (beauty, albedo, normal, depth) = p.resolve(samples.max(1));
+                let alpha = beauty[3];
+                let extra = aov.get(i * stride..(i + 1) * stride).unwrap_or(&[]);
+                let at = |k: usize| extra.get(k).copied().unwrap_or(0.0);
+                let crypto = match layer.source {
+                    Source::Raw(RawSource::CryptoObject) => Some(0),
+                    Source::Raw(RawSource::CryptoMaterial) => Some(1),
+                    _ => None,
+                };
+                if let Some(kind) = crypto {
+                    let at = self.crypto_offset(kind);
+                    let slots = extra.get(at..at + 2 * cryptomatte::SLOTS).unwrap_or(&[]);
+                    let ranks = cryptomatte::ranked(slots, samples);
+                    let flat = ranks.iter().flat_map(|&(id, c)| [id, c]);
+                    for (column, v) in columns.iter_mut().zip(flat) {
+                        column.push(v);
+                    }
+                    continue;
+                }
+                let value: [f32; 4] = match layer.source {
+                    Source::Raw(RawSource::Color) => beauty,
+                    Source::Raw(RawSource::Alpha) => [alpha; 4],
+                    Source::Raw(RawSource::Albedo) => [albedo[0], albedo[1], albedo[2], 1.0],
+                    Source::Raw(RawSource::Normal) => [normal[0], normal[1], normal[2], 0.0],
+                    Source::Raw(RawSource::Depth) => [depth; 4],
+                    Source::Raw(RawSource::SampleCount) => [samples as f32; 4],
+                    Source::Raw(RawSource::CryptoObject | RawSource::CryptoMaterial) => [0.0; 4],
+                    Source::Raw(RawSource::Position) => {
+                        // The mean over the samples that hit, as the depth's.
+                        let hits = p.hits.max(1) as f32;
+                        let k = 3 * n_expr;
+                        let [ox, oy, oz] = self.world_origin;
+                        // A pixel no sample hit stays 0, not the origin.
+                        let o = if p.hits == 0 { [0.0; 3] } else { [ox, oy, oz] };
+                        let world = |c: usize, o: f64| (f64::from(at(k + c) / hits) + o) as f32;
+                        [world(0, o[0]), world(1, o[1]), world(2, o[2]), 1.0]
+                    }
+                    Source::Lpe(e) => [at(3 * e) * inv, at(3 * e + 1) * inv, at(3 * e + 2) * inv, alpha],
+                };
+                for (c, column) in columns.iter_mut().enumerate() {
+                    column.push(value[c]);
+                }
+            }
+            out.extend(layer.channels.iter().cloned().zip(columns));
+        }
+        out
+    }
+}
+
+/// What one path records for the plan: each expression's radiance, the first hit's position, and
+/// the automaton's state.
+#[derive(Clone, Debug)]
+pub(crate) struct PathAovs<'p> {
+    pub(crate) lpe: Option<&'p Automaton>,
+    /// Emission is split by light (see the module docs).
+    pub(crate) per_light: bool,
+    pub(crate) radiance: Vec<Vec3>,
+    pub(crate) position: Vec3,
+    /// The first hit's mesh and material (Cryptomatte), if it hit a triangle.
+    pub(crate) first: Option<[u32; 2]>,
+    /// The automaton's state after the path's events so far.
+    pub(crate) state: u32,
+}
+
+impl PathAovs<'_> {
+    /// Starts a camera path.
+    pub(crate) fn begin(&mut self) {
+        self.radiance.iter_mut().for_each(|r| *r = Vec3::ZERO);
+        self.position = Vec3::ZERO;
+        self.first = None;
+        self.state = self.lpe.map_or(lpe::DEAD, Automaton::start);
+    }
+
+    /// Adds `c` to every expression of `mask`.
+    #[inline]
+    pub(crate) fn add(&mut self, mask: u64, c: Vec3) {
+        let mut m = mask;
+        while m != 0 {
+            let i = m.trailing_zeros() as usize;
+            if let Some(r) = self.radiance.get_mut(i) {
+                *r += c;
+            }
+            m &= m - 1;
+        }
+    }
+
+    /// Light `light`'s emission `c` seen from state `state`.
+    #[inline]
+    pub(crate) fn add_light(&mut self, state: u32, light: usize, c: Vec3) {
+        if let Some(a) = self.lpe {
+            let mask = a.light_accepts(state, light);
+            self.add(mask, c);
+        }
+    }
+
+    /// Surface emission `c` seen from state `state`.
+    #[inline]
+    pub(crate) fn add_object(&mut self, state: u32, c: Vec3) {
+        if let Some(a) = self.lpe {
+            let mask = a.object_accepts(state);
+            self.add(mask, c);
+        }
+    }
+
+    /// The state after scattering event `scatter` from `state`.
+    #[inline]
+    pub(crate) fn after(&self, state: u32, scatter: Scatter) -> u32 {
+        self.lpe.map_or(lpe::DEAD, |a| a.scatter(state, scatter))
+    }
+}
