@@ -69,7 +69,7 @@ pub struct Product {
 }
 
 /// The render's outputs beyond the beauty EXR.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Plan {
     /// The products.
     pub products: Vec<Product>,
