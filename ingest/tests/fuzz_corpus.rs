@@ -109,3 +109,14 @@ fn fuzz_entries_refuse_garbage_with_named_errors() {
     let png = fuzz_entry::texture_decode(b"\x00\x89PNG\r\n\x1a\nshort").unwrap_err();
     assert!(png.contains("fuzz.png"), "{png}");
 }
+
+/// A 4 KiB crate file libFuzzer found (`usdc`, a timeout): its PATHS tree gives one path index to
+/// two entries. usd-core refuses it ("Corrupt path index"); openusd composed it and its instancing
+/// queries ran for minutes. The crate check refuses it before composition, naming the entry.
+#[test]
+fn a_crate_file_repeating_a_path_index_is_refused_at_once() {
+    let file = fuzz_dir().join("regressions/usdc/corrupt-path-index-repeated.usdc");
+    let bytes = std::fs::read(&file).unwrap();
+    let e = fuzz_entry::usdc(&bytes).unwrap_err();
+    assert!(e.contains("PATHS: entry 12 names path 6 again (a corrupt path index)"), "{e}");
+}

@@ -328,6 +328,7 @@ fn read_paths(r: &mut Reader, tokens: &Tokens, file_len: usize) -> Result<Vec<u6
     let budget = path_budget(file_len);
     let mut total = 0u64;
     let mut reached = vec![false; count];
+    let mut written = vec![false; path_count];
     let mut depths = vec![0u32; path_count];
     // Whether each (token, is property) was found a valid path element.
     let mut valid: std::collections::HashMap<(usize, bool), bool> = std::collections::HashMap::new();
@@ -346,6 +347,11 @@ fn read_paths(r: &mut Reader, tokens: &Tokens, file_len: usize) -> Result<Vec<u6
             let slot = indices[index] as u32 as usize;
             if slot >= path_count {
                 return Err(format!("entry {index} names path {slot} of {path_count}"));
+            }
+            // usd-core refuses a path index given twice ("Corrupt path index"); openusd builds
+            // both, and instancing queries over such a namespace ran for minutes (fuzz finding).
+            if std::mem::replace(&mut written[slot], true) {
+                return Err(format!("entry {index} names path {slot} again (a corrupt path index)"));
             }
             match parent {
                 // The reader writes the root at the entry's own index, not its path index.
