@@ -419,19 +419,9 @@ impl Scene<'_> {
         prev: Option<(Vec3, f32)>,
         prev_set: u32,
     ) {
-        if area == Vec3::ZERO {
-            return;
-        }
-        if !a.per_light {
-            a.add_light(a.state, 0, beta * area);
-            return;
-        }
-        for light in 0..self.view.lights.len() {
-            let e = self.lights.area_emission_linked_of(origin, dir, t_hit, prev, prev_set, light);
-            if e != Vec3::ZERO {
-                a.add_light(a.state, light, beta * e);
-            }
-        }
+        self.record_emission(a, beta, area, |light| {
+            self.lights.area_emission_linked_of(origin, dir, t_hit, prev, prev_set, light)
+        });
     }
 
     /// Records the emission `escaped` of the lights at infinity an escaping ray sees (see
@@ -445,15 +435,23 @@ impl Scene<'_> {
         bsdf_pdf: Option<f32>,
         prev_set: u32,
     ) {
-        if escaped == Vec3::ZERO {
+        self.record_emission(a, beta, escaped, |light| {
+            self.lights.escaped_emission_linked_of(dir, bsdf_pdf, prev_set, light)
+        });
+    }
+
+    /// Records `total` emission reached with throughput `beta`: as one sum, or, when the
+    /// expressions name light groups, light by light as `of_light` gives it.
+    fn record_emission(&self, a: &mut PathAovs, beta: Vec3, total: Vec3, of_light: impl Fn(usize) -> Vec3) {
+        if total == Vec3::ZERO {
             return;
         }
         if !a.per_light {
-            a.add_light(a.state, 0, beta * escaped);
+            a.add_light(a.state, 0, beta * total);
             return;
         }
         for light in 0..self.view.lights.len() {
-            let e = self.lights.escaped_emission_linked_of(dir, bsdf_pdf, prev_set, light);
+            let e = of_light(light);
             if e != Vec3::ZERO {
                 a.add_light(a.state, light, beta * e);
             }
