@@ -25,6 +25,7 @@
 
 #![deny(missing_docs)]
 
+pub mod bulk;
 mod checksum;
 mod container;
 pub mod curves;
@@ -38,6 +39,7 @@ mod scene;
 pub mod surface_inputs;
 pub mod tree;
 
+pub use bulk::PendingChecksums;
 pub use checksum::checksum;
 pub use container::reseal;
 pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};

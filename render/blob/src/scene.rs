@@ -1,5 +1,6 @@
 //! [`SceneData`] (owned, what ingest fills) and [`SceneView`] (borrowed, validated, what render reads).
 
+use crate::bulk::{first_failing, PendingChecksums};
 use crate::checksum::checksum;
 use crate::container::{
     Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN,
@@ -237,9 +238,27 @@ pub struct SceneView<'a> {
 }
 
 impl<'a> SceneView<'a> {
-    /// Validates `bytes` completely and returns typed slices into it.
+    /// Validates `bytes` completely — structure and checksums — and returns typed slices into it.
     pub fn parse(bytes: &'a [u8]) -> Result<Self, BlobError> {
-        let sections = parse_container(bytes)?;
+        let (view, pending) = Self::parse_deferring_checksums(bytes)?;
+        pending.verify(bytes)?;
+        Ok(view)
+    }
+
+    /// Proves everything the typed slices' safety rests on and returns them with the section checksums
+    /// still to verify (see [`crate::bulk`]): the caller must call [`PendingChecksums::verify`] before it
+    /// trusts the data's values (render does so in the background and before writing any output).
+    /// Errors are those of [`SceneView::parse`]: a refused structure with a checksum mismatch reports
+    /// the mismatch.
+    pub fn parse_deferring_checksums(bytes: &'a [u8]) -> Result<(Self, PendingChecksums), BlobError> {
+        let (sections, pending) = parse_container(bytes)?;
+        match Self::parse_sections(bytes, &sections) {
+            Ok(view) => Ok((view, pending)),
+            Err(e) => Err(pending.prefer_mismatch(bytes, e)),
+        }
+    }
+
+    fn parse_sections(bytes: &'a [u8], sections: &[Option<SectionEntry>]) -> Result<Self, BlobError> {
         let get = |kind: SectionKind| sections[kind.slot()].ok_or(BlobError::MissingSection(kind));
         let info_slice: &[SceneInfo] = typed(bytes, get(SectionKind::SceneInfo)?, SectionKind::SceneInfo)?;
         let [info] = info_slice else {
@@ -514,17 +533,24 @@ impl<'a> SceneView<'a> {
                 return bad(K::Meshes, i, "claims uvs but the blob has none");
             }
         }
-        for (i, tri) in self.triangles.iter().enumerate() {
-            let Some(mesh) = self.meshes.get(tri.mesh as usize) else {
-                return bad(K::Triangles, i, "mesh index out of range");
+        let meshes = self.meshes;
+        if let Some(i) = first_failing(self.triangles, |tri| {
+            meshes.get(tri.mesh as usize).is_some_and(|mesh| {
+                let lo = mesh.first_vertex as u64;
+                let hi = lo + mesh.vertex_count as u64;
+                tri.vertices.iter().all(|&v| (v as u64) >= lo && (v as u64) < hi)
+            })
+        }) {
+            let tri = &self.triangles[i];
+            let what = if meshes.get(tri.mesh as usize).is_none() {
+                "mesh index out of range"
+            } else {
+                "vertex index outside its mesh"
             };
-            let lo = mesh.first_vertex as u64;
-            let hi = lo + mesh.vertex_count as u64;
-            if tri.vertices.iter().any(|&v| (v as u64) < lo || v as u64 >= hi) {
-                return bad(K::Triangles, i, "vertex index outside its mesh");
-            }
+            return bad(K::Triangles, i, what);
         }
-        if let Some(i) = self.triangle_materials.iter().position(|&m| m as usize >= self.materials.len()) {
+        let material_count = self.materials.len();
+        if let Some(i) = first_failing(self.triangle_materials, |&m| (m as usize) < material_count) {
             return bad(K::TriangleMaterials, i, "material index out of range");
         }
         for (i, m) in self.materials.iter().enumerate() {
@@ -588,8 +614,7 @@ impl<'a> SceneView<'a> {
         }
         self.validate_info()?;
         // One pass over all coordinates; the offending record is looked for only on failure.
-        if !all_sane(bytemuck::cast_slice(self.positions)) {
-            let i = self.positions.iter().position(|p| !all_sane(p)).unwrap_or(0);
+        if let Some(i) = first_failing(self.positions, |p| all_sane(p)) {
             return bad(K::Positions, i, "non-finite or huge position");
         }
         if self.info.default_camera != NONE && self.info.default_camera as usize >= self.cameras.len() {
@@ -603,10 +628,15 @@ impl<'a> SceneView<'a> {
         {
             return bad(K::SceneInfo, 0, "dome light index does not name a dome light");
         }
-        if let Some(i) =
-            self.bvh_blocks.iter().position(|b| b.triangles.iter().any(|&t| t as usize >= top_level))
-        {
-            return bad(K::BvhTriangleBlocks, i, "triangle index out of range or inside a prototype");
+        let mut block_error = None;
+        // One pass over the blocks for both of their checks; the tree's errors come between the two.
+        let index_ok = |b: &TriangleBlock| b.triangles.iter().all(|&t| (t as usize) < top_level);
+        let block_ok = |b: &TriangleBlock| all_sane(bytemuck::cast_slice(&b.vertices));
+        if let Some(i) = first_failing(self.bvh_blocks, |b| index_ok(b) & block_ok(b)) {
+            if let Some(i) = self.bvh_blocks[i..].iter().position(|b| !index_ok(b)).map(|j| i + j) {
+                return bad(K::BvhTriangleBlocks, i, "triangle index out of range or inside a prototype");
+            }
+            block_error = Some(i);
         }
         if self.bvh_nodes.is_empty() != (top_level == 0) {
             return bad(K::BvhNodes, 0, "a BVH is required exactly when there are top-level triangles");
@@ -618,9 +648,7 @@ impl<'a> SceneView<'a> {
             crate::tree::bvh8_children(nodes, n, nodes.len(), (0, blocks), "leaf block range out of bounds")
         })
         .or_else(|(i, what)| bad(K::BvhNodes, i, what))?;
-        let block_ok = |b: &TriangleBlock| all_sane(bytemuck::cast_slice(&b.vertices));
-        if !self.bvh_blocks.iter().fold(true, |ok, b| ok & block_ok(b)) {
-            let i = self.bvh_blocks.iter().position(|b| !block_ok(b)).unwrap_or(0);
+        if let Some(i) = block_error {
             return bad(K::BvhTriangleBlocks, i, "non-finite or huge vertex");
         }
         self.instancing
@@ -630,8 +658,10 @@ impl<'a> SceneView<'a> {
     }
 }
 
-/// Validates header and table; returns each known kind's entry by [`SectionKind::slot`].
-fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError> {
+/// Validates header and table; returns each known kind's entry by [`SectionKind::slot`] and the section
+/// checksums to verify. An error found after some sections' bounds were proven is reported as a
+/// checksum mismatch of one of them if there is one (the order the eager checks had).
+fn parse_container(bytes: &[u8]) -> Result<(Vec<Option<SectionEntry>>, PendingChecksums), BlobError> {
     let actual = bytes.len() as u64;
     let header_len = std::mem::size_of::<Header>();
     if bytes.len() < header_len {
@@ -662,11 +692,29 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
         return Err(BlobError::TableChecksum);
     }
     let mut found: Vec<Option<SectionEntry>> = vec![None; SectionKind::ALL.len()];
+    let mut pending = PendingChecksums::default();
     for raw in table_bytes.chunks_exact(std::mem::size_of::<SectionEntry>()) {
         let entry: SectionEntry = bytemuck::pod_read_unaligned(raw);
+        let slot =
+            check_entry(bytes, table_end, entry, &found).map_err(|e| pending.prefer_mismatch(bytes, e))?;
+        found[slot] = Some(entry);
+        pending.push(entry);
+    }
+    check_layout(bytes, table_end, &found).map_err(|e| pending.prefer_mismatch(bytes, e))?;
+    Ok((found, pending))
+}
+
+/// One section-table entry's kind, uniqueness, alignment, bounds and record size; returns its slot.
+fn check_entry(
+    bytes: &[u8],
+    table_end: usize,
+    entry: SectionEntry,
+    found: &[Option<SectionEntry>],
+) -> Result<usize, BlobError> {
+    let actual = bytes.len() as u64;
+    {
         let kind = SectionKind::from_u32(entry.kind).ok_or(BlobError::UnknownSection(entry.kind))?;
-        let slot = &mut found[kind.slot()];
-        if slot.is_some() {
+        if found[kind.slot()].is_some() {
             return Err(BlobError::DuplicateSection(kind));
         }
         let end = entry.offset.checked_add(entry.byte_len);
@@ -688,14 +736,8 @@ fn parse_container(bytes: &[u8]) -> Result<Vec<Option<SectionEntry>>, BlobError>
         if !entry.byte_len.is_multiple_of(expected as u64) {
             return Err(BlobError::SectionBounds { kind, offset: entry.offset, byte_len: entry.byte_len });
         }
-        let data = &bytes[entry.offset as usize..(entry.offset + entry.byte_len) as usize];
-        if checksum(data) != entry.checksum {
-            return Err(BlobError::SectionChecksum(kind));
-        }
-        *slot = Some(entry);
+        Ok(kind.slot())
     }
-    check_layout(bytes, table_end, &found)?;
-    Ok(found)
 }
 
 /// Sections must not overlap, and every byte outside the header, the table and the sections (the

@@ -350,6 +350,44 @@ fn every_single_byte_flip_anywhere_is_an_error() {
     }
 }
 
+/// The deferred path render takes (structure now, checksums later) reports, for every single-byte
+/// corruption, exactly the error the eager parse does: at once when the structure is refused (a
+/// checksum mismatch preferred), else from `verify`.
+#[test]
+fn deferred_checksums_report_every_corruption_as_the_eager_parse_does() {
+    let bytes = sample_scene().encode();
+    let (mut deferred_ok, mut structural) = (0, 0);
+    for i in 0..bytes.len() {
+        let mut corrupted = bytes.clone();
+        corrupted[i] ^= 0x04;
+        let aligned = AlignedBytes::copy_from(&corrupted);
+        let eager = SceneView::parse(&aligned).map(|_| ()).unwrap_err();
+        let deferred = match SceneView::parse_deferring_checksums(&aligned) {
+            Ok((_, pending)) => {
+                deferred_ok += 1;
+                pending.verify(&aligned).unwrap_err()
+            }
+            Err(e) => {
+                structural += 1;
+                e
+            }
+        };
+        assert_eq!(deferred, eager, "flip at byte {i}");
+    }
+    // Both paths are exercised: data flips pass the structure and fail only their checksum.
+    assert!(deferred_ok > 0 && structural > 0, "{deferred_ok} deferred, {structural} structural");
+    let aligned = AlignedBytes::copy_from(&bytes);
+    let (_, pending) = SceneView::parse_deferring_checksums(&aligned).unwrap();
+    assert_eq!(pending.verify(&aligned), Ok(()));
+    let header: Header = bytemuck::pod_read_unaligned(&bytes[..64]);
+    let table = &bytes[64..64 + 32 * header.section_count as usize];
+    let section_bytes: u64 =
+        table.chunks_exact(32).map(|e| bytemuck::pod_read_unaligned::<SectionEntry>(e).byte_len).sum();
+    assert_eq!(pending.byte_len(), section_bytes);
+    // A shorter second mapping (the file shrank) is a truncation, not a panic.
+    assert!(matches!(pending.verify(&aligned[..aligned.len() / 2]), Err(BlobError::Truncated { .. })));
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(2000))]
 

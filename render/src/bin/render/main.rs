@@ -54,11 +54,12 @@ where
     // written in place (README, "The blob"); the map lives until this function returns, nothing here
     // writes to the file, and `check_unchanged` below refuses the image if someone did.
     let map = unsafe { render::map_blob(&blob_path) }?;
-    let view = render::parse_blob(&blob_path, &map)?;
+    let view = map.parse(&blob_path)?;
     let load_seconds = load_start.elapsed().as_secs_f64();
 
     match command {
         cli::Command::Info { .. } => {
+            map.check_unchanged(&blob_path)?;
             println!("{}", serde_json::to_string(&render::info::summarize(&view))?);
             Ok(ExitCode::SUCCESS)
         }
