@@ -590,6 +590,7 @@ fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads:
         },
         touch: &texture::NoTouch,
         textured: scene.shading.textures().texel_bytes() > 0,
+        aov: None,
     };
     let tiles = crate::film::tiles(crate::film::PixelWindow::full(width, height), options.tile_size);
     let n = (width * height) as usize;
