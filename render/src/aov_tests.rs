@@ -133,7 +133,10 @@ fn lpe_aovs_sum_to_the_beauty_and_both_integrators_agree() {
     // The key group is a part of the lights' light, less than the beauty.
     let beauty_total: f64 = image.beauty.iter().map(|b| f64::from(b[0])).sum();
     assert!(totals[7] < beauty_total * 0.9, "{} of {beauty_total}", totals[7]);
+    // The wavefront's own lanes traced the AOVs (the scalar code runs no BSDF lane groups).
+    assert!(film.stats.counters.bsdf_lane_groups > 0, "the AOV render ran the wavefront stages");
     let scalar = render(&scene, Integrator::Scalar, 24, 8);
+    assert_eq!(scalar.stats.counters.bsdf_lane_groups, 0);
     assert_eq!(scalar.aov, film.aov, "both integrators give the AOV sums bit for bit");
     assert_eq!(scalar.sums, film.sums);
 }

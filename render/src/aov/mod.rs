@@ -381,7 +381,12 @@ impl<'p> PathAovs<'p> {
     #[inline]
     pub(crate) fn sink(&mut self) -> Option<LpeSink<'_>> {
         let automaton = self.lpe?;
-        Some(LpeSink { automaton, per_light: self.per_light, state: self.state, radiance: &mut self.radiance })
+        Some(LpeSink {
+            automaton,
+            per_light: self.per_light,
+            state: self.state,
+            radiance: &mut self.radiance,
+        })
     }
 
     /// The state after scattering event `scatter` from `state`.

@@ -408,7 +408,13 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, job: Til
                 shade::shade(ctx, &mut StageParts { paths, queues, kernels, tables, stats }, &mut rays)
             });
             timed(&mut secs.occlusion, || {
-                occlusion::any_hit(ctx, &mut paths.states, &paths.shadow, &mut paths.aov, &mut queues.occlusion)
+                occlusion::any_hit(
+                    ctx,
+                    &mut paths.states,
+                    &paths.shadow,
+                    &mut paths.aov,
+                    &mut queues.occlusion,
+                )
             });
             stats.clock.lap(Phase::Intersect);
             std::mem::swap(&mut queues.rays, &mut queues.next_rays);

@@ -21,6 +21,7 @@
 //! same settings: the sort stage keeps a `Surface` per textured hit).
 
 use super::{Context, ShadowRay, StageParts};
+use crate::aov::lpe::Scatter;
 use crate::bsdf::lanes::{EvalLanes, SampleInputs, SampleLanes};
 use crate::bsdf::BsdfSample;
 use crate::hair::lanes::{eval_lanes, sample_lanes, HairLanes};
@@ -30,9 +31,8 @@ use crate::lights::{power_heuristic, LightSample};
 use crate::path::roulette::{self, RouletteLane};
 use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::sampler::{dim, hash_u32, sample_1d, shadow_seed, vertex_samples, SampleKey, DIMS};
-use crate::stats::Phase;
-use crate::aov::lpe::Scatter;
 use crate::scalar::lobe_event;
+use crate::stats::Phase;
 use crate::surface::{Surface, SurfaceBsdf};
 use glam::Vec3;
 use lanekit::Lanes3;
