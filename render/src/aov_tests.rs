@@ -133,7 +133,10 @@ fn lpe_aovs_sum_to_the_beauty_and_both_integrators_agree() {
     // The key group is a part of the lights' light, less than the beauty.
     let beauty_total: f64 = image.beauty.iter().map(|b| f64::from(b[0])).sum();
     assert!(totals[7] < beauty_total * 0.9, "{} of {beauty_total}", totals[7]);
+    // The wavefront's own lanes traced the AOVs (the scalar code runs no BSDF lane groups).
+    assert!(film.stats.counters.bsdf_lane_groups > 0, "the AOV render ran the wavefront stages");
     let scalar = render(&scene, Integrator::Scalar, 24, 8);
+    assert_eq!(scalar.stats.counters.bsdf_lane_groups, 0);
     assert_eq!(scalar.aov, film.aov, "both integrators give the AOV sums bit for bit");
     assert_eq!(scalar.sums, film.sums);
 }
@@ -354,4 +357,23 @@ fn a_cryptomatte_product_has_the_same_bytes_on_every_write() {
     let key = crate::aov::cryptomatte::key_of("CryptoMaterial");
     let name = exr::prelude::Text::from(format!("cryptomatte/{key}/name").as_str());
     assert_eq!(other.get(&name), Some(&exr::meta::attribute::AttributeValue::Text("CryptoMaterial".into())));
+}
+
+#[test]
+fn lpe_aovs_of_curves_points_and_linked_glass_equal_the_scalar_ones() {
+    use crate::wavefront::equivalence_tests as eq;
+    // Fibre, point and glass hits take the wavefront's per-hit vertex (`shade_curves.rs`), and
+    // light linking its per-ray emission: each records the AOVs on its own path.
+    for (what, mut scene) in [("curves", eq::curve_scene()), ("linked glass", eq::linked(eq::scene(), true))]
+    {
+        let mut vars: Vec<RenderVar> = SPLIT.iter().map(|(n, e)| lpe(n, e)).collect();
+        vars.push(var("P", "P", st::RAW, dt::VECTOR3));
+        scene.render_products = vec![product(vars)];
+        let wave = render(&scene, Integrator::Wavefront, 24, 4);
+        let scalar = render(&scene, Integrator::Scalar, 24, 4);
+        assert!(wave.stats.counters.bsdf_lane_groups > 0, "{what}: the wavefront ran");
+        assert!(wave.aov.iter().filter(|&&v| v != 0.0).count() > wave.aov.len() / 4, "{what}");
+        assert_eq!(scalar.aov, wave.aov, "{what}: AOV sums bit for bit");
+        assert_eq!(scalar.sums, wave.sums, "{what}");
+    }
 }

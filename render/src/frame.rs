@@ -417,6 +417,7 @@ fn render_pass<T: texture::Touch + Sync>(
                 settings,
                 touch,
                 textured: total_texel_bytes > 0,
+                aov: None,
             };
             // One Worker (pools and queues) per rayon job, dropped when the job ends: the timers merge
             // then, under a lock taken once per worker, never on the hot path.

@@ -9,7 +9,7 @@
 //! a pure function of the keys.
 
 use crate::aov::lpe::Scatter;
-use crate::aov::PathAovs;
+use crate::aov::{LpeSink, PathAovs};
 use crate::camera::Camera;
 use crate::camera::RayCone;
 use crate::film::{Sampling, TileJob, TileResult};
@@ -120,8 +120,8 @@ impl Scene<'_> {
             clock.lap(Phase::Intersect);
             let area = self.lights.area_emission_linked(origin, dir, t_hit, prev, prev_set);
             radiance += beta * area;
-            if let Some(a) = aov.as_deref_mut() {
-                self.record_area_emission(a, beta, area, (origin, dir, t_hit), prev, prev_set);
+            if let Some(mut k) = aov.as_deref_mut().and_then(PathAovs::sink) {
+                self.record_area_emission(&mut k, beta, area, (origin, dir, t_hit), prev, prev_set);
             }
             let wo = -dir;
             let footprint = cone.width_at(t_hit);
@@ -134,8 +134,8 @@ impl Scene<'_> {
                 (None, None) => {
                     let escaped = self.lights.escaped_emission_linked(dir, prev.map(|p| p.1), prev_set);
                     radiance += beta * escaped;
-                    if let Some(a) = aov.as_deref_mut() {
-                        self.record_escaped_emission(a, beta, escaped, dir, prev.map(|p| p.1), prev_set);
+                    if let Some(mut k) = aov.as_deref_mut().and_then(PathAovs::sink) {
+                        self.record_escaped_emission(&mut k, beta, escaped, dir, prev.map(|p| p.1), prev_set);
                     }
                     // Shading, as the area emission above (the wavefront charges both there).
                     clock.lap(Phase::Shading);
@@ -196,8 +196,8 @@ impl Scene<'_> {
                 };
                 let emitted = beta * le * w;
                 radiance += emitted;
-                if let Some(a) = aov.as_deref_mut() {
-                    a.add_object(a.state, emitted);
+                if let Some(mut k) = aov.as_deref_mut().and_then(PathAovs::sink) {
+                    k.add_object(k.state, emitted);
                 }
             }
             if bounces >= max_depth {
@@ -263,14 +263,10 @@ impl Scene<'_> {
                                 _ => lobe,
                             };
                             let state = a.after(a.state, lobe);
-                            if ls.emitter.is_some()
-                                || self.lights.is_triangles(self.lights.selected(s.p, u_select))
-                            {
-                                a.add_object(state, c);
-                            } else if a.per_light {
-                                a.add_light(state, self.lights.selected(s.p, u_select), c);
-                            } else {
-                                a.add_light(state, 0, c);
+                            if let Some(mut k) = a.sink() {
+                                let emitter = ls.emitter.is_some();
+                                let mask = self.light_sample_accepts(&k, state, emitter, s.p, u_select);
+                                k.add(mask, c);
                             }
                         }
                     }
@@ -408,11 +404,33 @@ pub(crate) fn lobe_event(
 }
 
 impl Scene<'_> {
+    /// The expressions a kept light sample adds to from `state` (the vertex's lobe taken): an
+    /// emissive surface's where the light is triangles (`emitter`: the sample is on one), else the
+    /// light's, chosen at `p` by `u_select` (light by light only when the expressions need it).
+    pub(crate) fn light_sample_accepts(
+        &self,
+        k: &LpeSink,
+        state: u32,
+        emitter: bool,
+        p: Vec3,
+        u_select: f32,
+    ) -> u64 {
+        if emitter {
+            return k.automaton.object_accepts(state);
+        }
+        let light = self.lights.selected(p, u_select);
+        if self.lights.is_triangles(light) {
+            k.automaton.object_accepts(state)
+        } else {
+            k.automaton.light_accepts(state, if k.per_light { light } else { 0 })
+        }
+    }
+
     /// Records area-light emission `area` (the sum over the lights a segment crosses) reached with
     /// throughput `beta` (see [`crate::aov`]: light by light only when the expressions need it).
-    fn record_area_emission(
+    pub(crate) fn record_area_emission(
         &self,
-        a: &mut PathAovs,
+        a: &mut LpeSink,
         beta: Vec3,
         area: Vec3,
         (origin, dir, t_hit): (Vec3, Vec3, f32),
@@ -426,9 +444,9 @@ impl Scene<'_> {
 
     /// Records the emission `escaped` of the lights at infinity an escaping ray sees (see
     /// [`Scene::record_area_emission`]).
-    fn record_escaped_emission(
+    pub(crate) fn record_escaped_emission(
         &self,
-        a: &mut PathAovs,
+        a: &mut LpeSink,
         beta: Vec3,
         escaped: Vec3,
         dir: Vec3,
@@ -442,7 +460,7 @@ impl Scene<'_> {
 
     /// Records `total` emission reached with throughput `beta`: as one sum, or, when the
     /// expressions name light groups, light by light as `of_light` gives it.
-    fn record_emission(&self, a: &mut PathAovs, beta: Vec3, total: Vec3, of_light: impl Fn(usize) -> Vec3) {
+    fn record_emission(&self, a: &mut LpeSink, beta: Vec3, total: Vec3, of_light: impl Fn(usize) -> Vec3) {
         if total == Vec3::ZERO {
             return;
         }

@@ -254,9 +254,23 @@ impl Plan {
     /// Adds one path's record to a pixel's sums `sums` (one [`Plan::stride`]), with the beauty's
     /// rule: a sample whose radiance was not finite adds no light.
     pub(crate) fn add(&self, sums: &mut [f32], radiance_finite: bool, path: &PathAovs) {
+        self.add_parts(sums, radiance_finite, &path.radiance, path.position, path.first);
+    }
+
+    /// [`Plan::add`] of a path whose record lives in columns (the wavefront's
+    /// [`crate::wavefront`] pool): each expression's radiance, the first hit's position and its
+    /// mesh and material.
+    pub(crate) fn add_parts(
+        &self,
+        sums: &mut [f32],
+        radiance_finite: bool,
+        radiance: &[Vec3],
+        position: Vec3,
+        first: Option<[u32; 2]>,
+    ) {
         let n = self.expressions.len();
         if radiance_finite {
-            for (s, r) in sums.chunks_exact_mut(3).zip(&path.radiance) {
+            for (s, r) in sums.chunks_exact_mut(3).zip(radiance) {
                 s[0] += r.x;
                 s[1] += r.y;
                 s[2] += r.z;
@@ -264,11 +278,11 @@ impl Plan {
         }
         if self.position {
             let s = &mut sums[3 * n..3 * n + 3];
-            s[0] += path.position.x;
-            s[1] += path.position.y;
-            s[2] += path.position.z;
+            s[0] += position.x;
+            s[1] += position.y;
+            s[2] += position.z;
         }
-        if let Some(first) = path.first {
+        if let Some(first) = first {
             for (kind, &index) in first.iter().enumerate() {
                 let id = self.ids[kind].get(index as usize);
                 if let (true, Some(&id)) = (self.crypto[kind], id) {
@@ -354,7 +368,7 @@ pub(crate) struct PathAovs<'p> {
     pub(crate) state: u32,
 }
 
-impl PathAovs<'_> {
+impl<'p> PathAovs<'p> {
     /// Starts a camera path.
     pub(crate) fn begin(&mut self) {
         self.radiance.iter_mut().for_each(|r| *r = Vec3::ZERO);
@@ -363,40 +377,69 @@ impl PathAovs<'_> {
         self.state = self.lpe.map_or(lpe::DEAD, Automaton::start);
     }
 
-    /// Adds `c` to every expression of `mask`.
+    /// The path's expression sums and state as a [`LpeSink`], when the plan has expressions.
     #[inline]
-    pub(crate) fn add(&mut self, mask: u64, c: Vec3) {
-        let mut m = mask;
-        while m != 0 {
-            let i = m.trailing_zeros() as usize;
-            if let Some(r) = self.radiance.get_mut(i) {
-                *r += c;
-            }
-            m &= m - 1;
-        }
-    }
-
-    /// Light `light`'s emission `c` seen from state `state`.
-    #[inline]
-    pub(crate) fn add_light(&mut self, state: u32, light: usize, c: Vec3) {
-        if let Some(a) = self.lpe {
-            let mask = a.light_accepts(state, light);
-            self.add(mask, c);
-        }
-    }
-
-    /// Surface emission `c` seen from state `state`.
-    #[inline]
-    pub(crate) fn add_object(&mut self, state: u32, c: Vec3) {
-        if let Some(a) = self.lpe {
-            let mask = a.object_accepts(state);
-            self.add(mask, c);
-        }
+    pub(crate) fn sink(&mut self) -> Option<LpeSink<'_>> {
+        let automaton = self.lpe?;
+        Some(LpeSink {
+            automaton,
+            per_light: self.per_light,
+            state: self.state,
+            radiance: &mut self.radiance,
+        })
     }
 
     /// The state after scattering event `scatter` from `state`.
     #[inline]
     pub(crate) fn after(&self, state: u32, scatter: Scatter) -> u32 {
         self.lpe.map_or(lpe::DEAD, |a| a.scatter(state, scatter))
+    }
+}
+
+/// One path's light-path-expression sums and automaton state, borrowed from wherever the path
+/// keeps them: the scalar integrator's [`PathAovs`] or a row of the wavefront's columns. Both
+/// integrators add through it, so a contribution reaches the same expressions in the same order.
+pub(crate) struct LpeSink<'r> {
+    pub(crate) automaton: &'r Automaton,
+    /// Emission is split by light (see the module docs).
+    pub(crate) per_light: bool,
+    /// The automaton's state after the path's events so far.
+    pub(crate) state: u32,
+    /// Each expression's radiance.
+    pub(crate) radiance: &'r mut [Vec3],
+}
+
+impl LpeSink<'_> {
+    /// Adds `c` to every expression of `mask`.
+    #[inline]
+    pub(crate) fn add(&mut self, mask: u64, c: Vec3) {
+        add_masked(self.radiance, mask, c);
+    }
+
+    /// Light `light`'s emission `c` seen from state `state`.
+    #[inline]
+    pub(crate) fn add_light(&mut self, state: u32, light: usize, c: Vec3) {
+        let mask = self.automaton.light_accepts(state, light);
+        self.add(mask, c);
+    }
+
+    /// Surface emission `c` seen from state `state`.
+    #[inline]
+    pub(crate) fn add_object(&mut self, state: u32, c: Vec3) {
+        let mask = self.automaton.object_accepts(state);
+        self.add(mask, c);
+    }
+}
+
+/// Adds `c` to `radiance[i]` for every bit `i` of `mask`.
+#[inline]
+pub(crate) fn add_masked(radiance: &mut [Vec3], mask: u64, c: Vec3) {
+    let mut m = mask;
+    while m != 0 {
+        let i = m.trailing_zeros() as usize;
+        if let Some(r) = radiance.get_mut(i) {
+            *r += c;
+        }
+        m &= m - 1;
     }
 }

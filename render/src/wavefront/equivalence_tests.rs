@@ -260,7 +260,7 @@ fn fibre(root: Vec3, dir: Vec3, bend: Vec3, r0: f32, r1: f32) -> BezierSegment {
 /// textured UsdPreviewSurface material, translucent fibres (opacity 0.5: stochastic pass-through,
 /// also of shadow rays' occluders), coloured points and glowing points (emission found by BSDF
 /// sampling).
-fn curve_scene() -> Scene {
+pub(crate) fn curve_scene() -> Scene {
     let mut scene = scene();
     scene.materials.push(Material { opacity: 0.5, ..testscene::lambert(0.7) });
     scene.materials.push(Material { emissive_color: Vec3::new(2.0, 1.0, 0.5), ..testscene::lambert(0.3) });
@@ -354,7 +354,7 @@ fn wavefront_equals_scalar_with_curves_and_points() {
 /// that both NEE and the emission BSDF-sampled rays find are dropped) and out of shadowing (the
 /// spheres' shadows from some lights), with glass on one sphere so the per-hit glass vertex and
 /// the closest-hit shadow walk see linking too.
-fn linked(mut scene: Scene, glass: bool) -> Scene {
+pub(crate) fn linked(mut scene: Scene, glass: bool) -> Scene {
     let n = scene.lights.len();
     let set = |lit: &dyn Fn(usize) -> bool, shadows: &dyn Fn(usize) -> bool| LightSet {
         lit_by: (0..n).map(lit).collect(),
@@ -590,6 +590,7 @@ fn render_with_workers(view: &blob::SceneView, options: &RenderOptions, threads:
         },
         touch: &texture::NoTouch,
         textured: scene.shading.textures().texel_bytes() > 0,
+        aov: None,
     };
     let tiles = crate::film::tiles(crate::film::PixelWindow::full(width, height), options.tile_size);
     let n = (width * height) as usize;

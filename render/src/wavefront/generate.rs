@@ -259,6 +259,7 @@ mod tests {
                 settings: PathSettings { max_depth: 4, filter: options.texture_filter, ..Default::default() },
                 touch: &texture::NoTouch,
                 textured: false,
+                aov: None,
             };
             let mut w = crate::wavefront::Worker::new(16, &scene, false);
             for (tile, s0, samples) in [

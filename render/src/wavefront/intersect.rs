@@ -78,7 +78,7 @@ pub(super) fn closest<T: Touch>(
             };
         }
         clock.lap(Phase::Intersect);
-        emission(scene, pool, shade, area_lights, batch);
+        emission(scene, ctx.aov, pool, shade, area_lights, batch);
         clock.lap(Phase::Shading);
     }
 }
@@ -95,6 +95,7 @@ const MISS: Hit =
 /// escaped, the dome and distant lights. Hits enter the shade queue; escaped paths leave the wave.
 fn emission(
     scene: &Scene,
+    plan: Option<&crate::aov::Plan>,
     pool: &mut PathPool,
     shade: &mut Vec<u64>,
     area_lights: &mut emission_lanes::AreaLightLanes,
@@ -134,6 +135,10 @@ fn emission(
     for (&i, &area) in batch.iter().zip(area) {
         let st = &mut pool.states[i as usize];
         st.radiance += st.beta * area;
+        if let Some(mut k) = plan.and_then(|plan| pool.aov.sink(plan, i as usize)) {
+            let (set, t) = (pool.prev_light_set[i as usize], pool.hits[i as usize].t);
+            scene.record_area_emission(&mut k, st.beta, area, (st.origin, st.dir, t), st.prev(), set);
+        }
         if pool.hits[i as usize].t == f32::INFINITY {
             (dirs[n], pdfs[n], paths[n]) = (st.dir, st.prev().map(|p| p.1), i);
             n += 1;
@@ -162,6 +167,10 @@ fn emission(
         for (&i, &sum) in paths[..n].iter().zip(&sums[..n]) {
             let st = &mut pool.states[i as usize];
             st.radiance += st.beta * sum;
+            if let Some(mut k) = plan.and_then(|plan| pool.aov.sink(plan, i as usize)) {
+                let (set, pdf) = (pool.prev_light_set[i as usize], st.prev().map(|p| p.1));
+                scene.record_escaped_emission(&mut k, st.beta, sum, st.dir, pdf, set);
+            }
         }
     }
 }

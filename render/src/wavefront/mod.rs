@@ -42,6 +42,7 @@
 //! `ARCHITECTURE.md`; measurements: `docs/perf.md#wavefront-integrator-wavefrontmodrs`.
 
 mod accumulate;
+mod aovs;
 #[cfg(test)]
 pub(crate) mod equivalence_tests;
 mod generate;
@@ -193,6 +194,8 @@ pub(crate) struct PathPool {
     /// ray finds; read only where the state has a previous vertex). A side table, not a
     /// [`RayState`] field: scenes without linking never touch it.
     prev_light_set: Vec<u32>,
+    /// The paths' AOV records, for a render whose plan traces ([`aovs`]).
+    aov: aovs::AovColumns,
 }
 
 /// The queues between the stages: path indices (the shade queue `key << 32 | index`).
@@ -281,6 +284,7 @@ impl Worker {
                 surfaces: Vec::with_capacity(paths),
                 surface_slot: vec![u32::MAX; paths],
                 prev_light_set: vec![crate::lights::links::UNLINKED; paths],
+                aov: aovs::AovColumns::default(),
             },
             queues: StageQueues {
                 rays: Vec::with_capacity(paths),
@@ -326,6 +330,10 @@ pub struct Context<'s, 'a, T> {
     pub touch: &'s T,
     /// The scene has texels (else every texture sort key is 0 and is not computed).
     pub textured: bool,
+    /// The render products' plan when its paths record AOVs ([`crate::aov::Plan::traces`]; `None`
+    /// otherwise: the stages then never touch the pool's AOV columns). [`render`] sets it from
+    /// the tile's job.
+    pub(crate) aov: Option<&'s crate::aov::Plan>,
 }
 
 fn timed<R>(slot: &mut f64, f: impl FnOnce() -> R) -> R {
@@ -355,19 +363,18 @@ impl Worker {
 /// Renders one tile breadth-first: per chunk of samples, waves of intersect, sort, shade and occlusion
 /// until no path is left.
 pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, job: TileJob<'_>) -> TileResult {
-    if job.plan.traces() {
-        // Light-path expressions and position AOVs are traced by the scalar integrator's code for
-        // the tile (its AOVs and beauty are the reference's by construction): the lanes do not
-        // carry an automaton state yet.
-        let (scene, camera, sampling, settings) = (ctx.scene, ctx.camera, ctx.sampling, ctx.settings);
-        return crate::scalar::render_tile(scene, camera, sampling, settings, false, job, ctx.touch);
-    }
-    let TileJob { tile, sums: init, .. } = job;
+    let TileJob { tile, sums: init, plan, aov: aov_init } = job;
+    // The paths carry their AOV records only when the plan asks for more than the beauty's sums.
+    let traced = plan.traces().then_some(plan);
+    let ctx = &Context { aov: traced, ..*ctx };
     let Worker { paths, queues, kernels, tables, film, stats } = w;
     let npix = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
     let [first, end] = ctx.sampling.samples.map(|s| s as usize);
     let mut rays = RayCounts::default();
     accumulate::begin(film, init);
+    if traced.is_some() {
+        paths.aov.begin_tile(aov_init);
+    }
     let per_chunk = (paths.states.capacity() / npix).clamp(1, (end - first).max(1));
     let mut s0 = first;
     while s0 < end {
@@ -377,6 +384,9 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, job: Til
         timed(&mut secs.generate, || {
             generate::camera_rays(ctx, tile, s0 as u32, samples as u32, paths, &mut queues.rays, &mut rays)
         });
+        if let Some(plan) = traced {
+            paths.aov.begin(plan, paths.states.len());
+        }
         stats.clock.lap(Phase::Overhead);
         while !queues.rays.is_empty() {
             timed(&mut secs.intersect, || {
@@ -398,15 +408,30 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, job: Til
                 shade::shade(ctx, &mut StageParts { paths, queues, kernels, tables, stats }, &mut rays)
             });
             timed(&mut secs.occlusion, || {
-                occlusion::any_hit(ctx, &mut paths.states, &paths.shadow, &mut queues.occlusion)
+                occlusion::any_hit(
+                    ctx,
+                    &mut paths.states,
+                    &paths.shadow,
+                    &mut paths.aov,
+                    &mut queues.occlusion,
+                )
             });
             stats.clock.lap(Phase::Intersect);
             std::mem::swap(&mut queues.rays, &mut queues.next_rays);
         }
-        timed(&mut secs.accumulate, || accumulate::chunk(film, paths, samples));
+        timed(&mut secs.accumulate, || {
+            accumulate::chunk(film, paths, samples);
+            if let Some(plan) = traced {
+                paths.aov.chunk(plan, &paths.states, samples);
+            }
+        });
         stats.clock.lap(Phase::Overhead);
         stats.seconds = secs;
         s0 += samples;
     }
-    accumulate::finish(film, rays)
+    let mut out = accumulate::finish(film, rays);
+    if traced.is_some() {
+        out.aov = paths.aov.finish();
+    }
+    out
 }

@@ -12,6 +12,7 @@ pub(super) fn any_hit<T: Touch>(
     ctx: &Context<'_, '_, T>,
     states: &mut [RayState],
     shadow: &[ShadowRay],
+    aov: &mut super::aovs::AovColumns,
     occlusion: &mut Vec<u32>,
 ) {
     let filter = ctx.settings.filter;
@@ -30,7 +31,14 @@ pub(super) fn any_hit<T: Touch>(
         let kept = scene
             .shadow_transmittance(r.origin, r.dir, r.tmax, time, r.seed, r.delta, light, filter, ctx.touch);
         if kept > 0.0 && !scene.curves.any_hit(r.origin, r.dir, r.tmax) {
-            states[i as usize].radiance += r.contribution * kept;
+            let c = r.contribution * kept;
+            states[i as usize].radiance += c;
+            // The expressions shading noted for this light sample (the scalar integrator adds
+            // the same `c` to them).
+            let mask = aov.shadow_mask.get(i as usize).copied().unwrap_or(0);
+            if let Some(mut k) = ctx.aov.and_then(|plan| aov.sink(plan, i as usize)) {
+                k.add(mask, c);
+            }
         }
     }
     occlusion.clear();

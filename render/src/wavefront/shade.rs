@@ -401,6 +401,9 @@ fn prepare<T: Touch>(
         let record = first.insert(FirstHit::default());
         record.normal = ns;
         record.depth = st.travelled + hit.t;
+        if ctx.aov.is_some() {
+            w.paths.aov.first_hit(scene, i as usize, s);
+        }
     }
     let le = inputs.emissive_color.max(Vec3::ZERO);
     if le != Vec3::ZERO {
@@ -408,13 +411,26 @@ fn prepare<T: Touch>(
             None => 1.0,
             Some((p, bsdf_pdf)) => power_heuristic(bsdf_pdf, scene.lights.triangle_pdf(hit.triangle, p, s.p)),
         };
-        st.radiance += st.beta * le * mis;
+        let emitted = st.beta * le * mis;
+        st.radiance += emitted;
+        if let Some(mut k) = ctx.aov.and_then(|plan| w.paths.aov.sink(plan, i as usize)) {
+            k.add_object(k.state, emitted);
+        }
     }
     if st.bounces >= max_depth {
         if let (true, Some(first)) = (is_first, first.as_mut()) {
             first.albedo = Bsdf::from_inputs(inputs, ns, s.ng).diffuse_albedo();
         }
         return;
+    }
+    // The lobe this vertex chooses, labelling its light sample and its continuation: the scalar
+    // integrator's [`crate::scalar::lobe_event`] of the scalar BSDF and the same lobe sample (the
+    // lanes build their BSDFs in phase 2; an AOV render pays one scalar BSDF per hit for it).
+    if ctx.aov.is_some_and(|p| p.lpe.is_some()) {
+        let key = SampleKey { pixel: st.pixel, sample: st.sample, seed: ctx.sampling.seed };
+        let bsdf = crate::surface::SurfaceBsdf::Preview(Bsdf::from_inputs(inputs, ns, s.ng));
+        let u_lobe = sample_1d(key, st.vertex, dim::LOBE);
+        w.paths.aov.lobe[i as usize] = crate::scalar::lobe_event(&bsdf, inputs, wo, s.ng, u_lobe, None);
     }
 
     let (beta, play) = (st.beta, (st.bounces + 1 >= RR_START_BOUNCE) as u32);
@@ -470,7 +486,7 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mu
     let (filter, touch) = (ctx.settings.filter, ctx.touch);
     let seed_hash = hash_u32(ctx.sampling.seed);
     let KernelScratch { scatter, scatter_points, .. } = &mut *w.kernels;
-    let PathPool { states, first_hits, shadow, prev_light_set, .. } = &mut *w.paths;
+    let PathPool { states, first_hits, shadow, prev_light_set, aov, .. } = &mut *w.paths;
     let linked = scene.lights.links().is_some();
     let StageQueues { occlusion, next_rays, .. } = &mut *w.queues;
     let WorkerStats { counters, clock, .. } = &mut *w.stats;
@@ -578,6 +594,11 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mu
             light: light_of[k],
         };
         occlusion.push(i as u32);
+        if let Some(plan) = ctx.aov {
+            let lobe = aov.lobe[i];
+            let emitter = ls.triangle[k] != blob::NONE;
+            aov.light_sample(plan, scene, i, lobe, (emitter, p, g.light.u_select[k]));
+        }
     }
 
     // BSDF sampling, throughput and Russian roulette: the continuation rays.
@@ -596,6 +617,9 @@ fn scatter<T: Touch>(ctx: &Context<'_, '_, T>, w: &mut StageParts<'_>, rays: &mu
         st.prev_pdf = smp.pdf[k];
         if linked {
             prev_light_set[g.index[k] as usize] = g.light_set[k];
+        }
+        if let Some(plan) = ctx.aov {
+            aov.scatter(plan, g.index[k] as usize);
         }
         st.bounces += 1;
         if rout.alive[k] == 0 {

@@ -21,6 +21,7 @@
 //! same settings: the sort stage keeps a `Surface` per textured hit).
 
 use super::{Context, ShadowRay, StageParts};
+use crate::aov::lpe::Scatter;
 use crate::bsdf::lanes::{EvalLanes, SampleInputs, SampleLanes};
 use crate::bsdf::BsdfSample;
 use crate::hair::lanes::{eval_lanes, sample_lanes, HairLanes};
@@ -30,6 +31,7 @@ use crate::lights::{power_heuristic, LightSample};
 use crate::path::roulette::{self, RouletteLane};
 use crate::path::{shadow_tmax, FirstHit, RayCounts, CONE_WIDEN_PER_ALPHA, RR_START_BOUNCE};
 use crate::sampler::{dim, hash_u32, sample_1d, shadow_seed, vertex_samples, SampleKey, DIMS};
+use crate::scalar::lobe_event;
 use crate::stats::Phase;
 use crate::surface::{Surface, SurfaceBsdf};
 use glam::Vec3;
@@ -59,6 +61,9 @@ struct Parked {
     /// The vertex's random numbers ([`vertex_samples`]): [`finish`] reads the light selection and
     /// roulette from them.
     u: [f32; DIMS],
+    /// The lobes labelling the light sample and the continuation (light-path expressions; the
+    /// scalar integrator's [`crate::scalar::lobe_event`]s).
+    lobes: [Scatter; 2],
 }
 
 impl Default for CurveGroup {
@@ -121,11 +126,18 @@ pub(super) fn vertex<T: Touch>(
     let first = &mut w.paths.first_hits[i as usize];
     if first.is_none() && st.bounces == 0 {
         *first = Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: st.travelled + hit.t });
+        if ctx.aov.is_some() {
+            w.paths.aov.first_hit(scene, i as usize, &s);
+        }
     }
     // Curves and points are not sampled as lights: BSDF sampling finds their emission unweighted.
     let le = inputs.emissive_color.max(Vec3::ZERO);
     if le != Vec3::ZERO {
-        st.radiance += st.beta * le * 1.0;
+        let emitted = st.beta * le * 1.0;
+        st.radiance += emitted;
+        if let Some(mut k) = ctx.aov.and_then(|plan| w.paths.aov.sink(plan, i as usize)) {
+            k.add_object(k.state, emitted);
+        }
     }
     if st.bounces >= max_depth {
         return;
@@ -144,6 +156,11 @@ pub(super) fn vertex<T: Touch>(
         },
     );
     let (u_lobe, u_dir) = (d(dim::LOBE), [d(dim::BSDF_UV), d(dim::BSDF_UV + 1)]);
+    let lobe = match ctx.aov.is_some_and(|p| p.lpe.is_some()) {
+        true => lobe_event(&bsdf, &inputs, wo, s.ng, u_lobe, None),
+        false => Scatter::ReflectGlossy,
+    };
+    let lobes = [lobe; 2];
     let hair = match bsdf {
         SurfaceBsdf::Hair(hair) => hair,
         // (Glass is shaded by `glass_vertex`, never here.)
@@ -151,7 +168,7 @@ pub(super) fn vertex<T: Touch>(
             // A point: its UsdPreviewSurface BSDF, one hit at a time.
             let eval = light.map(|ls| preview.eval(wo, ls.wi));
             let sample = preview.sample(wo, u_lobe, u_dir);
-            finish(ctx, w, Parked { path: i, surface: s, footprint, light, u }, eval, sample, rays);
+            finish(ctx, w, Parked { path: i, surface: s, footprint, light, u, lobes }, eval, sample, rays);
             return;
         }
     };
@@ -161,7 +178,7 @@ pub(super) fn vertex<T: Touch>(
         (group.light_wi[0][k], group.light_wi[1][k], group.light_wi[2][k]) = (ls.wi.x, ls.wi.y, ls.wi.z);
     }
     (group.u.u_lobe[k], group.u.u0[k], group.u.u1[k]) = (u_lobe, u_dir[0], u_dir[1]);
-    group.parked[k] = Some(Parked { path: i, surface: s, footprint, light, u });
+    group.parked[k] = Some(Parked { path: i, surface: s, footprint, light, u, lobes });
     group.len += 1;
     w.stats.clock.lap(Phase::Integration);
     if group.len == LANES {
@@ -198,6 +215,9 @@ pub(super) fn glass_vertex<T: Touch>(
     let first = &mut w.paths.first_hits[i as usize];
     if first.is_none() && st.bounces == 0 {
         *first = Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: st.travelled + hit.t });
+        if ctx.aov.is_some() {
+            w.paths.aov.first_hit(scene, i as usize, &s);
+        }
     }
     let le = inputs.emissive_color.max(Vec3::ZERO);
     if le != Vec3::ZERO {
@@ -205,7 +225,11 @@ pub(super) fn glass_vertex<T: Touch>(
             None => 1.0,
             Some((p, bsdf_pdf)) => power_heuristic(bsdf_pdf, scene.lights.triangle_pdf(hit.triangle, p, s.p)),
         };
-        st.radiance += st.beta * le * mis;
+        let emitted = st.beta * le * mis;
+        st.radiance += emitted;
+        if let Some(mut k) = ctx.aov.and_then(|plan| w.paths.aov.sink(plan, i as usize)) {
+            k.add_object(k.state, emitted);
+        }
     }
     if st.bounces >= max_depth {
         return;
@@ -226,8 +250,14 @@ pub(super) fn glass_vertex<T: Touch>(
         });
     let eval = light.map(|ls| bsdf.eval(wo, ls.wi));
     let sample = bsdf.sample(wo, d(dim::LOBE), [d(dim::BSDF_UV), d(dim::BSDF_UV + 1)]);
+    // Glass labels by the side each direction leaves on (the scalar integrator's).
+    let lobes = match ctx.aov.is_some_and(|p| p.lpe.is_some()) {
+        true => [light.map(|ls| ls.wi), sample.map(|bs| bs.wi)]
+            .map(|wi| lobe_event(&bsdf, inputs, wo, s.ng, 0.0, wi)),
+        false => [Scatter::ReflectSingular; 2],
+    };
     w.stats.clock.lap(Phase::Shading);
-    finish(ctx, w, Parked { path: i, surface: s, footprint, light, u }, eval, sample, rays);
+    finish(ctx, w, Parked { path: i, surface: s, footprint, light, u, lobes }, eval, sample, rays);
 }
 
 /// Runs the hair lane kernels on the parked fibre hits and finishes their vertices; empties the
@@ -274,7 +304,7 @@ fn finish<T: Touch>(
     sample: Option<BsdfSample>,
     rays: &mut RayCounts,
 ) {
-    let Parked { path: i, surface: s, footprint, light, u: samples } = parked;
+    let Parked { path: i, surface: s, footprint, light, u: samples, lobes } = parked;
     let st = &mut w.paths.states[i as usize];
     let vertex = st.vertex;
 
@@ -302,11 +332,19 @@ fn finish<T: Touch>(
                 light,
             };
             w.queues.occlusion.push(i);
+            if let Some(plan) = ctx.aov {
+                let at = (ls.emitter.is_some(), s.p, samples[dim::LIGHT_SELECT as usize]);
+                w.paths.aov.light_sample(plan, ctx.scene, i as usize, lobes[0], at);
+            }
         }
     }
 
     // BSDF sampling, throughput and Russian roulette.
     let Some(bs) = sample else { return };
+    if let Some(plan) = ctx.aov {
+        w.paths.aov.lobe[i as usize] = lobes[1];
+        w.paths.aov.scatter(plan, i as usize);
+    }
     st.prev_p = s.p;
     st.prev_pdf = bs.pdf;
     if let Some(links) = ctx.scene.lights.links() {
