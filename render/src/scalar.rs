@@ -174,6 +174,14 @@ impl Scene<'_> {
                 Some(h) if glass => self.glass_bsdf(&h, &s, &inputs),
                 _ => self.bsdf(&s, &inputs, wo),
             };
+            // Beer–Lambert through an absorbing interior the ray just crossed (before anything
+            // this vertex adds: its emission and light sample reach the camera through it too).
+            if let Some(kept) = match &bsdf {
+                SurfaceBsdf::Glass(g) => g.interior_transmittance(t_hit),
+                _ => None,
+            } {
+                beta *= kept;
+            }
             if result.first_hit.is_none() && bounces == 0 {
                 result.first_hit =
                     Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });

@@ -115,7 +115,7 @@ pub const fn light_set_words(light_count: usize) -> usize {
 macro_rules! material_record {
     ($($field:ident: $kind:ident = $fallback:expr, $usd:literal;)*) => {
         /// UsdPreviewSurface inputs and the OpenPBR parameters beyond them as constants, plus the
-        /// material's shading program. 148 bytes (96 before format 12).
+        /// material's shading program. 168 bytes (148 before format 15, 96 before format 12).
         ///
         /// The constants are the values of inputs that no program op writes; a textured input's
         /// constant is the value the scene authored on the input itself (or the spec fallback) and is
@@ -156,7 +156,7 @@ macro_rules! material_record {
             /// The first OpenPBR constant not finite or outside its range
             /// ([`crate::surface_inputs::OPENPBR_RANGES`]), as validation's error text.
             pub fn openpbr_out_of_range(&self) -> Option<&'static str> {
-                const WHAT: [&str; 7] = [
+                const WHAT: [&str; 10] = [
                     "coat_color not finite or outside [0, 1]",
                     "coat_ior not finite or outside [1, 10]",
                     "specular_weight not finite or outside [0, 1]",
@@ -164,8 +164,14 @@ macro_rules! material_record {
                     "fuzz_weight not finite or outside [0, 1]",
                     "fuzz_color not finite or outside [0, 1]",
                     "fuzz_roughness not finite or outside [0, 1]",
+                    "transmission_color not finite or outside [0, 1]",
+                    "transmission_depth not finite or outside [0, 1e9]",
+                    "geometry_thin_walled not 0 or 1",
                 ];
-                let values: [&[f32]; 7] = [
+                if self.thin_walled > 1 {
+                    return Some(WHAT[9]);
+                }
+                let values: [&[f32]; 9] = [
                     &self.coat_color,
                     std::slice::from_ref(&self.coat_ior),
                     std::slice::from_ref(&self.specular_weight),
@@ -173,6 +179,8 @@ macro_rules! material_record {
                     std::slice::from_ref(&self.fuzz_weight),
                     &self.fuzz_color,
                     std::slice::from_ref(&self.fuzz_roughness),
+                    &self.transmission_color,
+                    std::slice::from_ref(&self.transmission_depth),
                 ];
                 crate::surface_inputs::OPENPBR_RANGES
                     .iter()
@@ -185,7 +193,7 @@ macro_rules! material_record {
     };
 }
 crate::preview_surface_constants!(material_record);
-const _: () = assert!(std::mem::size_of::<Material>() == 148);
+const _: () = assert!(std::mem::size_of::<Material>() == 168);
 
 /// Light kinds stored in [`Light::kind`].
 pub mod light_kind {

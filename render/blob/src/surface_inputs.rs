@@ -10,10 +10,12 @@
 //! `color` (`[f32; 3]` in the blob, `Vec3` elsewhere), `float` (`f32`), `flag` (`u32` 0 or 1 in the
 //! blob, `bool` elsewhere). Fallbacks are the UsdPreviewSurface specification's.
 //!
-//! The last seven are OpenPBR Surface parameters (format 12; their names are the ASWF OpenPBR v1.1
-//! specification's) that UsdPreviewSurface lacks: with their fallbacks the surface is exactly
-//! UsdPreviewSurface (a clear coat of index 1.5, its F0 0.04; an untinted, unweighted specular
-//! lobe; no fuzz). `clearcoat` and `clearcoatRoughness` are OpenPBR's `coat_weight` and `coat_roughness`.
+//! The last ten are OpenPBR Surface parameters (seven since format 12, the transmission three
+//! since format 15; their names are the ASWF OpenPBR v1.1 specification's) that UsdPreviewSurface
+//! lacks: with their fallbacks the surface is exactly UsdPreviewSurface (a clear coat of index 1.5,
+//! its F0 0.04; an untinted, unweighted specular lobe; no fuzz; untinted, solid glass). OpenPBR's
+//! `transmission_weight` is not among them: it is the refracting part UsdPreviewSurface already
+//! has, `opacity = 1 − transmission_weight` with `opacityThreshold = 0`. `clearcoat` and `clearcoatRoughness` are OpenPBR's `coat_weight` and `coat_roughness`.
 //! `specular_tint` is OpenPBR's `specular_color`, renamed because `specularColor` is
 //! UsdPreviewSurface's specular-workflow F0. They are constants only (no program op writes them),
 //! and validation at load keeps them finite and in [`OPENPBR_RANGES`].
@@ -42,6 +44,9 @@ macro_rules! preview_surface_constants {
             fuzz_weight: float = 0.0, "fuzz_weight";
             fuzz_color: color = [1.0, 1.0, 1.0], "fuzz_color";
             fuzz_roughness: float = 0.5, "fuzz_roughness";
+            transmission_color: color = [1.0, 1.0, 1.0], "transmission_color";
+            transmission_depth: float = 0.0, "transmission_depth";
+            thin_walled: flag = false, "geometry_thin_walled";
         }
     };
 }
@@ -51,7 +56,9 @@ macro_rules! preview_surface_constants {
 /// outside it or not finite, and ingest clamps authored values into it with a warning. A coat of
 /// index below 1 would turn the layering's Fresnel inside out; a specular weight above 1 could make
 /// F0 exceed 1 (OpenPBR's soft range is [0, 1]).
-pub const OPENPBR_RANGES: [(&str, f32, f32); 7] = [
+/// A `transmission_depth` above [`MAX_TRANSMISSION_DEPTH`] is a unit mistake (and keeps the
+/// absorption exponent `t / depth` well away from underflow).
+pub const OPENPBR_RANGES: [(&str, f32, f32); 9] = [
     ("coat_color", 0.0, 1.0),
     ("coat_ior", 1.0, 10.0),
     ("specular_weight", 0.0, 1.0),
@@ -59,7 +66,12 @@ pub const OPENPBR_RANGES: [(&str, f32, f32); 7] = [
     ("fuzz_weight", 0.0, 1.0),
     ("fuzz_color", 0.0, 1.0),
     ("fuzz_roughness", 0.0, 1.0),
+    ("transmission_color", 0.0, 1.0),
+    ("transmission_depth", 0.0, MAX_TRANSMISSION_DEPTH),
 ];
+
+/// The largest `transmission_depth` validation accepts, in scene units.
+pub const MAX_TRANSMISSION_DEPTH: f32 = 1.0e9;
 
 /// The type of an input kind outside the blob, given the caller's 3-vector type: `color` → `$vec3`,
 /// `float` → `f32`, `flag` → `bool`.

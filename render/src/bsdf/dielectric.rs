@@ -19,9 +19,32 @@
 //! Both integrators call this code per hit (the wavefront shades such hits one at a time, as it does
 //! curve hits), so there is no lane twin to keep equal.
 //!
-//! Not modelled yet: a transmission tint or absorption (UsdPreviewSurface has neither), single-
-//! scattering energy loss at high roughness (a rough glass sphere reads a little below 1 in the
-//! white furnace), thin-walled surfaces.
+//! OpenPBR's transmission parameters (format 15):
+//! - `transmission_color` with `transmission_depth = 0` tints the refracted lobe: each refraction
+//!   multiplies by the colour (a solid sphere, entered and left, shows it squared).
+//! - With `transmission_depth = d > 0` the colour is instead the transmittance of the interior
+//!   after distance `d` (OpenPBR 1.1: extinction `σ = −ln(colour)/d`, no scattering), Beer–Lambert
+//!   along the refracted path: a segment of length `t` inside keeps `colour^(t/d)`. The path has
+//!   no medium stack: a ray that meets a transmissive surface from behind (leaving, or reflected
+//!   inside) has travelled `t` through that surface's interior, so [`Dielectric::interior_transmittance`]
+//!   is charged there. That is exact for closed, non-nested objects.
+//! - `geometry_thin_walled` makes the surface an infinitesimally thin slab of index `ior`: light
+//!   reflects or passes straight through, unbent. Per microfacet the slab's incoherent series of
+//!   internal reflections, with `F = F(o·h)` the single-interface Fresnel and `c` the colour
+//!   (absorbed once per pass through the slab), sums to
+//!
+//! ```text
+//! T = c (1 − F)² Σ (c F)²ᵏ = c (1 − F)² / (1 − c² F²)
+//! R = F + F c² (1 − F)² / (1 − c² F²)           (c = 1: R = 2F/(1 + F), T = (1 − F)/(1 + F), R + T = 1)
+//! ```
+//!
+//!   The transmitted lobe is the reflected lobe mirrored through the tangent plane (a rough thin
+//!   wall blurs what is behind it as much as its reflection; a smooth one is a straight delta-like
+//!   lobe), with no `1/η²` (the light leaves into the medium it came from). Sampling reflects with
+//!   probability `mean(R) / (mean(R) + mean(T))`. The depth is ignored (a thin wall has no interior).
+//!
+//! Not modelled yet: single-scattering energy loss at high roughness (a rough glass sphere reads a
+//! little below 1 in the white furnace).
 
 use super::{ggx_d, ggx_g2, ggx_lambda, ggx_pdf, sample_ggx_vndf, BsdfSample, Frame, MIN_ALPHA};
 use glam::Vec3;
@@ -71,8 +94,53 @@ pub struct Dielectric {
     /// Geometric normal on the side of `wo`.
     ng: Vec3,
     alpha: f32,
-    /// Index behind the surface over the index on the side of `wo`.
+    /// Index behind the surface over the index on the side of `wo` (a thin wall: its `ior`).
     eta: f32,
+    /// What each refraction multiplies by: `transmission_color` at depth 0, else white.
+    tint: Vec3,
+    /// `geometry_thin_walled`: a slab, see the module docs.
+    thin: bool,
+    /// `(transmission_color, transmission_depth)` of the interior the ray to this point crossed:
+    /// set only when it arrived from behind a solid surface with an absorbing interior.
+    interior: Option<(Vec3, f32)>,
+}
+
+/// OpenPBR's transmission parameters of one material (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transmission {
+    /// `transmission_color`.
+    pub color: Vec3,
+    /// `transmission_depth`.
+    pub depth: f32,
+    /// `geometry_thin_walled`.
+    pub thin_walled: bool,
+}
+
+impl Transmission {
+    /// Untinted, solid glass: the fallbacks.
+    pub const CLEAR: Transmission = Transmission { color: Vec3::ONE, depth: 0.0, thin_walled: false };
+}
+
+/// The thin slab's `(R, T)` per channel for single-interface Fresnel `f` and per-pass colour `c`.
+#[inline]
+fn slab(f: f32, c: Vec3) -> (Vec3, Vec3) {
+    let cf = c * f;
+    let denom = Vec3::ONE - cf * cf;
+    let t1 = (1.0 - f) * (1.0 - f);
+    let t = c * t1 / denom;
+    let r = Vec3::splat(f) + cf * c * t1 / denom;
+    (r, t)
+}
+
+/// The probability of sampling the slab's reflection.
+#[inline]
+fn slab_reflect_probability(r: Vec3, t: Vec3) -> f32 {
+    let (r, t) = (r.x + r.y + r.z, t.x + t.y + t.z);
+    if r + t > 0.0 {
+        r / (r + t)
+    } else {
+        1.0
+    }
 }
 
 impl Dielectric {
@@ -80,13 +148,39 @@ impl Dielectric {
     /// with unit shading normal `ns` and geometric normal `ng`, both flipped to the side of the
     /// outgoing direction; `entering`: that side is the outside (the triangle's front).
     pub fn new(ior: f32, roughness: f32, ns: Vec3, ng: Vec3, entering: bool) -> Self {
+        Self::with_transmission(ior, roughness, ns, ng, entering, Transmission::CLEAR)
+    }
+
+    /// [`Dielectric::new`] with OpenPBR's transmission colour, depth and thin-walled flag.
+    pub fn with_transmission(
+        ior: f32,
+        roughness: f32,
+        ns: Vec3,
+        ng: Vec3,
+        entering: bool,
+        t: Transmission,
+    ) -> Self {
         let roughness = roughness.clamp(0.0, 1.0);
+        let color = t.color.clamp(Vec3::ZERO, Vec3::ONE);
+        let solid_absorbs = !t.thin_walled && t.depth > 0.0;
         Dielectric {
             frame: Frame::new(ns),
             ng,
             alpha: (roughness * roughness).max(MIN_ALPHA),
-            eta: if entering { ior } else { 1.0 / ior },
+            eta: if entering || t.thin_walled { ior } else { 1.0 / ior },
+            tint: if solid_absorbs { Vec3::ONE } else { color },
+            thin: t.thin_walled,
+            interior: (solid_absorbs && !entering).then_some((color, t.depth)),
         }
+    }
+
+    /// What the segment of length `t` that reached this point keeps of its throughput, when it
+    /// ran through an absorbing interior (`colour^(t/depth)`, Beer–Lambert); `None` otherwise.
+    pub fn interior_transmittance(&self, t: f32) -> Option<Vec3> {
+        self.interior.map(|(c, depth)| {
+            let x = t / depth;
+            Vec3::new(c.x.powf(x), c.y.powf(x), c.z.powf(x))
+        })
     }
 
     /// Index behind the surface over the index on the side of `wo`.
@@ -106,6 +200,16 @@ impl Dielectric {
         let alpha = self.alpha;
         if wo.z <= 0.0 || wi.z == 0.0 || (wi.z > 0.0) != reflect {
             return (Vec3::ZERO, 0.0);
+        }
+        if self.thin {
+            // The transmitted lobe is the reflected one mirrored through the tangent plane.
+            let wm = Vec3::new(wi.x, wi.y, wi.z.abs());
+            let h = (wo + wm).normalize();
+            let (r, t) = slab(fresnel_dielectric(wo.dot(h), self.eta), self.tint);
+            let p_r = slab_reflect_probability(r, t);
+            let lobe = ggx_d(h, alpha) * ggx_g2(wo, wm, alpha) / (4.0 * wo.z * wm.z);
+            let (weight, p) = if reflect { (r, p_r) } else { (t, 1.0 - p_r) };
+            return (weight * lobe, ggx_pdf(wo, h, alpha) * p);
         }
         if reflect {
             let h = (wo + wi).normalize();
@@ -130,7 +234,7 @@ impl Dielectric {
         let value = t * d * ggx_g2(wo, wi, alpha) * (i_h * o_h / (wi.z * wo.z * denom2)).abs() / (eta * eta);
         let g1 = 1.0 / (1.0 + ggx_lambda(wo, alpha));
         let pdf = g1 * d * o_h / wo.z * (i_h.abs() / denom2) * t;
-        (Vec3::splat(value), pdf)
+        (Vec3::splat(value) * self.tint, pdf)
     }
 
     /// Samples an incident direction for world `wo`: `u_lobe` chooses reflection (below the Fresnel
@@ -142,7 +246,15 @@ impl Dielectric {
         }
         let h = sample_ggx_vndf(wo_l, self.alpha, u);
         let f = fresnel_dielectric(wo_l.dot(h), self.eta);
-        let (wi_l, reflect) = if u_lobe < f {
+        let (wi_l, reflect) = if self.thin {
+            let (r, t) = slab(f, self.tint);
+            let mirrored = 2.0 * wo_l.dot(h) * h - wo_l;
+            if u_lobe < slab_reflect_probability(r, t) {
+                (mirrored, true)
+            } else {
+                (Vec3::new(mirrored.x, mirrored.y, -mirrored.z), false)
+            }
+        } else if u_lobe < f {
             (2.0 * wo_l.dot(h) * h - wo_l, true)
         } else {
             (refract(wo_l, h, self.eta)?, false)

@@ -398,6 +398,9 @@ pub(super) mod tests {
             fuzz_weight: if rng.f() < 0.6 { 0.0 } else { pick(rng, true) },
             fuzz_color: Vec3::new(pick(rng, true), pick(rng, false), pick(rng, false)),
             fuzz_roughness: pick(rng, true),
+            transmission_color: Vec3::ONE,
+            transmission_depth: 0.0,
+            thin_walled: false,
             normal: None,
         };
         let ng = rng.dir();

@@ -350,7 +350,19 @@ impl<'a> Scene<'a> {
     ) -> SurfaceBsdf {
         let [p0, p1, p2] = self.accel.hit_vertices(hit);
         let entering = (p1 - p0).cross(p2 - p0).dot(s.ng) > 0.0;
-        SurfaceBsdf::Glass(Dielectric::new(inputs.ior, inputs.roughness, s.ns, s.ng, entering))
+        let transmission = crate::bsdf::dielectric::Transmission {
+            color: inputs.transmission_color,
+            depth: inputs.transmission_depth,
+            thin_walled: inputs.thin_walled,
+        };
+        SurfaceBsdf::Glass(Dielectric::with_transmission(
+            inputs.ior,
+            inputs.roughness,
+            s.ns,
+            s.ng,
+            entering,
+            transmission,
+        ))
     }
 
     /// The shading sort key of `hit` (UDIM tile, mip level and uv of its material's first texture;

@@ -440,6 +440,35 @@ fn wavefront_equals_scalar_through_glass() {
     assert!(mean > 0.05, "mean luminance {mean}");
 }
 
+/// OpenPBR transmission in both integrators: a tinted thin-walled rough sphere and an absorbing
+/// solid one (Beer–Lambert charged where paths leave it) give the scalar image.
+#[test]
+fn wavefront_equals_scalar_through_tinted_thin_and_absorbing_glass() {
+    let mut scene = scene();
+    scene.materials[0] = Material {
+        opacity: 0.0,
+        ior: 1.5,
+        roughness: 0.3,
+        thin_walled: true,
+        transmission_color: Vec3::new(0.9, 0.5, 0.2),
+        ..Material::default()
+    };
+    scene.materials[2] = Material {
+        opacity: 0.0,
+        ior: 1.4,
+        roughness: 0.1,
+        transmission_color: Vec3::new(0.3, 0.8, 0.6),
+        transmission_depth: 0.5,
+        ..Material::default()
+    };
+    let bytes = testscene::bytes(&scene);
+    let view = blob::SceneView::parse(&bytes).expect("valid blob");
+    let options = RenderOptions { max_depth: 10, ..options() };
+    let (scalar, _) = both_integrators(&view, &options, "thin and absorbing glass");
+    let mean = scalar.beauty.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / scalar.beauty.len() as f32;
+    assert!(mean > 0.05, "mean luminance {mean}");
+}
+
 /// Every light kind the light-sampling lanes handle (dome, delta and cone distant lights, point,
 /// sphere, rect and disk lights, emissive triangles of three powers, one of them with a textured
 /// `emissiveColor` evaluated per light sample): the wavefront image equals the scalar one.

@@ -212,6 +212,13 @@ pub(super) fn glass_vertex<T: Touch>(
         s.ns = crate::scene::Scene::mapped_normal(&s, n, wo);
     }
     let bsdf = scene.glass_bsdf(hit, &s, inputs);
+    // The scalar integrator's Beer–Lambert factor, at the same point of the vertex.
+    if let Some(kept) = match &bsdf {
+        SurfaceBsdf::Glass(g) => g.interior_transmittance(hit.t),
+        _ => None,
+    } {
+        st.beta *= kept;
+    }
     let first = &mut w.paths.first_hits[i as usize];
     if first.is_none() && st.bounces == 0 {
         *first = Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: st.travelled + hit.t });

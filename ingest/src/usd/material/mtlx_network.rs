@@ -25,8 +25,11 @@
 //! | fuzz_weight | `sheen` (0) | `fuzz_weight` (0) | — (0) |
 //! | fuzz_color | `sheen_color` (1) | `fuzz_color` (1) | — (1) |
 //! | fuzz_roughness | `sheen_roughness` (0.3) | `fuzz_roughness` (0.5) | — (0.5) |
+//! | transmission_color | `transmission_color` (1) | `transmission_color` (1) | — (1) |
+//! | transmission_depth | `transmission_depth` (0) | `transmission_depth` (0) | — (0) |
+//! | thin_walled | `thin_walled` (false) | `geometry_thin_walled` (false) | — (false) |
 //!
-//! The last seven rows are OpenPBR parameters the blob keeps beside UsdPreviewSurface's
+//! The last ten rows are OpenPBR parameters the blob keeps beside UsdPreviewSurface's
 //! ([`blob::surface_inputs`]); standard_surface's follow the OpenPBR/MaterialX mapping notes
 //! (`coat` → `coat_weight`, `coat_IOR` → `coat_ior`, `specular` → `specular_weight`, `sheen*` →
 //! `fuzz*`). They are
@@ -35,7 +38,9 @@
 //!
 //! - **Transmission** is the agreed mapping: opacity `1 − t` with `opacityThreshold` 0 is what the
 //!   renderer treats as a transmissive dielectric of `ior` (the spec's clear glass), so
-//!   `transmission = 1` is clear glass; its colour, depth and scatter are not carried.
+//!   `transmission = 1` is clear glass. Its colour and depth are carried (a tint at depth 0,
+//!   else Beer–Lambert absorption inside; `render::bsdf::dielectric`), as is the thin-walled flag;
+//!   `transmission_scatter` is not (the interior absorbs, it does not scatter).
 //! - **Opacity** (MaterialX presence) is a cut-out: authored or connected, it gets
 //!   `opacityThreshold = 0.5`, so that a fractional value is never read as glass.
 //! - **Specular weight and colour** are OpenPBR's `specular_weight` and `specular_color`
@@ -303,7 +308,7 @@ impl Reader<'_> {
             let coat_roughness = if open { 0.0 } else { 0.1 };
             let coat_rough = read(self, &mut mx, p, "coat_roughness", f(coat_roughness), true)?;
             self.bind(&mut m, p, ShadingInput::ClearcoatRoughness, coat_rough);
-            let [cc, ci, sw, st, fw, fc, fr] = blob::surface_inputs::OPENPBR_RANGES;
+            let [cc, ci, sw, st, fw, fc, fr, tc, td] = blob::surface_inputs::OPENPBR_RANGES;
             let coat_color =
                 self.openpbr_constant(path, shader, names("coat_color", "coat_color", ""), 1.0, cc)?;
             m.coat_color = Vec3::from_slice(&coat_color[..3]);
@@ -321,6 +326,11 @@ impl Reader<'_> {
             m.fuzz_color = Vec3::from_slice(&fuzz[..3]);
             let (name, default) = if open { ("fuzz_roughness", 0.5) } else { ("sheen_roughness", 0.3) };
             m.fuzz_roughness = self.openpbr_constant(path, shader, name, default, fr)?[0];
+            let color = self.openpbr_constant(path, shader, "transmission_color", 1.0, tc)?;
+            m.transmission_color = Vec3::from_slice(&color[..3]);
+            m.transmission_depth = self.openpbr_constant(path, shader, "transmission_depth", 0.0, td)?[0];
+            let thin = names("thin_walled", "geometry_thin_walled", "");
+            m.thin_walled = self.openpbr_constant(path, shader, thin, 0.0, ("", 0.0, 1.0))?[0] != 0.0;
             let transmission =
                 read(self, &mut mx, p, names("transmission", "transmission_weight", ""), f(0.0), true)?;
             if transmission.val != Val::Const(f(0.0)) {
