@@ -70,15 +70,13 @@ impl MappedBlob {
 
     /// Waits for the background checksums of [`MappedBlob::parse`], if it started them.
     fn checksums_verified(&self, path: &Path) -> Result<(), RenderError> {
-        let mut state = self.lock_checksums();
-        if let Checksums::Running(_) = &*state {
-            let Checksums::Running(handle) = std::mem::replace(&mut *state, Checksums::NotStarted) else {
-                unreachable!("matched just above")
-            };
-            let result = handle.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
-            *state = Checksums::Done(result);
+        let state = &mut *self.lock_checksums();
+        if matches!(state, Checksums::Running(_)) {
+            if let Checksums::Running(handle) = std::mem::replace(state, Checksums::NotStarted) {
+                *state = Checksums::Done(handle.join().unwrap_or_else(|p| std::panic::resume_unwind(p)));
+            }
         }
-        match &*state {
+        match state {
             Checksums::Done(Err(source)) => {
                 Err(RenderError::Blob { path: path.to_path_buf(), source: source.clone() })
             }
@@ -138,6 +136,8 @@ pub unsafe fn map_blob(path: &Path) -> Result<MappedBlob, RenderError> {
     }
     // SAFETY: the caller guarantees the file is not modified or truncated while the map lives (see the
     // `# Safety` section); the map is read-only.
+    // Populated: the kernel reads the pages in at the map instead of one fault per touch during
+    // validation, which halves start-up on a 925 MiB blob (see the module docs).
     let map = unsafe { memmap2::MmapOptions::new().populate().map(&file) }.map_err(io_err)?;
     Ok(MappedBlob { map: Some(map), file, stamp, checksums: Mutex::new(Checksums::NotStarted) })
 }
