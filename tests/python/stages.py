@@ -851,6 +851,24 @@ def Xform "World"
 """,
 }
 
+
+def _deep_references(depth: int) -> dict[str, str]:
+    """A chain of `depth` layers, each referencing the next's `/P`: the mesh is authored only in the
+    last, and two levels author a translate, so the shallower one (level 250) must win."""
+    files = {}
+    for i in range(depth):
+        last = i == depth - 1
+        meta = "" if last else f"(\n    prepend references = @l{i + 1}.usda@</P>\n)"
+        body = box("Geo") if last else ""
+        if i in (250, 400):
+            body += f"\n    double3 xformOp:translate = ({i}, 0, 0)\n    uniform token[] xformOpOrder = [\"xformOp:translate\"]"
+        files[f"l{i}.usda"] = header() + f'def Xform "P" {meta}\n{{\n    {body}\n}}\n'
+    return files
+
+
+#: A 500-deep acyclic reference chain, which usd-core composes (upstream openusd 0.6 stopped at 100).
+DEEP_REFERENCES = _deep_references(500)
+
 GENERATED = {
     "xforms": XFORMS,
     "topology": TOPOLOGY,
@@ -863,10 +881,12 @@ GENERATED = {
     "zup": ZUP,
     "implicit": IMPLICIT,
     "conformance": CONFORMANCE,
+    "deep_references": DEEP_REFERENCES,
 }
 
 # Facts each stage was written to have, checked against the usd-core listing.
 EXPECTED = {
+    "deep_references": {"paths": {"/P/Geo"}},
     "conformance": {
         "paths": {
             "/World/TypelessHidden/UnderTypeless", "/World/TypelessGuide/UnderTypelessGuide", "/World/OtherFamily",

@@ -878,16 +878,17 @@ fn locate_parse_error(resolver: &IngestResolver, resolved: &ResolvedPath) -> Opt
     parse_error_location(&text).map(|location| format!("{resolved}: {location}"))
 }
 
-/// Most nested composition arcs openusd 0.6 composes below one prim (its `MAX_DEPTH`, not
-/// configurable from outside the crate; usd-core's limit is deeper).
-const MAX_ARC_DEPTH: usize = 100;
+/// Most nested composition arcs openusd composes below one prim: its `MAX_DEPTH`, which is not
+/// configurable from outside the crate, raised from 100 to 1000 in the vendored copy
+/// (vendor/openusd/VENDORED.md) so that the chains usd-core composes (500 deep) compose here too.
+const MAX_ARC_DEPTH: usize = 1000;
 
 /// A reference/payload/inherit cycle as `/A (a.usda) -references-> </B> in b.usda -> ...`, or,
 /// when the chain's last site repeats none before it, the crate's depth limit it stands for.
 ///
 /// openusd reports a chain deeper than [`MAX_ARC_DEPTH`] arcs as the same `ArcCycle` as a real
-/// cycle; an acyclic chain of 100 references is not a cycle, so it is named as the limit it is
-/// (with the chain's ends: the middle of a 100-arc chain is noise).
+/// cycle; an acyclic chain that long is not a cycle, so it is named as the limit it is (with the
+/// chain's ends: the middle of a 1000-arc chain is noise).
 fn describe_cycle(chain: &pcp::CycleChain) -> String {
     let file =
         |layer: &str| Path::new(layer).file_name().map_or(layer.to_string(), |f| f.to_string_lossy().into());
@@ -903,7 +904,7 @@ fn describe_cycle(chain: &pcp::CycleChain) -> String {
     if !closes && chain.hops.len() + 1 >= MAX_ARC_DEPTH {
         let hops = &chain.hops;
         let mut text = format!(
-            "composition depth limit: {start} nests more than {MAX_ARC_DEPTH} arcs (openusd 0.6 composes at most {MAX_ARC_DEPTH}; the deeper arcs are dropped): {start}"
+            "composition depth limit: {start} nests more than {MAX_ARC_DEPTH} arcs (the composition depth limit; the deeper arcs are dropped): {start}"
         );
         for hop in &hops[..3.min(hops.len())] {
             text.push_str(&hop_text(hop));
