@@ -19,6 +19,7 @@
 //! column by [`parse_error_location`].
 
 mod numeric_run;
+mod tuple_arity;
 
 use std::borrow::Cow;
 use std::ops::Range;
@@ -491,11 +492,43 @@ struct Structure<'a> {
     /// The two significant tokens before the current one, nearest first.
     before: (&'a str, &'a str),
     depth: usize,
+    /// The attribute declaration being read, and the typed value whose tuples are being counted.
+    declaration: tuple_arity::Declaration<'a>,
+    shape: Option<tuple_arity::ValueShape<'a>>,
 }
 
 impl<'a> Structure<'a> {
     fn new(text: &'a str) -> Self {
-        Structure { text, before: ("", ""), depth: 0 }
+        Structure { text, before: ("", ""), depth: 0, declaration: Default::default(), shape: None }
+    }
+
+    /// Feeds significant token `here` to the tuple-dimension check ([`tuple_arity`]).
+    fn check_tuples(&mut self, here: &'a str) -> Result<(), String> {
+        use tuple_arity::ValueToken;
+        if let Some(shape) = &mut self.shape {
+            let token = match here {
+                "(" | "[" | "{" => ValueToken::Open { paren: here == "(" },
+                ")" | "]" | "}" => ValueToken::Close { paren: here == ")" },
+                "," => ValueToken::Comma,
+                _ => ValueToken::Other,
+            };
+            if !shape.take(token)? {
+                self.shape = None;
+            }
+        }
+        // Only a capitalised word can be a legacy alias (`Vec3f`).
+        let modern = |t: &'a str| -> &'a str {
+            if !t.starts_with(|c: char| c.is_ascii_uppercase()) {
+                return t;
+            }
+            TYPE_ALIASES.iter().find(|(alias, _)| *alias == t).map_or(t, |(_, name)| name)
+        };
+        let (declaration, shape) = self.declaration.step(here, modern);
+        self.declaration = declaration;
+        if shape.is_some() {
+            self.shape = shape;
+        }
+        Ok(())
     }
 
     /// Checks significant token `t`, `tokens` standing just after it.
@@ -562,6 +595,7 @@ impl<'a> Structure<'a> {
             Kind::Punct if matches!(here, "}" | "]" | ")") => self.depth = self.depth.saturating_sub(1),
             _ => {}
         }
+        self.check_tuples(here).map_err(|problem| format!("{}: {problem}", at(t.span.start)))?;
         self.before = (here, before);
         Ok(())
     }

@@ -9,6 +9,7 @@
 //! `.5`, `5.` or `1.e3`, a name, a string, a bracket, a comment, nesting past
 //! [`super::MAX_NESTING`]), which the general lexer then reads from its first byte.
 
+use super::tuple_arity::ValueToken;
 use super::{Kind, Lexer, Structure, MAX_NESTING};
 
 /// Consumes the run of plain numeric tokens at the lexer's position, updating what the
@@ -54,6 +55,10 @@ pub(super) fn skip<'a>(tokens: &mut Lexer<'a>, structure: &mut Structure<'a>) {
             b' ' | b'\t' | b'\r' | b'\n' => None,
             b',' | b'-' | b'+' | b')' => {
                 if c == b')' {
+                    // A tuple of the wrong size is the general path's to report, with its place.
+                    if structure.shape.as_ref().is_some_and(|s| s.closes_cleanly(true).is_err()) {
+                        break;
+                    }
                     depth = depth.saturating_sub(1);
                 }
                 Some((Kind::Punct, i + 1))
@@ -64,6 +69,21 @@ pub(super) fn skip<'a>(tokens: &mut Lexer<'a>, structure: &mut Structure<'a>) {
             }
             _ => break,
         };
+        if let (Some(_), Some(shape)) = (token, structure.shape.as_mut()) {
+            let value_token = match c {
+                b'(' => ValueToken::Open { paren: true },
+                b')' => ValueToken::Close { paren: true },
+                b',' => ValueToken::Comma,
+                _ => ValueToken::Other,
+            };
+            // Checked above: a closing parenthesis that reaches here closes cleanly.
+            if !shape.take(value_token).unwrap_or(false) {
+                structure.shape = None;
+            }
+        }
+        if token.is_some() {
+            structure.declaration = Default::default();
+        }
         match token {
             Some((kind, end)) => {
                 second = std::mem::replace(&mut nearest, i..end);
