@@ -75,9 +75,10 @@ impl Accumulation {
     /// An empty accumulation for `options` (validated: spp, tile size, camera, resolution, window and
     /// memory; an error before anything is allocated).
     pub fn new(scene: &Scene, options: &RenderOptions) -> Result<Self, RenderError> {
-        let (window, region, frame) = plan(scene, options)?;
+        let products = crate::aov::Plan::new(&scene.view)?;
+        let (window, region, frame) = plan(scene, options, &products)?;
         let n = window.width() as usize * window.height() as usize;
-        let plan = crate::aov::Plan::new(&scene.view)?;
+        let plan = products;
         let aov = vec![0.0; n * plan.stride()];
         Ok(Accumulation {
             plan: std::sync::Arc::new(plan),
@@ -104,7 +105,7 @@ impl Accumulation {
         if until <= self.samples {
             return Ok(());
         }
-        let (window, _, frame) = plan(scene, options)?;
+        let (window, _, frame) = plan(scene, options, &self.plan)?;
         if options.first_sample != self.first_sample {
             return Err(RenderError::InvalidOption(format!(
                 "the accumulation starts at sample {}, the options at {}",
@@ -132,6 +133,41 @@ impl Accumulation {
         self.samples = samples[1];
         self.stats.add_pass(&stats);
         self.stats.nonfinite_samples = self.sums.iter().map(|p| u64::from(p.nonfinite)).sum();
+        Ok(())
+    }
+
+    /// Gives an accumulation read back from a checkpoint or merged from parts its render's
+    /// products: `plan` is [`crate::aov::Plan::new`] of the blob it was rendered from, `stored` the
+    /// stride of the product sums its file held ([`crate::checkpoint::Provenance::product_sums`]).
+    /// An error, leaving `self` as it was, if the file held no product sums where the plan needs
+    /// some, or a stride other than the plan's.
+    pub fn adopt_plan(
+        &mut self,
+        plan: std::sync::Arc<crate::aov::Plan>,
+        stored: Option<usize>,
+    ) -> Result<(), String> {
+        let stride = plan.stride();
+        match stored {
+            None if stride > 0 => {
+                return Err(format!(
+                    "it holds no RenderProduct sums, and the products need {stride} per pixel (written by a render without --checkpoint's product sums)"
+                ))
+            }
+            Some(s) if s != stride => {
+                return Err(format!(
+                    "it holds {s} RenderProduct sums per pixel, the blob's products need {stride}"
+                ))
+            }
+            _ => {}
+        }
+        if self.aov.len() != self.sums.len() * stride {
+            return Err(format!(
+                "it holds {} RenderProduct sums for {} pixels, not {stride} per pixel",
+                self.aov.len(),
+                self.sums.len()
+            ));
+        }
+        self.plan = plan;
         Ok(())
     }
 
@@ -246,7 +282,11 @@ fn pixel_window(
 }
 
 /// The window and frame size `options` ask for, validated (see [`Accumulation::new`]).
-fn plan(scene: &Scene, options: &RenderOptions) -> Result<(PixelWindow, PixelWindow, [u32; 2]), RenderError> {
+fn plan(
+    scene: &Scene,
+    options: &RenderOptions,
+    products: &crate::aov::Plan,
+) -> Result<(PixelWindow, PixelWindow, [u32; 2]), RenderError> {
     if options.spp == 0 || options.spp > crate::film::MAX_SPP {
         return Err(RenderError::InvalidOption(format!(
             "spp {} out of range (1..={})",
@@ -278,6 +318,7 @@ fn plan(scene: &Scene, options: &RenderOptions) -> Result<(PixelWindow, PixelWin
         window.height(),
         options.tile_size,
         thread_count(options),
+        products,
     );
     let limit = options.max_memory.unwrap_or_else(crate::film::default_max_memory);
     if needed > limit {
@@ -523,7 +564,7 @@ mod tests {
             threads: 2,
             ..RenderOptions::default()
         });
-        let needed = crate::film::memory_estimate(8192, 8192, 16, 2);
+        let needed = crate::film::memory_estimate(8192, 8192, 16, 2, &Default::default());
         assert_eq!(needed, 8192 * 8192 * (2 * 56 + 2 * 44) + 2 * 2048 * (2048 + 44));
         assert_eq!(
             err,

@@ -206,6 +206,41 @@ impl Plan {
         self.crypto_offset(2)
     }
 
+    /// Bytes per pixel the products add at the render's peak: their sums twice (the frame's and
+    /// the tiles' returned copies, as [`crate::film::PEAK_BYTES_PER_PIXEL`] counts the beauty's),
+    /// and every product channel twice (the resolved values and their EXR encoding).
+    pub fn memory_per_pixel(&self) -> u64 {
+        let channels: usize = self.products.iter().flat_map(|p| &p.layers).map(|l| l.channels.len()).sum();
+        8 * self.stride() as u64 + 8 * channels as u64
+    }
+
+    /// Bytes per path in flight the products add (the wavefront's AOV columns: state, lobe,
+    /// shadow mask, position, first hit, each expression's radiance; the tile's sums per pixel
+    /// are within a path's share too), 0 when the paths record nothing.
+    pub fn memory_per_path(&self) -> u64 {
+        if !self.traces() {
+            return 0;
+        }
+        (4 + 1 + 8 + 12 + 12 + 12 * self.expressions.len() + 4 * self.stride()) as u64
+    }
+
+    /// Adds a later sample slice's sums `later` of one pixel to `sums` (one [`Plan::stride`] each),
+    /// as `render merge` does: radiance and position sums added, Cryptomatte slots merged by id
+    /// ([`cryptomatte::merge`]).
+    pub fn add_slice(&self, sums: &mut [f32], later: &[f32]) {
+        let summed = self.crypto_offset(0);
+        for (a, b) in sums[..summed].iter_mut().zip(&later[..summed]) {
+            *a += b;
+        }
+        let width = 2 * cryptomatte::SLOTS;
+        for kind in 0..2 {
+            if self.crypto[kind] {
+                let at = self.crypto_offset(kind);
+                cryptomatte::merge(&mut sums[at..at + width], &later[at..at + width]);
+            }
+        }
+    }
+
     /// Where Cryptomatte kind `kind`'s slots start in a pixel's sums (0 objects, 1 materials; 2 the
     /// end).
     fn crypto_offset(&self, kind: usize) -> usize {

@@ -114,6 +114,10 @@ pub struct MergeArgs {
     /// Keep the exact pixel sums in the output (a part of a larger merge, or resumable).
     #[arg(long)]
     pub keep_sums: bool,
+    /// The blob the parts were rendered from: its RenderProducts are merged and written beside
+    /// the output (needed when the parts hold product sums).
+    #[arg(long, value_name = "SCENE.blob")]
+    pub blob: Option<PathBuf>,
 }
 
 fn parse_tile(s: &str) -> Result<[u32; 2], String> {
