@@ -79,6 +79,8 @@ pub struct Plan {
     pub expressions: Vec<String>,
     /// Whether a layer shows the first-hit position.
     pub position: bool,
+    /// Whether a layer shows the first hit's screen-space motion ([`MotionProjection`]).
+    pub motion: bool,
     /// Whether emission must be split by light (see the module docs).
     pub per_light: bool,
     /// Whether a layer shows Cryptomatte objects, and materials.
@@ -119,6 +121,7 @@ impl Plan {
                     })?),
                 };
                 plan.position |= source == Source::Raw(RawSource::Position);
+                plan.motion |= source == Source::Raw(RawSource::Motion);
                 plan.crypto[0] |= source == Source::Raw(RawSource::CryptoObject);
                 plan.crypto[1] |= source == Source::Raw(RawSource::CryptoMaterial);
                 let main = source == Source::Raw(RawSource::Color) && !main_taken;
@@ -200,10 +203,15 @@ impl Plan {
         self.stride() > 0
     }
 
-    /// `f32` sums per pixel: 3 per expression, 3 for the position, then
+    /// `f32` sums per pixel: 3 per expression, 3 for the position, 2 for the motion, then
     /// [`cryptomatte::SLOTS`] (id, count) pairs for objects and for materials.
     pub fn stride(&self) -> usize {
         self.crypto_offset(2)
+    }
+
+    /// Where the motion sums start in a pixel's sums.
+    fn motion_offset(&self) -> usize {
+        3 * self.expressions.len() + if self.position { 3 } else { 0 }
     }
 
     /// Bytes per pixel the products add at the render's peak: their sums twice (the frame's and
@@ -246,7 +254,7 @@ impl Plan {
     fn crypto_offset(&self, kind: usize) -> usize {
         let slots = 2 * cryptomatte::SLOTS;
         let before = self.crypto[..kind].iter().filter(|&&c| c).count();
-        3 * self.expressions.len() + if self.position { 3 } else { 0 } + before * slots
+        self.motion_offset() + if self.motion { 2 } else { 0 } + before * slots
     }
 
     /// The EXR header attributes of `product`: each Cryptomatte layer's name, hash, conversion and
@@ -282,26 +290,34 @@ impl Plan {
             radiance: vec![Vec3::ZERO; self.expressions.len()],
             position: Vec3::ZERO,
             first: None,
+            ends: None,
+            motion: self.motion,
             state: lpe::DEAD,
         }
     }
 
     /// Adds one path's record to a pixel's sums `sums` (one [`Plan::stride`]), with the beauty's
     /// rule: a sample whose radiance was not finite adds no light.
-    pub(crate) fn add(&self, sums: &mut [f32], radiance_finite: bool, path: &PathAovs) {
-        self.add_parts(sums, radiance_finite, &path.radiance, path.position, path.first);
+    pub(crate) fn add(
+        &self,
+        sums: &mut [f32],
+        radiance_finite: bool,
+        path: &PathAovs,
+        motion: &MotionProjection,
+    ) {
+        let parts = (path.position, path.first, motion.pixels(self.motion, path.ends));
+        self.add_parts(sums, radiance_finite, &path.radiance, parts);
     }
 
     /// [`Plan::add`] of a path whose record lives in columns (the wavefront's
-    /// [`crate::wavefront`] pool): each expression's radiance, the first hit's position and its
-    /// mesh and material.
+    /// [`crate::wavefront`] pool): each expression's radiance, the first hit's position, its
+    /// mesh and material, and its motion in pixels ([`MotionProjection::pixels`]).
     pub(crate) fn add_parts(
         &self,
         sums: &mut [f32],
         radiance_finite: bool,
         radiance: &[Vec3],
-        position: Vec3,
-        first: Option<[u32; 2]>,
+        (position, first, motion): (Vec3, Option<[u32; 2]>, [f32; 2]),
     ) {
         let n = self.expressions.len();
         if radiance_finite {
@@ -316,6 +332,11 @@ impl Plan {
             s[0] += position.x;
             s[1] += position.y;
             s[2] += position.z;
+        }
+        if self.motion {
+            let at = self.motion_offset();
+            sums[at] += motion[0];
+            sums[at + 1] += motion[1];
         }
         if let Some(first) = first {
             for (kind, &index) in first.iter().enumerate() {
@@ -376,6 +397,11 @@ impl Plan {
                         let world = |c: usize, o: f64| (f64::from(at(k + c) / hits) + o) as f32;
                         [world(0, o[0]), world(1, o[1]), world(2, o[2]), 1.0]
                     }
+                    Source::Raw(RawSource::Motion) => {
+                        // The mean over the samples that hit, as the depth's; 0 where none did.
+                        let (k, hits) = (self.motion_offset(), p.hits.max(1) as f32);
+                        [at(k) / hits, at(k + 1) / hits, 0.0, 1.0]
+                    }
                     Source::Lpe(e) => [at(3 * e) * inv, at(3 * e + 1) * inv, at(3 * e + 2) * inv, alpha],
                 };
                 for (c, column) in columns.iter_mut().enumerate() {
@@ -399,6 +425,11 @@ pub(crate) struct PathAovs<'p> {
     pub(crate) position: Vec3,
     /// The first hit's mesh and material (Cryptomatte), if it hit a triangle.
     pub(crate) first: Option<[u32; 2]>,
+    /// Where the first hit's point is at shutter open and close (world), if the path hit and the
+    /// plan shows motion ([`motion_ends`]).
+    pub(crate) ends: Option<[Vec3; 2]>,
+    /// The plan shows motion: the first hit records its `ends`.
+    pub(crate) motion: bool,
     /// The automaton's state after the path's events so far.
     pub(crate) state: u32,
 }
@@ -409,6 +440,7 @@ impl<'p> PathAovs<'p> {
         self.radiance.iter_mut().for_each(|r| *r = Vec3::ZERO);
         self.position = Vec3::ZERO;
         self.first = None;
+        self.ends = None;
         self.state = self.lpe.map_or(lpe::DEAD, Automaton::start);
     }
 
@@ -476,5 +508,75 @@ pub(crate) fn add_masked(radiance: &mut [Vec3], mask: u64, c: Vec3) {
             *r += c;
         }
         m &= m - 1;
+    }
+}
+
+/// Where the point `p` of a hit on `instance` (blob::NONE: not instanced) at ray time `time` is at
+/// the shutter's open and close, in world space: carried back to the instance's prototype space
+/// with its placement at `time`, then out with its placements at open and close (the motion keys
+/// the ray interpolated: [`crate::accel::instanced::Instances::placement`]). Geometry outside
+/// instances does not move.
+pub(crate) fn motion_ends(
+    scene: &crate::scene::Scene,
+    p: Vec3,
+    instance: u32,
+    time: f32,
+    shutter: crate::camera::Shutter,
+) -> [Vec3; 2] {
+    if instance == blob::NONE || !shutter.is_open() {
+        return [p, p];
+    }
+    let instances = scene.accel.instances();
+    let m = instances.placement(instance, time).object_from_world;
+    let object =
+        Vec3::from_array(std::array::from_fn(|r| m[r][0] * p.x + m[r][1] * p.y + m[r][2] * p.z + m[r][3]));
+    [shutter.open, shutter.close].map(|t| instances.to_world_point(instance, t, object))
+}
+
+/// What projects a first hit's motion onto the film: the camera at the shutter's open and close,
+/// each with its inverse, and the film's size. The motion AOV of a sample is
+/// `raster(close) − raster(open)` of its first hit's [`motion_ends`], in pixels with x to the
+/// right and y up (the compositor's convention: Nuke's VectorBlur, Arnold's `motionvector`).
+///
+/// Camera motion plugs in here: the camera at `open` and at `close` (today both are the one
+/// camera, which has no motion keys yet), so a moving camera adds its own screen motion to the
+/// objects'.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MotionProjection {
+    open: (crate::camera::Camera, glam::Affine3A),
+    close: (crate::camera::Camera, glam::Affine3A),
+    size: [u32; 2],
+}
+
+impl MotionProjection {
+    /// The projection of `camera`'s `width × height` film, the same camera at open and close.
+    pub(crate) fn new(camera: &crate::camera::Camera, width: u32, height: u32) -> Self {
+        Self::between(camera, camera, width, height)
+    }
+
+    /// The projection of a camera that is `open` at the shutter's opening and `close` at its
+    /// closing.
+    pub(crate) fn between(
+        open: &crate::camera::Camera,
+        close: &crate::camera::Camera,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        MotionProjection {
+            open: (*open, open.camera_from_world()),
+            close: (*close, close.camera_from_world()),
+            size: [width, height],
+        }
+    }
+
+    /// The screen motion in pixels (x right, y up) of a first hit at `ends` (zero without one, or
+    /// when the plan shows no motion: `wanted` false).
+    #[inline]
+    pub(crate) fn pixels(&self, wanted: bool, ends: Option<[Vec3; 2]>) -> [f32; 2] {
+        let (true, Some([a, b])) = (wanted, ends) else { return [0.0; 2] };
+        let [w, h] = self.size;
+        let from = self.open.0.raster_from_world(&self.open.1, a, w, h);
+        let to = self.close.0.raster_from_world(&self.close.1, b, w, h);
+        [to[0] - from[0], from[1] - to[1]]
     }
 }
