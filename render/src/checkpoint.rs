@@ -255,6 +255,7 @@ pub fn read_checkpoint(path: &Path) -> Result<(Accumulation, Provenance), Render
         plan: Default::default(),
         aov,
         stats: Default::default(),
+        adaptive: None,
     };
     Ok((film, Provenance { blob, settings, product_sums }))
 }

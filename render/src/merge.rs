@@ -190,6 +190,7 @@ pub fn merge(
         plan: plan.unwrap_or_default(),
         aov,
         stats: Default::default(),
+        adaptive: None,
     };
     Ok((film, first.provenance.clone()))
 }

@@ -350,16 +350,23 @@ impl Plan {
     }
 
     /// The channels of `product` over `pixels` pixels: each channel's name and values, from the
-    /// beauty's sums `sums`, this plan's sums `aov` ([`Plan::stride`] per pixel) and the
-    /// `samples` per pixel.
-    pub fn channels(&self, product: &Product, sums: &[PixelSum], aov: &[f32], samples: u32) -> Channels {
+    /// beauty's sums `sums`, this plan's sums `aov` ([`Plan::stride`] per pixel) and each pixel's
+    /// sample count `counts(i)` (one for all but an adaptive render's).
+    pub fn channels(
+        &self,
+        product: &Product,
+        sums: &[PixelSum],
+        aov: &[f32],
+        counts: &dyn Fn(usize) -> u32,
+    ) -> Channels {
         let stride = self.stride();
         let n_expr = self.expressions.len();
-        let inv = 1.0 / samples.max(1) as f32;
         let mut out = Vec::new();
         for layer in &product.layers {
             let mut columns: Vec<Vec<f32>> = vec![Vec::with_capacity(sums.len()); layer.channels.len()];
             for (i, p) in sums.iter().enumerate() {
+                let samples = counts(i);
+                let inv = 1.0 / samples.max(1) as f32;
                 let (beauty, albedo, normal, depth) = p.resolve(samples.max(1));
                 let alpha = beauty[3];
                 let extra = aov.get(i * stride..(i + 1) * stride).unwrap_or(&[]);

@@ -119,6 +119,12 @@ where
             );
             let (start, mut last_checkpoint) = (Instant::now(), Instant::now());
             let pixels = film.sums.len() as u64;
+            if let Some((threshold, min_spp)) = options.adaptive {
+                // The CLI refused it with checkpoints, resumes, time limits and farm parts.
+                let report = |p: render::Progress| reporter.report(p);
+                film.render_adaptive(&scene, &options, threshold, min_spp, &report)
+                    .with_context(|| format!("rendering {}", blob_path.display()))?;
+            }
             while film.samples < spp {
                 let before = u64::from(film.samples) * pixels;
                 let until = film.samples.saturating_add(pass).min(spp);
