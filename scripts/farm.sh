@@ -70,7 +70,7 @@ TASK
 cat > "$jobs/merge.sh" <<MERGE
 #!/usr/bin/env bash
 set -euo pipefail
-exec $(printf %q "$render_bin") merge $(for ((i = 0; i < units; i++)); do printf ' %q' "$parts/part-$i.exr"; done) -o $(printf %q "$out")
+exec $(printf %q "$render_bin") merge --blob $(printf %q "$blob") $(for ((i = 0; i < units; i++)); do printf ' %q' "$parts/part-$i.exr"; done) -o $(printf %q "$out")
 MERGE
 args=$(printf ' %q' --tiles "$tiles" --samples "$samples" --cpus "$cpus" --render "$render_bin" "$blob" -o "$out" "${opts[@]}")
 cat > "$jobs/retry.sh" <<RETRY

@@ -377,3 +377,32 @@ fn lpe_aovs_of_curves_points_and_linked_glass_equal_the_scalar_ones() {
         assert_eq!(scalar.sums, wave.sums, "{what}");
     }
 }
+
+#[test]
+fn max_memory_counts_the_products_sums_and_channels() {
+    let mut scene = busy_scene();
+    let mut vars: Vec<RenderVar> = SPLIT.iter().map(|(n, e)| lpe(n, e)).collect();
+    vars.push(var("CryptoObject", "CryptoObject", st::RAW, dt::COLOR3));
+    scene.render_products = vec![product(vars)];
+    let bytes = testscene::bytes(&scene);
+    let view = blob::SceneView::parse(&bytes).unwrap();
+    let plan = crate::aov::Plan::new(&view).unwrap();
+    // 7 expressions × 3 sums + 8 Cryptomatte (id, count) slots; 7 × 3 + 12 channels.
+    assert_eq!(plan.stride(), 7 * 3 + 16);
+    assert_eq!(plan.memory_per_pixel(), 8 * 37 + 8 * 33);
+    let (res, threads) = (256, 2);
+    let without = crate::film::memory_estimate(res, res, 16, threads, &Default::default());
+    let with = crate::film::memory_estimate(res, res, 16, threads, &plan);
+    let pixels = u64::from(res * res);
+    assert!(with - without >= pixels * plan.memory_per_pixel(), "{with} vs {without}");
+    let scene = RenderScene::new(view);
+    let options = |limit: u64| RenderOptions {
+        resolution: Some([res, res]),
+        threads,
+        max_memory: Some(limit),
+        ..RenderOptions::default()
+    };
+    let err = Accumulation::new(&scene, &options(with - 1)).unwrap_err().to_string();
+    assert!(err.contains(&format!("needs about {with} bytes")), "{err}");
+    Accumulation::new(&scene, &options(with)).unwrap();
+}

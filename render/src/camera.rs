@@ -36,7 +36,7 @@
 use glam::{Affine3A, Vec3, Vec3A};
 
 /// A camera ready to generate rays for a `width × height` image.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     world_from_camera: Affine3A,
     orthographic: bool,
@@ -201,6 +201,30 @@ impl Camera {
             lens: ThinLens::from_blob(cam, focal),
             shutter: Shutter { open: cam.shutter_open, close: cam.shutter_close },
         }
+    }
+
+    /// Where the world point `p` lands on a `width × height` film, in pixels (x right, y down from
+    /// the top-left corner: the raster [`Camera::generate_ray`] reads), seen through the lens
+    /// centre; `camera_from_world` is the inverse of this camera's `world_from_camera`
+    /// ([`Camera::camera_from_world`], computed once by the caller).
+    pub fn raster_from_world(
+        &self,
+        camera_from_world: &Affine3A,
+        p: Vec3,
+        width: u32,
+        height: u32,
+    ) -> [f32; 2] {
+        let q = camera_from_world.transform_point3(p);
+        let (x, y) =
+            if self.orthographic { (q.x, q.y) } else { (-self.focal * q.x / q.z, -self.focal * q.y / q.z) };
+        let fx = (x - self.window_min[0]) / self.window_size[0];
+        let fy = 1.0 - (y - self.window_min[1]) / self.window_size[1];
+        [fx * width as f32, fy * height as f32]
+    }
+
+    /// The inverse of `world_from_camera`.
+    pub fn camera_from_world(&self) -> Affine3A {
+        self.world_from_camera.inverse()
     }
 
     /// The camera's shutter (`shutter:open`, `shutter:close`).

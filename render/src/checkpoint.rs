@@ -25,6 +25,10 @@ pub struct Provenance {
     /// The options that change pixels, as text (seed, depth, camera, filters, curve shape, depth of
     /// field).
     pub settings: String,
+    /// Read from a checkpoint: the [`crate::aov::Plan::stride`] of the RenderProduct sums it holds
+    /// (`sums.aov.*` channels), or `None` if its render had no RenderProducts (or predates them).
+    /// [`write_checkpoint`] writes the film's own plan and ignores it.
+    pub product_sums: Option<usize>,
 }
 
 impl Provenance {
@@ -47,7 +51,7 @@ impl Provenance {
         } else {
             format!("{settings} motion_blur {} shutter {:?}", options.motion_blur, options.shutter)
         };
-        Provenance { blob: blob_id(bytes), settings }
+        Provenance { blob: blob_id(bytes), settings, product_sums: None }
     }
 }
 
@@ -85,6 +89,15 @@ const U32_SUMS: [SumChannel<u32>; 4] = [
     ("sums.nonfinite", |p| p.nonfinite),
 ];
 
+/// Most RenderProduct sums per pixel a checkpoint may claim (far above any plan: 64 expressions
+/// and both Cryptomatte kinds are under 250), so a corrupt count cannot ask for a huge film.
+const MAX_PRODUCT_SUMS: usize = 4096;
+
+/// The channel of RenderProduct sum `k` of each pixel.
+fn aov_channel(k: usize) -> String {
+    format!("sums.aov.{k:04}")
+}
+
 /// Writes `film` to `path` atomically: the image so far plus its sums and `provenance`.
 pub fn write_checkpoint(
     path: &Path,
@@ -99,9 +112,21 @@ pub fn write_checkpoint(
     for (name, read) in U32_SUMS {
         channels.push(AnyChannel::new(name, FlatSamples::U32(film.sums.iter().map(read).collect())));
     }
+    // The RenderProducts' sums, only when the render has products (so the checkpoints of every
+    // other render keep their bytes): each as its bits, exact whatever the value (a Cryptomatte
+    // id is a float's bit pattern).
+    let stride = film.plan.stride();
+    let products = !film.plan.products.is_empty();
+    if products {
+        for k in 0..stride {
+            let bits = film.aov.iter().skip(k).step_by(stride).map(|v| v.to_bits()).collect();
+            channels.push(AnyChannel::new(aov_channel(k).as_str(), FlatSamples::U32(bits)));
+        }
+    }
     let mut attributes = crate::output::layer_attributes(&image);
+    let products_line = if products { format!("\nproducts {stride}") } else { String::new() };
     let text = format!(
-        "first {}\nsamples {}\nregion {} {} {} {}\nblob {:016x}\nsettings {}",
+        "first {}\nsamples {}\nregion {} {} {} {}\nblob {:016x}\nsettings {}{products_line}",
         film.first_sample,
         film.samples,
         film.region.x0,
@@ -151,6 +176,15 @@ pub fn read_checkpoint(path: &Path) -> Result<(Accumulation, Provenance), Render
     };
     let blob = u64::from_str_radix(field("blob")?, 16).map_err(|e| fail(format!("bad blob id: {e}")))?;
     let settings = field("settings")?.to_string();
+    let product_sums = match field("products") {
+        Err(_) => None,
+        Ok(v) => Some(
+            v.parse::<usize>()
+                .ok()
+                .filter(|&s| s <= MAX_PRODUCT_SUMS)
+                .ok_or_else(|| fail(format!("{ATTRIBUTE} has no valid products line")))?,
+        ),
+    };
     let display = image.attributes.display_window;
     let position = layer.attributes.layer_position;
     let (width, height) = (layer.size.width() as u32, layer.size.height() as u32);
@@ -194,6 +228,14 @@ pub fn read_checkpoint(path: &Path) -> Result<(Accumulation, Provenance), Render
             nonfinite: u[3][i],
         })
         .collect();
+    let stride = product_sums.unwrap_or(0);
+    let mut aov = vec![0.0f32; n * stride];
+    for k in 0..stride {
+        let bits = u32s(&aov_channel(k))?;
+        for (i, b) in bits.into_iter().enumerate() {
+            aov[i * stride + k] = f32::from_bits(b);
+        }
+    }
     let inside = |w: &PixelWindow| w.x1 <= frame[0] && w.y1 <= frame[1];
     if !inside(&region)
         || window.x0 < region.x0
@@ -211,8 +253,9 @@ pub fn read_checkpoint(path: &Path) -> Result<(Accumulation, Provenance), Render
         samples,
         sums,
         plan: Default::default(),
-        aov: Vec::new(),
+        aov,
         stats: Default::default(),
+        adaptive: None,
     };
-    Ok((film, Provenance { blob, settings }))
+    Ok((film, Provenance { blob, settings, product_sums }))
 }

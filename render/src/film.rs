@@ -63,11 +63,21 @@ pub const MAX_SPP: u32 = 1 << 24;
 
 /// Bytes a `width × height` render on `threads` workers with tiles of `tile_size²` pixels allocates
 /// for its film, path pools and AOVs (not the mapped blob, whose pages the kernel owns and may evict).
-pub fn memory_estimate(width: u32, height: u32, tile_size: u32, threads: usize) -> u64 {
+/// `plan` is the render's products: their sums per pixel and per path in flight, and their
+/// channels ([`crate::aov::Plan::memory_per_pixel`]).
+pub fn memory_estimate(
+    width: u32,
+    height: u32,
+    tile_size: u32,
+    threads: usize,
+    plan: &crate::aov::Plan,
+) -> u64 {
     let pixels = width as u64 * height as u64;
     let paths = (tile_size as u64 * tile_size as u64).max(crate::wavefront::POOL_PATHS as u64);
-    let pools = threads as u64 * paths * (POOL_BYTES_PER_PATH + PIXEL_BYTES);
-    pixels.saturating_mul(PEAK_BYTES_PER_PIXEL).saturating_add(pools)
+    let per_path = POOL_BYTES_PER_PATH + PIXEL_BYTES + plan.memory_per_path();
+    let pools = threads as u64 * paths * per_path;
+    let per_pixel = PEAK_BYTES_PER_PIXEL + plan.memory_per_pixel();
+    pixels.saturating_mul(per_pixel).saturating_add(pools)
 }
 
 /// The default memory limit: 3/4 of the physical memory (`MemTotal` of `/proc/meminfo`), leaving a

@@ -37,7 +37,10 @@ pub fn render_scene_with_progress(
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<Image, RenderError> {
     let mut film = Accumulation::new(scene, options)?;
-    film.render(scene, options, options.spp, progress)?;
+    match options.adaptive {
+        Some((threshold, min_spp)) => film.render_adaptive(scene, options, threshold, min_spp, progress)?,
+        None => film.render(scene, options, options.spp, progress)?,
+    }
     Ok(film.image())
 }
 
@@ -69,15 +72,64 @@ pub struct Accumulation {
     pub aov: Vec<f32>,
     /// Counters and timings of the passes so far.
     pub stats: RenderStats,
+    /// An adaptive render's per-pixel state ([`Accumulation::render_adaptive`]); `None` for a
+    /// uniform one, whose pixels all hold [`Accumulation::sample_count`] samples.
+    pub adaptive: Option<Adaptive>,
+}
+
+/// Adaptive sampling's per-pixel state: how many samples each pixel holds and the batch means
+/// its error estimate is made of.
+///
+/// The estimate is the batch-means one: a pixel's samples come in batches of [`ADAPTIVE_BATCH`],
+/// each batch's mean luminance `mᵢ` (from the pixel's sums before and after it) is one draw,
+/// and with `k` batches the standard error of the pixel's mean is `σ = √(s² / k)`, `s²` the
+/// unbiased variance of the `mᵢ`. The error compared with `--adaptive-threshold` is
+/// `σ / (10⁻³ + √μ)`, `μ` the mean of the `mᵢ` (Cycles' normalisation: between an absolute error,
+/// too strict on highlights, and a relative one, too strict in the dark). A tile stops when every
+/// pixel of it is below the threshold (or at `--spp`), after at least the minimum samples: the
+/// decision reads only the sums, so it is the same on any thread count and for both
+/// integrators, whose sums are equal bit for bit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Adaptive {
+    /// Samples each pixel holds (one past its last sample index).
+    pub counts: Vec<u32>,
+    /// Per pixel: the sum of its batch means, of their squares, and the batches.
+    means: Vec<f64>,
+    squares: Vec<f64>,
+    batches: Vec<u32>,
+}
+
+impl Adaptive {
+    /// The error estimate of pixel `i` (see the type's docs); infinite below two batches.
+    pub fn error(&self, i: usize) -> f64 {
+        let k = f64::from(self.batches[i]);
+        if k < 2.0 {
+            return f64::INFINITY;
+        }
+        let mean = self.means[i] / k;
+        let variance = ((self.squares[i] - k * mean * mean) / (k - 1.0)).max(0.0);
+        (variance / k).sqrt() / (1e-3 + mean.max(0.0).sqrt())
+    }
+}
+
+/// Samples per batch of an adaptive render (see [`Adaptive`]): small enough that a tile stops
+/// soon after converging, large enough for the wavefront's chunks (2048 paths over 256 pixels
+/// hold 8).
+pub const ADAPTIVE_BATCH: u32 = 4;
+
+/// Luminance (Rec. 709) of a radiance sum.
+fn luminance(c: glam::Vec3) -> f64 {
+    0.2126 * f64::from(c.x) + 0.7152 * f64::from(c.y) + 0.0722 * f64::from(c.z)
 }
 
 impl Accumulation {
     /// An empty accumulation for `options` (validated: spp, tile size, camera, resolution, window and
     /// memory; an error before anything is allocated).
     pub fn new(scene: &Scene, options: &RenderOptions) -> Result<Self, RenderError> {
-        let (window, region, frame) = plan(scene, options)?;
+        let products = crate::aov::Plan::new(&scene.view)?;
+        let (window, region, frame) = plan(scene, options, &products)?;
         let n = window.width() as usize * window.height() as usize;
-        let plan = crate::aov::Plan::new(&scene.view)?;
+        let plan = products;
         let aov = vec![0.0; n * plan.stride()];
         Ok(Accumulation {
             plan: std::sync::Arc::new(plan),
@@ -89,6 +141,7 @@ impl Accumulation {
             samples: options.first_sample,
             sums: vec![PixelSum::default(); n],
             stats: RenderStats::default(),
+            adaptive: None,
         })
     }
 
@@ -104,7 +157,7 @@ impl Accumulation {
         if until <= self.samples {
             return Ok(());
         }
-        let (window, _, frame) = plan(scene, options)?;
+        let (window, _, frame) = plan(scene, options, &self.plan)?;
         if options.first_sample != self.first_sample {
             return Err(RenderError::InvalidOption(format!(
                 "the accumulation starts at sample {}, the options at {}",
@@ -117,37 +170,185 @@ impl Accumulation {
                 self.window, self.frame[0], self.frame[1], frame[0], frame[1]
             )));
         }
-        let total_bytes = scene.shading.textures().texel_bytes();
         let samples = [self.samples, until.min(crate::film::MAX_SPP)];
-        let mut stats = if options.texture_stats {
-            // One bitmap for the pass, allocated before any tile starts.
-            let pages = texture::PageTouches::new(total_bytes);
-            let mut stats = render_pass(scene, options, self, samples, progress, &pages)?;
-            stats.texture_bytes_touched = pages.touched_bytes();
-            stats
-        } else {
-            render_pass(scene, options, self, samples, progress, &texture::NoTouch)?
-        };
-        stats.texture_bytes_total = total_bytes as u64;
+        let ranges = vec![samples; tiles(self.window, options.tile_size).len()];
+        self.pass(scene, options, &ranges, progress)?;
         self.samples = samples[1];
-        self.stats.add_pass(&stats);
         self.stats.nonfinite_samples = self.sums.iter().map(|p| u64::from(p.nonfinite)).sum();
         Ok(())
     }
 
-    /// Samples per pixel held.
+    /// One pass over `ranges` (per tile, see [`render_pass`]), its statistics added.
+    fn pass(
+        &mut self,
+        scene: &Scene,
+        options: &RenderOptions,
+        ranges: &[[u32; 2]],
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<(), RenderError> {
+        let total_bytes = scene.shading.textures().texel_bytes();
+        let mut stats = if options.texture_stats {
+            // One bitmap for the pass, allocated before any tile starts.
+            let pages = texture::PageTouches::new(total_bytes);
+            let mut stats = render_pass(scene, options, self, ranges, progress, &pages)?;
+            stats.texture_bytes_touched = pages.touched_bytes();
+            stats
+        } else {
+            render_pass(scene, options, self, ranges, progress, &texture::NoTouch)?
+        };
+        stats.texture_bytes_total = total_bytes as u64;
+        self.stats.add_pass(&stats);
+        Ok(())
+    }
+
+    /// Gives an accumulation read back from a checkpoint or merged from parts its render's
+    /// products: `plan` is [`crate::aov::Plan::new`] of the blob it was rendered from, `stored` the
+    /// stride of the product sums its file held ([`crate::checkpoint::Provenance::product_sums`]).
+    /// An error, leaving `self` as it was, if the file held no product sums where the plan needs
+    /// some, or a stride other than the plan's.
+    pub fn adopt_plan(
+        &mut self,
+        plan: std::sync::Arc<crate::aov::Plan>,
+        stored: Option<usize>,
+    ) -> Result<(), String> {
+        let stride = plan.stride();
+        match stored {
+            None if stride > 0 => {
+                return Err(format!(
+                    "it holds no RenderProduct sums, and the products need {stride} per pixel (written by a render without --checkpoint's product sums)"
+                ))
+            }
+            Some(s) if s != stride => {
+                return Err(format!(
+                    "it holds {s} RenderProduct sums per pixel, the blob's products need {stride}"
+                ))
+            }
+            _ => {}
+        }
+        if self.aov.len() != self.sums.len() * stride {
+            return Err(format!(
+                "it holds {} RenderProduct sums for {} pixels, not {stride} per pixel",
+                self.aov.len(),
+                self.sums.len()
+            ));
+        }
+        self.plan = plan;
+        Ok(())
+    }
+
+    /// Samples per pixel held (for an adaptive render the most any pixel may hold: `--spp`).
     pub fn sample_count(&self) -> u32 {
         self.samples - self.first_sample
+    }
+
+    /// Samples pixel `i` (row-major in the window) holds.
+    pub fn pixel_samples(&self, i: usize) -> u32 {
+        match &self.adaptive {
+            Some(a) => a.counts[i] - self.first_sample,
+            None => self.sample_count(),
+        }
+    }
+
+    /// An adaptive render (see [`Adaptive`]): batches of [`ADAPTIVE_BATCH`] samples over the
+    /// tiles not yet converged, until every tile is below `threshold` or at `options.spp`; every
+    /// tile takes at least `min_spp` samples (rounded up to whole batches, and at least two
+    /// batches). The accumulation must be new (no samples yet) and start at sample 0.
+    pub fn render_adaptive(
+        &mut self,
+        scene: &Scene,
+        options: &RenderOptions,
+        threshold: f32,
+        min_spp: u32,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<(), RenderError> {
+        if !(threshold.is_finite() && threshold > 0.0) {
+            return Err(RenderError::InvalidOption(format!(
+                "the adaptive threshold {threshold} must be a positive number"
+            )));
+        }
+        if self.samples != 0 || self.first_sample != 0 || self.adaptive.is_some() {
+            return Err(RenderError::InvalidOption(
+                "adaptive sampling starts from an empty render (no checkpoint, resume or sample range)"
+                    .into(),
+            ));
+        }
+        let (window, _, frame) = plan(scene, options, &self.plan)?;
+        if (window, frame) != (self.window, self.frame) {
+            return Err(RenderError::InvalidOption("the accumulation is of other pixels".into()));
+        }
+        let n = self.sums.len();
+        self.adaptive = Some(Adaptive {
+            counts: vec![0; n],
+            means: vec![0.0; n],
+            squares: vec![0.0; n],
+            batches: vec![0; n],
+        });
+        let spp = options.spp;
+        let min = min_spp.max(2 * ADAPTIVE_BATCH).div_ceil(ADAPTIVE_BATCH) * ADAPTIVE_BATCH;
+        let tiles = tiles(self.window, options.tile_size);
+        let mut counts = vec![0u32; tiles.len()];
+        // Each tile's pixels, as indices into the window.
+        let window = self.window;
+        let pixels: Vec<Vec<usize>> = tiles
+            .iter()
+            .map(|t| {
+                (t.y0..t.y1)
+                    .flat_map(|y| {
+                        (t.x0..t.x1).map(move |x| ((y - window.y0) * window.width() + x - window.x0) as usize)
+                    })
+                    .collect()
+            })
+            .collect();
+        loop {
+            let adaptive = self.adaptive.as_ref().expect("set above");
+            let ranges: Vec<[u32; 2]> = pixels
+                .iter()
+                .zip(&counts)
+                .map(|(tile_pixels, &c)| {
+                    let open = c < spp
+                        && (c < min || tile_pixels.iter().any(|&i| adaptive.error(i) > f64::from(threshold)));
+                    if open {
+                        [c, (c + ADAPTIVE_BATCH).min(spp)]
+                    } else {
+                        [c, c]
+                    }
+                })
+                .collect();
+            if ranges.iter().all(|r| r[1] == r[0]) {
+                break;
+            }
+            let before: Vec<f64> = self.sums.iter().map(|p| luminance(p.sum)).collect();
+            self.pass(scene, options, &ranges, progress)?;
+            let adaptive = self.adaptive.as_mut().expect("set above");
+            for ((tile_pixels, r), c) in pixels.iter().zip(&ranges).zip(counts.iter_mut()) {
+                if r[1] == r[0] {
+                    continue;
+                }
+                let batch = f64::from(r[1] - r[0]);
+                for &i in tile_pixels {
+                    let m = (luminance(self.sums[i].sum) - before[i]) / batch;
+                    adaptive.means[i] += m;
+                    adaptive.squares[i] += m * m;
+                    adaptive.batches[i] += 1;
+                    adaptive.counts[i] = r[1];
+                }
+                *c = r[1];
+            }
+        }
+        // Done: every tile converged or reached `spp`; `samples` is the render's target and each
+        // pixel's own count is `pixel_samples`.
+        self.samples = spp;
+        self.stats.nonfinite_samples = self.sums.iter().map(|p| u64::from(p.nonfinite)).sum();
+        Ok(())
     }
 
     /// Each render product's channels (name, values of the window's pixels), in product order;
     /// nothing when the accumulation holds no product sums ([`Accumulation::plan`]).
     pub fn products(&self) -> Vec<(&crate::aov::Product, crate::aov::Channels)> {
-        let samples = self.sample_count();
         self.plan
             .products
             .iter()
-            .map(|p| (p, self.plan.channels(p, &self.sums, &self.aov, samples)))
+            .map(|p| (p, self.plan.channels(p, &self.sums, &self.aov, &|i| self.pixel_samples(i))))
             .collect()
     }
 
@@ -165,8 +366,8 @@ impl Accumulation {
             depth: Vec::with_capacity(n),
             stats: self.stats,
         };
-        for p in &self.sums {
-            let (beauty, albedo, normal, depth) = p.resolve(self.sample_count().max(1));
+        for (i, p) in self.sums.iter().enumerate() {
+            let (beauty, albedo, normal, depth) = p.resolve(self.pixel_samples(i).max(1));
             image.beauty.push(beauty);
             image.albedo.push(albedo);
             image.normal.push(normal);
@@ -194,25 +395,19 @@ pub fn check_resolution(width: u32, height: u32) -> Result<(), RenderError> {
 struct ProgressCounter {
     tiles_total: usize,
     samples_total: u64,
-    spp: u64,
     /// Finished tiles and their samples, updated together.
     done: std::sync::Mutex<(usize, u64)>,
 }
 
 impl ProgressCounter {
-    fn new(tiles_total: usize, window: PixelWindow, spp: u32) -> Self {
-        let pixels = u64::from(window.width()) * u64::from(window.height());
-        ProgressCounter {
-            tiles_total,
-            samples_total: pixels * u64::from(spp),
-            spp: u64::from(spp),
-            done: std::sync::Mutex::new((0, 0)),
-        }
+    fn new(tiles_total: usize, samples_total: u64) -> Self {
+        ProgressCounter { tiles_total, samples_total, done: std::sync::Mutex::new((0, 0)) }
     }
 
-    /// Counts `tile` as finished and returns the progress so far.
-    fn finish(&self, tile: &crate::film::Tile) -> Progress {
-        let samples = u64::from(tile.x1 - tile.x0) * u64::from(tile.y1 - tile.y0) * self.spp;
+    /// Counts `tile`, traced for samples `range`, as finished and returns the progress so far.
+    fn finish(&self, tile: &crate::film::Tile, range: [u32; 2]) -> Progress {
+        let spp = u64::from(range[1] - range[0]);
+        let samples = u64::from(tile.x1 - tile.x0) * u64::from(tile.y1 - tile.y0) * spp;
         let mut done = self.done.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
         done.0 += 1;
         done.1 += samples;
@@ -246,7 +441,11 @@ fn pixel_window(
 }
 
 /// The window and frame size `options` ask for, validated (see [`Accumulation::new`]).
-fn plan(scene: &Scene, options: &RenderOptions) -> Result<(PixelWindow, PixelWindow, [u32; 2]), RenderError> {
+fn plan(
+    scene: &Scene,
+    options: &RenderOptions,
+    products: &crate::aov::Plan,
+) -> Result<(PixelWindow, PixelWindow, [u32; 2]), RenderError> {
     if options.spp == 0 || options.spp > crate::film::MAX_SPP {
         return Err(RenderError::InvalidOption(format!(
             "spp {} out of range (1..={})",
@@ -278,6 +477,7 @@ fn plan(scene: &Scene, options: &RenderOptions) -> Result<(PixelWindow, PixelWin
         window.height(),
         options.tile_size,
         thread_count(options),
+        products,
     );
     let limit = options.max_memory.unwrap_or_else(crate::film::default_max_memory);
     if needed > limit {
@@ -331,13 +531,14 @@ fn thread_count(options: &RenderOptions) -> usize {
     }
 }
 
-/// One pass: samples `samples[0] .. samples[1]` of every pixel of `film`'s window, continuing its
-/// sums. Returns the pass's statistics.
+/// One pass: samples `ranges[t][0] .. ranges[t][1]` of every pixel of tile `t` of `film`'s window
+/// ([`tiles`] order; an empty range skips the tile), continuing its sums. Returns the pass's
+/// statistics.
 fn render_pass<T: texture::Touch + Sync>(
     scene: &Scene,
     options: &RenderOptions,
     film: &mut Accumulation,
-    samples: [u32; 2],
+    ranges: &[[u32; 2]],
     progress: &(dyn Fn(Progress) + Sync),
     touch: &T,
 ) -> Result<RenderStats, RenderError> {
@@ -357,15 +558,21 @@ fn render_pass<T: texture::Touch + Sync>(
         .map_err(|e| RenderError::ThreadPool(e.to_string()))?;
 
     let ts = options.tile_size;
-    let tiles = tiles(window, ts);
-    let counter = ProgressCounter::new(tiles.len(), window, samples[1] - samples[0]);
+    let all_tiles = tiles(window, ts);
+    // The tiles this pass traces, each with its samples.
+    let tiles: Vec<(&crate::film::Tile, [u32; 2])> =
+        all_tiles.iter().zip(ranges.iter().copied()).filter(|(_, r)| r[1] > r[0]).collect();
+    let traced: u64 =
+        tiles.iter().map(|(t, r)| u64::from((t.x1 - t.x0) * (t.y1 - t.y0)) * u64::from(r[1] - r[0])).sum();
+    let counter = ProgressCounter::new(tiles.len(), traced);
     let start = Instant::now();
     let settings = PathSettings {
         max_depth: options.max_depth,
         filter: options.texture_filter,
         shutter: shutter(options, &camera)?,
     };
-    let sampling = Sampling { samples, ..Sampling::new(options, width, height, camera.forward()) };
+    let sampling = Sampling::new(options, width, height, camera.forward());
+    let sampling_of = |samples: [u32; 2]| Sampling { samples, ..sampling };
     // The tile's sums so far, row-major (the window's rows are `film.window.width()` long).
     let sums = &film.sums;
     let stride = window.width();
@@ -394,17 +601,17 @@ fn render_pass<T: texture::Touch + Sync>(
         Integrator::Scalar => pool.install(|| {
             tiles
                 .par_iter()
-                .map(|tile| {
+                .map(|&(tile, samples)| {
                     let r = crate::scalar::render_tile(
                         scene,
                         &camera,
-                        &sampling,
+                        &sampling_of(samples),
                         settings,
                         options.phase_stats,
                         TileJob { tile, sums: &tile_sums(tile), plan, aov: &tile_aov(tile) },
                         touch,
                     );
-                    progress(counter.finish(tile));
+                    progress(counter.finish(tile, samples));
                     r
                 })
                 .collect()
@@ -440,13 +647,15 @@ fn render_pass<T: texture::Touch + Sync>(
                             let worker = crate::wavefront::Worker::new(ts, scene, options.phase_stats);
                             Merge(worker, &stages)
                         },
-                        |m, tile| {
+                        |m, &(tile, samples)| {
+                            let sampling = sampling_of(samples);
+                            let ctx = crate::wavefront::Context { sampling: &sampling, ..ctx };
                             let r = crate::wavefront::render(
                                 &ctx,
                                 &mut m.0,
                                 TileJob { tile, sums: &tile_sums(tile), plan, aov: &tile_aov(tile) },
                             );
-                            progress(counter.finish(tile));
+                            progress(counter.finish(tile, samples));
                             r
                         },
                     )
@@ -458,14 +667,14 @@ fn render_pass<T: texture::Touch + Sync>(
     let (stage_seconds, counters, mut clock) =
         stages.into_inner().unwrap_or_else(|poisoned| poisoned.into_inner());
     let mut stats = RenderStats {
-        samples: u64::from(window.width()) * u64::from(window.height()) * u64::from(samples[1] - samples[0]),
+        samples: traced,
         seconds,
         threads: pool.current_num_threads(),
         stages: stage_seconds,
         counters,
         ..RenderStats::default()
     };
-    for (tile, r) in tiles.iter().zip(&results) {
+    for ((tile, _), r) in tiles.iter().zip(&results) {
         let tw = (tile.x1 - tile.x0) as usize;
         for (row, y) in (tile.y0..tile.y1).enumerate() {
             let dst = ((y - window.y0) * stride + tile.x0 - window.x0) as usize;
@@ -523,7 +732,7 @@ mod tests {
             threads: 2,
             ..RenderOptions::default()
         });
-        let needed = crate::film::memory_estimate(8192, 8192, 16, 2);
+        let needed = crate::film::memory_estimate(8192, 8192, 16, 2, &Default::default());
         assert_eq!(needed, 8192 * 8192 * (2 * 56 + 2 * 44) + 2 * 2048 * (2048 + 44));
         assert_eq!(
             err,

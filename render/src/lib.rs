@@ -38,6 +38,8 @@
 #![deny(missing_docs)]
 
 pub mod accel;
+#[cfg(test)]
+mod adaptive_tests;
 pub mod aov;
 #[cfg(test)]
 mod aov_tests;

@@ -9,6 +9,14 @@
 //!   relative difference is at most about `n · 2⁻²⁴` for `n` samples (two f32 summation orders of
 //!   the same positive terms; the tests assert ≤ 1e-5 at 16 spp).
 //!
+//! The RenderProducts' sums ([`crate::aov`]) merge with the beauty's when the blob's plan is given
+//! (`render merge --blob`): tiles place them (the products are the single render's byte for
+//! byte); slices add the light-path and position sums (the beauty's rounding bound) and merge the
+//! Cryptomatte slots by id ([`crate::aov::Plan::add_slice`]: the single render's ids and counts
+//! exactly, except in a pixel where a slice saw more than eight distinct ids, where both drop
+//! samples of some). Parts that hold product sums are refused without the plan, rather than
+//! merged into a beauty that silently drops them.
+//!
 //! Parts must share the blob, the settings and the frame; within a sample range they must cover
 //! one rectangle without overlap, every range must cover the same rectangle, and the ranges must
 //! follow each other without gap or overlap. Anything else is an error naming the parts.
@@ -45,10 +53,34 @@ fn fail(path: &Path, message: String) -> RenderError {
 }
 
 /// Merges `parts` into one accumulation (see the module docs), and returns it with the shared
-/// provenance.
-pub fn merge(parts: &[Part]) -> Result<(Accumulation, Provenance), RenderError> {
+/// provenance. `plan` is the products' plan of the blob the parts were rendered from
+/// ([`crate::aov::Plan::new`]), or `None` to merge the beauty alone.
+pub fn merge(
+    parts: &[Part],
+    plan: Option<std::sync::Arc<crate::aov::Plan>>,
+) -> Result<(Accumulation, Provenance), RenderError> {
     let first = parts.first().ok_or_else(|| fail(Path::new("render merge"), "no parts given".into()))?;
+    let plan = plan.filter(|p| !p.products.is_empty());
+    let stride = plan.as_ref().map_or(0, |p| p.stride());
     for p in parts {
+        match (&plan, p.provenance.product_sums) {
+            (None, Some(_)) => {
+                return Err(fail(
+                    &p.path,
+                    "holds the sums of RenderProducts: give the blob it was rendered from (render merge --blob SCENE.blob) to merge and write them".into(),
+                ))
+            }
+            (Some(_), stored) if stored.unwrap_or(0) != stride || p.film.aov.len() != p.film.sums.len() * stride => {
+                return Err(fail(
+                    &p.path,
+                    format!(
+                        "holds {} RenderProduct sums per pixel, the blob's products need {stride}",
+                        stored.map_or("no".to_string(), |s| s.to_string())
+                    ),
+                ))
+            }
+            _ => {}
+        }
         if p.provenance.blob != first.provenance.blob {
             return Err(fail(
                 &p.path,
@@ -98,9 +130,10 @@ pub fn merge(parts: &[Part]) -> Result<(Accumulation, Provenance), RenderError> 
     // The parts' common region: what the tiles of every sample range must cover.
     let bounds = first.film.region;
     let (w, h) = (bounds.width() as usize, bounds.height() as usize);
-    let mut total: Option<Vec<PixelSum>> = None;
+    let mut total: Option<(Vec<PixelSum>, Vec<f32>)> = None;
     for &[r0, r1] in &ranges {
         let mut sums = vec![PixelSum::default(); w * h];
+        let mut aov = vec![0.0f32; w * h * stride];
         let mut owner: Vec<Option<&Path>> = vec![None; w * h];
         for p in parts.iter().filter(|p| [p.film.first_sample, p.film.samples] == [r0, r1]) {
             let win = p.film.window;
@@ -116,6 +149,8 @@ pub fn merge(parts: &[Part]) -> Result<(Accumulation, Provenance), RenderError> 
                     owner[at] = Some(&p.path);
                     let src = (y - win.y0) as usize * win.width() as usize + (x - win.x0) as usize;
                     sums[at] = p.film.sums[src];
+                    aov[at * stride..(at + 1) * stride]
+                        .copy_from_slice(&p.film.aov[src * stride..(src + 1) * stride]);
                 }
             }
         }
@@ -130,25 +165,32 @@ pub fn merge(parts: &[Part]) -> Result<(Accumulation, Provenance), RenderError> 
             ));
         }
         total = Some(match total {
-            None => sums,
-            Some(mut acc) => {
+            None => (sums, aov),
+            Some((mut acc, mut acc_aov)) => {
                 for (a, s) in acc.iter_mut().zip(&sums) {
                     add_sums(a, s);
                 }
-                acc
+                if let Some(plan) = plan.as_ref().filter(|_| stride > 0) {
+                    for (a, b) in acc_aov.chunks_exact_mut(stride).zip(aov.chunks_exact(stride)) {
+                        plan.add_slice(a, b);
+                    }
+                }
+                (acc, acc_aov)
             }
         });
     }
+    let (sums, aov) = total.expect("at least one range");
     let film = Accumulation {
         window: bounds,
         region: bounds,
         frame: first.film.frame,
         first_sample: ranges[0][0],
         samples: ranges[ranges.len() - 1][1],
-        sums: total.expect("at least one range"),
-        plan: Default::default(),
-        aov: Vec::new(),
+        sums,
+        plan: plan.unwrap_or_default(),
+        aov,
         stats: Default::default(),
+        adaptive: None,
     };
     Ok((film, first.provenance.clone()))
 }

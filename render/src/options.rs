@@ -55,6 +55,9 @@ pub struct RenderOptions {
     /// The shutter `[open, close]` in time codes from the frame, overriding the camera's
     /// (`--shutter A,B`); `None` for the camera's.
     pub shutter: Option<[f32; 2]>,
+    /// Adaptive sampling `(threshold, min_spp)` ([`crate::frame::Adaptive`],
+    /// `--adaptive-threshold`, `--adaptive-min-spp`); `None` for uniform sampling.
+    pub adaptive: Option<(f32, u32)>,
 }
 
 /// The path-tracing integrator: depth-first scalar or breadth-first wavefront (same estimator, same
@@ -103,6 +106,7 @@ impl Default for RenderOptions {
             depth_of_field: true,
             motion_blur: true,
             shutter: None,
+            adaptive: None,
         }
     }
 }

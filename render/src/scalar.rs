@@ -187,6 +187,11 @@ impl Scene<'_> {
                     Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: travelled + t_hit });
                 if let Some(a) = aov.as_deref_mut() {
                     a.position = s.p;
+                    if a.motion {
+                        let on = if curve_hit.is_some() { None } else { hit };
+                        let instance = on.map_or(blob::NONE, |h| h.instance);
+                        a.ends = Some(crate::aov::motion_ends(self, s.p, instance, time, settings.shutter));
+                    }
                     if let Some(t) = self.view.triangles.get(s.triangle as usize) {
                         a.first = Some([t.mesh, s.material]);
                     }
@@ -334,6 +339,7 @@ pub(crate) fn render_tile<T: Touch>(
         TileResult { sums: init.to_vec(), aov: aov_init.to_vec(), rays: RayCounts::default(), clock: None };
     let (traces, stride) = (plan.traces(), plan.stride());
     let mut record = plan.path();
+    let motion = crate::aov::MotionProjection::new(camera, width, height);
     let mut aov_sums = out.aov.chunks_exact_mut(stride.max(1));
     let mut clock = PhaseClock::new(phase_stats);
     let mut sums = out.sums.iter_mut();
@@ -368,7 +374,7 @@ pub(crate) fn render_tile<T: Touch>(
                         &mut clock,
                         rec,
                     );
-                    plan.add(pa, r.radiance.is_finite(), &record);
+                    plan.add(pa, r.radiance.is_finite(), &record, &motion);
                     r
                 } else {
                     scene.trace_path_timed(o, d, cone, key, &settings, &mut out.rays, touch, &mut clock)

@@ -13,6 +13,48 @@ fn blob(dir: &Path) -> PathBuf {
 
 /// The scene with its card at `card_height`, written to `dir/name`.
 fn blob_named(dir: &Path, name: &str, card_height: f32) -> PathBuf {
+    write_scene(dir, name, scene(card_height))
+}
+
+/// The scene with a RenderProduct `comp.exr` of every kind of layer: the beauty, LPEs
+/// (direct and indirect diffuse), raw albedo, position and sample count, Cryptomatte objects and
+/// materials.
+fn products_blob(dir: &Path) -> PathBuf {
+    use blob::outputs::{data_type as dt, source_type as st};
+    let var = |name: &str, source: &str, source_type, data_type| scene_pack::RenderVar {
+        path: format!("/Render/Vars/{name}"),
+        source: source.into(),
+        source_type,
+        data_type,
+    };
+    let mut scene = scene(0.6);
+    scene.materials.push(Material { diffuse_color: Vec3::new(0.2, 0.7, 0.3), ..Material::default() });
+    scene.meshes[1].triangle_materials = vec![1, 1];
+    scene.render_products = vec![scene_pack::RenderProduct {
+        path: "/Render/Comp".into(),
+        name: "comp.exr".into(),
+        vars: vec![
+            var("color", "Ci", st::RAW, dt::COLOR4),
+            var("direct", "C<RD>L", st::LPE, dt::COLOR3),
+            var("indirect", "C<RD>.+L", st::LPE, dt::COLOR3),
+            var("albedo", "albedo", st::RAW, dt::COLOR3),
+            var("P", "P", st::RAW, dt::VECTOR3),
+            var("spp", "sampleCount", st::RAW, dt::FLOAT),
+            var("CryptoObject", "CryptoObject", st::RAW, dt::COLOR3),
+            var("CryptoMaterial", "CryptoMaterial", st::RAW, dt::COLOR3),
+        ],
+    }];
+    write_scene(dir, "products.blob", scene)
+}
+
+fn write_scene(dir: &Path, name: &str, scene: Scene) -> PathBuf {
+    let path = dir.join(name);
+    blob::write_atomic(&path, &scene_pack::pack::pack(&scene).unwrap().encode()).unwrap();
+    path
+}
+
+/// A floor and a card at `card_height` above it under a dome.
+fn scene(card_height: f32) -> Scene {
     let quad = |path: &str, z: f32, half: f32| Mesh {
         path: path.into(),
         positions: vec![
@@ -25,7 +67,7 @@ fn blob_named(dir: &Path, name: &str, card_height: f32) -> PathBuf {
         triangle_materials: vec![0, 0],
         ..Mesh::default()
     };
-    let scene = Scene {
+    Scene {
         meshes: vec![quad("/Floor", 0.0, 3.0), quad("/Card", card_height, 0.5)],
         materials: vec![Material::default()],
         lights: vec![Light {
@@ -38,10 +80,7 @@ fn blob_named(dir: &Path, name: &str, card_height: f32) -> PathBuf {
         cameras: vec![scene_pack::camera::test_camera(Vec3::new(0.0, 0.0, 4.0), false)],
         default_camera: Some(0),
         ..Scene::default()
-    };
-    let path = dir.join(name);
-    blob::write_atomic(&path, &scene_pack::pack::pack(&scene).unwrap().encode()).unwrap();
-    path
+    }
 }
 
 fn render(blob: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
@@ -161,7 +200,12 @@ fn a_killed_render_leaves_its_last_checkpoint_whole() {
 }
 
 fn merge(parts: &[&Path], out: &Path) -> std::process::Output {
+    merge_with(parts, out, &[])
+}
+
+fn merge_with(parts: &[&Path], out: &Path, extra: &[&str]) -> std::process::Output {
     let mut args = vec!["merge".to_string()];
+    args.extend(extra.iter().map(|s| s.to_string()));
     args.extend(parts.iter().map(|p| p.to_str().unwrap().to_string()));
     args.extend(["-o".to_string(), out.to_str().unwrap().to_string()]);
     Command::new(env!("CARGO_BIN_EXE_render")).args(&args).output().unwrap()
@@ -288,6 +332,105 @@ fn farm_dry_runs_print_the_jobs_and_resubmit_only_missing_units() {
     assert!(run.status.success(), "{}", stderr(&run));
     let again = dry();
     assert!(again.contains("--array=0,2 "), "{again}");
+}
+
+/// Every channel of an EXR's first layer: name and values.
+fn channels(path: &Path) -> Vec<(String, Vec<f32>)> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+    let list = &image.layer_data[0].channel_data.list;
+    list.iter()
+        .map(|c| {
+            let values = (0..c.sample_data.len()).map(|i| c.sample_data.value_by_flat_index(i).to_f32());
+            (c.name.to_string(), values.collect())
+        })
+        .collect()
+}
+
+#[test]
+fn render_products_resume_to_the_uninterrupted_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = products_blob(dir.path());
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    std::fs::create_dir_all(&a).unwrap();
+    std::fs::create_dir_all(&b).unwrap();
+    for integrator in ["scalar", "wavefront"] {
+        let whole = a.join("whole.exr");
+        let run = render(&blob, &whole, &["--spp", "20", "--integrator", integrator]);
+        assert!(run.status.success(), "{}", stderr(&run));
+        let part = b.join("part.exr");
+        let first = render(&blob, &part, &["--spp", "8", "--checkpoint", "1000", "--integrator", integrator]);
+        assert!(first.status.success(), "{}", stderr(&first));
+        let resumed = render(&blob, &part, &["--spp", "20", "--resume", "--integrator", integrator]);
+        assert!(resumed.status.success(), "{}", stderr(&resumed));
+        assert!(!stderr(&resumed).contains("warning"), "{}", stderr(&resumed));
+        assert!(std::fs::read(&part).unwrap() == std::fs::read(&whole).unwrap(), "{integrator}: beauty");
+        let (x, y) = (std::fs::read(b.join("comp.exr")).unwrap(), std::fs::read(a.join("comp.exr")).unwrap());
+        assert!(x == y, "{integrator}: the resumed product differs from the uninterrupted one");
+        let names: Vec<String> = channels(&a.join("comp.exr")).into_iter().map(|c| c.0).collect();
+        for layer in ["direct.R", "indirect.G", "P.X", "CryptoObject00.R", "CryptoMaterial02.A", "spp"] {
+            assert!(names.iter().any(|n| n == layer), "{layer} in {names:?}");
+        }
+    }
+}
+
+#[test]
+fn render_products_merge_from_tiles_exactly_and_from_slices_within_rounding() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = products_blob(dir.path());
+    let b = blob.to_str().unwrap();
+    let sub = |name: &str| {
+        let d = dir.path().join(name);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    };
+    let (single, tiled, sliced, parts) = (sub("single"), sub("tiled"), sub("sliced"), sub("parts"));
+    assert!(render(&blob, &single.join("beauty.exr"), &["--spp", "16"]).status.success());
+    let tiles: Vec<PathBuf> = (0..3).map(|i| parts.join(format!("tile{i}.exr"))).collect();
+    for (i, t) in tiles.iter().enumerate() {
+        let run = render(&blob, t, &["--spp", "16", "--tile", &format!("{i}/3")]);
+        assert!(run.status.success(), "{}", stderr(&run));
+    }
+    assert!(!parts.join("comp.exr").exists(), "a part writes no product of its own");
+    let refs: Vec<&Path> = tiles.iter().map(PathBuf::as_path).collect();
+    // Without the blob, parts holding product sums are refused, not merged into a beauty alone.
+    let refused = merge(&refs, &tiled.join("beauty.exr"));
+    assert!(!refused.status.success());
+    assert!(stderr(&refused).contains("render merge --blob SCENE.blob"), "{}", stderr(&refused));
+    let run = merge_with(&refs, &tiled.join("beauty.exr"), &["--blob", b]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    for file in ["beauty.exr", "comp.exr"] {
+        let (x, y) = (std::fs::read(tiled.join(file)).unwrap(), std::fs::read(single.join(file)).unwrap());
+        assert!(x == y, "tiles: {file} differs from the single render");
+    }
+
+    let slices = [parts.join("s0.exr"), parts.join("s1.exr"), parts.join("s2.exr")];
+    for (s, range) in slices.iter().zip(["0..5", "5..11", "11..16"]) {
+        let run = render(&blob, s, &["--sample-range", range]);
+        assert!(run.status.success(), "{}", stderr(&run));
+    }
+    let refs: Vec<&Path> = slices.iter().map(PathBuf::as_path).collect();
+    let run = merge_with(&refs, &sliced.join("beauty.exr"), &["--blob", b]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let (merged, whole) = (channels(&sliced.join("comp.exr")), channels(&single.join("comp.exr")));
+    assert_eq!(
+        merged.iter().map(|c| &c.0).collect::<Vec<_>>(),
+        whole.iter().map(|c| &c.0).collect::<Vec<_>>()
+    );
+    for ((name, m), (_, w)) in merged.iter().zip(&whole) {
+        if name.starts_with("Crypto") || name == "spp" {
+            // Ids and sample counts merge exactly (no pixel here sees more than eight objects).
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(m), bits(w), "{name}");
+        } else {
+            let worst =
+                m.iter().zip(w).map(|(m, w)| ((m - w) / w.abs().max(1e-3)).abs()).fold(0.0f32, f32::max);
+            assert!(worst <= 1e-5, "{name}: largest relative difference {worst}");
+        }
+    }
+    // A sliced and a tiled part of a render with products do not mix with a blob of none.
+    let other = blob_named(dir.path(), "other.blob", 0.6);
+    let wrong = merge_with(&refs, &sliced.join("x.exr"), &["--blob", other.to_str().unwrap()]);
+    assert!(stderr(&wrong).contains("was rendered from blob"), "{}", stderr(&wrong));
 }
 
 /// The farm on a real Slurm cluster (`scripts/slurm-local.sh start`, which the README's test command

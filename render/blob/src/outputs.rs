@@ -172,6 +172,9 @@ pub enum RawSource {
     Position,
     /// Samples per pixel (`sampleCount`, `samples`).
     SampleCount,
+    /// Screen-space motion of the first hit over the shutter, in pixels (`motionvector`, Arnold's
+    /// and Karma's name; `motion`, `motionvectors`).
+    Motion,
     /// Cryptomatte ids and coverage of the gprims' prim paths (`CryptoObject`, `crypto_object`).
     CryptoObject,
     /// Cryptomatte ids and coverage of the bound materials' paths (`CryptoMaterial`,
@@ -190,6 +193,7 @@ impl RawSource {
         (RawSource::Depth, &["depth", "z", "Z", "Pz"]),
         (RawSource::Position, &["P", "position"]),
         (RawSource::SampleCount, &["sampleCount", "samples"]),
+        (RawSource::Motion, &["motionvector", "motion", "motionvectors"]),
         (RawSource::CryptoObject, &["CryptoObject", "crypto_object"]),
         (RawSource::CryptoMaterial, &["CryptoMaterial", "crypto_material"]),
     ];

@@ -94,6 +94,28 @@ pub(crate) fn add(slots: &mut [f32], id: u32) {
     }
 }
 
+/// Merges a later sample slice's slots `later` of a pixel into `slots` (both `2 × SLOTS` floats):
+/// each id's count is added to the same id's slot, or takes the first free one, in the later
+/// slice's order. This is what adding the later samples one by one does, so the merge equals the
+/// single render's slots exactly wherever no slice of the pixel dropped a sample (saw more than
+/// [`SLOTS`] distinct ids); where one did, both keep [`SLOTS`] ids and may lose different samples.
+pub(crate) fn merge(slots: &mut [f32], later: &[f32]) {
+    for b in later.chunks_exact(2).filter(|b| b[1] > 0.0) {
+        let id = b[0].to_bits();
+        for s in slots.chunks_exact_mut(2) {
+            if s[1] == 0.0 {
+                s[0] = b[0];
+                s[1] = b[1];
+                break;
+            }
+            if s[0].to_bits() == id {
+                s[1] += b[1];
+                break;
+            }
+        }
+    }
+}
+
 /// A pixel's ranked `(id, coverage)` pairs, `RANKS` long (zeros past the ids it has).
 pub(crate) fn ranked(slots: &[f32], samples: u32) -> [(f32, f32); RANKS] {
     let mut seen: Vec<(f32, f32)> =
@@ -139,6 +161,25 @@ mod tests {
         assert_eq!(r[1], (f32::from_bits(id_of("/b")), 2.0 / 6.0));
         assert_eq!(r[2], (f32::from_bits(id_of("/c")), 1.0 / 6.0));
         assert_eq!(r[3], (0.0, 0.0));
+        // Two slices merged equal the samples added one by one, even as they fill every slot,
+        // unless a slice saw more than SLOTS ids (cut 1: the second slice drops a later sample of
+        // the id the first slice holds, which the whole render counts).
+        let ids: Vec<u32> = (0..12).map(|i| id_of(&format!("/o{}", (i * 7) % 9))).collect();
+        let distinct = |s: &[u32]| s.iter().collect::<std::collections::BTreeSet<_>>().len();
+        let mut differ = 0;
+        for cut in 0..ids.len() {
+            let mut whole = [0.0f32; 2 * SLOTS];
+            ids.iter().for_each(|&id| add(&mut whole, id));
+            let (mut first, mut second) = ([0.0f32; 2 * SLOTS], [0.0f32; 2 * SLOTS]);
+            ids[..cut].iter().for_each(|&id| add(&mut first, id));
+            ids[cut..].iter().for_each(|&id| add(&mut second, id));
+            merge(&mut first, &second);
+            let exact = distinct(&ids[..cut]) <= SLOTS && distinct(&ids[cut..]) <= SLOTS;
+            let equal = first.map(f32::to_bits) == whole.map(f32::to_bits);
+            assert!(equal || !exact, "cut at {cut}");
+            differ += usize::from(!equal);
+        }
+        assert!(differ > 0, "an overflowing slice loses samples the whole render keeps");
         let m = manifest(["/b", "/a", "/a"]);
         assert_eq!(m, format!("{{\"/a\":\"{:08x}\",\"/b\":\"{:08x}\"}}", id_of("/a"), id_of("/b")));
     }

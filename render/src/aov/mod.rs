@@ -79,6 +79,8 @@ pub struct Plan {
     pub expressions: Vec<String>,
     /// Whether a layer shows the first-hit position.
     pub position: bool,
+    /// Whether a layer shows the first hit's screen-space motion ([`MotionProjection`]).
+    pub motion: bool,
     /// Whether emission must be split by light (see the module docs).
     pub per_light: bool,
     /// Whether a layer shows Cryptomatte objects, and materials.
@@ -119,6 +121,7 @@ impl Plan {
                     })?),
                 };
                 plan.position |= source == Source::Raw(RawSource::Position);
+                plan.motion |= source == Source::Raw(RawSource::Motion);
                 plan.crypto[0] |= source == Source::Raw(RawSource::CryptoObject);
                 plan.crypto[1] |= source == Source::Raw(RawSource::CryptoMaterial);
                 let main = source == Source::Raw(RawSource::Color) && !main_taken;
@@ -200,10 +203,50 @@ impl Plan {
         self.stride() > 0
     }
 
-    /// `f32` sums per pixel: 3 per expression, 3 for the position, then
+    /// `f32` sums per pixel: 3 per expression, 3 for the position, 2 for the motion, then
     /// [`cryptomatte::SLOTS`] (id, count) pairs for objects and for materials.
     pub fn stride(&self) -> usize {
         self.crypto_offset(2)
+    }
+
+    /// Where the motion sums start in a pixel's sums.
+    fn motion_offset(&self) -> usize {
+        3 * self.expressions.len() + if self.position { 3 } else { 0 }
+    }
+
+    /// Bytes per pixel the products add at the render's peak: their sums twice (the frame's and
+    /// the tiles' returned copies, as [`crate::film::PEAK_BYTES_PER_PIXEL`] counts the beauty's),
+    /// and every product channel twice (the resolved values and their EXR encoding).
+    pub fn memory_per_pixel(&self) -> u64 {
+        let channels: usize = self.products.iter().flat_map(|p| &p.layers).map(|l| l.channels.len()).sum();
+        8 * self.stride() as u64 + 8 * channels as u64
+    }
+
+    /// Bytes per path in flight the products add (the wavefront's AOV columns: state, lobe,
+    /// shadow mask, position, first hit, each expression's radiance; the tile's sums per pixel
+    /// are within a path's share too), 0 when the paths record nothing.
+    pub fn memory_per_path(&self) -> u64 {
+        if !self.traces() {
+            return 0;
+        }
+        (4 + 1 + 8 + 12 + 12 + 12 * self.expressions.len() + 4 * self.stride()) as u64
+    }
+
+    /// Adds a later sample slice's sums `later` of one pixel to `sums` (one [`Plan::stride`] each),
+    /// as `render merge` does: radiance and position sums added, Cryptomatte slots merged by id
+    /// ([`cryptomatte::merge`]).
+    pub fn add_slice(&self, sums: &mut [f32], later: &[f32]) {
+        let summed = self.crypto_offset(0);
+        for (a, b) in sums[..summed].iter_mut().zip(&later[..summed]) {
+            *a += b;
+        }
+        let width = 2 * cryptomatte::SLOTS;
+        for kind in 0..2 {
+            if self.crypto[kind] {
+                let at = self.crypto_offset(kind);
+                cryptomatte::merge(&mut sums[at..at + width], &later[at..at + width]);
+            }
+        }
     }
 
     /// Where Cryptomatte kind `kind`'s slots start in a pixel's sums (0 objects, 1 materials; 2 the
@@ -211,7 +254,7 @@ impl Plan {
     fn crypto_offset(&self, kind: usize) -> usize {
         let slots = 2 * cryptomatte::SLOTS;
         let before = self.crypto[..kind].iter().filter(|&&c| c).count();
-        3 * self.expressions.len() + if self.position { 3 } else { 0 } + before * slots
+        self.motion_offset() + if self.motion { 2 } else { 0 } + before * slots
     }
 
     /// The EXR header attributes of `product`: each Cryptomatte layer's name, hash, conversion and
@@ -247,26 +290,34 @@ impl Plan {
             radiance: vec![Vec3::ZERO; self.expressions.len()],
             position: Vec3::ZERO,
             first: None,
+            ends: None,
+            motion: self.motion,
             state: lpe::DEAD,
         }
     }
 
     /// Adds one path's record to a pixel's sums `sums` (one [`Plan::stride`]), with the beauty's
     /// rule: a sample whose radiance was not finite adds no light.
-    pub(crate) fn add(&self, sums: &mut [f32], radiance_finite: bool, path: &PathAovs) {
-        self.add_parts(sums, radiance_finite, &path.radiance, path.position, path.first);
+    pub(crate) fn add(
+        &self,
+        sums: &mut [f32],
+        radiance_finite: bool,
+        path: &PathAovs,
+        motion: &MotionProjection,
+    ) {
+        let parts = (path.position, path.first, motion.pixels(self.motion, path.ends));
+        self.add_parts(sums, radiance_finite, &path.radiance, parts);
     }
 
     /// [`Plan::add`] of a path whose record lives in columns (the wavefront's
-    /// [`crate::wavefront`] pool): each expression's radiance, the first hit's position and its
-    /// mesh and material.
+    /// [`crate::wavefront`] pool): each expression's radiance, the first hit's position, its
+    /// mesh and material, and its motion in pixels ([`MotionProjection::pixels`]).
     pub(crate) fn add_parts(
         &self,
         sums: &mut [f32],
         radiance_finite: bool,
         radiance: &[Vec3],
-        position: Vec3,
-        first: Option<[u32; 2]>,
+        (position, first, motion): (Vec3, Option<[u32; 2]>, [f32; 2]),
     ) {
         let n = self.expressions.len();
         if radiance_finite {
@@ -282,6 +333,11 @@ impl Plan {
             s[1] += position.y;
             s[2] += position.z;
         }
+        if self.motion {
+            let at = self.motion_offset();
+            sums[at] += motion[0];
+            sums[at + 1] += motion[1];
+        }
         if let Some(first) = first {
             for (kind, &index) in first.iter().enumerate() {
                 let id = self.ids[kind].get(index as usize);
@@ -294,16 +350,23 @@ impl Plan {
     }
 
     /// The channels of `product` over `pixels` pixels: each channel's name and values, from the
-    /// beauty's sums `sums`, this plan's sums `aov` ([`Plan::stride`] per pixel) and the
-    /// `samples` per pixel.
-    pub fn channels(&self, product: &Product, sums: &[PixelSum], aov: &[f32], samples: u32) -> Channels {
+    /// beauty's sums `sums`, this plan's sums `aov` ([`Plan::stride`] per pixel) and each pixel's
+    /// sample count `counts(i)` (one for all but an adaptive render's).
+    pub fn channels(
+        &self,
+        product: &Product,
+        sums: &[PixelSum],
+        aov: &[f32],
+        counts: &dyn Fn(usize) -> u32,
+    ) -> Channels {
         let stride = self.stride();
         let n_expr = self.expressions.len();
-        let inv = 1.0 / samples.max(1) as f32;
         let mut out = Vec::new();
         for layer in &product.layers {
             let mut columns: Vec<Vec<f32>> = vec![Vec::with_capacity(sums.len()); layer.channels.len()];
             for (i, p) in sums.iter().enumerate() {
+                let samples = counts(i);
+                let inv = 1.0 / samples.max(1) as f32;
                 let (beauty, albedo, normal, depth) = p.resolve(samples.max(1));
                 let alpha = beauty[3];
                 let extra = aov.get(i * stride..(i + 1) * stride).unwrap_or(&[]);
@@ -341,6 +404,11 @@ impl Plan {
                         let world = |c: usize, o: f64| (f64::from(at(k + c) / hits) + o) as f32;
                         [world(0, o[0]), world(1, o[1]), world(2, o[2]), 1.0]
                     }
+                    Source::Raw(RawSource::Motion) => {
+                        // The mean over the samples that hit, as the depth's; 0 where none did.
+                        let (k, hits) = (self.motion_offset(), p.hits.max(1) as f32);
+                        [at(k) / hits, at(k + 1) / hits, 0.0, 1.0]
+                    }
                     Source::Lpe(e) => [at(3 * e) * inv, at(3 * e + 1) * inv, at(3 * e + 2) * inv, alpha],
                 };
                 for (c, column) in columns.iter_mut().enumerate() {
@@ -364,6 +432,11 @@ pub(crate) struct PathAovs<'p> {
     pub(crate) position: Vec3,
     /// The first hit's mesh and material (Cryptomatte), if it hit a triangle.
     pub(crate) first: Option<[u32; 2]>,
+    /// Where the first hit's point is at shutter open and close (world), if the path hit and the
+    /// plan shows motion ([`motion_ends`]).
+    pub(crate) ends: Option<[Vec3; 2]>,
+    /// The plan shows motion: the first hit records its `ends`.
+    pub(crate) motion: bool,
     /// The automaton's state after the path's events so far.
     pub(crate) state: u32,
 }
@@ -374,6 +447,7 @@ impl<'p> PathAovs<'p> {
         self.radiance.iter_mut().for_each(|r| *r = Vec3::ZERO);
         self.position = Vec3::ZERO;
         self.first = None;
+        self.ends = None;
         self.state = self.lpe.map_or(lpe::DEAD, Automaton::start);
     }
 
@@ -441,5 +515,75 @@ pub(crate) fn add_masked(radiance: &mut [Vec3], mask: u64, c: Vec3) {
             *r += c;
         }
         m &= m - 1;
+    }
+}
+
+/// Where the point `p` of a hit on `instance` (blob::NONE: not instanced) at ray time `time` is at
+/// the shutter's open and close, in world space: carried back to the instance's prototype space
+/// with its placement at `time`, then out with its placements at open and close (the motion keys
+/// the ray interpolated: [`crate::accel::instanced::Instances::placement`]). Geometry outside
+/// instances does not move.
+pub(crate) fn motion_ends(
+    scene: &crate::scene::Scene,
+    p: Vec3,
+    instance: u32,
+    time: f32,
+    shutter: crate::camera::Shutter,
+) -> [Vec3; 2] {
+    if instance == blob::NONE || !shutter.is_open() {
+        return [p, p];
+    }
+    let instances = scene.accel.instances();
+    let m = instances.placement(instance, time).object_from_world;
+    let object =
+        Vec3::from_array(std::array::from_fn(|r| m[r][0] * p.x + m[r][1] * p.y + m[r][2] * p.z + m[r][3]));
+    [shutter.open, shutter.close].map(|t| instances.to_world_point(instance, t, object))
+}
+
+/// What projects a first hit's motion onto the film: the camera at the shutter's open and close,
+/// each with its inverse, and the film's size. The motion AOV of a sample is
+/// `raster(close) − raster(open)` of its first hit's [`motion_ends`], in pixels with x to the
+/// right and y up (the compositor's convention: Nuke's VectorBlur, Arnold's `motionvector`).
+///
+/// Camera motion plugs in here: the camera at `open` and at `close` (today both are the one
+/// camera, which has no motion keys yet), so a moving camera adds its own screen motion to the
+/// objects'.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MotionProjection {
+    open: (crate::camera::Camera, glam::Affine3A),
+    close: (crate::camera::Camera, glam::Affine3A),
+    size: [u32; 2],
+}
+
+impl MotionProjection {
+    /// The projection of `camera`'s `width × height` film, the same camera at open and close.
+    pub(crate) fn new(camera: &crate::camera::Camera, width: u32, height: u32) -> Self {
+        Self::between(camera, camera, width, height)
+    }
+
+    /// The projection of a camera that is `open` at the shutter's opening and `close` at its
+    /// closing.
+    pub(crate) fn between(
+        open: &crate::camera::Camera,
+        close: &crate::camera::Camera,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        MotionProjection {
+            open: (*open, open.camera_from_world()),
+            close: (*close, close.camera_from_world()),
+            size: [width, height],
+        }
+    }
+
+    /// The screen motion in pixels (x right, y up) of a first hit at `ends` (zero without one, or
+    /// when the plan shows no motion: `wanted` false).
+    #[inline]
+    pub(crate) fn pixels(&self, wanted: bool, ends: Option<[Vec3; 2]>) -> [f32; 2] {
+        let (true, Some([a, b])) = (wanted, ends) else { return [0.0; 2] };
+        let [w, h] = self.size;
+        let from = self.open.0.raster_from_world(&self.open.1, a, w, h);
+        let to = self.close.0.raster_from_world(&self.close.1, b, w, h);
+        [to[0] - from[0], from[1] - to[1]]
     }
 }

@@ -27,6 +27,10 @@ pub(crate) struct AovColumns {
     pub(super) radiance: Vec<Vec3>,
     pub(super) position: Vec<Vec3>,
     pub(super) first: Vec<Option<[u32; 2]>>,
+    /// The first hit's point at shutter open and close ([`crate::aov::motion_ends`]), written
+    /// only when the plan shows motion.
+    ends: Vec<Option<[Vec3; 2]>>,
+    motion: bool,
     /// The lobe of the path's current scattering vertex (written only with expressions).
     pub(super) lobe: Vec<Scatter>,
     /// The expressions the path's pending shadow ray adds to when it arrives.
@@ -48,6 +52,11 @@ impl AovColumns {
         self.position.resize(paths, Vec3::ZERO);
         self.first.clear();
         self.first.resize(paths, None);
+        self.motion = plan.motion;
+        if plan.motion {
+            self.ends.clear();
+            self.ends.resize(paths, None);
+        }
         self.lobe.resize(paths, Scatter::ReflectDiffuse);
         self.shadow_mask.resize(paths, 0);
     }
@@ -89,10 +98,20 @@ impl AovColumns {
         }
     }
 
-    /// Records path `i`'s first hit, on surface `s`.
+    /// Records path `i`'s first hit, on surface `s` of `instance` (blob::NONE: not instanced, a
+    /// curve or a point) at ray time `time` in `shutter`.
     #[inline]
-    pub(super) fn first_hit(&mut self, scene: &Scene, i: usize, s: &Surface) {
+    pub(super) fn first_hit(
+        &mut self,
+        scene: &Scene,
+        i: usize,
+        s: &Surface,
+        (instance, time, shutter): (u32, f32, crate::camera::Shutter),
+    ) {
         self.position[i] = s.p;
+        if self.motion {
+            self.ends[i] = Some(crate::aov::motion_ends(scene, s.p, instance, time, shutter));
+        }
         if let Some(t) = scene.view.triangles.get(s.triangle as usize) {
             self.first[i] = Some([t.mesh, s.material]);
         }
@@ -106,7 +125,13 @@ impl AovColumns {
 
     /// Adds a finished chunk of `samples` samples per pixel (the pool's order: pixel, then
     /// sample), with the scalar film loop's [`Plan::add_parts`].
-    pub(super) fn chunk(&mut self, plan: &Plan, pool_states: &[super::RayState], samples: usize) {
+    pub(super) fn chunk(
+        &mut self,
+        plan: &Plan,
+        motion: &crate::aov::MotionProjection,
+        pool_states: &[super::RayState],
+        samples: usize,
+    ) {
         let stride = plan.stride();
         let n = self.n;
         for (p, states) in pool_states.chunks_exact(samples).enumerate() {
@@ -114,7 +139,9 @@ impl AovColumns {
             for (j, st) in states.iter().enumerate() {
                 let i = p * samples + j;
                 let radiance = &self.radiance[i * n..(i + 1) * n];
-                plan.add_parts(sums, st.radiance.is_finite(), radiance, self.position[i], self.first[i]);
+                let ends = if self.motion { self.ends[i] } else { None };
+                let parts = (self.position[i], self.first[i], motion.pixels(self.motion, ends));
+                plan.add_parts(sums, st.radiance.is_finite(), radiance, parts);
             }
         }
     }

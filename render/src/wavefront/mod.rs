@@ -422,7 +422,9 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, job: Til
         timed(&mut secs.accumulate, || {
             accumulate::chunk(film, paths, samples);
             if let Some(plan) = traced {
-                paths.aov.chunk(plan, &paths.states, samples);
+                let motion =
+                    crate::aov::MotionProjection::new(ctx.camera, ctx.sampling.width, ctx.sampling.height);
+                paths.aov.chunk(plan, &motion, &paths.states, samples);
             }
         });
         stats.clock.lap(Phase::Overhead);

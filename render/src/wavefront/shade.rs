@@ -402,7 +402,7 @@ fn prepare<T: Touch>(
         record.normal = ns;
         record.depth = st.travelled + hit.t;
         if ctx.aov.is_some() {
-            w.paths.aov.first_hit(scene, i as usize, s);
+            w.paths.aov.first_hit(scene, i as usize, s, (hit.instance, st.time, ctx.settings.shutter));
         }
     }
     let le = inputs.emissive_color.max(Vec3::ZERO);

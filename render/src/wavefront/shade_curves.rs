@@ -127,7 +127,7 @@ pub(super) fn vertex<T: Touch>(
     if first.is_none() && st.bounces == 0 {
         *first = Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: st.travelled + hit.t });
         if ctx.aov.is_some() {
-            w.paths.aov.first_hit(scene, i as usize, &s);
+            w.paths.aov.first_hit(scene, i as usize, &s, (blob::NONE, st.time, ctx.settings.shutter));
         }
     }
     // Curves and points are not sampled as lights: BSDF sampling finds their emission unweighted.
@@ -223,7 +223,7 @@ pub(super) fn glass_vertex<T: Touch>(
     if first.is_none() && st.bounces == 0 {
         *first = Some(FirstHit { albedo: bsdf.albedo(), normal: s.ns, depth: st.travelled + hit.t });
         if ctx.aov.is_some() {
-            w.paths.aov.first_hit(scene, i as usize, &s);
+            w.paths.aov.first_hit(scene, i as usize, &s, (hit.instance, st.time, ctx.settings.shutter));
         }
     }
     let le = inputs.emissive_color.max(Vec3::ZERO);

@@ -96,6 +96,13 @@ pub struct Args {
     /// `shutter:open` / `shutter:close` (motion outside the ingested keys holds the end keys).
     #[arg(long, value_name = "OPEN,CLOSE", value_parser = parse_shutter)]
     pub shutter: Option<[f32; 2]>,
+    /// Adaptive sampling: tiles stop taking samples once every pixel's error estimate is below T
+    /// (standard error of its mean luminance over 10^-3 + its square root), at most --spp.
+    #[arg(long, value_name = "T")]
+    pub adaptive_threshold: Option<f32>,
+    /// Samples every pixel takes before adaptive sampling may stop it.
+    #[arg(long, value_name = "N", default_value_t = 16)]
+    pub adaptive_min_spp: u32,
 }
 
 /// `render merge PARTS... -o OUT.exr`.
@@ -114,6 +121,10 @@ pub struct MergeArgs {
     /// Keep the exact pixel sums in the output (a part of a larger merge, or resumable).
     #[arg(long)]
     pub keep_sums: bool,
+    /// The blob the parts were rendered from: its RenderProducts are merged and written beside
+    /// the output (needed when the parts hold product sums).
+    #[arg(long, value_name = "SCENE.blob")]
+    pub blob: Option<PathBuf>,
 }
 
 fn parse_tile(s: &str) -> Result<[u32; 2], String> {
@@ -269,6 +280,25 @@ impl Args {
                 )));
             }
         }
+        if let Some(t) = self.adaptive_threshold {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(RenderError::InvalidOption(format!(
+                    "--adaptive-threshold {t} must be a positive number"
+                )));
+            }
+            let with = [
+                ("--checkpoint", self.checkpoint.is_some()),
+                ("--resume", self.resume),
+                ("--time-limit", self.time_limit.is_some()),
+                ("--tile", self.tile.is_some()),
+                ("--sample-range", self.sample_range.is_some()),
+            ];
+            if let Some((option, _)) = with.iter().find(|(_, on)| *on) {
+                return Err(RenderError::InvalidOption(format!(
+                    "--adaptive-threshold does not combine with {option} yet (its per-pixel sample counts are not kept in checkpoints)"
+                )));
+            }
+        }
         Ok(Command::Render {
             stats: self.stats.clone(),
             blob: self.blob,
@@ -298,6 +328,7 @@ impl Args {
                 depth_of_field: !self.no_dof,
                 motion_blur: !self.no_motion_blur,
                 shutter: self.shutter,
+                adaptive: self.adaptive_threshold.map(|t| (t, self.adaptive_min_spp)),
                 ..RenderOptions::default()
             }),
         })

@@ -97,7 +97,15 @@ where
             }
             let provenance = render::checkpoint::Provenance::of(&map, &options);
             let mut film = if resume {
-                resumed(&output, &provenance, &options)?
+                let (mut film, stored) = resumed(&output, &provenance, &options)?;
+                let plan = std::sync::Arc::new(render::aov::Plan::new(&scene.view)?);
+                if let Err(why) = film.adopt_plan(plan, stored) {
+                    eprintln!(
+                        "render: warning: {}: {why}; the RenderProducts are not written",
+                        output.display()
+                    );
+                }
+                film
             } else {
                 render::Accumulation::new(&scene, &options)?
             };
@@ -111,6 +119,12 @@ where
             );
             let (start, mut last_checkpoint) = (Instant::now(), Instant::now());
             let pixels = film.sums.len() as u64;
+            if let Some((threshold, min_spp)) = options.adaptive {
+                // The CLI refused it with checkpoints, resumes, time limits and farm parts.
+                let report = |p: render::Progress| reporter.report(p);
+                film.render_adaptive(&scene, &options, threshold, min_spp, &report)
+                    .with_context(|| format!("rendering {}", blob_path.display()))?;
+            }
             while film.samples < spp {
                 let before = u64::from(film.samples) * pixels;
                 let until = film.samples.saturating_add(pass).min(spp);
@@ -154,12 +168,6 @@ where
                 render::write_png(png, &image)?;
             }
             if !products.is_empty() && film.samples >= spp && !part {
-                if film.plan.products.is_empty() {
-                    eprintln!(
-                        "render: warning: the resumed render holds the beauty's sums alone; its {} RenderProducts are not written",
-                        products.len()
-                    );
-                }
                 for ((product, channels), path) in film.products().into_iter().zip(&products) {
                     let text = film.plan.attributes(product, &scene.view);
                     render::output::write_product(path, &film, product, channels, &text)?;
@@ -199,11 +207,50 @@ fn run_merge(args: &[std::ffi::OsString]) -> anyhow::Result<ExitCode> {
         render::output::check_outputs(part, &outputs)?;
     }
     let parts = render::merge::read_parts(&args.parts)?;
-    let (film, provenance) = render::merge::merge(&parts)?;
+    // With --blob: the products' plan, from the blob the parts name (checked by its identity).
+    let map = match &args.blob {
+        // SAFETY: as for a render (see `run`): blobs are replaced atomically, never written in
+        // place; the map lives until this function returns and `check_unchanged` guards it.
+        Some(path) => Some((path, unsafe { render::map_blob(path) }?)),
+        None => None,
+    };
+    let view = match &map {
+        Some((path, map)) => Some((path, map.parse(path)?, render::checkpoint::blob_id(map))),
+        None => None,
+    };
+    let mut plan = None;
+    if let Some((path, view, id)) = &view {
+        if let Some(part) = parts.iter().find(|p| p.provenance.blob != *id) {
+            anyhow::bail!(
+                "{} was rendered from blob {:016x}, --blob {} is {id:016x}",
+                part.path.display(),
+                part.provenance.blob,
+                path.display()
+            );
+        }
+        plan = Some(std::sync::Arc::new(render::aov::Plan::new(view)?));
+    }
+    let (film, provenance) = render::merge::merge(&parts, plan)?;
+    let products: Vec<std::path::PathBuf> =
+        film.plan.products.iter().map(|p| render::output::product_path(&args.output, &p.name)).collect();
+    if let Some((path, ..)) = &view {
+        let mut outputs = vec![("-o", args.output.as_path())];
+        outputs.extend(products.iter().map(|p| ("a RenderProduct", p.as_path())));
+        render::output::check_outputs(path, &outputs)?;
+    }
     if args.keep_sums {
         render::checkpoint::write_checkpoint(&args.output, &film, &provenance)?;
     } else {
         render::write_exr(&args.output, &film.image())?;
+    }
+    if let (Some((_, view, _)), false) = (&view, args.keep_sums) {
+        for ((product, channels), path) in film.products().into_iter().zip(&products) {
+            let text = film.plan.attributes(product, view);
+            render::output::write_product(path, &film, product, channels, &text)?;
+        }
+    }
+    if let Some((path, map)) = &map {
+        map.check_unchanged(path)?;
     }
     eprintln!(
         "render merge: {} parts, samples {}..{}, pixels {}x{} of the {}x{} frame -> {}",
@@ -224,12 +271,12 @@ fn run_merge(args: &[std::ffi::OsString]) -> anyhow::Result<ExitCode> {
 const PASS_SAMPLES: u32 = 8;
 
 /// The checkpoint at `output`, checked to continue this render: the same blob and pixel settings,
-/// and no more samples than `--spp`.
+/// and no more samples than `--spp`; with the stride of the product sums it holds.
 fn resumed(
     output: &std::path::Path,
     provenance: &render::checkpoint::Provenance,
     options: &render::RenderOptions,
-) -> anyhow::Result<render::Accumulation> {
+) -> anyhow::Result<(render::Accumulation, Option<usize>)> {
     let (film, from) = render::checkpoint::read_checkpoint(output)?;
     if from.blob != provenance.blob {
         anyhow::bail!(
@@ -255,7 +302,7 @@ fn resumed(
             options.spp
         );
     }
-    Ok(film)
+    Ok((film, from.product_sums))
 }
 
 #[cfg(test)]
@@ -369,7 +416,7 @@ mod tests {
         let rest =
             ["-o", out.to_str().unwrap(), "--res", "4096x4096", "--max-memory", "64M", "--threads", "1"];
         let err = format!("{:#}", run(args(&blob, &rest)).unwrap_err());
-        let needed = render::film::memory_estimate(4096, 4096, 16, 1);
+        let needed = render::film::memory_estimate(4096, 4096, 16, 1, &Default::default());
         assert!(err.contains(&format!("a 4096x4096 render needs about {needed} bytes")), "{err}");
         assert!(err.contains(&format!("the limit of {} bytes", 64u64 << 20)), "{err}");
         assert!(!out.exists());
