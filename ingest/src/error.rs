@@ -68,6 +68,14 @@ pub enum IngestError {
     /// The subdivision options are out of range (checked before any file is read).
     #[error("invalid subdivision options: {0}")]
     SubdivOptions(SubdivOptionsError),
+    /// A frame of a sequence failed (`ingest --frames`); the frames before it are written.
+    #[error("frame {frame}: {error}")]
+    Frame {
+        /// The frame's time code.
+        frame: f64,
+        /// What went wrong there.
+        error: Box<IngestError>,
+    },
 }
 
 impl IngestError {
@@ -75,6 +83,7 @@ impl IngestError {
     pub fn usd(&self) -> Option<&UsdError> {
         match self {
             IngestError::Usd { error, .. } => Some(error),
+            IngestError::Frame { error, .. } => error.usd(),
             _ => None,
         }
     }

@@ -68,13 +68,27 @@ pub fn ingest_file_with(
     let start = Instant::now();
     let scene = load(input, &options)?;
     let load_seconds = start.elapsed().as_secs_f64();
+    let report = pack_and_write(input, output, &scene, load_seconds, pack, None)?;
+    Ok((scene, report))
+}
+
+/// Packs `scene` (read from `input` in `load_seconds`) and writes its blob to `output`
+/// atomically; `cache` reuses a sequence's earlier BVHs.
+fn pack_and_write(
+    input: &Path,
+    output: &Path,
+    scene: &Scene,
+    load_seconds: f64,
+    pack: &PackOptions,
+    cache: Option<&mut crate::pack::BvhCache>,
+) -> Result<IngestReport, IngestError> {
     let start = Instant::now();
-    let data = crate::pack::pack_scene(&scene, pack)
+    let data = crate::pack::pack_scene_reusing(scene, pack, cache)
         .map_err(|error| IngestError::Pack { path: input.to_path_buf(), error })?;
     let bytes = data.encode();
     let pack_seconds = start.elapsed().as_secs_f64();
     crate::outputs::write_atomic(output, &bytes)?;
-    let report = IngestReport {
+    Ok(IngestReport {
         meshes: scene.meshes.len(),
         triangles: scene.triangle_count(),
         stored_triangles: data.triangles.len(),
@@ -88,9 +102,98 @@ pub fn ingest_file_with(
         pack_seconds,
         warnings: scene.warnings.iter().map(|w| format!("{}: {}", w.prim, w.message)).collect(),
         subdivision_meshes: scene.subdivisions.len(),
-        triangles_at_fixed_level: triangles_at_fixed_level(&scene),
+        triangles_at_fixed_level: triangles_at_fixed_level(scene),
+    })
+}
+
+/// What a frame sequence shared between its frames ([`ingest_sequence`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SequenceReport {
+    /// Frames written.
+    pub frames: usize,
+    /// Texture bakes served from an earlier frame (see [`usd::SequenceSharing`]).
+    pub texture_bakes_reused: usize,
+    /// BVHs (world, prototypes) taken from the previous frame because their triangles were the
+    /// same bits (see [`crate::pack::BvhCache`]).
+    pub bvhs_reused: usize,
+    /// BVHs built.
+    pub bvhs_built: usize,
+}
+
+/// Ingests `input` at every frame of `frames` (time code, blob path), each blob written
+/// atomically as [`ingest_file_with`] writes it, and equal to it byte for byte: a USD stage is
+/// composed once for the whole sequence and its texture bakes are shared
+/// ([`usd::load_sequence`]), and BVHs over unchanged triangles (instance prototypes, a still
+/// world) are reused from the previous frame ([`crate::pack::BvhCache`]). Everything else is read
+/// and packed per frame. An Alembic archive is read afresh per frame (it bakes no texture), its
+/// BVHs still reused.
+///
+/// `on_frame` sees each frame's scene and report once its blob is written (the binary prints
+/// warnings and writes listings there); an error from it, or any frame's, stops the sequence,
+/// leaving the frames before it written. Every output is checked against the inputs before the
+/// first frame is read.
+pub fn ingest_sequence(
+    input: &Path,
+    frames: &[(f64, std::path::PathBuf)],
+    options: &LoadOptions,
+    pack: &PackOptions,
+    mut on_frame: impl FnMut(f64, &Path, &Scene, &IngestReport) -> Result<(), IngestError> + Send,
+) -> Result<SequenceReport, IngestError> {
+    let mut options = options.clone();
+    for (_, output) in frames {
+        if !options.outputs.iter().any(|o| crate::outputs::same_file(o, output)) {
+            options.outputs.push(output.clone());
+        }
+    }
+    options.subdiv.validate()?;
+    crate::outputs::check_outputs(input, &options.outputs)?;
+    let mut cache = crate::pack::BvhCache::default();
+    let mut report = SequenceReport::default();
+    let mut mark = Instant::now();
+    let in_frame =
+        |frame: f64| move |error: IngestError| IngestError::Frame { frame, error: Box::new(error) };
+    let mut write = |time: f64, scene: Scene| -> Result<(), IngestError> {
+        let (_, output) =
+            frames.iter().find(|(t, _)| t.to_bits() == time.to_bits()).expect("a frame we asked for");
+        let load_seconds = mark.elapsed().as_secs_f64();
+        let frame_report = pack_and_write(input, output, &scene, load_seconds, pack, Some(&mut cache))
+            .map_err(in_frame(time))?;
+        cache.end_frame();
+        report.frames += 1;
+        on_frame(time, output, &scene, &frame_report).map_err(in_frame(time))?;
+        mark = Instant::now();
+        Ok(())
     };
-    Ok((scene, report))
+    let times: Vec<f64> = frames.iter().map(|(t, _)| *t).collect();
+    if crate::alembic::is_alembic(input) {
+        for &time in &times {
+            let frame = LoadOptions { frame: Some(time), ..options.clone() };
+            let scene = crate::alembic::load(input, &frame)
+                .map_err(|error| IngestError::Alembic { path: input.to_path_buf(), error })
+                .map_err(in_frame(time))?;
+            write(time, scene)?;
+        }
+    } else {
+        let path = input.to_path_buf();
+        let shared = usd::load_sequence(
+            input,
+            &options,
+            &times,
+            |frame, error| {
+                let error = IngestError::Usd { path: path.clone(), error };
+                match frame {
+                    Some(frame) => in_frame(frame)(error),
+                    None => error,
+                }
+            },
+            &mut write,
+        )?;
+        report.texture_bakes_reused = shared.texture_bakes_reused;
+    }
+    drop(write);
+    report.bvhs_reused = cache.reused;
+    report.bvhs_built = cache.built;
+    Ok(report)
 }
 
 /// Reads `input` (a USD stage, or an Alembic archive by its `.abc` extension) into a [`Scene`].

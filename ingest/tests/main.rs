@@ -11,6 +11,8 @@
 //! - `materialx`: MaterialX looks (`.mtlx` documents, inline `ND_*` networks, the surface mappings).
 //! - `outputs`: outputs that name an input (or each other) are refused, inputs kept; stale
 //!   temporaries removed.
+//! - `sequences`: `ingest --frames`: each blob of a sequence equals a single `--frame N` ingest byte
+//!   for byte; bad ranges and patterns are refused.
 //! - `support`: the fuzzer's mutations and zip repair, shared by the modules above.
 //!
 //! `fuzz_layers` installs the binary's global allocator (it records the largest allocation); the
@@ -22,4 +24,5 @@ mod fuzz_layers;
 mod list_only;
 mod materialx;
 mod outputs;
+mod sequences;
 mod support;

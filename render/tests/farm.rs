@@ -431,6 +431,86 @@ fn render_products_merge_from_tiles_exactly_and_from_slices_within_rounding() {
     let other = blob_named(dir.path(), "other.blob", 0.6);
     let wrong = merge_with(&refs, &sliced.join("x.exr"), &["--blob", other.to_str().unwrap()]);
     assert!(stderr(&wrong).contains("was rendered from blob"), "{}", stderr(&wrong));
+/// Three blobs of a shot, the card higher at each frame: `shot.0001.blob` ... `shot.0003.blob`.
+fn shot(dir: &Path) -> Vec<PathBuf> {
+    (1..=3).map(|f| blob_named(dir, &format!("shot.{f:04}.blob"), 0.4 + 0.2 * f as f32)).collect()
+}
+
+#[test]
+fn a_sequence_renders_each_frame_to_its_own_output_as_single_renders_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let blobs = shot(dir.path());
+    let pattern = dir.path().join("shot.####.blob");
+    let out = dir.path().join("beauty.#.exr");
+    let run = render(
+        &pattern,
+        &out,
+        &["--frames", "1-3", "--spp", "4", "--png", &format!("{}/p.%02d.png", dir.path().display())],
+    );
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(stderr(&run).contains("render: frame 2 (2 of 3): "), "{}", stderr(&run));
+    let mut images = Vec::new();
+    for (i, blob) in blobs.iter().enumerate() {
+        let single = dir.path().join(format!("single{i}.exr"));
+        assert!(render(blob, &single, &["--spp", "4"]).status.success());
+        let framed = std::fs::read(dir.path().join(format!("beauty.{}.exr", i + 1))).unwrap();
+        assert!(framed == std::fs::read(&single).unwrap(), "frame {} differs from its single render", i + 1);
+        assert!(dir.path().join(format!("p.{:02}.png", i + 1)).exists());
+        images.push(framed);
+    }
+    assert!(images[0] != images[2], "the frames differ");
+    // A list of blobs, numbered by their names; a step skips frame 2.
+    let listed = Command::new(env!("CARGO_BIN_EXE_render"))
+        .args([blobs[2].to_str().unwrap(), blobs[0].to_str().unwrap()])
+        .args(["-o", dir.path().join("listed.%04d.exr").to_str().unwrap()])
+        .args(["--res", "40x30", "--threads", "2", "--spp", "4"])
+        .output()
+        .unwrap();
+    assert!(listed.status.success(), "{}", stderr(&listed));
+    assert!(std::fs::read(dir.path().join("listed.0003.exr")).unwrap() == images[2]);
+    assert!(std::fs::read(dir.path().join("listed.0001.exr")).unwrap() == images[0]);
+    let stepped = render(&pattern, &dir.path().join("step.#.exr"), &["--frames", "1-3x2", "--spp", "4"]);
+    assert!(stepped.status.success(), "{}", stderr(&stepped));
+    assert!(!dir.path().join("step.2.exr").exists() && dir.path().join("step.3.exr").exists());
+}
+
+#[test]
+fn sequences_name_missing_frames_and_refuse_outputs_without_a_frame_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let blobs = shot(dir.path());
+    std::fs::remove_file(&blobs[1]).unwrap();
+    let pattern = dir.path().join("shot.####.blob");
+    let out = dir.path().join("beauty.#.exr");
+    let run = render(&pattern, &out, &["--frames", "1-3", "--spp", "1"]);
+    assert!(!run.status.success());
+    let missing = format!("1 of 3 frames have no blob: frame 2: {}", blobs[1].display());
+    assert!(stderr(&run).contains(&missing), "{}", stderr(&run));
+    assert!(!dir.path().join("beauty.1.exr").exists(), "nothing rendered before the check");
+    let cases: &[(&[&str], &str)] = &[
+        (&["--frames", "3-1"], "frame range \"3-1\": the last frame is before the first"),
+        (&["--frames", "1-3x0"], "the step must be at least 1"),
+    ];
+    for (extra, expected) in cases {
+        let run = render(&pattern, &out, extra);
+        assert!(!run.status.success() && stderr(&run).contains(expected), "{extra:?}: {}", stderr(&run));
+    }
+    let plain = render(&pattern, &dir.path().join("beauty.exr"), &["--frames", "1-3"]);
+    assert!(stderr(&plain).contains("has no frame field"), "{}", stderr(&plain));
+    let unnumbered = blob_named(dir.path(), "plain.blob", 0.5);
+    let run = Command::new(env!("CARGO_BIN_EXE_render"))
+        .args([blobs[0].to_str().unwrap(), unnumbered.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(stderr(&run).contains("plain.blob: no frame number in the file name"), "{}", stderr(&run));
+    let frames = Command::new(env!("CARGO_BIN_EXE_render"))
+        .args(["frames", "--frames", "8-12x2", "s.####.blob", "b.%d.exr"])
+        .output()
+        .unwrap();
+    assert!(frames.status.success(), "{}", stderr(&frames));
+    assert_eq!(
+        String::from_utf8(frames.stdout).unwrap(),
+        "8\ts.0008.blob\tb.8.exr\n10\ts.0010.blob\tb.10.exr\n12\ts.0012.blob\tb.12.exr\n"
+    );
 }
 
 /// The farm on a real Slurm cluster (`scripts/slurm-local.sh start`, which the README's test command

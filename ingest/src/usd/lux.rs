@@ -90,10 +90,19 @@ impl Reader<'_> {
             return Ok(Some((i as u32, 1.0)));
         }
         let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
-        let baked = super::texture_files::decode_texture(&file, &self.texture_limits).and_then(|mut src| {
-            let scale = fit_half_float_range(&mut src);
-            texture::bake(&src, &options).map(|baked| (baked, scale))
-        });
+        let bake = || {
+            super::texture_files::decode_texture(&file, &self.texture_limits)
+                .and_then(|mut src| {
+                    let scale = fit_half_float_range(&mut src);
+                    texture::bake(&src, &options).map(|baked| (baked, scale))
+                })
+                .map_err(|e| e.to_string())
+        };
+        // A sequence's later frames take the first frame's bake (see `bake_cache`).
+        let baked = match self.bake_cache {
+            Some(cache) => (*cache.dome(&file, bake)).clone(),
+            None => bake(),
+        };
         match baked {
             Ok((baked, scale)) => {
                 // A scaled copy must not be found by a material reading the same file.

@@ -751,7 +751,17 @@ impl Reader<'_> {
         }
         let options = texture::BakeOptions { color_space, ..texture::BakeOptions::default() };
         let limits = self.texture_limits;
-        let bake_one = |p: &Path| decode_texture(p, &limits).and_then(|src| texture::bake(&src, &options));
+        let bake_file = |p: &Path| {
+            decode_texture(p, &limits)
+                .and_then(|src| texture::bake(&src, &options))
+                .map_err(|e| e.to_string())
+        };
+        // A sequence's later frames take the first frame's bake of the file (see `bake_cache`).
+        let cache = self.bake_cache;
+        let bake_one = |p: &Path| match cache {
+            Some(cache) => (*cache.image(p, options, || bake_file(p))).clone(),
+            None => bake_file(p),
+        };
         let data = if texture::udim::is_udim(path) {
             let tiles = match texture::udim::expand(path) {
                 Ok(tiles) => tiles,

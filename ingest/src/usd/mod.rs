@@ -28,6 +28,7 @@
 //!
 //! Schema fallback values live in [`fallback`], in one place.
 
+mod bake_cache;
 mod collection;
 mod compat;
 mod curves;
@@ -413,23 +414,40 @@ enum Teardown {
 fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<Scene, UsdError> {
     let stage = Stage::open(path, options)?;
     let prims = stage.traverse()?;
+    let scene = read_frame(&stage, &prims, options, None, teardown)?;
+    if teardown == Teardown::AtExit {
+        std::mem::forget(stage);
+    }
+    Ok(scene)
+}
+
+/// Reads the traversed `stage` into a [`Scene`] at the stage's current time; `bakes` shares the
+/// texture bakes of a sequence's earlier frames.
+fn read_frame(
+    stage: &Stage,
+    prims: &[String],
+    options: &LoadOptions,
+    bakes: Option<&bake_cache::BakeCache>,
+    teardown: Teardown,
+) -> Result<Scene, UsdError> {
     // Prim indices compose lazily, so composition errors are complete only after the traversal.
     let mut scene = Scene { meters_per_unit: fallback::METERS_PER_UNIT, ..Scene::default() };
-    report_composition_issues(&stage, options, &mut scene)?;
-    let mut reader = Reader::new(&stage, &prims, scene);
+    report_composition_issues(stage, options, &mut scene)?;
+    let mut reader = Reader::new(stage, prims, scene);
+    reader.bake_cache = bakes;
     reader.bake_textures = options.bake_textures;
     reader.texture_limits = texture::DecodeLimits { max_pixels: options.max_texture_pixels };
     reader.lenient = options.lenient;
     reader.read_stage_metadata();
     reader.collect_instancer_prototypes()?;
-    reader.scene.world_origin = origin::camera_origin(&stage, &prims);
+    reader.scene.world_origin = origin::camera_origin(stage, prims);
     let root = Inherited::root(reader.scene.world_origin);
     reader.root_from_world = root.world_from_local;
     reader.visit("/", &root, false)?;
     reader.bad_prims_error()?;
     reader.finish()?;
     // Bound materials' shading networks are composed as they are read (see Stage::traverse).
-    report_composition_issues(&stage, options, &mut reader.scene)?;
+    report_composition_issues(stage, options, &mut reader.scene)?;
     let start = std::time::Instant::now();
     reader.tessellate_subdivisions(&options.subdiv);
     reader.scene.load_timings.subdivision_seconds = start.elapsed().as_secs_f64();
@@ -442,13 +460,64 @@ fn load_stage(path: &Path, options: &LoadOptions, teardown: Teardown) -> Result<
     for (prim, message) in stage.take_notes() {
         reader.scene.warn(prim, message);
     }
-    check_inputs_are_not_outputs(&stage, &reader.scene, &options.outputs)?;
+    check_inputs_are_not_outputs(stage, &reader.scene, &options.outputs)?;
     let scene = std::mem::take(&mut reader.scene);
     if teardown == Teardown::AtExit {
         std::mem::forget(reader);
-        std::mem::forget(stage);
     }
     Ok(scene)
+}
+
+/// What [`load_sequence`] shared between frames, for its report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SequenceSharing {
+    /// Texture bakes (a file and its options, a UDIM tile, a dome map) served from an earlier
+    /// frame instead of being decoded and baked again.
+    pub texture_bakes_reused: usize,
+}
+
+/// Reads the stage rooted at `path` at every time code of `frames`, composing it once, and hands
+/// each frame's [`Scene`] to `on_frame` (in order; an error from it stops the sequence).
+///
+/// Shared between frames: the composed stage (layers parsed once, prim indices and the
+/// traversal's prim list composed once, with the composition checks; a composition warning is
+/// reported with the first frame only) and every texture bake ([`bake_cache`]). Read again per
+/// frame, because any of it may be time-sampled: transforms, geometry, primvars, materials,
+/// lights, cameras, the world origin, subdivision dicing and tessellation, curves, motion keys.
+/// Each frame's scene equals [`load`] with [`LoadOptions::frame`] set to that frame.
+///
+/// `options.frame` is ignored (the frames are given). Errors are as [`load`]'s; `wrap` turns them
+/// into `on_frame`'s error type, with the frame being read (`None`: opening the stage).
+pub fn load_sequence<E: Send>(
+    path: &Path,
+    options: &LoadOptions,
+    frames: &[f64],
+    wrap: impl Fn(Option<f64>, UsdError) -> E + Send + Sync,
+    mut on_frame: impl FnMut(f64, Scene) -> Result<(), E> + Send,
+) -> Result<SequenceSharing, E> {
+    check_options(path, options).map_err(|e| wrap(None, e))?;
+    let layer = path.display().to_string();
+    let wrap = &wrap;
+    let read = || -> Result<Result<SequenceSharing, E>, UsdError> {
+        compat::reader_panic::catch(&layer, || {
+            let first = LoadOptions { frame: frames.first().copied(), ..options.clone() };
+            let stage = Stage::open(path, &first)?;
+            let prims = stage.traverse()?;
+            let bakes = bake_cache::BakeCache::default();
+            for &frame in frames {
+                stage.set_time(frame);
+                let scene = match read_frame(&stage, &prims, options, Some(&bakes), Teardown::Free) {
+                    Ok(scene) => scene,
+                    Err(e) => return Ok(Err(wrap(Some(frame), e))),
+                };
+                if let Err(e) = on_frame(frame, scene) {
+                    return Ok(Err(e));
+                }
+            }
+            Ok(Ok(SequenceSharing { texture_bakes_reused: bakes.hits() }))
+        })
+    };
+    on_reader_stack(path, read).map_err(|e| wrap(None, e))?
 }
 
 /// Composition errors not reported yet: the first fatal one is the error (unless lenient),
@@ -597,6 +666,8 @@ struct Reader<'a> {
     bad_prims: Vec<UsdError>,
     /// Each light's `lightLink` and `shadowLink` membership, in `scene.lights` order.
     light_links: Vec<lux::LightLinks>,
+    /// The texture bakes of a frame sequence's earlier frames ([`load_sequence`]).
+    bake_cache: Option<&'a bake_cache::BakeCache>,
 }
 
 fn parent_of(path: &str) -> &str {
@@ -633,6 +704,7 @@ impl<'a> Reader<'a> {
             lenient: false,
             bad_prims: Vec::new(),
             light_links: Vec::new(),
+            bake_cache: None,
         }
     }
 

@@ -6,7 +6,7 @@
 //! composition backend means rewriting this file only (with [`super::resolver`], the crate
 //! extension it opens layers through).
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
@@ -216,8 +216,9 @@ pub(crate) struct Stage {
     resolver: IngestResolver,
     /// Time at which attributes are evaluated: [`LoadOptions::frame`], else the stage's
     /// `startTimeCode` (0 when unauthored). The crate interpolates time samples at it (linear
-    /// for interpolable types, held otherwise) after applying layer offsets.
-    time: f64,
+    /// for interpolable types, held otherwise) after applying layer offsets. A frame sequence
+    /// moves it from frame to frame ([`Stage::set_time`]) over one composition.
+    time: Cell<f64>,
     /// Non-fatal problems met while reading values, as (prim, message); see [`Stage::take_notes`].
     notes: RefCell<Vec<(String, String)>>,
     /// Texts of the composition errors [`Stage::composition_issues`] has returned.
@@ -353,7 +354,7 @@ impl Stage {
             inner,
             root_layer,
             resolver,
-            time,
+            time: Cell::new(time),
             all_payloads_loaded: options.load_payloads,
             reported_issues: RefCell::new(HashSet::new()),
             notes: RefCell::new(Vec::new()),
@@ -624,7 +625,7 @@ impl Stage {
     /// The attribute's value at the stage's start time (time samples win, else the default),
     /// `None` when unauthored or blocked.
     pub(crate) fn attr(&self, prim: &str, name: &str) -> Result<Option<Value>, UsdError> {
-        self.attr_at(prim, name, self.time)
+        self.attr_at(prim, name, self.time.get())
     }
 
     /// [`Stage::attr`] at time code `time` (time samples interpolated as USD does: linearly,
@@ -665,7 +666,13 @@ impl Stage {
 
     /// The time code attributes are evaluated at.
     pub(crate) fn time(&self) -> f64 {
-        self.time
+        self.time.get()
+    }
+
+    /// Evaluates attributes at `time` from now on (the next frame of a sequence). Composition is
+    /// time-independent, so nothing composed so far changes.
+    pub(crate) fn set_time(&self, time: f64) {
+        self.time.set(time);
     }
 
     /// Drains the non-fatal problems recorded while reading values, as (prim, message).

@@ -18,7 +18,7 @@
 //! ```
 //!
 //! Modules: [`records`] (the Pod records; the `MATH` shader op of MaterialX arithmetic, format 7), [`curves`] (curve and point records, format 2), [`instances`] (prototypes, instances and
-//! the top-level BVH, format 5), [`dome`] (textured dome lights' maps and distributions, format 6), `container` (header and section table), the light sets of light and shadow linking ([`light_set_words`], format 8), [`outputs`] (render products, vars and light groups, format 14), `scene` (encode and
+//! the top-level BVH, format 5), [`dome`] (textured dome lights' maps and distributions, format 6), `container` (header and section table), the light sets of light and shadow linking ([`light_set_words`], format 8), [`outputs`] (render products, vars and light groups, format 14), [`sequence`] (frame ranges and file-name patterns of frame sequences; no format change), `scene` (encode and
 //! parse), [`tree`] (the structural proofs parse runs on every BVH and the float and size limits), `checksum`,
 //! `error`, `io` (atomic write, aligned buffers). [`reseal`] recomputes a mutated blob's checksums for
 //! tests and fuzzers.
@@ -36,6 +36,7 @@ mod io;
 pub mod outputs;
 pub mod records;
 mod scene;
+pub mod sequence;
 pub mod surface_inputs;
 pub mod tree;
 

@@ -14,6 +14,7 @@ pub(super) fn pack_instances(
     plan: &Instancing,
     layout: &MeshLayout,
     data: &mut blob::SceneData,
+    mut cache: Option<&mut super::BvhCache>,
 ) {
     let mut bounds = Vec::with_capacity(plan.prototypes.len());
     for prototype in &plan.prototypes {
@@ -41,7 +42,10 @@ pub(super) fn pack_instances(
                 (lo.min(*p), hi.max(*p))
             });
         bounds.push((lo, hi));
-        let bvh = crate::bvh::build(&corners);
+        let bvh = match cache.as_deref_mut() {
+            Some(cache) => cache.build(corners),
+            None => crate::bvh::build(&corners),
+        };
         let inst = &mut data.instancing;
         let (first_node, first_block) =
             (inst.prototype_nodes.len() as u32, inst.prototype_blocks.len() as u32);

@@ -14,6 +14,7 @@ mod common;
 pub mod curves;
 mod dome;
 mod instances;
+mod reuse;
 
 use crate::scene::{LightKind, Scene, ShaderNode, ShadingInput, TextureData, UpAxis};
 use blob::records as rec;
@@ -22,6 +23,7 @@ use glam::Vec3;
 
 pub use common::PackError;
 pub use curves::Split;
+pub use reuse::BvhCache;
 
 /// How a scene is packed.
 #[derive(Clone, Copy, Debug, Default)]
@@ -45,6 +47,17 @@ pub fn pack_with(scene: &Scene, split: Split) -> Result<blob::SceneData, PackErr
 
 /// [`pack`] with explicit options.
 pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneData, PackError> {
+    pack_scene_reusing(scene, options, None)
+}
+
+/// [`pack_scene`] for one frame of a sequence: BVHs over the same triangles as one of the
+/// previous frame's are taken from `cache` instead of being built again (see [`BvhCache`]; the
+/// bytes are the same). Call [`BvhCache::end_frame`] after each frame.
+pub fn pack_scene_reusing(
+    scene: &Scene,
+    options: &PackOptions,
+    mut cache: Option<&mut BvhCache>,
+) -> Result<blob::SceneData, PackError> {
     validate(scene)?;
     let mut data = blob::SceneData::default();
     let mut bounds_min = Vec3::splat(f32::INFINITY);
@@ -159,10 +172,13 @@ pub fn pack_scene(scene: &Scene, options: &PackOptions) -> Result<blob::SceneDat
         .iter()
         .map(|t| t.vertices.map(|v| Vec3::from_array(data.positions[v as usize])))
         .collect();
-    let bvh = crate::bvh::build(&corners);
+    let bvh = match cache.as_deref_mut() {
+        Some(cache) => cache.build(corners),
+        None => crate::bvh::build(&corners),
+    };
     data.bvh_nodes = bvh.nodes;
     data.bvh_blocks = bvh.blocks;
-    instances::pack_instances(scene, &plan, &layout, &mut data);
+    instances::pack_instances(scene, &plan, &layout, &mut data, cache);
     let first_group = data.curves.groups.len();
     let (curves_min, curves_max) =
         curves::pack_curves(scene, &mut data, options.split, (bounds_min, bounds_max))?;

@@ -5,11 +5,17 @@ use render::{RenderError, RenderOptions};
 use std::path::PathBuf;
 
 /// Raw arguments of the `render` binary.
-#[derive(Debug, Parser)]
+#[derive(Debug, Clone, Parser)]
 #[command(name = "render", version, about = "Path-traces a scene blob written by ingest.")]
 pub struct Args {
-    /// The scene blob.
-    pub blob: PathBuf,
+    /// The scene blob; or a sequence: one blob pattern (`shot.####.blob`, `shot.%04d.blob`) with
+    /// `--frames`, or several blobs, each numbered by the last run of digits in its file name.
+    #[arg(required = true, num_args = 1..)]
+    pub blob: Vec<PathBuf>,
+    /// Render the frames A-B[xSTEP] of the blob pattern, each to its own -o (and --png, --stats)
+    /// with the frame number in the pattern's frame field (`beauty.####.exr`).
+    #[arg(long, value_name = "A-B[xSTEP]", allow_hyphen_values = true)]
+    pub frames: Option<String>,
     /// Output OpenEXR file (beauty RGBA + albedo, normal, depth layers).
     #[arg(short = 'o', long = "output", required_unless_present = "info")]
     pub output: Option<PathBuf>,
@@ -103,6 +109,21 @@ pub struct Args {
     /// Samples every pixel takes before adaptive sampling may stop it.
     #[arg(long, value_name = "N", default_value_t = 16)]
     pub adaptive_min_spp: u32,
+}
+
+/// `render frames --frames A-B[xSTEP] PATTERN...`: the frames and their files, one line each.
+#[derive(Debug, Parser)]
+#[command(
+    name = "render frames",
+    about = "Lists the frames of a range with each pattern's file (frame, then the files; tab-separated)."
+)]
+pub struct FramesArgs {
+    /// The range: A-B or A-BxSTEP.
+    #[arg(long, value_name = "A-B[xSTEP]", allow_hyphen_values = true)]
+    pub frames: String,
+    /// File-name patterns (`#` runs, `%04d`); each must have a frame field for several frames.
+    #[arg(required = true)]
+    pub patterns: Vec<String>,
 }
 
 /// `render merge PARTS... -o OUT.exr`.
@@ -253,11 +274,78 @@ pub enum Command {
     },
 }
 
+/// The frame number of a listed blob: the last run of digits in its file name.
+fn frame_of(blob: &std::path::Path) -> Option<i64> {
+    let name = blob.file_name()?.to_str()?;
+    let end = name.rfind(|c: char| c.is_ascii_digit())? + 1;
+    let start = name[..end].rfind(|c: char| !c.is_ascii_digit()).map_or(0, |i| i + 1);
+    name[start..end].parse().ok()
+}
+
 impl Args {
-    /// Validates the arguments.
+    /// Validates the arguments into one command per frame: `(None, command)` for a single blob
+    /// without `--frames`, else each frame's number and its command, with the blob and the
+    /// outputs taken from their patterns.
+    pub fn into_frames(self) -> Result<Vec<(Option<i64>, Command)>, RenderError> {
+        use blob::sequence::{FramePattern, FrameRange};
+        let invalid = |m: String| RenderError::InvalidOption(m);
+        let blobs: Vec<(i64, PathBuf)> = match (&self.frames, self.blob.as_slice()) {
+            (None, [_]) => return Ok(vec![(None, self.into_command()?)]),
+            (Some(range), [pattern]) => {
+                let range: FrameRange = range.parse().map_err(|e| invalid(format!("--frames: {e}")))?;
+                let pattern = FramePattern::new(pattern.to_string_lossy());
+                blob::sequence::frame_paths(&pattern, &range).map_err(|e| invalid(format!("the blob {e}")))?
+            }
+            (Some(_), _) => {
+                return Err(invalid("--frames takes one blob pattern (shot.####.blob), not a list".into()))
+            }
+            (None, list) => {
+                let mut frames: Vec<(i64, PathBuf)> = Vec::new();
+                for blob in list {
+                    let frame = frame_of(blob).ok_or_else(|| {
+                        invalid(format!(
+                            "{}: no frame number in the file name (a list of blobs is numbered by the last digits of each name)",
+                            blob.display()
+                        ))
+                    })?;
+                    if let Some((_, other)) = frames.iter().find(|(f, _)| *f == frame) {
+                        return Err(invalid(format!(
+                            "{} and {} are both frame {frame}",
+                            other.display(),
+                            blob.display()
+                        )));
+                    }
+                    frames.push((frame, blob.clone()));
+                }
+                frames
+            }
+        };
+        let count = blobs.len();
+        let pattern = |option: &str, path: &Option<PathBuf>| -> Result<Option<FramePattern>, RenderError> {
+            let Some(path) = path else { return Ok(None) };
+            let pattern = FramePattern::new(path.to_string_lossy());
+            pattern.check(count).map_err(|e| invalid(format!("{option} {e}")))?;
+            Ok(Some(pattern))
+        };
+        let (output, png, stats) =
+            (pattern("-o", &self.output)?, pattern("--png", &self.png)?, pattern("--stats", &self.stats)?);
+        let mut frames = Vec::with_capacity(count);
+        for (frame, blob) in blobs {
+            let mut args = self.clone();
+            args.blob = vec![blob];
+            args.output = output.as_ref().map(|p| p.path(frame));
+            args.png = png.as_ref().map(|p| p.path(frame));
+            args.stats = stats.as_ref().map(|p| p.path(frame));
+            frames.push((Some(frame), args.into_command()?));
+        }
+        Ok(frames)
+    }
+
+    /// Validates the arguments of one blob.
     pub fn into_command(self) -> Result<Command, RenderError> {
+        let blob = self.blob.into_iter().next().expect("clap requires a blob");
         if self.info {
-            return Ok(Command::Info { blob: self.blob });
+            return Ok(Command::Info { blob });
         }
         if self.spp == 0 || self.spp > render::film::MAX_SPP {
             return Err(RenderError::InvalidOption(format!(
@@ -301,7 +389,7 @@ impl Args {
         }
         Ok(Command::Render {
             stats: self.stats.clone(),
-            blob: self.blob,
+            blob,
             output,
             png: self.png,
             progress_interval: self.progress_interval,

@@ -30,6 +30,9 @@ where
     if args.get(1).is_some_and(|a| a == "merge") {
         return run_merge(&args[1..]);
     }
+    if args.get(1).is_some_and(|a| a == "frames") {
+        return run_frames(&args[1..]);
+    }
     let args = match cli::Args::try_parse_from(args) {
         Ok(a) => a,
         Err(e) => {
@@ -37,7 +40,68 @@ where
             return Ok(if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS });
         }
     };
-    let command = args.into_command()?;
+    let frames = args.into_frames()?;
+    if let [(None, _)] = frames.as_slice() {
+        let (_, command) = frames.into_iter().next().expect("one command");
+        return run_command(command);
+    }
+    // A sequence: every frame's blob must be there before the first frame renders.
+    let blob_of = |c: &cli::Command| match c {
+        cli::Command::Info { blob } | cli::Command::Render { blob, .. } => blob.clone(),
+    };
+    let missing: Vec<String> = frames
+        .iter()
+        .filter(|(_, c)| !blob_of(c).is_file())
+        .map(|(f, c)| format!("frame {}: {}", f.unwrap_or_default(), blob_of(c).display()))
+        .collect();
+    if !missing.is_empty() {
+        anyhow::bail!("{} of {} frames have no blob: {}", missing.len(), frames.len(), missing.join(", "));
+    }
+    let count = frames.len();
+    for (i, (frame, command)) in frames.into_iter().enumerate() {
+        let frame = frame.unwrap_or_default();
+        if let cli::Command::Render { blob, output, .. } = &command {
+            eprintln!(
+                "render: frame {frame} ({} of {count}): {} -> {}",
+                i + 1,
+                blob.display(),
+                output.display()
+            );
+        }
+        let code = run_command(command).with_context(|| format!("frame {frame}"))?;
+        if code != ExitCode::SUCCESS {
+            return Ok(code);
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `render frames --frames A-B PATTERN...`: prints each frame and its files, tab-separated (the
+/// farm script's one source of frame numbers and names, `blob::sequence`).
+fn run_frames(args: &[std::ffi::OsString]) -> anyhow::Result<ExitCode> {
+    use blob::sequence::{frame_paths, FramePattern, FrameRange};
+    use clap::Parser;
+    let args = match cli::FramesArgs::try_parse_from(args) {
+        Ok(a) => a,
+        Err(e) => {
+            let _ = e.print();
+            return Ok(if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS });
+        }
+    };
+    let range: FrameRange = args.frames.parse()?;
+    let mut columns = Vec::new();
+    for pattern in &args.patterns {
+        columns.push(frame_paths(&FramePattern::new(pattern.as_str()), &range)?);
+    }
+    for (row, frame) in range.frames().into_iter().enumerate() {
+        let files: Vec<String> = columns.iter().map(|c| c[row].1.display().to_string()).collect();
+        println!("{frame}\t{}", files.join("\t"));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Renders (or prints `--info` of) one blob.
+fn run_command(command: cli::Command) -> anyhow::Result<ExitCode> {
     if let cli::Command::Render { blob, output, png, stats, .. } = &command {
         // Before any work: no output may destroy the input or another output, and every output
         // directory must take a file (a full render used to end in "cannot write").
