@@ -431,6 +431,8 @@ fn render_products_merge_from_tiles_exactly_and_from_slices_within_rounding() {
     let other = blob_named(dir.path(), "other.blob", 0.6);
     let wrong = merge_with(&refs, &sliced.join("x.exr"), &["--blob", other.to_str().unwrap()]);
     assert!(stderr(&wrong).contains("was rendered from blob"), "{}", stderr(&wrong));
+}
+
 /// Three blobs of a shot, the card higher at each frame: `shot.0001.blob` ... `shot.0003.blob`.
 fn shot(dir: &Path) -> Vec<PathBuf> {
     (1..=3).map(|f| blob_named(dir, &format!("shot.{f:04}.blob"), 0.4 + 0.2 * f as f32)).collect()
