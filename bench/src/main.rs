@@ -28,6 +28,7 @@
 //!
 //! Figures go to stdout and to a JSON file.
 
+mod adaptive;
 mod convergence;
 mod curves;
 mod ingest_speed;
@@ -107,6 +108,20 @@ enum Cmd {
         #[arg(long, default_value = ".venv/bin/python")]
         python: PathBuf,
         /// Work folder for the ray files and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+    /// Adaptive against uniform sampling: time to equal RMSE against a reference, chart.
+    Adaptive {
+        /// Scene blob.
+        blob: PathBuf,
+        /// Reference samples per pixel (the sweeps go to a quarter of it).
+        #[arg(long, default_value_t = 1024)]
+        reference_spp: u32,
+        /// Image width (height from the camera).
+        #[arg(long, default_value_t = 192)]
+        width: u32,
+        /// Work folder for the chart and results.
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
     },
@@ -331,6 +346,12 @@ fn main() -> anyhow::Result<()> {
             let file = out.join("rays.json");
             std::fs::write(&file, serde_json::to_string_pretty(&result)?)?;
             println!("figures written to {}", file.display());
+        }
+        Cmd::Adaptive { blob: path, reference_spp, width, out } => {
+            let bytes = load(&path)?;
+            let view = blob::SceneView::parse(&bytes).with_context(|| format!("{}", path.display()))?;
+            std::fs::create_dir_all(&out)?;
+            adaptive::run(&view, reference_spp, width, &out)?;
         }
         Cmd::Convergence { blob: path, reference_spp, max_spp, width, out } => {
             let bytes = load(&path)?;

@@ -276,7 +276,7 @@ fn a_camera_moving_right_moves_a_still_point_left_on_the_film() {
     let open = crate::camera::Camera::from_blob(&record, 32, 32);
     let pixel = APERTURE / 32.0 * DISTANCE / FOCAL;
     record.world_from_camera[0][3] = 2.0 * pixel;
-    record.world_from_camera[1][3] = -1.0 * pixel;
+    record.world_from_camera[1][3] = -pixel;
     let close = crate::camera::Camera::from_blob(&record, 32, 32);
     let projection = crate::aov::MotionProjection::between(&open, &close, 32, 32);
     let p = Vec3::new(3.0, -4.0, -DISTANCE);
