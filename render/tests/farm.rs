@@ -541,4 +541,33 @@ mod slurm {
             "retried merge differs"
         );
     }
+
+    #[test]
+    fn a_sequence_of_tiled_frames_merges_each_frame_to_its_single_render() {
+        if !enabled() {
+            return;
+        }
+        let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap();
+        let blobs = shot(dir.path());
+        let pattern = dir.path().join("shot.####.blob");
+        let out = dir.path().join("beauty.####.exr");
+        let (p, o) = (pattern.to_str().unwrap(), out.to_str().unwrap());
+        let run = farm(&["--frames", "1-3", "--tiles", "2", p, "-o", o, "--res", "40x30", "--spp", "8"]);
+        assert!(run.contains("units 0,1,2,3,4,5 of 6"), "{run}");
+        let last = dir.path().join("beauty.0003.exr");
+        wait_for(&last);
+        for (i, blob) in blobs.iter().enumerate() {
+            let single = dir.path().join(format!("single{i}.exr"));
+            assert!(render(blob, &single, &["--spp", "8"]).status.success());
+            let framed = dir.path().join(format!("beauty.{:04}.exr", i + 1));
+            assert!(
+                std::fs::read(&framed).unwrap() == std::fs::read(&single).unwrap(),
+                "frame {}: the merged tiles differ from the single render",
+                i + 1
+            );
+        }
+        // Everything is there: a rerun submits nothing.
+        let again = farm(&["--frames", "1-3", "--tiles", "2", p, "-o", o, "--res", "40x30", "--spp", "8"]);
+        assert!(again.contains("farm: all 3 frames are done"), "{again}");
+    }
 }
