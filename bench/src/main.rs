@@ -18,6 +18,8 @@
 //! - `bench curves`: a generated groom; curve-intersection throughput and image error against segments per
 //!   curve, fixed versus camera-adaptive splitting, charted as SVG.
 //!
+//! - `bench sequence [--frames N]`: ingest seconds per frame of an N-frame sequence against N
+//!   separate ingests, side by side in one run (`sequence.json`, `sequence.md`).
 //! - `bench ingest [ASSETS]`: seconds to compose a stage and list its gprims, ours against usd-core
 //!   (`Usd.Stage.Open` + the same listing) on the same files, default the three largest shared assets.
 //!
@@ -38,6 +40,7 @@ mod integrators;
 mod peers_table;
 mod perf_record;
 mod rays;
+mod sequence;
 mod subdiv;
 mod textures;
 
@@ -139,6 +142,15 @@ enum Cmd {
         #[arg(long, default_value_t = 192)]
         width: u32,
         /// Work folder for the chart and results.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+    },
+    /// Ingest seconds per frame: a frame sequence (`ingest --frames`) against one ingest per frame.
+    Sequence {
+        /// Frames of the sequence.
+        #[arg(long, default_value_t = 24)]
+        frames: u32,
+        /// Work folder for the blobs and results.
         #[arg(long, default_value = "out/bench")]
         out: PathBuf,
     },
@@ -406,6 +418,7 @@ fn main() -> anyhow::Result<()> {
             peers_table::run(&json, &target_renderer, target_spp, &out)?;
         }
         Cmd::PerfRecord { bench, doc } => perf_record::run(&bench, &doc)?,
+        Cmd::Sequence { frames, out } => sequence::run(frames, &out)?,
         Cmd::Ingest { assets, python, repeat, out } => {
             let assets = if assets.is_empty() {
                 ingest_speed::LARGEST_ASSETS.iter().map(PathBuf::from).collect()

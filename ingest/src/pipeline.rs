@@ -190,7 +190,6 @@ pub fn ingest_sequence(
         )?;
         report.texture_bakes_reused = shared.texture_bakes_reused;
     }
-    drop(write);
     report.bvhs_reused = cache.reused;
     report.bvhs_built = cache.built;
     Ok(report)

@@ -515,6 +515,68 @@ fn sequences_name_missing_frames_and_refuse_outputs_without_a_frame_field() {
     );
 }
 
+#[test]
+fn farm_dry_runs_of_a_sequence_make_frames_units_and_resubmit_only_missing_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let blobs = shot(dir.path());
+    let pattern = dir.path().join("shot.####.blob");
+    let out = dir.path().join("beauty.####.exr");
+    let farm = |extra: &[&str]| {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scripts/farm.sh");
+        Command::new("bash")
+            .arg(script)
+            .args(["--render", env!("CARGO_BIN_EXE_render"), "--dry-run"])
+            .args(extra)
+            .args([pattern.to_str().unwrap(), "-o", out.to_str().unwrap(), "--spp", "4"])
+            .output()
+            .unwrap()
+    };
+    let stdout = |o: &std::process::Output| String::from_utf8_lossy(&o.stdout).into_owned();
+    // Two tiles per frame: six units, and a merge per frame.
+    let run = farm(&["--frames", "1-3", "--tiles", "2"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let all = stdout(&run);
+    assert!(all.contains("farm: 3 frames (1-3) x 2 units per frame"), "{all}");
+    assert!(all.contains("farm: units 0,1,2,3,4,5 of 6"), "{all}");
+    let frame2 = dir.path().join("beauty.0002.exr");
+    let part = format!(
+        "3) unit=\"--tile 1/2\" blob={} out={}.parts/part-1.exr",
+        blobs[1].display(),
+        frame2.display()
+    );
+    assert!(all.contains(&part), "{all}");
+    assert!(all.contains("sbatch --array=0,1,2 --dependency=afterok:ARRAY"), "{all}");
+    // Frame 2 is done: only frames 1 and 3 are submitted and merged.
+    assert!(render(&blobs[1], &frame2, &["--spp", "4"]).status.success());
+    let again = stdout(&farm(&["--frames", "1-3", "--tiles", "2"]));
+    assert!(again.contains("farm: frame 2 (done)") && again.contains("farm: units 0,1,4,5 of 6"), "{again}");
+    assert!(again.contains("sbatch --array=0,2 --dependency=afterok:ARRAY"), "{again}");
+    // Unsplit frames render straight to their outputs: one unit each, no merge.
+    let whole = stdout(&farm(&["--frames", "1-3"]));
+    assert!(whole.contains("farm: units 0,2 of 3") && !whole.contains("merge.sh\n"), "{whole}");
+    let unit = format!(
+        "2) unit=\"\" blob={} out={}",
+        blobs[2].display(),
+        dir.path().join("beauty.0003.exr").display()
+    );
+    assert!(whole.contains(&unit), "{whole}");
+    // A missing blob is named; a bad range is refused.
+    std::fs::remove_file(&blobs[0]).unwrap();
+    let run = farm(&["--frames", "1-3"]);
+    assert!(!run.status.success());
+    assert!(
+        stderr(&run).contains(&format!("1 of 3 frames have no blob: frame 1: {}", blobs[0].display())),
+        "{}",
+        stderr(&run)
+    );
+    let run = farm(&["--frames", "3-1"]);
+    assert!(
+        !run.status.success() && stderr(&run).contains("the last frame is before the first"),
+        "{}",
+        stderr(&run)
+    );
+}
+
 /// The farm on a real Slurm cluster (`scripts/slurm-local.sh start`, which the README's test command
 /// runs): only with `FARM_SLURM=1`, since it submits jobs.
 mod slurm {
@@ -621,5 +683,34 @@ mod slurm {
             std::fs::read(&cancelled).unwrap() == std::fs::read(&reference).unwrap(),
             "retried merge differs"
         );
+    }
+
+    #[test]
+    fn a_sequence_of_tiled_frames_merges_each_frame_to_its_single_render() {
+        if !enabled() {
+            return;
+        }
+        let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap();
+        let blobs = shot(dir.path());
+        let pattern = dir.path().join("shot.####.blob");
+        let out = dir.path().join("beauty.####.exr");
+        let (p, o) = (pattern.to_str().unwrap(), out.to_str().unwrap());
+        let run = farm(&["--frames", "1-3", "--tiles", "2", p, "-o", o, "--res", "40x30", "--spp", "8"]);
+        assert!(run.contains("units 0,1,2,3,4,5 of 6"), "{run}");
+        let last = dir.path().join("beauty.0003.exr");
+        wait_for(&last);
+        for (i, blob) in blobs.iter().enumerate() {
+            let single = dir.path().join(format!("single{i}.exr"));
+            assert!(render(blob, &single, &["--spp", "8"]).status.success());
+            let framed = dir.path().join(format!("beauty.{:04}.exr", i + 1));
+            assert!(
+                std::fs::read(&framed).unwrap() == std::fs::read(&single).unwrap(),
+                "frame {}: the merged tiles differ from the single render",
+                i + 1
+            );
+        }
+        // Everything is there: a rerun submits nothing.
+        let again = farm(&["--frames", "1-3", "--tiles", "2", p, "-o", o, "--res", "40x30", "--spp", "8"]);
+        assert!(again.contains("farm: all 3 frames are done"), "{again}");
     }
 }
