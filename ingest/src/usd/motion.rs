@@ -399,6 +399,32 @@ def Mesh "Still" {
         assert_eq!(tri.positions[1], glam::Vec3::new(1.0 - 1024.0, 0.0, 0.0));
     }
 
+    /// A camera under a translating Xform gets keys at the shutter's ends, the frame and the
+    /// authored samples inside, each its world transform there relative to the frame's; its
+    /// xformOps are not reported.
+    #[test]
+    fn camera_motion_keys_are_the_authored_times_inside_the_shutter() {
+        let rig = format!(
+            "def Xform \"Dolly\" {{\n    double3 xformOp:translate.timeSamples = {{ 1: (0, 0, 0), 1.2: (1, 0, 0), 2: (2, 0, 0) }}\n    uniform token[] xformOpOrder = [\"xformOp:translate\"]\n    {}\n}}",
+            camera(-0.5, 0.5)
+        );
+        let scene = load_text(&rig);
+        let cam = &scene.cameras[0];
+        assert_eq!(cam.path, "/Dolly/Cam");
+        let motion = cam.motion.as_ref().expect("the camera moves");
+        let times: Vec<f32> = motion.keys.iter().map(|k| k.time).collect();
+        assert_eq!(times, [-0.5, 0.0, 0.2, 0.5]);
+        // x(T): held at 0 before frame 1, 5 per time code to 1.2, then 1.25 per time code.
+        for (key, x) in motion.keys.iter().zip([0.0, 0.0, 1.0, 1.0 + 1.25 * 0.3]) {
+            let want = DMat4::from_translation(DVec3::new(x, 0.0, 0.0));
+            assert!(key.world_from_stored.abs_diff_eq(want, 1e-9), "{key:?} against {want}");
+        }
+        assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+        // A closed shutter asks for no keys.
+        let scene = load_text(&rig.replace("shutter:close = 0.5", "shutter:close = -0.5"));
+        assert!(scene.cameras[0].motion.is_none());
+    }
+
     #[test]
     fn an_emissive_moving_mesh_stays_at_the_frame_with_a_warning() {
         let lamp = SLIDING.replace(

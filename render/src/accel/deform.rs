@@ -87,12 +87,12 @@ impl<'a> Deformation<'a> {
     #[inline]
     pub(crate) fn block_at(&self, block: &TriangleBlock, time: f32) -> TriangleBlock {
         let mut out = *block;
-        for lane in 0..BLOCK_WIDTH {
+        for (lane, &triangle) in block.triangles.iter().enumerate().take(BLOCK_WIDTH) {
             // Validated: every lane is a triangle of a deforming mesh.
-            if let Some(corners) = self.triangle_at(block.triangles[lane], time) {
-                for (corner, p) in corners.iter().enumerate() {
-                    for axis in 0..3 {
-                        out.vertices[corner][axis][lane] = p[axis];
+            if let Some(corners) = self.triangle_at(triangle, time) {
+                for (columns, p) in out.vertices.iter_mut().zip(corners) {
+                    for (column, v) in columns.iter_mut().zip(p.to_array()) {
+                        column[lane] = v;
                     }
                 }
             }

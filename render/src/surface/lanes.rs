@@ -356,8 +356,8 @@ fn surface_columns(scene: &Scene, group: &mut HitGroup, gather: Gather) {
         // Deforming triangles where their meshes are at the hits' times (the scalar surface's
         // vertices, from the same function); they are never instanced.
         let HitGroup { hits, len, gathered: g, .. } = group;
-        for k in 0..*len {
-            if let Some(p) = deform.triangle_at(hits[k].triangle, hits[k].time) {
+        for (k, hit) in hits.iter().enumerate().take(*len) {
+            if let Some(p) = deform.triangle_at(hit.triangle, hit.time) {
                 for (c, v) in g.p.iter_mut().zip(p) {
                     set(c, k, v.to_array());
                 }

@@ -89,8 +89,8 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
     let mut times = [0.0f32; LANES];
     let mut out = RayLanes::default();
     let mut flush = |keys: &PathKeys, len: usize, put: &mut F| {
-        for k in 0..len {
-            times[k] = shutter.time(SampleKey { pixel: keys.pixel[k], sample: keys.sample[k], seed });
+        for (k, time) in times.iter_mut().enumerate().take(len) {
+            *time = shutter.time(SampleKey { pixel: keys.pixel[k], sample: keys.sample[k], seed });
         }
         sampler_lanes::pair_lanes(&keys.jitter_seeds, &keys.sample, &mut jitter);
         camera::camera_ray_lanes(&cam, &keys.x, &keys.y, &jitter[0], &jitter[1], &mut out);
