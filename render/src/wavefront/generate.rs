@@ -112,6 +112,7 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
             );
         }
         let at = |c: &[[f32; LANES]; 3], k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
+        #[allow(clippy::needless_range_loop)] // k indexes the key columns and the output alike
         for k in 0..len {
             put(
                 keys.position[k] as usize,
