@@ -65,6 +65,7 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
             }),
             placed: None,
             motion: None,
+            deformation: None,
             light_set: 0,
         });
     }

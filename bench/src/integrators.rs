@@ -201,6 +201,7 @@ fn camera(eye: Vec3, target: Vec3) -> ingest::Camera {
         clipping_range: [0.01, 1e6],
         lens: Default::default(),
         shutter: [0.0; 2],
+        motion: None,
     }
 }
 

@@ -57,6 +57,7 @@ fn plane_scene() -> ingest::Scene {
         instance: None,
         placed: None,
         motion: None,
+        deformation: None,
         primvars: Vec::new(),
         light_set: 0,
     };

@@ -22,7 +22,16 @@
 //! Motion blur: each camera ray has a time in the [`Shutter`], drawn from the sampler's
 //! [`crate::sampler::dim::TIME`] dimension at vertex 0 and kept by every ray of its path (shadow
 //! and continuation rays alike), in both integrators. A closed shutter draws no time sample, so its
-//! images keep their numbers. The camera itself does not move (its transform is the frame's).
+//! images keep their numbers.
+//!
+//! Camera motion: a camera with transform keys (`blob::Camera::motion_key_count`, keys at the
+//! shutter's open and close, the frame and the authored samples inside it) is placed, for the ray
+//! of time `τ`, by its keys' `world_from_camera` matrices interpolated linearly around `τ` as a
+//! moving instance's are ([`crate::accel::instanced::interpolate_rows`]; exactly a key at its
+//! time), and the ray, its cone and the cone's axis come from that placement
+//! ([`Camera::sample_ray`], the one function both integrators call). With the shutter closed the
+//! render uses the camera at the shutter's time as a still camera ([`Camera::at_time`]), so a
+//! closed shutter gives a still camera's bytes.
 //!
 //! [`camera_ray_lanes`] generates eight pinhole rays at once (the wavefront integrator's camera stage)
 //! with the scalar film loop's IEEE operations in the same order: [`Camera::generate_ray`],
@@ -36,7 +45,7 @@
 use glam::{Affine3A, Vec3, Vec3A};
 
 /// A camera ready to generate rays for a `width × height` image.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
     world_from_camera: Affine3A,
     orthographic: bool,
@@ -50,6 +59,8 @@ pub struct Camera {
     lens: Option<ThinLens>,
     /// The blob camera's shutter.
     shutter: Shutter,
+    /// Transform keys of a moving camera (`world_from_camera` at each key time), or `None`.
+    motion: Option<std::sync::Arc<[blob::MotionKey]>>,
 }
 
 /// A shutter interval in time codes from the frame: camera rays get times in `[open, close)`.
@@ -181,7 +192,8 @@ pub fn affine_from_rows(m: &[[f32; 4]; 3]) -> Affine3A {
 }
 
 impl Camera {
-    /// A camera from a blob record for an image of `width × height` pixels.
+    /// A camera from a blob record for an image of `width × height` pixels, standing still at
+    /// the record's transform (see [`Camera::with_motion`]).
     pub fn from_blob(cam: &blob::Camera, width: u32, height: u32) -> Self {
         let h_ap = if cam.horizontal_aperture > 0.0 { cam.horizontal_aperture } else { 20.955 };
         let v_ap = h_ap * height as f32 / width as f32;
@@ -200,6 +212,7 @@ impl Camera {
             width: width.max(1),
             lens: ThinLens::from_blob(cam, focal),
             shutter: Shutter { open: cam.shutter_open, close: cam.shutter_close },
+            motion: None,
         }
     }
 
@@ -225,6 +238,56 @@ impl Camera {
     /// The inverse of `world_from_camera`.
     pub fn camera_from_world(&self) -> Affine3A {
         self.world_from_camera.inverse()
+    }
+
+    /// This camera moving through `keys` (validated: 2 or more, times increasing, matrices
+    /// invertible); no keys leave it still.
+    pub fn with_motion(self, keys: &[blob::MotionKey]) -> Self {
+        Camera { motion: (keys.len() >= 2).then(|| keys.into()), ..self }
+    }
+
+    /// True when the camera has transform keys.
+    pub fn is_moving(&self) -> bool {
+        self.motion.is_some()
+    }
+
+    /// The camera where it is at time `time`, standing still: its keys interpolated (exactly a
+    /// key at that key's time; the end keys held outside them). A still camera is itself.
+    pub fn at_time(&self, time: f32) -> Camera {
+        let Some(keys) = &self.motion else { return self.clone() };
+        let rows = match keys.iter().find(|k| k.time == time) {
+            Some(key) => key.world_from_object,
+            None => crate::accel::instanced::interpolate_rows(keys, time),
+        };
+        Camera { world_from_camera: affine_from_rows(&rows), motion: None, ..self.clone() }
+    }
+
+    /// The camera ray through film point `film` ∈ [0, 1]² and lens sample `lens_uv` at time `time`
+    /// with its pixel cone scaled by `footprint_scale`: for a still camera exactly the film loop's
+    /// [`Camera::generate_lens_ray`] and [`Camera::pixel_cone`] of its cosine to `forward` (the
+    /// camera's [`Camera::forward`]); a moving camera does the same at [`Camera::at_time`], its
+    /// own forward axis then. Both integrators call this for every ray a lens or motion needs.
+    pub fn sample_ray(
+        &self,
+        film: [f32; 2],
+        lens_uv: [f32; 2],
+        time: f32,
+        forward: Vec3,
+        footprint_scale: f32,
+    ) -> (Vec3, Vec3, RayCone) {
+        let ray = |camera: &Camera, forward: Vec3| {
+            let (o, d) = camera.generate_lens_ray(film[0], film[1], lens_uv);
+            let mut cone = camera.pixel_cone(d.dot(forward));
+            cone.width *= footprint_scale;
+            cone.spread *= footprint_scale;
+            (o, d, cone)
+        };
+        if self.motion.is_none() {
+            return ray(self, forward);
+        }
+        let placed = self.at_time(time);
+        let forward = placed.forward();
+        ray(&placed, forward)
     }
 
     /// The camera's shutter (`shutter:open`, `shutter:close`).
@@ -273,6 +336,7 @@ impl Camera {
             width: width.max(1),
             lens: None,
             shutter: Shutter::default(),
+            motion: None,
         }
     }
 
@@ -456,8 +520,8 @@ pub fn camera_ray_lanes(
 
 /// Replaces lanes `0..len` of `out` (rays [`camera_ray_lanes`] made for pixels (`x[k]`, `y[k]`) of a
 /// `width × height` image with jitter (`jx[k]`, `jy[k]`)) by the rays through the camera's lens at
-/// lens samples (`lens_u[k]`, `lens_v[k]`), each exactly the film loop's [`Camera::generate_lens_ray`] and
-/// [`Camera::pixel_cone`] of it scaled by `footprint_scale`: the scalar code runs per lane.
+/// lens samples (`lens_u[k]`, `lens_v[k]`) and times `time[k]`, each exactly the film loop's
+/// [`Camera::sample_ray`]: the scalar code runs per lane (a lens or a moving camera).
 #[allow(clippy::too_many_arguments)]
 pub fn lens_ray_lanes(
     camera: &Camera,
@@ -467,18 +531,13 @@ pub fn lens_ray_lanes(
     (x, y): (&U32Lanes, &U32Lanes),
     (jx, jy): (&Lanes, &Lanes),
     (lens_u, lens_v): (&Lanes, &Lanes),
+    time: &Lanes,
     len: usize,
     out: &mut RayLanes,
 ) {
     for k in 0..len {
-        let (o, d) = camera.generate_lens_ray(
-            (x[k] as f32 + jx[k]) / size[0] as f32,
-            (y[k] as f32 + jy[k]) / size[1] as f32,
-            [lens_u[k], lens_v[k]],
-        );
-        let mut cone = camera.pixel_cone(d.dot(forward));
-        cone.width *= footprint_scale;
-        cone.spread *= footprint_scale;
+        let film = [(x[k] as f32 + jx[k]) / size[0] as f32, (y[k] as f32 + jy[k]) / size[1] as f32];
+        let (o, d, cone) = camera.sample_ray(film, [lens_u[k], lens_v[k]], time[k], forward, footprint_scale);
         out.set(k, &CameraRay { origin: o, dir: d, cone_width: cone.width, cone_spread: cone.spread });
     }
 }
@@ -612,7 +671,7 @@ mod tests {
             }
         }
         assert_eq!(
-            camera.without_lens().generate_lens_ray(0.3, 0.4, [0.9, 0.1]),
+            camera.clone().without_lens().generate_lens_ray(0.3, 0.4, [0.9, 0.1]),
             camera.generate_ray(0.3, 0.4)
         );
         let mut ortho = cam;

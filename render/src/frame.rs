@@ -571,6 +571,8 @@ fn render_pass<T: texture::Touch + Sync>(
         filter: options.texture_filter,
         shutter: shutter(options, &camera)?,
     };
+    // A closed shutter sees the camera where it is at the shutter's time, standing still.
+    let camera = if settings.shutter.is_open() { camera } else { camera.at_time(settings.shutter.open) };
     let sampling = Sampling::new(options, width, height, camera.forward());
     let sampling_of = |samples: [u32; 2]| Sampling { samples, ..sampling };
     // The tile's sums so far, row-major (the window's rows are `film.window.width()` long).

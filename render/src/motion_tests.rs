@@ -181,26 +181,66 @@ fn wavefront_equals_scalar_with_motion_blur_and_depth_of_field() {
     };
     scene.meshes[2].motion =
         Some(TransformMotion { keys: vec![spin(-0.5, -40.0), spin(0.1, 5.0), spin(0.5, 60.0)] });
+    // Sphere 3 breathes: its points scale about their centroid over three keys (deformation).
+    let breathing = |time: f32, scale: f32| {
+        let points = &scene.meshes[3].positions;
+        let centre = points.iter().copied().sum::<Vec3>() / points.len() as f32;
+        scene_pack::DeformKey {
+            time,
+            positions: points.iter().map(|&p| centre + (p - centre) * scale).collect(),
+        }
+    };
+    let keys = vec![breathing(-0.5, 0.8), breathing(0.0, 1.0), breathing(0.2, 1.1), breathing(0.5, 1.3)];
+    scene.meshes[3].deformation = Some(scene_pack::Deformation { keys });
     let lamp = scene.meshes.len() - 1;
     scene.meshes[lamp].motion = Some(sliding(&[(-0.5, -1.0), (0.5, 1.0)]));
     let still = render(
         &crate::wavefront::equivalence_tests::scene(),
         &crate::wavefront::equivalence_tests::options(),
     );
-    for (lens, what) in [
-        (scene_pack::Lens::default(), "motion blur"),
+    // The camera pans and turns about its own axis over three keys.
+    let pan = |time: f32, x: f64, degrees: f64| MotionKey {
+        time,
+        world_from_stored: DMat4::from_translation(DVec3::new(x, 0.1 * x, 0.0))
+            * DMat4::from_rotation_y(degrees.to_radians()),
+    };
+    let camera_motion =
+        TransformMotion { keys: vec![pan(-0.5, -0.2, -3.0), pan(0.0, 0.0, 0.0), pan(0.5, 0.3, 4.0)] };
+    for (lens, camera_moves, what) in [
+        (scene_pack::Lens::default(), false, "motion blur"),
         (
             scene_pack::Lens { f_stop: 1.8, focus_distance: 4.0, ..Default::default() },
+            false,
             "motion blur and depth of field",
+        ),
+        (scene_pack::Lens::default(), true, "motion blur and camera motion"),
+        (
+            scene_pack::Lens { f_stop: 1.8, focus_distance: 4.0, ..Default::default() },
+            true,
+            "camera motion and depth of field",
         ),
     ] {
         let mut scene = scene.clone();
         for camera in &mut scene.cameras {
             camera.lens = lens;
             camera.shutter = [-0.5, 0.5];
+            if camera_moves {
+                let frame = camera.world_from_camera.as_dmat4();
+                // Turning about the camera's own position: conjugated by its frame transform.
+                let keys = camera_motion
+                    .keys
+                    .iter()
+                    .map(|k| MotionKey {
+                        world_from_stored: frame * k.world_from_stored * frame.inverse(),
+                        ..*k
+                    })
+                    .collect();
+                camera.motion = Some(TransformMotion { keys });
+            }
         }
         let data = testscene::pack(&scene);
         assert_eq!(data.instancing.motions.len(), 2, "the two spheres move; the emissive lamp does not");
+        assert_eq!(data.deform.motions.len(), 1, "the third sphere breathes");
         let bytes = testscene::encode(&data);
         let view = blob::SceneView::parse(&bytes).expect("valid blob");
         let options = crate::wavefront::equivalence_tests::options();
@@ -263,6 +303,39 @@ fn the_motion_vector_of_a_card_moving_v_pixels_reads_v_and_a_still_card_zero() {
     }
 }
 
+/// Camera keys translating the camera along x: `(time, x)`.
+fn camera_sliding(keys: &[(f32, f64)]) -> Option<TransformMotion> {
+    Some(sliding(keys))
+}
+
+/// A still card seen by a camera sliding the other way gives the moving card's ramp: the edge
+/// crosses the same `v` pixels of the film over the shutter (the wall behind is uniform).
+#[test]
+fn a_camera_moving_v_pixels_over_the_shutter_makes_the_ramp_of_the_card_moving_v_pixels() {
+    let width = 128;
+    let pixel = f64::from(APERTURE) / f64::from(width) * f64::from(DISTANCE / FOCAL);
+    for v in [4u32, 9, 16] {
+        let d = f64::from(v) * pixel;
+        let mut card = ramp_scene(Some(sliding(&[(-0.5, -0.5 * d), (0.5, 0.5 * d)])), [-0.5, 0.5]);
+        card.meshes[0].positions.iter_mut().for_each(|p| p.x += (0.5 * d) as f32);
+        // The card stands where the moving one is at the frame; the camera starts `d/2` to its
+        // right (the edge at the image centre) and ends `d/2` to the left.
+        let mut camera = ramp_scene(None, [-0.5, 0.5]);
+        camera.meshes[0].positions.iter_mut().for_each(|p| p.x += (0.5 * d) as f32);
+        camera.cameras[0].motion = camera_sliding(&[(-0.5, 0.5 * d), (0.0, 0.0), (0.5, -0.5 * d)]);
+        for integrator in [Integrator::Wavefront, Integrator::Scalar] {
+            let o = RenderOptions { integrator, ..options(width, 256) };
+            let (moved, still) = (render(&card, &o), render(&camera, &o));
+            let (card_ramp, _) = ramp(&moved, 64, v);
+            let (measured, worst) = ramp(&still, 64, v);
+            eprintln!("v {v} px, {integrator:?}: camera ramp {measured:.3} px, card ramp {card_ramp:.3} px, worst deviation {worst:.4}");
+            assert!((measured - f64::from(v)).abs() <= 1.0, "v {v}: ramp {measured} px wide");
+            assert!((measured - card_ramp).abs() <= 1.0, "v {v}: {measured} against the card's {card_ramp}");
+            assert!(worst < 0.04, "v {v}: the ramp is linear within 4 % (sampling noise), worst {worst}");
+        }
+    }
+}
+
 #[test]
 fn a_camera_moving_right_moves_a_still_point_left_on_the_film() {
     // The hook camera motion plugs into: the camera at open and at close.
@@ -284,4 +357,114 @@ fn a_camera_moving_right_moves_a_still_point_left_on_the_film() {
     assert!((mx + 2.0).abs() < 1e-3 && (my - 1.0).abs() < 1e-3, "({mx}, {my})");
     assert_eq!(projection.pixels(false, Some([p, p])), [0.0; 2]);
     assert_eq!(projection.pixels(true, None), [0.0; 2]);
+}
+
+#[test]
+fn a_moving_camera_with_a_closed_shutter_or_no_motion_blur_gives_the_still_image() {
+    let o = options(64, 16);
+    let still = render(&ramp_scene(None, [0.0, 0.0]), &o);
+    let moving = |shutter| {
+        let mut scene = ramp_scene(None, shutter);
+        // Keys that do not pass through the identity at 0 except the frame key itself.
+        scene.cameras[0].motion = camera_sliding(&[(-0.5, 2.0), (0.0, 0.0), (0.25, 0.7), (0.5, -3.0)]);
+        scene
+    };
+    for (scene, options, what) in [
+        (moving([0.0, 0.0]), o.clone(), "closed shutter"),
+        (moving([-0.5, 0.5]), RenderOptions { motion_blur: false, ..o.clone() }, "--no-motion-blur"),
+        (moving([-0.5, 0.5]), RenderOptions { shutter: Some([0.0, 0.0]), ..o.clone() }, "--shutter 0,0"),
+    ] {
+        for integrator in [Integrator::Wavefront, Integrator::Scalar] {
+            let image = render(&scene, &RenderOptions { integrator, ..options.clone() });
+            assert_eq!(differing(&image, &still), 0, "{what}, {integrator:?}: pixels unlike the still image");
+        }
+    }
+    // Closed at a key's time: the camera stands exactly there (the card moved the other way).
+    let held = render(&moving([0.5, 0.5]), &o);
+    let mut shifted = ramp_scene(None, [0.0, 0.0]);
+    shifted.meshes[0].positions.iter_mut().for_each(|p| p.x += 3.0);
+    shifted.cameras[0].world_from_camera = glam::Mat4::IDENTITY;
+    let shifted = render(&shifted, &o);
+    let blurred = render(&moving([-0.5, 0.5]), &o);
+    assert!(
+        differing(&blurred, &still) >= 8 * 4,
+        "the open shutter blurs (a ramp of about 8 px on each of the 8 rows)"
+    );
+    assert!(differing(&held, &still) >= 8, "the camera closed at 0.5 stands 3 units to the left");
+    let mean_diff = held.beauty.iter().zip(&shifted.beauty).map(|(a, b)| (a[0] - b[0]).abs()).sum::<f32>()
+        / held.beauty.len() as f32;
+    assert!(mean_diff < 0.05, "camera at -3 against the card at +3: mean difference {mean_diff}");
+}
+
+/// The half-plane's points at the keys `(time, x shift)`: a deformation, not a transform.
+fn deforming(mesh: &Mesh, keys: &[(f32, f32)]) -> Option<scene_pack::Deformation> {
+    let keys = keys
+        .iter()
+        .map(|&(time, dx)| scene_pack::DeformKey {
+            time,
+            positions: mesh.positions.iter().map(|p| *p + Vec3::X * dx).collect(),
+        })
+        .collect();
+    Some(scene_pack::Deformation { keys })
+}
+
+/// A deforming card (its points, not its transform, move `v` pixels over the shutter) makes the
+/// moving card's ramp; at the frame it is the still card.
+#[test]
+fn a_deforming_card_moving_v_pixels_over_the_shutter_makes_a_linear_ramp_v_pixels_wide() {
+    let width = 128;
+    let pixel = f64::from(APERTURE) / f64::from(width) * f64::from(DISTANCE / FOCAL);
+    for v in [4u32, 9, 16] {
+        let d = f64::from(v) * pixel;
+        let mut moved = ramp_scene(Some(sliding(&[(-0.5, -0.5 * d), (0.5, 0.5 * d)])), [-0.5, 0.5]);
+        moved.meshes[0].positions.iter_mut().for_each(|p| p.x += (0.5 * d) as f32);
+        let mut deformed = ramp_scene(None, [-0.5, 0.5]);
+        deformed.meshes[0].positions.iter_mut().for_each(|p| p.x += (0.5 * d) as f32);
+        let h = (0.5 * d) as f32;
+        deformed.meshes[0].deformation = deforming(&deformed.meshes[0], &[(-0.5, -h), (0.0, 0.0), (0.5, h)]);
+        let data = testscene::pack(&deformed);
+        assert_eq!((data.deform.motions.len(), data.deform.times.len()), (1, 3));
+        assert!(
+            data.bvh_blocks.iter().all(|b| b.triangles.iter().all(|&t| t >= 2)),
+            "the card is not in the world BVH"
+        );
+        for integrator in [Integrator::Wavefront, Integrator::Scalar] {
+            let o = RenderOptions { integrator, ..options(width, 256) };
+            let (card, image) = (render(&moved, &o), render(&deformed, &o));
+            let (card_ramp, _) = ramp(&card, 64, v);
+            let (measured, worst) = ramp(&image, 64, v);
+            eprintln!("v {v} px, {integrator:?}: deformation ramp {measured:.3} px, transform ramp {card_ramp:.3} px, worst deviation {worst:.4}");
+            assert!((measured - f64::from(v)).abs() <= 1.0, "v {v}: ramp {measured} px wide");
+            assert!((measured - card_ramp).abs() <= 1.0, "v {v}: {measured} against {card_ramp}");
+            assert!(worst < 0.04, "v {v}: the ramp is linear within 4 % (sampling noise), worst {worst}");
+        }
+    }
+    // Closed shutter, `--no-motion-blur`: the stored (frame) points, the still image's bytes.
+    let o = options(64, 16);
+    let still = render(&ramp_scene(None, [0.0, 0.0]), &o);
+    for (shutter, options, what) in [
+        ([0.0, 0.0], o.clone(), "closed shutter"),
+        ([-0.5, 0.5], RenderOptions { motion_blur: false, ..o.clone() }, "--no-motion-blur"),
+    ] {
+        let mut scene = ramp_scene(None, shutter);
+        scene.meshes[0].deformation =
+            deforming(&scene.meshes[0], &[(-0.5, -3.0), (0.0, 0.0), (0.3, 1.0), (0.5, 3.0)]);
+        for integrator in [Integrator::Wavefront, Integrator::Scalar] {
+            let image = render(&scene, &RenderOptions { integrator, ..options.clone() });
+            assert_eq!(differing(&image, &still), 0, "{what}, {integrator:?}: pixels unlike the still image");
+        }
+    }
+}
+
+#[test]
+fn deformation_keys_that_do_not_match_the_mesh_are_refused_by_the_packer() {
+    let mut scene = ramp_scene(None, [-0.5, 0.5]);
+    let mut deformation = deforming(&scene.meshes[0], &[(-0.5, -1.0), (0.5, 1.0)]).unwrap();
+    deformation.keys[1].positions.pop();
+    scene.meshes[0].deformation = Some(deformation);
+    let err = scene_pack::pack::pack(&scene).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        format!("{}: deformation key at time 0.5 has 3 points for the mesh's 4", scene.meshes[0].path)
+    );
 }

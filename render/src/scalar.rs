@@ -339,7 +339,7 @@ pub(crate) fn render_tile<T: Touch>(
         TileResult { sums: init.to_vec(), aov: aov_init.to_vec(), rays: RayCounts::default(), clock: None };
     let (traces, stride) = (plan.traces(), plan.stride());
     let mut record = plan.path();
-    let motion = crate::aov::MotionProjection::new(camera, width, height);
+    let motion = crate::aov::MotionProjection::new(camera, settings.shutter, width, height);
     let mut aov_sums = out.aov.chunks_exact_mut(stride.max(1));
     let mut clock = PhaseClock::new(phase_stats);
     let mut sums = out.sums.iter_mut();
@@ -353,14 +353,11 @@ pub(crate) fn render_tile<T: Touch>(
                 let [jx, jy] = sample_2d(key, 0, dim::PIXEL);
                 // A pinhole draws no lens sample (its images keep their numbers).
                 let lens_uv = if camera.lens().is_some() { sample_2d(key, 0, dim::LENS) } else { [0.0; 2] };
-                let (o, d) = camera.generate_lens_ray(
-                    (x as f32 + jx) / width as f32,
-                    (y as f32 + jy) / height as f32,
-                    lens_uv,
-                );
-                let mut cone = camera.pixel_cone(d.dot(forward));
-                cone.width *= sampling.footprint_scale;
-                cone.spread *= sampling.footprint_scale;
+                // A moving camera is placed at the path's time (drawn only for it here; the path
+                // draws the same time again).
+                let time = if camera.is_moving() { settings.shutter.time(key) } else { 0.0 };
+                let film = [(x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32];
+                let (o, d, cone) = camera.sample_ray(film, lens_uv, time, forward, sampling.footprint_scale);
                 let r = if let Some(pa) = pixel_aov.as_deref_mut() {
                     let rec = Some(&mut record);
                     let r = scene.trace_path_recording(

@@ -109,10 +109,17 @@ impl<'a> Scene<'a> {
         (w[0] != w[2] && w[1] != w[3]).then_some(w)
     }
 
-    /// The camera for an image of `width × height`: the blob camera `index`, or one framing the bounds.
+    /// The camera for an image of `width × height`: the blob camera `index` (moving when it has
+    /// keys), or one framing the bounds.
     pub fn camera(&self, index: Option<usize>, width: u32, height: u32) -> Camera {
         match index {
-            Some(i) => Camera::from_blob(&self.view.cameras[i], width, height),
+            Some(i) => {
+                let c = &self.view.cameras[i];
+                // Validated: a moving camera's key range is inside the motion keys section.
+                let first = c.first_motion_key as usize;
+                let keys = &self.view.instancing.motion_keys[first..first + c.motion_key_count as usize];
+                Camera::from_blob(c, width, height).with_motion(keys)
+            }
             None => Camera::framing(
                 Vec3::from(self.view.info.bounds_min),
                 Vec3::from(self.view.info.bounds_max),

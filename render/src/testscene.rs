@@ -96,6 +96,7 @@ pub fn card(z: f32, half: f32, material: u32) -> Mesh {
         instance: None,
         placed: None,
         motion: None,
+        deformation: None,
         primvars: Vec::new(),
         light_set: 0,
     }
@@ -115,6 +116,7 @@ pub fn camera_looking_down_z(eye: Vec3, focal: f32) -> Camera {
         clipping_range: [0.01, 1.0e6],
         lens: Default::default(),
         shutter: [0.0; 2],
+        motion: None,
     }
 }
 

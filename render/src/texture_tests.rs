@@ -56,6 +56,7 @@ fn quad(corners: [Vec3; 4], uv_max: f32) -> Mesh {
         instance: None,
         placed: None,
         motion: None,
+        deformation: None,
         primvars: Vec::new(),
         light_set: 0,
     }

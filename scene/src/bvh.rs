@@ -73,6 +73,36 @@ pub fn build_with(triangles: &[[Vec3; 3]], params: &BuildParams) -> BuiltBvh {
     BuiltBvh { nodes, blocks }
 }
 
+/// A BVH over triangles whose boxes are given (`boxes[i]` contains `triangles[i]`): the
+/// deformation BVH, whose boxes are the union of each triangle's boxes at every motion key while
+/// the blocks hold `triangles` (the frame's vertices). No spatial splits (a split of the frame's
+/// triangle would not bound its other keys).
+pub fn build_bounded(triangles: &[[Vec3; 3]], boxes: &[(Vec3, Vec3)]) -> BuiltBvh {
+    assert_eq!(triangles.len(), boxes.len(), "one box per triangle");
+    if triangles.is_empty() {
+        return BuiltBvh { nodes: Vec::new(), blocks: Vec::new() };
+    }
+    let config = BvhBuildParams::slow_build();
+    let aabbs: Vec<Aabb> =
+        boxes.iter().map(|&(lo, hi)| Aabb::new(Vec3A::from(lo), Vec3A::from(hi))).collect();
+    let indices: Vec<u32> = (0..aabbs.len() as u32).collect();
+    let bvh2 = build_grouped(&aabbs, &indices).unwrap_or_else(|| {
+        let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+            config.ploc_search_distance,
+            &aabbs,
+            indices,
+            config.sort_precision,
+            config.search_depth_threshold,
+        );
+        ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+        bvh2
+    });
+    let params = BuildParams { pre_split: false, ..BuildParams::default() };
+    let mut blocks = Vec::new();
+    let nodes = collapse(&bvh2, &params, |prims| emit_leaf(prims, triangles, &mut blocks));
+    BuiltBvh { nodes, blocks }
+}
+
 /// A BVH over boxes (the top level over instance world bounds): 8-wide nodes whose leaves
 /// reference ranges of `items` (one box index per slot).
 pub struct BuiltBoxBvh {

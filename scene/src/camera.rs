@@ -103,6 +103,7 @@ impl DicingCamera {
             clipping_range: [(distance * 1e-3) as f32, f32::MAX],
             lens: Default::default(),
             shutter: [0.0; 2],
+            motion: None,
         };
         DicingCamera::new(&camera, Some([DEFAULT_WIDTH, DEFAULT_WIDTH]))
     }
@@ -250,6 +251,7 @@ pub fn test_camera(eye: glam::Vec3, orthographic: bool) -> Camera {
         clipping_range: [0.1, 1000.0],
         lens: Default::default(),
         shutter: [0.0; 2],
+        motion: None,
     }
 }
 

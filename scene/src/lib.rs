@@ -61,6 +61,7 @@ pub mod pack;
 pub mod scene;
 
 pub use scene::{
-    BezierSegment, Camera, CurveKind, Curves, Lens, Light, LightKind, LightSet, Material, Mesh, MotionKey,
-    PointSphere, RenderProduct, RenderVar, Scene, Subdivision, TransformMotion, UpAxis, Warning,
+    BezierSegment, Camera, CurveKind, Curves, DeformKey, Deformation, Lens, Light, LightKind, LightSet,
+    Material, Mesh, MotionKey, PointSphere, RenderProduct, RenderVar, Scene, Subdivision, TransformMotion,
+    UpAxis, Warning,
 };

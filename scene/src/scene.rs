@@ -356,6 +356,30 @@ pub struct Mesh {
     /// Transform motion over the shutter, or `None` for a gprim that stands still. The mesh's
     /// world-space geometry is where it is at the frame; the keys move that geometry.
     pub motion: Option<TransformMotion>,
+    /// Deformation motion over the shutter (time-sampled points, velocities), or `None`. Only a
+    /// world-space mesh (not inside an instance, without `motion`: ingest bakes a moving
+    /// transform into the keys) deforms; `positions` stay the frame's.
+    pub deformation: Option<Deformation>,
+}
+
+/// Where a deforming mesh's vertices are over the shutter: world-space positions (relative to the
+/// world origin, as `Mesh::positions`) at each key time, one per vertex of the mesh, in its
+/// order. Between keys the renderer interpolates each vertex linearly (see `blob::deform`), so
+/// the keys are the shutter's open and close, the frame and the times USD authors inside it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Deformation {
+    /// At least two keys, times strictly increasing; the key at time 0, when there is one, holds
+    /// the mesh's own positions.
+    pub keys: Vec<DeformKey>,
+}
+
+/// One key of a [`Deformation`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeformKey {
+    /// Time codes from the frame.
+    pub time: f32,
+    /// The mesh's vertices at `time`, as many as `Mesh::positions`.
+    pub positions: Vec<Vec3>,
 }
 
 /// Where a moving gprim is over the shutter: keys of `world_from_stored`, the transform taking its
@@ -606,6 +630,8 @@ impl Mesh {
             light_set: self.light_set,
             placed: None,
             motion: self.motion.clone(),
+            // The packer reads a deformation from the scene mesh itself.
+            deformation: None,
         }
     }
 }
@@ -943,6 +969,10 @@ pub struct Camera {
     /// `shutter:open`, `shutter:close`: time codes relative to the frame (fallback 0, 0: an
     /// instantaneous shutter, no motion blur).
     pub shutter: [f32; 2],
+    /// Camera motion over the shutter: keys of `world_from_stored` taking `world_from_camera` (the
+    /// frame's) to the camera's transform at the key's time, or `None` for a camera that stands
+    /// still.
+    pub motion: Option<TransformMotion>,
 }
 
 /// A camera's thin lens, in UsdGeomCamera's units (see `blob::Camera`). The default (`f_stop` 0)

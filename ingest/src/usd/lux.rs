@@ -349,6 +349,7 @@ impl Reader<'_> {
             clipping_range,
             lens,
             shutter,
+            motion: None,
         };
         self.scene.cameras.push(camera);
         Ok(())

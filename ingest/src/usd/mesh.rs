@@ -595,6 +595,7 @@ pub(super) fn placed_with(
         double_sided,
         placed: Some(PlacedMesh::new(frame.index, geometry, world_from_local, frame.instance_from_local)),
         motion: None,
+        deformation: None,
         ..Mesh::default()
     }
 }
@@ -665,6 +666,7 @@ pub(super) fn world_mesh(path: &str, local: LocalMesh, world_from_local: DMat4) 
         light_set: 0,
         placed: None,
         motion: None,
+        deformation: None,
     }
 }
 

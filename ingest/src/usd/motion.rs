@@ -19,8 +19,11 @@
 //! Each key is stored as `world_from_stored`, relative to the geometry's world position at the
 //! frame, so a gprim whose keys all equal the frame's placement stays still.
 //!
+//! Cameras move the same way: a camera under time-sampled xformOps gets keys at the same times
+//! (`scene::Camera::motion`), and each camera ray is placed at its time.
+//!
 //! Everything authored that still is not rendered gets one warning naming the prim and the
-//! attribute: time-sampled xformOps of prims no moving gprim consumed (cameras, lights, curves,
+//! attribute: time-sampled xformOps of prims no moving gprim or camera consumed (lights, curves,
 //! gprims inside instances), time-sampled `points`, and `velocities`, `accelerations`,
 //! `angularVelocities`. A prim whose xformOps move some gprim is not reported even where the same
 //! ops also move a light or curves below it (those are drawn at the frame).
@@ -66,68 +69,18 @@ impl Reader<'_> {
         // Per prim: its time-sampled xformOps (computed once, shared by every gprim below it).
         let mut timed_ops: HashMap<String, Vec<String>> = HashMap::new();
         let mut consumed: HashSet<String> = HashSet::new();
+        let shutter = Shutter { lo, hi, frame };
         for m in 0..self.scene.meshes.len() {
             let mesh = &self.scene.meshes[m];
             if mesh.instance_index().is_some() || mesh.triangle_count() == 0 {
                 continue;
             }
-            let chain = ancestors_and_self(&mesh.path);
-            // The frame is always a key, so time 0 (a closed shutter, `--no-motion-blur`) draws the
-            // stored geometry exactly, whatever the shutter.
-            let (lo, hi) = (lo.min(0.0), hi.max(0.0));
-            let mut times = vec![f64::from(lo), 0.0, f64::from(hi)];
-            let mut moving_prims = Vec::new();
-            for prim in &chain {
-                let ops = timed_ops.entry(prim.clone()).or_insert_with(|| {
-                    self.stage
-                        .property_names(prim)
-                        .into_iter()
-                        .filter(|n| n.starts_with("xformOp:") && self.stage.time_sample_count(prim, n) > 1)
-                        .collect()
-                });
-                for op in ops.iter() {
-                    let inside =
-                        self.stage.sample_times_in(prim, op, frame + f64::from(lo), frame + f64::from(hi));
-                    times.extend(inside.into_iter().map(|t| t - frame));
-                }
-                if !ops.is_empty() {
-                    moving_prims.push(prim.clone());
-                }
-            }
-            if moving_prims.is_empty() {
-                continue;
-            }
-            times.sort_by(f64::total_cmp);
-            // Keys closer than f32 can tell apart would not be strictly increasing in the blob.
-            times.dedup_by(|a, b| (*a as f32) == (*b as f32));
             let path = mesh.path.clone();
-            if times.len() > blob::MAX_MOTION_KEYS as usize {
-                self.warn(
-                    &path,
-                    format!(
-                        "{} transform samples inside the shutter, more than {}: motion blur is not rendered",
-                        times.len(),
-                        blob::MAX_MOTION_KEYS
-                    ),
-                );
+            let Some((keys, moving_prims)) = self.transform_keys(&path, &shutter, &mut timed_ops)? else {
                 continue;
-            }
-            let stored = self.world_at(&chain, frame)?;
-            let stored_inverse = stored.inverse();
-            let mut keys = Vec::with_capacity(times.len());
-            for &t in &times {
-                // At the frame the stored geometry is where it is: exactly the identity.
-                let world_from_stored = if t == 0.0 {
-                    DMat4::IDENTITY
-                } else {
-                    self.world_at(&chain, frame + t)? * stored_inverse
-                };
-                keys.push(MotionKey { time: t as f32, world_from_stored });
-            }
+            };
             consumed.extend(moving_prims);
-            if keys.windows(2).all(|w| w[0].world_from_stored == w[1].world_from_stored)
-                && keys[0].world_from_stored.abs_diff_eq(DMat4::IDENTITY, 1e-12)
-            {
+            if still(&keys) {
                 continue;
             }
             let mesh = &self.scene.meshes[m];
@@ -141,8 +94,83 @@ impl Reader<'_> {
             }
             self.scene.meshes[m].motion = Some(TransformMotion { keys });
         }
+        for c in 0..self.scene.cameras.len() {
+            let path = self.scene.cameras[c].path.clone();
+            let Some((keys, moving_prims)) = self.transform_keys(&path, &shutter, &mut timed_ops)? else {
+                continue;
+            };
+            consumed.extend(moving_prims);
+            if !still(&keys) {
+                self.scene.cameras[c].motion = Some(TransformMotion { keys });
+            }
+        }
         self.warn_ignored_motion(&consumed);
         Ok(())
+    }
+
+    /// The transform keys of the prim at `path` over `shutter`, and the prims of its chain whose
+    /// xformOps are time-sampled; `None` when none are (or, with a warning, when they author more
+    /// samples inside the shutter than a motion may have keys). Keys at the shutter's open and close,
+    /// the frame itself (exactly the identity, so time 0 draws the stored placement bit for bit) and
+    /// every sample time of those ops inside the shutter, each `world_from_stored`: the world
+    /// transform there relative to the frame's.
+    fn transform_keys(
+        &mut self,
+        path: &str,
+        shutter: &Shutter,
+        timed_ops: &mut HashMap<String, Vec<String>>,
+    ) -> Result<Option<(Vec<MotionKey>, Vec<String>)>, UsdError> {
+        let Shutter { lo, hi, frame } = *shutter;
+        let chain = ancestors_and_self(path);
+        // The frame is always a key, so time 0 (a closed shutter, `--no-motion-blur`) draws the
+        // stored geometry exactly, whatever the shutter.
+        let (lo, hi) = (lo.min(0.0), hi.max(0.0));
+        let mut times = vec![f64::from(lo), 0.0, f64::from(hi)];
+        let mut moving_prims = Vec::new();
+        for prim in &chain {
+            let ops = timed_ops.entry(prim.clone()).or_insert_with(|| {
+                self.stage
+                    .property_names(prim)
+                    .into_iter()
+                    .filter(|n| n.starts_with("xformOp:") && self.stage.time_sample_count(prim, n) > 1)
+                    .collect()
+            });
+            for op in ops.iter() {
+                let inside =
+                    self.stage.sample_times_in(prim, op, frame + f64::from(lo), frame + f64::from(hi));
+                times.extend(inside.into_iter().map(|t| t - frame));
+            }
+            if !ops.is_empty() {
+                moving_prims.push(prim.clone());
+            }
+        }
+        if moving_prims.is_empty() {
+            return Ok(None);
+        }
+        times.sort_by(f64::total_cmp);
+        // Keys closer than f32 can tell apart would not be strictly increasing in the blob.
+        times.dedup_by(|a, b| (*a as f32) == (*b as f32));
+        if times.len() > blob::MAX_MOTION_KEYS as usize {
+            self.warn(
+                path,
+                format!(
+                    "{} transform samples inside the shutter, more than {}: motion blur is not rendered",
+                    times.len(),
+                    blob::MAX_MOTION_KEYS
+                ),
+            );
+            return Ok(None);
+        }
+        let stored = self.world_at(&chain, frame)?;
+        let stored_inverse = stored.inverse();
+        let mut keys = Vec::with_capacity(times.len());
+        for &t in &times {
+            // At the frame the stored geometry is where it is: exactly the identity.
+            let world_from_stored =
+                if t == 0.0 { DMat4::IDENTITY } else { self.world_at(&chain, frame + t)? * stored_inverse };
+            keys.push(MotionKey { time: t as f32, world_from_stored });
+        }
+        Ok(Some((keys, moving_prims)))
     }
 
     /// The world transform of the last prim of `chain` (root first) at time code `time`, relative
@@ -171,7 +199,7 @@ impl Reader<'_> {
                 let samples = if timed { self.stage.time_sample_count(&prim, &name) } else { 0 };
                 if samples > 1 {
                     let what = if xform_op {
-                        "this motion is not rendered (only meshes outside instances move)"
+                        "this motion is not rendered (only meshes outside instances and cameras move)"
                     } else {
                         "deformation motion blur is not rendered"
                     };
@@ -185,6 +213,20 @@ impl Reader<'_> {
             }
         }
     }
+}
+
+/// The union of the open cameras' shutters around frame time code `frame`.
+#[derive(Clone, Copy)]
+struct Shutter {
+    lo: f32,
+    hi: f32,
+    frame: f64,
+}
+
+/// Keys that all equal the identity: the prim's ops are time-sampled but it does not move.
+fn still(keys: &[MotionKey]) -> bool {
+    keys.windows(2).all(|w| w[0].world_from_stored == w[1].world_from_stored)
+        && keys[0].world_from_stored.abs_diff_eq(DMat4::IDENTITY, 1e-12)
 }
 
 /// `/A`, `/A/B`, `/A/B/C` for `/A/B/C`.
@@ -263,7 +305,7 @@ def Mesh "Still" {
         assert_eq!(scene.cameras[0].shutter, [-0.25, 0.25]);
         let messages = messages(&scene);
         for expected in [
-            ("/Mover", "xformOp:translate has 2 time samples: this motion is not rendered (only meshes outside instances move) (evaluated at time 1)"),
+            ("/Mover", "xformOp:translate has 2 time samples: this motion is not rendered (only meshes outside instances and cameras move) (evaluated at time 1)"),
             ("/Mover/Dust", "velocities authored: motion blur is not rendered"),
         ] {
             assert!(
@@ -355,6 +397,32 @@ def Mesh "Still" {
             motion.keys[2]
         );
         assert_eq!(tri.positions[1], glam::Vec3::new(1.0 - 1024.0, 0.0, 0.0));
+    }
+
+    /// A camera under a translating Xform gets keys at the shutter's ends, the frame and the
+    /// authored samples inside, each its world transform there relative to the frame's; its
+    /// xformOps are not reported.
+    #[test]
+    fn camera_motion_keys_are_the_authored_times_inside_the_shutter() {
+        let rig = format!(
+            "def Xform \"Dolly\" {{\n    double3 xformOp:translate.timeSamples = {{ 1: (0, 0, 0), 1.2: (1, 0, 0), 2: (2, 0, 0) }}\n    uniform token[] xformOpOrder = [\"xformOp:translate\"]\n    {}\n}}",
+            camera(-0.5, 0.5)
+        );
+        let scene = load_text(&rig);
+        let cam = &scene.cameras[0];
+        assert_eq!(cam.path, "/Dolly/Cam");
+        let motion = cam.motion.as_ref().expect("the camera moves");
+        let times: Vec<f32> = motion.keys.iter().map(|k| k.time).collect();
+        assert_eq!(times, [-0.5, 0.0, 0.2, 0.5]);
+        // x(T): held at 0 before frame 1, 5 per time code to 1.2, then 1.25 per time code.
+        for (key, x) in motion.keys.iter().zip([0.0, 0.0, 1.0, 1.0 + 1.25 * 0.3]) {
+            let want = DMat4::from_translation(DVec3::new(x, 0.0, 0.0));
+            assert!(key.world_from_stored.abs_diff_eq(want, 1e-9), "{key:?} against {want}");
+        }
+        assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+        // A closed shutter asks for no keys.
+        let scene = load_text(&rig.replace("shutter:close = 0.5", "shutter:close = -0.5"));
+        assert!(scene.cameras[0].motion.is_none());
     }
 
     #[test]

@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"PTSCENE\0";
 
 /// Bumped whenever a record layout or a section's meaning changes.
-pub const FORMAT_VERSION: u32 = 15;
+pub const FORMAT_VERSION: u32 = 16;
 
 /// Alignment of every section (a cache line; also enough for any SIMD load of records).
 pub const SECTION_ALIGN: usize = 64;
@@ -168,7 +168,7 @@ section_kinds! {
     PrototypeBvhBlocks = 55,
     /// [`crate::InstanceMotion`]: the key range of each moving instance (format 13).
     InstanceMotions = 56,
-    /// [`crate::MotionKey`]: every moving instance's transform keys, concatenated.
+    /// [`crate::MotionKey`]: every moving instance's and moving camera's transform keys, concatenated.
     MotionKeys = 57,
     /// [`crate::DomeMap`] (textured dome lights; format 6).
     DomeMaps = 60,
@@ -183,6 +183,17 @@ section_kinds! {
     RenderVars = 81,
     /// [`crate::StrRef`] light group per light, or none.
     LightGroups = 82,
+    /// [`crate::MeshMotion`] per deforming mesh (deformation motion; format 16). Kinds 90–94 are
+    /// deformation (see [`crate::deform`]).
+    MeshMotions = 90,
+    /// `f32` key times of the deforming meshes.
+    MeshMotionTimes = 91,
+    /// `[f32; 3]` keyed positions of the deforming meshes.
+    MeshMotionPoints = 92,
+    /// [`crate::BvhNode`] of the BVH over the deforming triangles; node 0 is the root.
+    DeformBvhNodes = 93,
+    /// [`crate::TriangleBlock`]s of its leaves.
+    DeformBvhBlocks = 94,
 }
 
 /// Recomputes, in place, every section checksum whose section lies inside `bytes`, then the table's and

@@ -187,6 +187,11 @@ fn determinant3(m: &[[f32; 4]; 3]) -> f64 {
         + a(0, 2) * (a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0))
 }
 
+/// A motion key's matrix: finite, within the float limits and invertible.
+pub(crate) fn key_matrix_ok(rows: &[[f32; 4]; 3]) -> bool {
+    all_sane(bytemuck::cast_slice(rows)) && determinant3(rows).abs() >= 1e-12
+}
+
 impl InstanceView<'_> {
     /// The number of triangles before the first prototype (the top-level, world-space ones).
     pub fn top_level_triangles(&self, triangles: usize) -> usize {
@@ -287,8 +292,7 @@ impl InstanceView<'_> {
                     ));
                 }
                 previous = key.time;
-                let rows = &key.world_from_object;
-                if !all_sane(bytemuck::cast_slice(rows)) || determinant3(rows).abs() < 1e-12 {
+                if !key_matrix_ok(&key.world_from_object) {
                     return Err((
                         K::MotionKeys,
                         first + j,

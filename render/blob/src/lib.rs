@@ -18,7 +18,7 @@
 //! ```
 //!
 //! Modules: [`records`] (the Pod records; the `MATH` shader op of MaterialX arithmetic, format 7), [`curves`] (curve and point records, format 2), [`instances`] (prototypes, instances and
-//! the top-level BVH, format 5), [`dome`] (textured dome lights' maps and distributions, format 6), `container` (header and section table), the light sets of light and shadow linking ([`light_set_words`], format 8), [`outputs`] (render products, vars and light groups, format 14), [`sequence`] (frame ranges and file-name patterns of frame sequences; no format change), `scene` (encode and
+//! the top-level BVH, format 5), [`dome`] (textured dome lights' maps and distributions, format 6), `container` (header and section table), the light sets of light and shadow linking ([`light_set_words`], format 8), [`outputs`] (render products, vars and light groups, format 14), [`deform`] (deforming meshes' keys and BVH, format 16), [`sequence`] (frame ranges and file-name patterns of frame sequences; no format change), `scene` (encode and
 //! parse), [`tree`] (the structural proofs parse runs on every BVH and the float and size limits), `checksum`,
 //! `error`, `io` (atomic write, aligned buffers). [`reseal`] recomputes a mutated blob's checksums for
 //! tests and fuzzers.
@@ -29,6 +29,7 @@ pub mod bulk;
 mod checksum;
 mod container;
 pub mod curves;
+pub mod deform;
 pub mod dome;
 mod error;
 pub mod instances;
@@ -45,6 +46,7 @@ pub use checksum::checksum;
 pub use container::reseal;
 pub use container::{Header, SectionEntry, SectionKind, FORMAT_VERSION, MAGIC, SECTION_ALIGN, TEXEL_ALIGN};
 pub use curves::{CurveAttributes, CurveData, CurveGroup, CurveSegment, CurveView, PointSphere};
+pub use deform::{DeformData, DeformView, MeshMotion};
 pub use dome::{DomeData, DomeMap, DomeView};
 pub use error::BlobError;
 pub use instances::{

@@ -265,7 +265,7 @@ pub const MAX_F_STOP: f32 = 1.0e6;
 /// longer than this is a unit mistake, and the bound keeps interpolation weights well conditioned.
 pub const MAX_SHUTTER: f32 = 1.0e4;
 
-/// One UsdGeomCamera. 112 bytes.
+/// One UsdGeomCamera. 128 bytes (112 before format 16).
 ///
 /// Lens units follow UsdGeomCamera: `focalLength` and the apertures are in tenths of a scene unit,
 /// `focusDistance` and `clippingRange` in scene units (see `render::camera` for how the thin lens
@@ -306,8 +306,16 @@ pub struct Camera {
     pub shutter_open: f32,
     /// `shutter:close`, time codes relative to the frame.
     pub shutter_close: f32,
+    /// First of the camera's transform keys in the [`crate::SectionKind::MotionKeys`] section
+    /// (format 16; `world_from_object` there is `world_from_camera` at the key's time); 0 for a
+    /// still camera.
+    pub first_motion_key: u32,
+    /// Number of keys: 0 for a camera that stands still, else 2..=[`crate::MAX_MOTION_KEYS`].
+    pub motion_key_count: u32,
+    /// Reserved, zero.
+    pub reserved: [u32; 2],
 }
-const _: () = assert!(std::mem::size_of::<Camera>() == 112);
+const _: () = assert!(std::mem::size_of::<Camera>() == 128);
 
 /// A triangle with nonzero emission, for next-event estimation. 16 bytes.
 #[repr(C)]

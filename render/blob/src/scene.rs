@@ -69,6 +69,8 @@ pub struct SceneData {
     pub light_sets: Vec<u32>,
     /// Render products, their vars and the lights' groups.
     pub outputs: crate::OutputData,
+    /// Deforming meshes' keys and their BVH.
+    pub deform: crate::DeformData,
 }
 
 impl SceneData {
@@ -126,6 +128,11 @@ impl SceneData {
             section(SectionKind::RenderProducts, &self.outputs.products),
             section(SectionKind::RenderVars, &self.outputs.vars),
             section(SectionKind::LightGroups, &self.outputs.light_groups),
+            section(SectionKind::MeshMotions, &self.deform.motions),
+            section(SectionKind::MeshMotionTimes, &self.deform.times),
+            section(SectionKind::MeshMotionPoints, &self.deform.positions),
+            section(SectionKind::DeformBvhNodes, &self.deform.bvh_nodes),
+            section(SectionKind::DeformBvhBlocks, &self.deform.bvh_blocks),
         ];
         let table_len = sections.len() * std::mem::size_of::<SectionEntry>();
         let mut cursor = align_up(std::mem::size_of::<Header>() + table_len);
@@ -235,6 +242,8 @@ pub struct SceneView<'a> {
     pub light_sets: &'a [u32],
     /// Render products, vars and light groups (checked: see [`crate::outputs`]).
     pub outputs: crate::OutputView<'a>,
+    /// Deforming meshes' keys and their BVH (checked: see [`crate::deform`]).
+    pub deform: crate::DeformView<'a>,
 }
 
 impl<'a> SceneView<'a> {
@@ -337,6 +346,13 @@ impl<'a> SceneView<'a> {
                 products: typed(bytes, get(SectionKind::RenderProducts)?, SectionKind::RenderProducts)?,
                 vars: typed(bytes, get(SectionKind::RenderVars)?, SectionKind::RenderVars)?,
                 light_groups: typed(bytes, get(SectionKind::LightGroups)?, SectionKind::LightGroups)?,
+            },
+            deform: crate::DeformView {
+                motions: typed(bytes, get(SectionKind::MeshMotions)?, SectionKind::MeshMotions)?,
+                times: typed(bytes, get(SectionKind::MeshMotionTimes)?, SectionKind::MeshMotionTimes)?,
+                positions: typed(bytes, get(SectionKind::MeshMotionPoints)?, SectionKind::MeshMotionPoints)?,
+                bvh_nodes: typed(bytes, get(SectionKind::DeformBvhNodes)?, SectionKind::DeformBvhNodes)?,
+                bvh_blocks: typed(bytes, get(SectionKind::DeformBvhBlocks)?, SectionKind::DeformBvhBlocks)?,
             },
         };
         view.validate_indices()?;
@@ -654,7 +670,47 @@ impl<'a> SceneView<'a> {
         self.instancing
             .validate(self.triangles.len(), self.meshes.len(), strings_ok)
             .or_else(|(kind, i, what)| bad(kind, i, what))?;
+        self.deform
+            .validate(self.meshes, self.triangles, top_level)
+            .or_else(|(kind, i, what)| bad(kind, i, what))?;
+        self.validate_camera_motion()?;
         self.curves.validate(self.materials.len(), strings_ok).or_else(|(kind, i, what)| bad(kind, i, what))
+    }
+}
+
+impl SceneView<'_> {
+    /// A moving camera's keys (format 16): 2..=[`crate::MAX_MOTION_KEYS`] records of the motion keys
+    /// section, times as an instance's, matrices finite and invertible; a still camera has none.
+    fn validate_camera_motion(&self) -> Result<(), BlobError> {
+        let bad = |record: usize, what| {
+            Err(BlobError::BadIndex { kind: SectionKind::Cameras, record: record as u64, what })
+        };
+        for (i, c) in self.cameras.iter().enumerate() {
+            if c.motion_key_count == 0 {
+                if c.first_motion_key != 0 {
+                    return bad(i, "a still camera's first motion key is not zero");
+                }
+                continue;
+            }
+            if !(2..=crate::MAX_MOTION_KEYS).contains(&c.motion_key_count) {
+                return bad(i, "motion key count not 0 or within 2..=256");
+            }
+            let first = c.first_motion_key as usize;
+            let Some(keys) = self.instancing.motion_keys.get(first..first + c.motion_key_count as usize)
+            else {
+                return bad(i, "motion key range outside the motion keys section");
+            };
+            if crate::deform::key_times_ok(keys.iter().map(|k| k.time)).is_some() {
+                return bad(
+                    i,
+                    "motion key time NaN, infinite, beyond ±1e4 time codes or not after the previous key",
+                );
+            }
+            if !keys.iter().all(|k| crate::instances::key_matrix_ok(&k.world_from_object)) {
+                return bad(i, "motion key transform NaN, beyond ±1e12 or not invertible");
+            }
+        }
+        Ok(())
     }
 }
 
@@ -866,6 +922,11 @@ fn expected_record_size(kind: SectionKind) -> u32 {
         SectionKind::RenderProducts => size_of::<crate::RenderProduct>(),
         SectionKind::RenderVars => size_of::<crate::RenderVar>(),
         SectionKind::LightGroups => size_of::<StrRef>(),
+        SectionKind::MeshMotions => size_of::<crate::MeshMotion>(),
+        SectionKind::MeshMotionTimes => size_of::<f32>(),
+        SectionKind::MeshMotionPoints => size_of::<[f32; 3]>(),
+        SectionKind::DeformBvhNodes => size_of::<BvhNode>(),
+        SectionKind::DeformBvhBlocks => size_of::<TriangleBlock>(),
     }) as u32
 }
 

@@ -42,11 +42,11 @@ impl Placement {
     }
 }
 
-/// The keys' matrices interpolated at `time` (the end keys held outside them), with the inverse;
-/// `None` when that matrix cannot be inverted in `f32`.
-fn interpolate(keys: &[blob::MotionKey], time: f32) -> Option<Placement> {
-    let (first, last) = (keys.first()?, keys.last()?);
-    let rows = if time <= first.time {
+/// The keys' row-major `world_from_object` matrices interpolated linearly at `time`, the end keys
+/// held outside them (`keys` is not empty; moving instances and moving cameras).
+pub(crate) fn interpolate_rows(keys: &[blob::MotionKey], time: f32) -> [[f32; 4]; 3] {
+    let (first, last) = (&keys[0], &keys[keys.len() - 1]);
+    if time <= first.time {
         first.world_from_object
     } else if time >= last.time {
         last.world_from_object
@@ -56,7 +56,16 @@ fn interpolate(keys: &[blob::MotionKey], time: f32) -> Option<Placement> {
         let w = (time - a.time) / (b.time - a.time);
         let (x, y) = (&a.world_from_object, &b.world_from_object);
         std::array::from_fn(|r| std::array::from_fn(|c| x[r][c] * (1.0 - w) + y[r][c] * w))
-    };
+    }
+}
+
+/// The keys' matrices interpolated at `time` (the end keys held outside them), with the inverse;
+/// `None` when that matrix cannot be inverted in `f32`.
+fn interpolate(keys: &[blob::MotionKey], time: f32) -> Option<Placement> {
+    if keys.is_empty() {
+        return None;
+    }
+    let rows = interpolate_rows(keys, time);
     let m = Affine3A::from_cols(
         Vec3A::new(rows[0][0], rows[1][0], rows[2][0]),
         Vec3A::new(rows[0][1], rows[1][1], rows[2][1]),

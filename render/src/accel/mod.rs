@@ -40,6 +40,7 @@
 //! not tried: `docs/perf.md#bvh-traversal-accelmodrs`.
 
 pub mod curves;
+pub mod deform;
 pub mod instanced;
 pub mod ray;
 pub mod traverse;
@@ -61,6 +62,7 @@ pub struct Accel<'a> {
     positions: &'a [[f32; 3]],
     triangles: &'a [blob::Triangle],
     instances: crate::accel::instanced::Instances<'a>,
+    deform: crate::accel::deform::Deformation<'a>,
 }
 
 impl<'a> Accel<'a> {
@@ -72,6 +74,7 @@ impl<'a> Accel<'a> {
             positions: view.positions,
             triangles: view.triangles,
             instances: crate::accel::instanced::Instances::new(view),
+            deform: crate::accel::deform::Deformation::new(view),
         }
     }
 
@@ -83,12 +86,13 @@ impl<'a> Accel<'a> {
         tri.vertices.map(|v| Vec3::from(self.positions[v as usize]))
     }
 
-    /// The world-space vertices of the triangle `hit` found (transformed by its instance).
+    /// The world-space vertices of the triangle `hit` found (transformed by its instance, or
+    /// where its deforming mesh is at the hit's time).
     #[inline]
     pub fn hit_vertices(&self, hit: &Hit) -> [Vec3; 3] {
         let v = self.triangle_vertices(hit.triangle);
         if hit.instance == blob::NONE {
-            v
+            self.deform.triangle_at(hit.triangle, hit.time).unwrap_or(v)
         } else {
             let placement = self.instances.placement(hit.instance, hit.time);
             v.map(|p| instanced::point_to_world(&placement, p))
@@ -111,8 +115,13 @@ impl<'a> Accel<'a> {
         &self.instances
     }
 
+    /// The deforming meshes (empty for a scene without deformation).
+    pub fn deformation(&self) -> &crate::accel::deform::Deformation<'a> {
+        &self.deform
+    }
+
     fn is_empty(&self) -> bool {
-        self.nodes.is_empty() && self.instances.is_empty()
+        self.nodes.is_empty() && self.instances.is_empty() && self.deform.is_empty()
     }
 
     /// Closest hit with `t` in (0, `tmax`), at time 0 (the frame).
@@ -285,12 +294,25 @@ fn two_level_closest<
     node_kernel: &N,
     block_kernel: &B,
 ) -> Option<Hit> {
-    let best = if accel.nodes.is_empty() {
+    let mut best = if accel.nodes.is_empty() {
         None
     } else {
         closest(accel.nodes, accel.blocks, 0, origin, direction, tmax, node_kernel, block_kernel)
             .map(|(t, triangle, b1, b2)| Hit { t, triangle, b1, b2, instance: blob::NONE, time })
     };
+    if !accel.deform.is_empty() {
+        // The deforming triangles where they are at the ray's time, through the same kernels.
+        let (nodes, blocks) = accel.deform.bvh();
+        let moved = |b: &TriangleBlock, r: &WatertightRay, t: f32| {
+            block_kernel(&accel.deform.block_at(b, time), r, t)
+        };
+        let limit = best.map_or(tmax, |h| h.t);
+        if let Some((t, triangle, b1, b2)) =
+            closest(nodes, blocks, 0, origin, direction, limit, node_kernel, &moved)
+        {
+            best = Some(Hit { t, triangle, b1, b2, instance: blob::NONE, time });
+        }
+    }
     if accel.instances.is_empty() {
         return best;
     }
@@ -316,6 +338,16 @@ fn two_level_any<
     if !accel.nodes.is_empty() {
         let mut top = |t| blocks(t, blob::NONE);
         if any(accel.nodes, accel.blocks, 0, origin, direction, tmax, node_kernel, block_kernel, &mut top) {
+            return true;
+        }
+    }
+    if !accel.deform.is_empty() {
+        let (nodes, blocks_of) = accel.deform.bvh();
+        let moved = |b: &TriangleBlock, r: &WatertightRay, t: f32| {
+            block_kernel(&accel.deform.block_at(b, time), r, t)
+        };
+        let mut top = |t| blocks(t, blob::NONE);
+        if any(nodes, blocks_of, 0, origin, direction, tmax, node_kernel, &moved, &mut top) {
             return true;
         }
     }

@@ -545,10 +545,9 @@ pub(crate) fn motion_ends(
 /// `raster(close) − raster(open)` of its first hit's [`motion_ends`], in pixels with x to the
 /// right and y up (the compositor's convention: Nuke's VectorBlur, Arnold's `motionvector`).
 ///
-/// Camera motion plugs in here: the camera at `open` and at `close` (today both are the one
-/// camera, which has no motion keys yet), so a moving camera adds its own screen motion to the
-/// objects'.
-#[derive(Clone, Copy, Debug)]
+/// A moving camera is projected where it stands at the shutter's opening and at its closing, so
+/// its own screen motion adds to the objects'.
+#[derive(Clone, Debug)]
 pub(crate) struct MotionProjection {
     open: (crate::camera::Camera, glam::Affine3A),
     close: (crate::camera::Camera, glam::Affine3A),
@@ -556,9 +555,15 @@ pub(crate) struct MotionProjection {
 }
 
 impl MotionProjection {
-    /// The projection of `camera`'s `width × height` film, the same camera at open and close.
-    pub(crate) fn new(camera: &crate::camera::Camera, width: u32, height: u32) -> Self {
-        Self::between(camera, camera, width, height)
+    /// The projection of `camera`'s `width × height` film over `shutter`: the camera at the
+    /// shutter's open and close times (one and the same for a still camera).
+    pub(crate) fn new(
+        camera: &crate::camera::Camera,
+        shutter: crate::camera::Shutter,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        Self::between(&camera.at_time(shutter.open), &camera.at_time(shutter.close), width, height)
     }
 
     /// The projection of a camera that is `open` at the shutter's opening and `close` at its
@@ -570,8 +575,8 @@ impl MotionProjection {
         height: u32,
     ) -> Self {
         MotionProjection {
-            open: (*open, open.camera_from_world()),
-            close: (*close, close.camera_from_world()),
+            open: (open.clone(), open.camera_from_world()),
+            close: (close.clone(), close.camera_from_world()),
             size: [width, height],
         }
     }

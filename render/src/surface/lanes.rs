@@ -351,6 +351,19 @@ fn surface_columns(scene: &Scene, group: &mut HitGroup, gather: Gather) {
             unsafe { avx2::gather(scene, group) }.unwrap_or_else(|| gather_portable(scene, group))
         }
     };
+    let deform = scene.accel.deformation();
+    if !deform.is_empty() {
+        // Deforming triangles where their meshes are at the hits' times (the scalar surface's
+        // vertices, from the same function); they are never instanced.
+        let HitGroup { hits, len, gathered: g, .. } = group;
+        for (k, hit) in hits.iter().enumerate().take(*len) {
+            if let Some(p) = deform.triangle_at(hit.triangle, hit.time) {
+                for (c, v) in g.p.iter_mut().zip(p) {
+                    set(c, k, v.to_array());
+                }
+            }
+        }
+    }
     let HitGroup { gathered: g, out, .. } = group;
     out.has_uv = g.has_uvs;
     let (any_normals, any_uvs, any_instanced) = (any.normals, any.uvs, any.instanced);

@@ -169,7 +169,8 @@ fn triangle_surface(scene: &Scene, hit: &crate::accel::Hit, wo: Vec3, footprint:
             let to_world = |p| crate::accel::instanced::point_to_world(inst, p);
             [to_world(stored[0]), to_world(stored[1]), to_world(stored[2])]
         }
-        None => stored,
+        // A deforming triangle is where its mesh is at the hit's time.
+        None => scene.accel.deformation().triangle_at(hit.triangle, hit.time).unwrap_or(stored),
     };
     let b0 = 1.0 - hit.b1 - hit.b2;
     let p = p0 * b0 + p1 * hit.b1 + p2 * hit.b2;

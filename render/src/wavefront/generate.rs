@@ -9,8 +9,9 @@
 //! bit-exact against the scalar film loop's `sample_2d`, `generate_ray` and `pixel_cone` (tested in
 //! their modules on random inputs; the equivalence tests compare whole images).
 //!
-//! A camera with a lens then replaces the group's rays by [`camera::lens_ray_lanes`]' (the scalar
-//! lens ray per lane: equal to the film loop by construction); its lens samples come from
+//! A camera with a lens or transform keys then replaces the group's rays by
+//! [`camera::lens_ray_lanes`]' (the scalar [`crate::camera::Camera::sample_ray`] per lane, at the
+//! path's time: equal to the film loop by construction); its lens samples come from
 //! `pair_lanes` with seeds hashed per pixel like the jitter's. Pinhole cameras hash no lens seeds
 //! and never reach it. Cost (`nativeNormalMap.usda` of the shared assets, f/4.5, 320×240, 16 spp,
 //! one thread, a loaded machine): the generate stage 0.106–0.120 s with the lens against the
@@ -82,14 +83,21 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
     let seed_hash = hash_u32(ctx.sampling.seed);
     let (shutter, seed) = (ctx.settings.shutter, ctx.sampling.seed);
     let has_lens = ctx.camera.lens().is_some();
+    let moving = ctx.camera.is_moving();
     let mut jitter = [[0.0f32; LANES]; 2];
     let mut lens_uv = [[0.0f32; LANES]; 2];
+    let mut times = [0.0f32; LANES];
     let mut out = RayLanes::default();
     let mut flush = |keys: &PathKeys, len: usize, put: &mut F| {
+        for (k, time) in times.iter_mut().enumerate().take(len) {
+            *time = shutter.time(SampleKey { pixel: keys.pixel[k], sample: keys.sample[k], seed });
+        }
         sampler_lanes::pair_lanes(&keys.jitter_seeds, &keys.sample, &mut jitter);
         camera::camera_ray_lanes(&cam, &keys.x, &keys.y, &jitter[0], &jitter[1], &mut out);
-        if has_lens {
-            sampler_lanes::pair_lanes(&keys.lens_seeds, &keys.sample, &mut lens_uv);
+        if has_lens || moving {
+            if has_lens {
+                sampler_lanes::pair_lanes(&keys.lens_seeds, &keys.sample, &mut lens_uv);
+            }
             camera::lens_ray_lanes(
                 ctx.camera,
                 ctx.sampling.forward,
@@ -98,11 +106,13 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
                 (&keys.x, &keys.y),
                 (&jitter[0], &jitter[1]),
                 (&lens_uv[0], &lens_uv[1]),
+                &times,
                 len,
                 &mut out,
             );
         }
         let at = |c: &[[f32; LANES]; 3], k: usize| Vec3::new(c[0][k], c[1][k], c[2][k]);
+        #[allow(clippy::needless_range_loop)] // k indexes the key columns and the output alike
         for k in 0..len {
             put(
                 keys.position[k] as usize,
@@ -120,7 +130,7 @@ pub(super) fn camera_paths<T, F: FnMut(usize, RayState)>(
                     sample: keys.sample[k],
                     vertex: 0,
                     bounces: 0,
-                    time: shutter.time(SampleKey { pixel: keys.pixel[k], sample: keys.sample[k], seed }),
+                    time: times[k],
                 },
             );
         }

@@ -423,7 +423,12 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, job: Til
             accumulate::chunk(film, paths, samples);
             if let Some(plan) = traced {
                 let motion =
-                    crate::aov::MotionProjection::new(ctx.camera, ctx.sampling.width, ctx.sampling.height);
+                    crate::aov::MotionProjection::new(
+                        ctx.camera,
+                        ctx.settings.shutter,
+                        ctx.sampling.width,
+                        ctx.sampling.height,
+                    );
                 paths.aov.chunk(plan, &motion, &paths.states, samples);
             }
         });

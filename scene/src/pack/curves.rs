@@ -373,6 +373,7 @@ mod tests {
                 clipping_range: [0.1, 1000.0],
                 lens: Default::default(),
                 shutter: [0.0; 2],
+                motion: None,
             }],
             default_camera: Some(0),
             resolution: Some([256, 256]),

@@ -87,8 +87,23 @@ pub fn pack_scene_reusing(
         primvar_ids,
         material_slot,
     };
+    // Deforming meshes keep their keys; emissive ones are drawn at the frame (light sampling is
+    // world-space; ingest warns), as are meshes inside instances or with transform motion.
+    let deforms = |mesh: &crate::scene::Mesh| {
+        mesh.deformation.is_some()
+            && mesh.motion.is_none()
+            && mesh.instance_index().is_none()
+            && !mesh
+                .triangle_materials
+                .iter()
+                .any(|&t| luminance(emission[layout.material_slot[t as usize] as usize]) > 0.0)
+    };
     for &m in &plan.top_level {
-        layout.push(&mut data, &scene.meshes[m].in_world());
+        let mesh = &scene.meshes[m];
+        if let (true, Some(deformation)) = (deforms(mesh), &mesh.deformation) {
+            pack_deformation(&mut data, deformation, &mut bounds_min, &mut bounds_max);
+        }
+        layout.push(&mut data, &mesh.in_world());
     }
     let top_level_triangles = data.triangles.len();
 
@@ -163,22 +178,43 @@ pub fn pack_scene_reusing(
             world_from_camera: affine_rows(&c.world_from_camera),
             shutter_open: c.shutter[0],
             shutter_close: c.shutter[1],
+            ..rec::Camera::default()
         });
     }
 
     data.emissive_triangles = emissive_distribution(&data, &emission);
 
-    let corners: Vec<[Vec3; 3]> = data.triangles[..top_level_triangles]
-        .iter()
-        .map(|t| t.vertices.map(|v| Vec3::from_array(data.positions[v as usize])))
-        .collect();
-    let bvh = match cache.as_deref_mut() {
-        Some(cache) => cache.build(corners),
-        None => crate::bvh::build(&corners),
-    };
-    data.bvh_nodes = bvh.nodes;
-    data.bvh_blocks = bvh.blocks;
+    let corner = |t: &rec::Triangle| t.vertices.map(|v| Vec3::from_array(data.positions[v as usize]));
+    if data.deform.motions.is_empty() {
+        let corners: Vec<[Vec3; 3]> = data.triangles[..top_level_triangles].iter().map(corner).collect();
+        let bvh = match cache.as_deref_mut() {
+            Some(cache) => cache.build(corners),
+            None => crate::bvh::build(&corners),
+        };
+        data.bvh_nodes = bvh.nodes;
+        data.bvh_blocks = bvh.blocks;
+    } else {
+        // Deforming triangles go to their own BVH over the union of their key boxes; the world
+        // BVH holds the others (block lanes renumbered to blob triangles). Neither is cached
+        // across frames: a deforming mesh changes every frame.
+        let deforming = |t: &rec::Triangle| data.deform.motion_of(t.mesh).is_some();
+        let (moving, still): (Vec<u32>, Vec<u32>) =
+            (0..top_level_triangles as u32).partition(|&t| deforming(&data.triangles[t as usize]));
+        let corners: Vec<[Vec3; 3]> = still.iter().map(|&t| corner(&data.triangles[t as usize])).collect();
+        let mut bvh = crate::bvh::build(&corners);
+        bvh.blocks.iter_mut().for_each(|b| b.triangles = b.triangles.map(|i| still[i as usize]));
+        let frame: Vec<[Vec3; 3]> = moving.iter().map(|&t| corner(&data.triangles[t as usize])).collect();
+        let boxes: Vec<(Vec3, Vec3)> =
+            moving.iter().map(|&t| deforming_box(&data, &data.triangles[t as usize])).collect();
+        let mut moving_bvh = crate::bvh::build_bounded(&frame, &boxes);
+        moving_bvh.blocks.iter_mut().for_each(|b| b.triangles = b.triangles.map(|i| moving[i as usize]));
+        data.bvh_nodes = bvh.nodes;
+        data.bvh_blocks = bvh.blocks;
+        data.deform.bvh_nodes = moving_bvh.nodes;
+        data.deform.bvh_blocks = moving_bvh.blocks;
+    }
     instances::pack_instances(scene, &plan, &layout, &mut data, cache);
+    pack_camera_motion(scene, &mut data);
     let first_group = data.curves.groups.len();
     let (curves_min, curves_max) =
         curves::pack_curves(scene, &mut data, options.split, (bounds_min, bounds_max))?;
@@ -208,6 +244,67 @@ pub fn pack_scene_reusing(
         world_origin: scene.world_origin.to_array(),
     };
     Ok(data)
+}
+
+/// The keys of the deforming mesh about to be pushed as the next blob mesh (see `blob::deform`),
+/// its keyed positions added to the scene bounds.
+fn pack_deformation(
+    data: &mut blob::SceneData,
+    deformation: &crate::scene::Deformation,
+    bounds_min: &mut Vec3,
+    bounds_max: &mut Vec3,
+) {
+    let d = &mut data.deform;
+    d.motions.push(blob::MeshMotion {
+        mesh: data.meshes.len() as u32,
+        key_count: deformation.keys.len() as u32,
+        first_time: d.times.len() as u32,
+        first_position: d.positions.len() as u32,
+    });
+    for key in &deformation.keys {
+        d.times.push(key.time);
+        d.positions.extend(key.positions.iter().map(|p| p.to_array()));
+        for p in &key.positions {
+            (*bounds_min, *bounds_max) = (bounds_min.min(*p), bounds_max.max(*p));
+        }
+    }
+}
+
+/// The union of a deforming triangle's boxes at every key of its mesh (and at the frame).
+fn deforming_box(data: &blob::SceneData, tri: &rec::Triangle) -> (Vec3, Vec3) {
+    let (d, mesh) = (&data.deform, &data.meshes[tri.mesh as usize]);
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    if let Some(m) = d.motion_of(tri.mesh) {
+        for k in 0..m.key_count {
+            for &v in &tri.vertices {
+                let at = m.first_position + k * mesh.vertex_count + (v - mesh.first_vertex);
+                let p = Vec3::from_array(d.positions[at as usize]);
+                (lo, hi) = (lo.min(p), hi.max(p));
+            }
+        }
+    }
+    for &v in &tri.vertices {
+        let p = Vec3::from_array(data.positions[v as usize]);
+        (lo, hi) = (lo.min(p), hi.max(p));
+    }
+    (lo, hi)
+}
+
+/// Moving cameras' keys, appended to the motion keys section after the instances' (each key the
+/// camera's `world_from_camera` at its time).
+fn pack_camera_motion(scene: &Scene, data: &mut blob::SceneData) {
+    for (c, record) in scene.cameras.iter().zip(&mut data.cameras) {
+        let Some(motion) = &c.motion else { continue };
+        let keys = &mut data.instancing.motion_keys;
+        record.first_motion_key = keys.len() as u32;
+        record.motion_key_count = motion.keys.len() as u32;
+        let frame = c.world_from_camera.as_dmat4();
+        keys.extend(motion.keys.iter().map(|k| blob::MotionKey {
+            time: k.time,
+            world_from_object: affine_rows(&(k.world_from_stored * frame).as_mat4()),
+            ..blob::MotionKey::default()
+        }));
+    }
 }
 
 /// The render products, their vars and the light groups as blob records (see `blob::outputs`).
@@ -512,6 +609,54 @@ fn within_range(v: f32) -> bool {
 
 fn validate(scene: &Scene) -> Result<(), PackError> {
     let fail = |prim: &str, problem: String| Err(PackError { prim: prim.to_string(), problem });
+    let keys_ok = |times: &[f32]| {
+        (2..=blob::MAX_MOTION_KEYS as usize).contains(&times.len())
+            && times.iter().all(|t| t.is_finite() && t.abs() <= blob::MAX_SHUTTER)
+            && times.windows(2).all(|w| w[0] < w[1])
+    };
+    for c in &scene.cameras {
+        if let Some(m) = &c.motion {
+            let invertible = m.keys.iter().all(|k| {
+                let w = k.world_from_stored * c.world_from_camera.as_dmat4();
+                w.is_finite() && glam::DMat3::from_mat4(w).determinant().abs() > 1e-12
+            });
+            let times: Vec<f32> = m.keys.iter().map(|k| k.time).collect();
+            if !keys_ok(&times) || !invertible {
+                return fail(
+                    &c.path,
+                    "camera motion keys must be 2..=256 with finite increasing times within ±1e4 and invertible transforms".into(),
+                );
+            }
+        }
+    }
+    for mesh in &scene.meshes {
+        if let Some(d) = &mesh.deformation {
+            let times: Vec<f32> = d.keys.iter().map(|k| k.time).collect();
+            if !keys_ok(&times) {
+                return fail(
+                    &mesh.path,
+                    "deformation keys must be 2..=256 with finite increasing times within ±1e4".into(),
+                );
+            }
+            if let Some(k) = d.keys.iter().find(|k| k.positions.len() != mesh.positions.len()) {
+                return fail(
+                    &mesh.path,
+                    format!(
+                        "deformation key at time {} has {} points for the mesh's {}",
+                        k.time,
+                        k.positions.len(),
+                        mesh.positions.len()
+                    ),
+                );
+            }
+            if d.keys.iter().flat_map(|k| &k.positions).any(|p| !p.to_array().into_iter().all(within_range)) {
+                return fail(
+                    &mesh.path,
+                    "deformation point not finite or beyond the coordinate limit".into(),
+                );
+            }
+        }
+    }
     // Shared geometry is checked once, under the path of its first gprim.
     let mut checked = std::collections::HashSet::new();
     for mesh in &scene.meshes {
