@@ -64,6 +64,7 @@ fn groom(strands: usize, res: u32, seed: u64) -> ingest::Scene {
             clipping_range: [0.1, 100.0],
             lens: Default::default(),
             shutter: [0.0; 2],
+            motion: None,
         }],
         default_camera: Some(0),
         // The resolution the rays are traced at: the camera split asks for pixels of this image.
