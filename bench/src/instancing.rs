@@ -82,7 +82,7 @@ pub fn scene(count: usize, rings: u32, segments: u32) -> Scene {
         clipping_range: [0.1, 1000.0],
         lens: Default::default(),
         shutter: [0.0; 2],
-            motion: None,
+        motion: None,
     });
     scene.default_camera = Some(0);
     scene

@@ -76,7 +76,7 @@ fn plane_scene() -> ingest::Scene {
         clipping_range: [0.01, 1e6],
         lens: Default::default(),
         shutter: [0.0; 2],
-            motion: None,
+        motion: None,
     };
     let dome = ingest::Light {
         path: "/Dome".into(),

@@ -36,6 +36,9 @@ use std::collections::{HashMap, HashSet};
 /// Attributes that author motion without time samples (UsdGeomPointBased, UsdGeomPointInstancer).
 const MOTION_ATTRIBUTES: [&str; 3] = ["velocities", "accelerations", "angularVelocities"];
 
+/// A motion's transform keys and the time-sampled xformOps they were taken from.
+type KeysAndOps = (Vec<MotionKey>, Vec<String>);
+
 impl Reader<'_> {
     /// The shutter of camera `path`: `[open, close]`, or closed at 0 (with a warning) when the
     /// authored interval is not finite, ordered and within ±[`blob::MAX_SHUTTER`].
@@ -119,7 +122,7 @@ impl Reader<'_> {
         path: &str,
         shutter: &Shutter,
         timed_ops: &mut HashMap<String, Vec<String>>,
-    ) -> Result<Option<(Vec<MotionKey>, Vec<String>)>, UsdError> {
+    ) -> Result<Option<KeysAndOps>, UsdError> {
         let Shutter { lo, hi, frame } = *shutter;
         let chain = ancestors_and_self(path);
         // The frame is always a key, so time 0 (a closed shutter, `--no-motion-blur`) draws the

@@ -422,13 +422,12 @@ pub(crate) fn render(ctx: &Context<'_, '_, impl Touch>, w: &mut Worker, job: Til
         timed(&mut secs.accumulate, || {
             accumulate::chunk(film, paths, samples);
             if let Some(plan) = traced {
-                let motion =
-                    crate::aov::MotionProjection::new(
-                        ctx.camera,
-                        ctx.settings.shutter,
-                        ctx.sampling.width,
-                        ctx.sampling.height,
-                    );
+                let motion = crate::aov::MotionProjection::new(
+                    ctx.camera,
+                    ctx.settings.shutter,
+                    ctx.sampling.width,
+                    ctx.sampling.height,
+                );
                 paths.aov.chunk(plan, &motion, &paths.states, samples);
             }
         });
