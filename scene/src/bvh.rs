@@ -82,21 +82,7 @@ pub fn build_bounded(triangles: &[[Vec3; 3]], boxes: &[(Vec3, Vec3)]) -> BuiltBv
     if triangles.is_empty() {
         return BuiltBvh { nodes: Vec::new(), blocks: Vec::new() };
     }
-    let config = BvhBuildParams::slow_build();
-    let aabbs: Vec<Aabb> =
-        boxes.iter().map(|&(lo, hi)| Aabb::new(Vec3A::from(lo), Vec3A::from(hi))).collect();
-    let indices: Vec<u32> = (0..aabbs.len() as u32).collect();
-    let bvh2 = build_grouped(&aabbs, &indices).unwrap_or_else(|| {
-        let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
-            config.ploc_search_distance,
-            &aabbs,
-            indices,
-            config.sort_precision,
-            config.search_depth_threshold,
-        );
-        ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
-        bvh2
-    });
+    let bvh2 = build_bvh2_over_boxes(boxes);
     let params = BuildParams { pre_split: false, ..BuildParams::default() };
     let mut blocks = Vec::new();
     let nodes = collapse(&bvh2, &params, |prims| emit_leaf(prims, triangles, &mut blocks));
@@ -118,11 +104,25 @@ pub fn build_boxes(boxes: &[(Vec3, Vec3)]) -> BuiltBoxBvh {
     if boxes.is_empty() {
         return BuiltBoxBvh { nodes: Vec::new(), items: Vec::new() };
     }
+    let bvh2 = build_bvh2_over_boxes(boxes);
+    let params = BuildParams { max_leaf_triangles: 1, pre_split: false, ..BuildParams::default() };
+    let mut items = Vec::new();
+    let nodes = collapse(&bvh2, &params, |prims| {
+        let first = items.len() as u32;
+        items.extend_from_slice(prims);
+        child_ref::leaf(first, prims.len() as u32).expect("more instances than a leaf reference can address")
+    });
+    BuiltBoxBvh { nodes, items }
+}
+
+/// The binary BVH over `(min, max)` boxes, one primitive per box (no spatial splits): what the
+/// deformation BVH and the top level over instances both collapse.
+fn build_bvh2_over_boxes(boxes: &[(Vec3, Vec3)]) -> Bvh2 {
     let config = BvhBuildParams::slow_build();
     let aabbs: Vec<Aabb> =
         boxes.iter().map(|&(lo, hi)| Aabb::new(Vec3A::from(lo), Vec3A::from(hi))).collect();
     let indices: Vec<u32> = (0..aabbs.len() as u32).collect();
-    let bvh2 = build_grouped(&aabbs, &indices).unwrap_or_else(|| {
+    build_grouped(&aabbs, &indices).unwrap_or_else(|| {
         let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
             config.ploc_search_distance,
             &aabbs,
@@ -132,15 +132,7 @@ pub fn build_boxes(boxes: &[(Vec3, Vec3)]) -> BuiltBoxBvh {
         );
         ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
         bvh2
-    });
-    let params = BuildParams { max_leaf_triangles: 1, pre_split: false, ..BuildParams::default() };
-    let mut items = Vec::new();
-    let nodes = collapse(&bvh2, &params, |prims| {
-        let first = items.len() as u32;
-        items.extend_from_slice(prims);
-        child_ref::leaf(first, prims.len() as u32).expect("more instances than a leaf reference can address")
-    });
-    BuiltBoxBvh { nodes, items }
+    })
 }
 
 /// Chooses leaves and collapses the binary tree into 8-wide nodes; `emit` writes one leaf's
